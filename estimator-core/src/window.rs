@@ -1,0 +1,124 @@
+//! The sliding data window: the last `n ≤ N` input/output sample pairs.
+//!
+//! Pushing is O(1): when the window is full the oldest pair is dropped. A
+//! NaN or infinite sample is rejected (and counted) before it can reach the
+//! window, so a window only ever holds finite data and no good sample is
+//! lost because of a bad one.
+
+use heapless::Deque;
+
+use crate::error::Error;
+use crate::real::Real;
+
+/// A ring buffer of `(input, output)` sample pairs with capacity `N`.
+///
+/// For the Hammerstein model the pair is `(u(l), y(l))`; for the battery model
+/// it is `(I(l), U_t(l))`.
+#[derive(Clone, Debug)]
+pub struct SampleWindow<T, const N: usize> {
+    u: Deque<T, N>,
+    y: Deque<T, N>,
+    pushed: u64,
+    rejected: u32,
+}
+
+impl<T: Real, const N: usize> Default for SampleWindow<T, N> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl<T: Real, const N: usize> SampleWindow<T, N> {
+    /// An empty window.
+    pub const fn new() -> Self {
+        Self {
+            u: Deque::new(),
+            y: Deque::new(),
+            pushed: 0,
+            rejected: 0,
+        }
+    }
+
+    /// Appends one sample pair, dropping the oldest when full.
+    ///
+    /// # Errors
+    /// [`Error::NonFiniteSample`] when `u` or `y` is NaN or infinite; the pair
+    /// is not stored and the rejection is counted.
+    pub fn push(&mut self, u: T, y: T) -> Result<(), Error> {
+        if !(u.is_finite() && y.is_finite()) {
+            self.rejected = self.rejected.saturating_add(1);
+            return Err(Error::NonFiniteSample);
+        }
+        if self.u.is_full() {
+            let _ = self.u.pop_front();
+            let _ = self.y.pop_front();
+        }
+        // Cannot fail: one slot was freed above when full.
+        let _ = self.u.push_back(u);
+        let _ = self.y.push_back(y);
+        self.pushed += 1;
+        Ok(())
+    }
+
+    /// Number of pairs held.
+    pub fn len(&self) -> usize {
+        self.u.len()
+    }
+    /// True when no pair is held.
+    pub fn is_empty(&self) -> bool {
+        self.u.is_empty()
+    }
+    /// True when `N` pairs are held (the next push drops the oldest).
+    pub fn is_full(&self) -> bool {
+        self.u.is_full()
+    }
+    /// The capacity `N`.
+    pub const fn capacity(&self) -> usize {
+        N
+    }
+    /// Pairs accepted since creation (or the last [`clear`](Self::clear)).
+    pub fn pushed(&self) -> u64 {
+        self.pushed
+    }
+    /// Pairs rejected as non-finite since creation.
+    pub fn rejected(&self) -> u32 {
+        self.rejected
+    }
+    /// True once the window has dropped a pair: the samples before the
+    /// oldest one held are then unknown (not zero).
+    pub fn has_slid(&self) -> bool {
+        self.pushed > self.u.len() as u64
+    }
+    /// Empties the window and resets the counters.
+    pub fn clear(&mut self) {
+        self.u.clear();
+        self.y.clear();
+        self.pushed = 0;
+        self.rejected = 0;
+    }
+
+    /// The held inputs, oldest first.
+    pub fn inputs(&self) -> impl Iterator<Item = T> + '_ {
+        self.u.iter().copied()
+    }
+    /// The held outputs, oldest first.
+    pub fn outputs(&self) -> impl Iterator<Item = T> + '_ {
+        self.y.iter().copied()
+    }
+
+    /// Copies the held pairs, oldest first, into `u` and `y`; returns how many
+    /// were copied (the window length, or less if the slices are shorter).
+    pub fn copy_into(&self, u: &mut [T], y: &mut [T]) -> usize {
+        let mut n = 0;
+        for ((du, dy), (&su, &sy)) in u
+            .iter_mut()
+            .zip(y.iter_mut())
+            .zip(self.u.iter().zip(self.y.iter()))
+        {
+            *du = su;
+            *dy = sy;
+            n += 1;
+        }
+        n
+    }
+}
