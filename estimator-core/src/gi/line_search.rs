@@ -41,6 +41,10 @@ pub(crate) fn order_search<T: Real, const N: usize, const MEM: usize, const NF: 
     if !s.estimate_order {
         return Ok(OrderStep::Fixed);
     }
+    // The criterion of this stage: ê re-estimated with the fresh linear
+    // parameters, so that the cost compared below is the true one.
+    reg.noise_estimate(p);
+    reg.residual(p);
     reg.order_derivative(p);
     let rows = reg.rows();
     let dd = crate::real::dot(&reg.d[rows.clone()], &reg.d[rows.clone()]);
@@ -50,7 +54,7 @@ pub(crate) fn order_search<T: Real, const N: usize, const MEM: usize, const NF: 
     }
     let alpha0 = reg.w.alpha();
     let cost0 = reg.cost();
-    let step = dr / dd;
+    let step = (dr / dd).max(-s.max_order_step).min(s.max_order_step);
     let mut t = T::one();
     for halvings in 0..=s.max_halvings {
         let trial = (alpha0 + t * step).max(s.alpha_min).min(s.alpha_max);

@@ -61,6 +61,11 @@ pub struct GiSettings<T> {
     pub epsilon: T,
     /// Largest number of halvings of the order step before it is rejected.
     pub max_halvings: u8,
+    /// Trust radius of the order search: `|α̂_k − α̂_{k−1}| ≤ max_order_step`.
+    /// While the linear parameters are still far from their optimum a free
+    /// Gauss–Newton step in α chases them into a wrong local minimum; a
+    /// bounded step lets both parts converge together.
+    pub max_order_step: T,
     /// Estimate α (true) or keep it fixed at its current value (false).
     pub estimate_order: bool,
     /// What precedes the window.
@@ -68,7 +73,7 @@ pub struct GiSettings<T> {
 }
 
 impl<T: Real> GiSettings<T> {
-    /// Defaults: `h = 1`, α in `[0.01, 1.99]`, `ε = 1e−6`, 12 halvings, order
+    /// Defaults: `h = 1`, α in `[0.01, 1.99]`, `ε = 1e−6`, 12 halvings, order steps of at most 0.05, order
     /// estimated, data from rest.
     pub fn new(orders: Orders, memory: usize) -> Self {
         Self {
@@ -79,6 +84,7 @@ impl<T: Real> GiSettings<T> {
             alpha_max: T::lit(1.99),
             epsilon: T::lit(1e-6),
             max_halvings: 12,
+            max_order_step: T::lit(0.05),
             estimate_order: true,
             prehistory: Prehistory::AtRest,
         }
@@ -115,7 +121,9 @@ impl<T: Real> GiSettings<T> {
             && self.alpha_max < T::lit(2.0)
             && self.alpha_min <= self.alpha_max
             && self.epsilon.is_finite()
-            && self.epsilon >= T::zero();
+            && self.epsilon >= T::zero()
+            && self.max_order_step > T::zero()
+            && self.max_order_step.is_finite();
         if ok {
             Ok(())
         } else {

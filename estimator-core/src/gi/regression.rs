@@ -56,8 +56,8 @@ pub(crate) struct Params<'a, T> {
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct Stamp<T> {
-    pushed: u64,
     len: usize,
+    r0: usize,
     alpha: T,
     h: T,
     memory: usize,
@@ -72,8 +72,11 @@ pub(crate) struct Regression<T, const N: usize, const MEM: usize, const NF: usiz
     pub n: usize,
     /// First row used.
     pub r0: usize,
+    u: [T; N],
     y: [T; N],
     e: [T; N],
+    /// ê at the trial order.
+    te: [T; N],
     f: [[T; N]; NF],
     pub cur: Channels<T, N, NF>,
     trial: Channels<T, N, NF>,
@@ -95,8 +98,10 @@ impl<T: Real, const N: usize, const MEM: usize, const NF: usize> Regression<T, N
             w,
             n: 0,
             r0: 0,
+            u: [T::ZERO; N],
             y: [T::ZERO; N],
             e: [T::ZERO; N],
+            te: [T::ZERO; N],
             f: [[T::ZERO; N]; NF],
             cur: Channels::zeroed(),
             trial: Channels::zeroed(),
@@ -113,8 +118,8 @@ impl<T: Real, const N: usize, const MEM: usize, const NF: usize> Regression<T, N
     }
 
     /// Loads the window at order `alpha`: copies the data, evaluates the
-    /// basis, and (re)computes the differences of `y` and `f_j` unless they
-    /// are still valid for this window content and order.
+    /// basis, and (re)computes the differences of `y` and `f_j` unless the
+    /// data, the order and the settings are those they were computed for.
     pub fn load<B: Basis<T>>(
         &mut self,
         s: &GiSettings<T>,
@@ -136,32 +141,40 @@ impl<T: Real, const N: usize, const MEM: usize, const NF: usize> Regression<T, N
             });
         }
         let stamp = Stamp {
-            pushed: window.pushed(),
             len: n,
+            r0,
             alpha,
             h: s.h,
             memory: s.memory,
             m: o.m,
         };
-        if self.stamp == Some(stamp) {
+        // Copy the window (O(N)) into scratch and compare it with the data the
+        // cached differences were computed from.
+        window.copy_into(&mut self.q, &mut self.d);
+        let same =
+            self.stamp == Some(stamp) && self.q[..n] == self.u[..n] && self.d[..n] == self.y[..n];
+        if same {
             return Ok(());
         }
         self.stamp = None;
-        // Copy the data; `e` doubles as scratch for the inputs here.
-        window.copy_into(&mut self.e, &mut self.y);
+        self.u[..n].copy_from_slice(&self.q[..n]);
+        self.y[..n].copy_from_slice(&self.d[..n]);
         let (mut sum, mut sum2) = (T::zero(), T::zero());
-        for &u in &self.e[r0..n] {
+        for &u in &self.u[r0..n] {
             sum = sum + u;
             sum2 = sum2 + u * u;
         }
         let rows = T::lit((n - r0) as f64);
         let mean2 = sum2 / rows;
         let var = mean2 - (sum / rows) * (sum / rows);
+        if !mean2.is_finite() {
+            return Err(Error::NonFiniteSample);
+        }
         if !(var > T::epsilon() * T::lit(64.0) * mean2) {
             return Err(Error::NotExcited);
         }
         for l in 0..n {
-            let u = self.e[l];
+            let u = self.u[l];
             for j in 0..o.m {
                 let v = basis.eval(j, u);
                 if !v.is_finite() {
@@ -252,46 +265,82 @@ impl<T: Real, const N: usize, const MEM: usize, const NF: usize> Regression<T, N
         crate::real::dot(&self.res[self.r0..self.n], &self.res[self.r0..self.n]) / T::lit(2.0)
     }
 
-    /// `∂ŷ/∂α` on the rows into `d`.
+    /// `∂ŷ/∂α` on the rows into `d`, where ŷ is the prediction of the full
+    /// criterion: `ŷ(l) = S(l) − Σ c_i Δ^α ê(l−i)` with `ê = y − S` itself a
+    /// function of α (S is the system part). So
+    /// `∂ŷ/∂α = ∂S/∂α − Σ c_i [∂_α Δ^α ê − Δ^α ∂_α S](l−i)`.
     pub fn order_derivative(&mut self, p: &Params<'_, T>) {
-        let (n, rows, o) = (self.n, self.rows(), p.o);
-        for l in rows.clone() {
-            self.d[l] = T::zero();
+        let (n, r0, o) = (self.n, self.r0, p.o);
+        // d ← ∂S/∂α on every sample (the lags of the noise part need it).
+        for x in self.d[..n].iter_mut() {
+            *x = T::zero();
         }
-        let mut acc = |x: &[T], coef: &dyn Fn(usize) -> T, lags: Range<usize>, s: &mut [T; N]| {
+        let mut acc = |x: &[T], coef: &dyn Fn(usize) -> T, lags: usize, s: &mut [T; N]| {
             for l in 0..n {
                 s[l] = self.w.difference_with_derivative(x, l).1;
             }
-            for l in rows.clone() {
+            for l in 0..n {
                 let mut v = T::zero();
-                for i in lags.clone() {
+                for i in 0..lags {
                     v = v + coef(i) * lag(&s[..], l, i + 1);
                 }
                 self.d[l] = self.d[l] + v;
             }
         };
-        acc(&self.y[..n], &|i| -p.a[i], 0..o.na, &mut self.scratch);
-        acc(&self.e[..n], &|i| -p.c[i], 0..o.nc, &mut self.scratch);
+        acc(&self.y[..n], &|i| -p.a[i], o.na, &mut self.scratch);
         for j in 0..o.m {
             acc(
                 &self.f[j][..n],
                 &|i| p.p[i * o.m + j],
-                0..o.nb,
+                o.nb,
                 &mut self.scratch,
             );
         }
+        if o.nc == 0 {
+            return;
+        }
+        // scratch ← ∂_α Δ^α ê − Δ^α (∂S/∂α), with ê and ∂ê/∂α zero before r0.
+        let w = &self.w;
+        let (e, d) = (&self.e, &self.d);
+        for l in 0..n {
+            let de = w.difference_with_derivative(&e[..n], l).1;
+            let taps = (l + 1).min(w.len());
+            let mut s = T::zero();
+            for (j, &wj) in w.weights()[..taps].iter().enumerate() {
+                if l - j >= r0 {
+                    s = s + wj * d[l - j];
+                }
+            }
+            self.scratch[l] = de - w.scale() * s;
+        }
+        for l in (r0..n).rev() {
+            let mut v = T::zero();
+            for i in 0..o.nc {
+                v = v + p.c[i] * lag(&self.scratch[..], l, i + 1);
+            }
+            self.d[l] = self.d[l] - v;
+        }
     }
 
-    /// Evaluates the cost at a trial order (the noise sequence ê held fixed),
-    /// leaving the trial channels and residual ready for `accept_trial`.
+    /// Evaluates the full criterion at a trial order: differences of `y` and
+    /// `f_j` at the trial order, `ê = y − S` recomputed from them, its
+    /// differences, and the residual. Leaves everything ready for
+    /// `accept_trial`.
     pub fn trial_cost(&mut self, alpha: T, p: &Params<'_, T>) -> Result<T, Error> {
         let n = self.n;
         self.tw.set_order(alpha)?;
         self.tw.apply(&self.y[..n], &mut self.trial.y[..n]);
-        self.tw.apply(&self.e[..n], &mut self.trial.e[..n]);
         for j in 0..p.o.m {
             self.tw.apply(&self.f[j][..n], &mut self.trial.f[j][..n]);
         }
+        for l in 0..n {
+            self.te[l] = if l < self.r0 {
+                T::zero()
+            } else {
+                self.y[l] - Self::system_part(&self.trial, p, l)
+            };
+        }
+        self.tw.apply(&self.te[..n], &mut self.trial.e[..n]);
         let rows = self.rows();
         Ok(Self::residual_of(
             &self.y,
@@ -305,6 +354,7 @@ impl<T: Real, const N: usize, const MEM: usize, const NF: usize> Regression<T, N
     /// Makes the last trial order current.
     pub fn accept_trial(&mut self) {
         core::mem::swap(&mut self.cur, &mut self.trial);
+        core::mem::swap(&mut self.e, &mut self.te);
         core::mem::swap(&mut self.w, &mut self.tw);
         core::mem::swap(&mut self.res, &mut self.q);
         if let Some(st) = self.stamp.as_mut() {
