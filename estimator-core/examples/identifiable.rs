@@ -49,6 +49,9 @@ fn run(sys: &HammersteinSystem<'_, f64>, d: &Data) -> (Vec<f64>, Vec<f64>, u32, 
     (p1.to_vec(), p2.to_vec(), k_op, k_kt)
 }
 
+/// Per seed: SNR, δ_LS(true α), δ_OP, δ_KT, k_OP, k_KT, δ_LS(α searched).
+type Row = (f64, f64, f64, f64, f64, f64, f64);
+
 fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(|a, b| a.partial_cmp(b).unwrap());
     let n = v.len();
@@ -92,12 +95,8 @@ fn main() {
                     r2,
                 ));
             }
-            let col = |f: &dyn Fn(&(f64, f64, f64, f64, f64, f64, f64)) -> f64| {
-                median(rows.iter().map(f).collect())
-            };
-            let maxr = |f: &dyn Fn(&(f64, f64, f64, f64, f64, f64, f64)) -> f64| {
-                rows.iter().map(f).fold(0.0, f64::max)
-            };
+            let col = |f: &dyn Fn(&Row) -> f64| median(rows.iter().map(f).collect());
+            let maxr = |f: &dyn Fn(&Row) -> f64| rows.iter().map(f).fold(0.0, f64::max);
             println!(
                 "| {name} | {len} | {sigma} | {:.0} | {:.4} | {:.4} | {:.4} | {:.4} | {:.2} | {:.2} | {:.2} / {:.2} | {:.0} / {:.0} |",
                 col(&|r| r.0), col(&|r| r.1), col(&|r| r.6), col(&|r| r.2), col(&|r| r.3),

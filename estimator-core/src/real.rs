@@ -76,3 +76,9 @@ pub(crate) fn dist<T: Real>(a: &[T], b: &[T]) -> T {
         .fold(T::zero(), |s, (&x, &y)| s + (x - y) * (x - y))
         .sqrt()
 }
+
+/// True for a finite, strictly positive value (false for NaN).
+#[inline]
+pub(crate) fn positive_finite<T: Real>(x: T) -> bool {
+    x.is_finite() && x > T::zero()
+}

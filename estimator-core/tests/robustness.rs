@@ -268,9 +268,9 @@ fn factor_recovers_b_and_gamma() {
     let o = Orders::PAPER;
     let (b, g) = ([0.18, -0.175, -0.39], [0.0165, 0.024]);
     let mut est = HammersteinEstimate::<f64, 2, 3, 2, 2, 6>::initial(o, 0.5);
-    for i in 0..3 {
-        for j in 0..2 {
-            est.products[i * 2 + j] = b[i] * g[j];
+    for (i, bi) in b.iter().enumerate() {
+        for (j, gj) in g.iter().enumerate() {
+            est.products[i * 2 + j] = bi * gj;
         }
     }
     let (bu, gu) = est.factor(Normalization::UnitGamma).unwrap();

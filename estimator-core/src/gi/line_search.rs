@@ -49,7 +49,7 @@ pub(crate) fn order_search<T: Real, const N: usize, const MEM: usize, const NF: 
     let rows = reg.rows();
     let dd = crate::real::dot(&reg.d[rows.clone()], &reg.d[rows.clone()]);
     let dr = crate::real::dot(&reg.d[rows.clone()], &reg.res[rows]);
-    if !(dd > T::zero()) || !dd.is_finite() || !dr.is_finite() || dr.is_zero() {
+    if !crate::real::positive_finite(dd) || !dr.is_finite() || dr.is_zero() {
         return Ok(OrderStep::Flat);
     }
     let alpha0 = reg.w.alpha();

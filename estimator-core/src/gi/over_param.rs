@@ -110,7 +110,7 @@ impl<
             .chain(&est.c)
             .chain(&est.products)
             .all(|x| x.is_finite());
-        if !finite || !(est.alpha > T::zero() && est.alpha < T::lit(2.0)) {
+        if !(finite && est.alpha > T::zero() && est.alpha < T::lit(2.0)) {
             return Err(Error::BadSetting);
         }
         self.est = est;

@@ -170,7 +170,7 @@ impl<T: Real, const N: usize, const MEM: usize, const NF: usize> Regression<T, N
         if !mean2.is_finite() {
             return Err(Error::NonFiniteSample);
         }
-        if !(var > T::epsilon() * T::lit(64.0) * mean2) {
+        if !crate::real::positive_finite(var - T::epsilon() * T::lit(64.0) * mean2) {
             return Err(Error::NotExcited);
         }
         for l in 0..n {
@@ -276,8 +276,8 @@ impl<T: Real, const N: usize, const MEM: usize, const NF: usize> Regression<T, N
             *x = T::zero();
         }
         let mut acc = |x: &[T], coef: &dyn Fn(usize) -> T, lags: usize, s: &mut [T; N]| {
-            for l in 0..n {
-                s[l] = self.w.difference_with_derivative(x, l).1;
+            for (l, sl) in s.iter_mut().enumerate().take(n) {
+                *sl = self.w.difference_with_derivative(x, l).1;
             }
             for l in 0..n {
                 let mut v = T::zero();
@@ -400,7 +400,7 @@ pub(crate) fn linear_stage<T: Real, const N: usize>(
             gg = gg + s * s;
         }
     }
-    if !(gg > T::zero()) || !gg.is_finite() {
+    if !crate::real::positive_finite(gg) {
         return T::zero();
     }
     let mut qq = T::zero();
@@ -414,7 +414,7 @@ pub(crate) fn linear_stage<T: Real, const N: usize>(
         q[l] = s;
         qq = qq + s * s;
     }
-    if !(qq > T::zero()) || !qq.is_finite() {
+    if !crate::real::positive_finite(qq) {
         return T::zero();
     }
     let mu = gg / qq;
