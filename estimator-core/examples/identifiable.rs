@@ -52,16 +52,6 @@ fn run(sys: &HammersteinSystem<'_, f64>, d: &Data) -> (Vec<f64>, Vec<f64>, u32, 
 /// Per seed: SNR, δ_LS(true α), δ_OP, δ_KT, k_OP, k_KT, δ_LS(α searched).
 type Row = (f64, f64, f64, f64, f64, f64, f64);
 
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(|a, b| a.partial_cmp(b).unwrap());
-    let n = v.len();
-    if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
-    }
-}
-
 fn main() {
     let white = system();
     let coloured = HammersteinSystem {

@@ -71,16 +71,6 @@ fn setting_is_identifiable() {
     assert!(snr > 10.0, "signal must dominate the noise, SNR = {snr}");
 }
 
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(|a, b| a.partial_cmp(b).unwrap());
-    let n = v.len();
-    if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
-    }
-}
-
 /// At convergence both algorithms are within 1.5× of the least-squares
 /// reference with the true α and true e, and within 1.5× of the same
 /// reference when it must search α too; both as medians over seeds (on a

@@ -160,3 +160,14 @@ pub fn snr<const MEM: usize>(sys: &HammersteinSystem<'_, f64>, d: &Data, memory:
     let noise: Vec<f64> = d.y.iter().zip(&y0).map(|(a, b)| a - b).collect();
     p(&y0) / p(&noise)
 }
+
+/// Median of a non-empty sample.
+pub fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(|a, b| a.partial_cmp(b).unwrap());
+    let n = v.len();
+    if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    }
+}
