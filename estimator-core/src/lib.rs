@@ -14,6 +14,9 @@
 //! * [`gi`] — the paper's algorithms: [`gi::over_param`] (2S-OP-GI) and
 //!   [`gi::key_term`] (KT-2S-GI), one iteration per call, with the order α
 //!   estimated by a safeguarded line search ([`gi::line_search`]).
+//! * [`battery`] — the fractional-order battery model of §6.2: simulation,
+//!   the paper's regression with 2S-OP-GI, our output-error refinement and
+//!   the sliding-window cell estimator a BMS runs per cell.
 //! * [`flops`] — the flop counts of the paper's Tables 1–2.
 //! * [`error`] — the typed errors; nothing in this crate panics on bad data.
 //!
@@ -62,6 +65,7 @@
 #![forbid(unsafe_code)]
 #![deny(missing_docs)]
 
+pub mod battery;
 pub mod error;
 pub mod flops;
 pub mod frac;

@@ -21,6 +21,29 @@ pub trait Real: Float + Debug + Default + Send + Sync + 'static + sealed::Sealed
     fn lit(x: f64) -> Self;
     /// Widens to `f64` (exact for both implementations).
     fn to_f64(self) -> f64;
+
+    /// Solves the symmetric positive definite system `a·x = b` by a Cholesky
+    /// factorization (nalgebra, on the stack). `None` when `a` is not
+    /// positive definite or the result is not finite.
+    fn solve_spd<const D: usize>(a: &[[Self; D]; D], b: &[Self; D]) -> Option<[Self; D]>;
+}
+
+macro_rules! solve_spd_impl {
+    ($t:ty) => {
+        fn solve_spd<const D: usize>(a: &[[$t; D]; D], b: &[$t; D]) -> Option<[$t; D]> {
+            let m = nalgebra::SMatrix::<$t, D, D>::from_fn(|i, j| a[i][j]);
+            let v = nalgebra::SVector::<$t, D>::from_fn(|i, _| b[i]);
+            let x = m.cholesky()?.solve(&v);
+            let mut out = [0.0; D];
+            for (o, &xi) in out.iter_mut().zip(x.iter()) {
+                if !xi.is_finite() {
+                    return None;
+                }
+                *o = xi;
+            }
+            Some(out)
+        }
+    };
 }
 
 impl Real for f32 {
@@ -34,6 +57,7 @@ impl Real for f32 {
     fn to_f64(self) -> f64 {
         self as f64
     }
+    solve_spd_impl!(f32);
 }
 
 impl Real for f64 {
@@ -47,6 +71,7 @@ impl Real for f64 {
     fn to_f64(self) -> f64 {
         self
     }
+    solve_spd_impl!(f64);
 }
 
 mod sealed {

@@ -106,6 +106,15 @@ impl<T: Real, const N: usize> SampleWindow<T, N> {
         self.y.iter().copied()
     }
 
+    /// The held pairs, newest first.
+    pub fn recent(&self) -> impl Iterator<Item = (T, T)> + '_ {
+        self.u
+            .iter()
+            .rev()
+            .copied()
+            .zip(self.y.iter().rev().copied())
+    }
+
     /// Copies the held pairs, oldest first, into `u` and `y`; returns how many
     /// were copied (the window length, or less if the slices are shorter).
     pub fn copy_into(&self, u: &mut [T], y: &mut [T]) -> usize {

@@ -1,0 +1,238 @@
+//! The fractional-order battery model of §6.2 (after Tian et al.).
+//!
+//! ```text
+//! U_t(l) = U_oc + R_i·I(l) + U_p(l),     τ·Δ^α U_p(l) + U_p(l) = R_ct·I(l),   τ = R_ct·Q
+//! ```
+//!
+//! `U_t` is the terminal voltage (V), `I` the current (A, **positive when
+//! charging**), `R_i` the ohmic resistance (Ω), and the constant-phase branch
+//! `R_ct ∥ CPE(Q, α)` carries the polarization voltage `U_p`. With a real
+//! sample period `h` (s) the time constant `τ` is in `s^α` and `Q` in
+//! `F·s^(α−1)`.
+//!
+//! * [`simulate`] — the model driven by a current record (the host-sim
+//!   presets and the tests use it; a BMS uses it for prediction).
+//! * [`regression`] — the paper's method: the linear regression of §6.2 with
+//!   the order, identified by 2S-OP-GI ([`regression::PaperRegressionGi`]),
+//!   and the algebra from its θ back to `(R_i, R_ct, Q, U_oc)`.
+//! * [`output_error`] — ours: a Levenberg–Marquardt output-error refinement
+//!   that fits the simulated voltage to the measured one
+//!   ([`output_error::OutputErrorRefinement`]).
+//! * [`profile`] — test current profiles (pulse, HPPC, drive) and an OCV
+//!   curve.
+//! * [`online`] — the sliding-window cell estimator a BMS runs per cell:
+//!   sample validation, spike and NaN rejection, the "not excited" hold,
+//!   either method ([`online::CellEstimator`]).
+
+pub mod online;
+pub mod output_error;
+pub mod profile;
+pub mod regression;
+pub mod simulate;
+
+use crate::real::Real;
+
+/// The physical parameters of one cell.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct CellParameters<T> {
+    /// Ohmic resistance `R_i` (Ω).
+    pub r_i: T,
+    /// Charge-transfer resistance `R_ct` (Ω).
+    pub r_ct: T,
+    /// Constant-phase-element coefficient `Q` (`F·s^(α−1)`).
+    pub q: T,
+    /// Fractional order α of the constant-phase element.
+    pub alpha: T,
+    /// Open-circuit voltage `U_oc` (V).
+    pub u_oc: T,
+}
+
+impl<T: Real> CellParameters<T> {
+    /// The paper's example cell (§6.2): `R_i = 1 mΩ`, `R_ct = 2 mΩ`,
+    /// `Q = 320`, `α = 0.7`, `U_oc = 4 V`.
+    pub fn paper() -> Self {
+        Self {
+            r_i: T::lit(0.001),
+            r_ct: T::lit(0.002),
+            q: T::lit(320.0),
+            alpha: T::lit(0.7),
+            u_oc: T::lit(4.0),
+        }
+    }
+
+    /// An 18650-like cell: `R_i = 20 mΩ`, `R_ct = 15 mΩ`, `α = 0.75`,
+    /// `τ = 8 s^α` (so `Q = τ/R_ct ≈ 533`), `U_oc = 3.7 V`.
+    pub fn cell_18650() -> Self {
+        Self {
+            r_i: T::lit(0.020),
+            r_ct: T::lit(0.015),
+            q: T::lit(8.0 / 0.015),
+            alpha: T::lit(0.75),
+            u_oc: T::lit(3.7),
+        }
+    }
+
+    /// `τ = R_ct·Q` (`s^α`).
+    pub fn tau(&self) -> T {
+        self.r_ct * self.q
+    }
+
+    /// True when every value is finite, the resistances and `Q` are
+    /// positive and α lies in `(0, 2)`: a model that can be simulated.
+    pub fn is_physical(&self) -> bool {
+        let pos = |x: T| x.is_finite() && x > T::zero();
+        pos(self.r_i)
+            && pos(self.r_ct)
+            && pos(self.q)
+            && self.alpha.is_finite()
+            && self.alpha > T::zero()
+            && self.alpha < T::lit(2.0)
+            && self.u_oc.is_finite()
+    }
+
+    /// The paper's error measure of Table 7,
+    /// `δ = ‖[R̂_i, R̂_ct, Q̂, Û_oc] − [R_i, R_ct, Q, U_oc]‖ / ‖[R_i, R_ct, Q, U_oc]‖`.
+    pub fn delta(&self, truth: &Self) -> T {
+        let e = [
+            self.r_i - truth.r_i,
+            self.r_ct - truth.r_ct,
+            self.q - truth.q,
+            self.u_oc - truth.u_oc,
+        ];
+        let t = [truth.r_i, truth.r_ct, truth.q, truth.u_oc];
+        crate::real::norm(&e) / crate::real::norm(&t)
+    }
+
+    /// Converts to another scalar type (e.g. the host's `f64` estimate into
+    /// the firmware's `f32`).
+    pub fn cast<U: Real>(&self) -> CellParameters<U> {
+        CellParameters {
+            r_i: U::lit(self.r_i.to_f64()),
+            r_ct: U::lit(self.r_ct.to_f64()),
+            q: U::lit(self.q.to_f64()),
+            alpha: U::lit(self.alpha.to_f64()),
+            u_oc: U::lit(self.u_oc.to_f64()),
+        }
+    }
+}
+
+/// Settings shared by the battery estimators (kept apart from their state,
+/// so one value drives the estimators of every cell of a pack).
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct BatterySettings<T> {
+    /// Sample period h (s).
+    pub h: T,
+    /// Memory length M of the fractional differences (`1 ≤ M ≤ MEM`).
+    pub memory: usize,
+    /// The order is kept inside `[alpha_min, alpha_max] ⊂ (0, 2)`.
+    pub alpha_min: T,
+    /// Upper bound of α.
+    pub alpha_max: T,
+    /// Stopping tolerance: converged when the relative parameter change of
+    /// an iteration is at most ε.
+    pub epsilon: T,
+    /// Largest number of halvings of the paper method's order step.
+    pub max_halvings: u8,
+    /// Trust radius of the paper method's order step.
+    pub max_order_step: T,
+    /// Estimate α (true) or keep it fixed (false).
+    pub estimate_order: bool,
+    /// How the output-error model starts inside the window.
+    pub start: Start,
+    /// Let the output-error model's open-circuit voltage follow the charge
+    /// through the window with a fitted slope `dU_oc/dq` (for a sliding
+    /// window over a cell whose state of charge moves).
+    pub ocv_slope: bool,
+    /// A window whose current has a standard deviation below this (A) is
+    /// "not excited": the estimate is held.
+    pub min_current_std: T,
+}
+
+/// Where the output-error simulation of a window starts.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Start {
+    /// The data start from rest (`U_p = 0` before the first sample): every
+    /// sample is fitted. Right for a whole recording that begins after a
+    /// rest; once a window slides it behaves like `FromData`.
+    AtRest,
+    /// The polarization of the first `M − 1` samples of the window is taken
+    /// from the data (`U_p = U_t − U_oc − R_i·I`), the model runs freely
+    /// from there on and only those later samples are fitted. Right for a
+    /// sliding window over a cell that is never at rest.
+    FromData,
+}
+
+impl<T: Real> BatterySettings<T> {
+    /// Defaults for sample period `h` and memory `memory`: α in
+    /// `[0.05, 1.0]` (a constant-phase element), ε = 1e−7, 12 halvings, order
+    /// steps of at most 0.05, order estimated, start from rest, constant OCV, excitation
+    /// threshold 1 mA.
+    pub fn new(h: T, memory: usize) -> Self {
+        Self {
+            h,
+            memory,
+            alpha_min: T::lit(0.05),
+            alpha_max: T::lit(1.0),
+            epsilon: T::lit(1e-7),
+            max_halvings: 12,
+            max_order_step: T::lit(0.05),
+            estimate_order: true,
+            start: Start::AtRest,
+            ocv_slope: false,
+            min_current_std: T::lit(1e-3),
+        }
+    }
+
+    /// Validates the settings against a memory capacity `MEM`.
+    ///
+    /// # Errors
+    /// [`crate::Error::Frac`] for a bad period or memory,
+    /// [`crate::Error::BadSetting`] for order bounds outside `(0, 2)`, a
+    /// negative or non-finite ε, trust radius or excitation threshold.
+    pub fn check<const MEM: usize>(&self) -> Result<(), crate::Error> {
+        crate::frac::GlWeights::<T, 1>::new(T::lit(0.5), self.h, 1)?;
+        if self.memory == 0 || self.memory > MEM {
+            return Err(crate::FracError::BadMemory {
+                requested: self.memory,
+                capacity: MEM,
+            }
+            .into());
+        }
+        let ok = self.alpha_min.is_finite()
+            && self.alpha_max.is_finite()
+            && self.alpha_min > T::zero()
+            && self.alpha_min <= self.alpha_max
+            && self.alpha_max < T::lit(2.0)
+            && self.epsilon.is_finite()
+            && self.epsilon >= T::zero()
+            && self.max_order_step.is_finite()
+            && self.max_order_step > T::zero()
+            && self.min_current_std.is_finite()
+            && self.min_current_std >= T::zero();
+        if ok {
+            Ok(())
+        } else {
+            Err(crate::Error::BadSetting)
+        }
+    }
+
+    pub(crate) fn clamp_alpha(&self, a: T) -> T {
+        a.max(self.alpha_min).min(self.alpha_max)
+    }
+}
+
+/// Standard deviation of the current over a slice (population form).
+pub(crate) fn current_std<T: Real>(i: &[T]) -> T {
+    if i.is_empty() {
+        return T::zero();
+    }
+    let n = T::lit(i.len() as f64);
+    let mean = i.iter().fold(T::zero(), |s, &x| s + x) / n;
+    (i.iter()
+        .fold(T::zero(), |s, &x| s + (x - mean) * (x - mean))
+        / n)
+        .sqrt()
+}

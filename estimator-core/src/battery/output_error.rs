@@ -1,0 +1,485 @@
+//! Output-error refinement (beyond the paper): fit the *simulated* terminal
+//! voltage to the measured one over `x = [ln R_i, ln R_ct, ln Q, α, U_oc]` by
+//! Levenberg–Marquardt (and, over a sliding window, the OCV slope β).
+//!
+//! Why: the paper's regression ([`super::regression`]) carries the measured,
+//! noisy voltage history inside its regressor (`−H[U_t]`), an
+//! errors-in-variables problem, so its estimates are biased when the noise
+//! is not tiny. Here the model is driven by the current alone:
+//!
+//! ```text
+//! (1 + a)·U_p(l) = R_ct·I(l) − a·Σ_{j≥1} w_j·U_p(l−j),   a = R_ct·Q·h^(−α)
+//! Û_t(l) = U_oc + R_i·I(l) + U_p(l),       minimize ½ Σ (U_t(l) − Û_t(l))²
+//! ```
+//!
+//! The sensitivities `S = ∂U_p/∂p` follow the same recursion with other
+//! drives (`E(l) = U_p(l) + Σ_{j≥1} w_j U_p(l−j)`, `g = h^(−α)`):
+//!
+//! ```text
+//! p = R_ct : drive I(l) − Q·g·E(l)
+//! p = Q    : drive −R_ct·g·E(l)
+//! p = α    : drive a·ln h·E(l) − a·Σ_{j≥1} (∂w_j/∂α)·U_p(l−j)
+//! ```
+//!
+//! With [`Start::FromData`] the first `M − 1` samples of the window supply
+//! the history, `U_p = U_t − U_oc − R_i·I`; that history depends on `R_i` and
+//! `U_oc`, whose sensitivities are then the recursion's free responses to
+//! `−I` and `−1`. Resistances and `Q` are searched in logarithms (positive
+//! by construction, scale-free steps); the damping is Marquardt's
+//! `λ·diag(JᵀJ)`.
+//!
+//! Over a sliding window the open-circuit voltage drifts with the state of
+//! charge; a constant `U_oc` then lets a runaway `R_ct` (a pure constant-phase
+//! integrator) mimic the drift. With [`BatterySettings::ocv_slope`] the model
+//! carries `U_oc(l) = U_oc − β·c(l)`, `c(l) = h·Σ_{k>l} I(k)` the charge
+//! still to flow to the newest sample, so `U_oc` is the value *now* and `β`
+//! is `dOCV/dq` (the OCV curve's slope over the cell's capacity). The 6×6 system is solved by nalgebra's Cholesky on the
+//! stack. One call of [`OutputErrorRefinement::iterate`] is one accepted
+//! (or finally rejected) LM step, `O(6·N·M)`.
+
+use super::simulate::{cpe_filter, history};
+use super::{current_std, BatterySettings, CellParameters, Start};
+use crate::error::Error;
+use crate::frac::GlWeights;
+use crate::real::Real;
+use crate::window::SampleWindow;
+
+/// Fewest fitted samples an iteration accepts.
+pub const MIN_ROWS: usize = 8;
+/// Largest number of damping increases tried in one iteration.
+pub const MAX_TRIES: u8 = 10;
+/// Largest step of a logarithmic parameter in one iteration (a factor e).
+const MAX_LOG_STEP: f64 = 1.0;
+
+/// What one refinement iteration did.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct RefinementStep<T> {
+    /// Iteration counter since the last reset.
+    pub k: u32,
+    /// `½ Σ (U_t − Û_t)²` after the iteration.
+    pub cost: T,
+    /// Root-mean-square voltage error over the fitted samples (V).
+    pub rmse: T,
+    /// Largest relative parameter change (`|Δ ln p|`, `|Δα|`,
+    /// `|ΔU_oc|/|U_oc|`).
+    pub change: T,
+    /// `change ≤ ε`, or no damping found a lower cost (a minimum).
+    pub converged: bool,
+    /// True when the step was accepted (the cost decreased).
+    pub accepted: bool,
+    /// Marquardt damping λ after the iteration.
+    pub lambda: T,
+    /// Number of fitted samples.
+    pub rows: usize,
+}
+
+/// The output-error Levenberg–Marquardt refinement for a window of capacity
+/// `N` and memory capacity `MEM`; about `11·N` scalars of state.
+///
+/// ```
+/// use estimator_core::battery::{
+///     output_error::OutputErrorRefinement, simulate::simulate, BatterySettings, CellParameters,
+/// };
+/// use estimator_core::frac::GlWeights;
+/// use estimator_core::window::SampleWindow;
+///
+/// const N: usize = 200;
+/// let truth = CellParameters::<f64>::cell_18650();
+/// let current: Vec<f64> = (0..N).map(|l| if (l / 20) % 2 == 0 { 3.0 } else { -3.0 }).collect();
+/// let (mut up, mut v) = (vec![0.0; N], vec![0.0; N]);
+/// let mut w = GlWeights::<f64, N>::new(truth.alpha, 1.0, N).unwrap();
+/// simulate(&truth, &mut w, &current, |_| truth.u_oc, &mut up, &mut v).unwrap();
+///
+/// let mut window = SampleWindow::<f64, N>::new();
+/// for (&i, &u) in current.iter().zip(&v) {
+///     window.push(i, u).unwrap();
+/// }
+/// let s = BatterySettings::new(1.0, N);
+/// let start = CellParameters { r_i: 0.01, r_ct: 0.03, q: 200.0, alpha: 0.6, u_oc: 3.6 };
+/// let mut oe = OutputErrorRefinement::<f64, N, N>::new(&s, start).unwrap();
+/// for _ in 0..50 {
+///     if oe.iterate(&s, &window).unwrap().converged {
+///         break;
+///     }
+/// }
+/// let p = oe.cell();
+/// assert!((p.r_ct / truth.r_ct - 1.0).abs() < 1e-6);
+/// assert!((p.alpha - truth.alpha).abs() < 1e-6);
+/// ```
+#[derive(Clone, Debug)]
+pub struct OutputErrorRefinement<T, const N: usize, const MEM: usize> {
+    p: CellParameters<T>,
+    lambda: T,
+    k: u32,
+    w: GlWeights<T, MEM>,
+    i: [T; N],
+    v: [T; N],
+    up: [T; N],
+    e: [T; N],
+    s_rct: [T; N],
+    s_q: [T; N],
+    s_a: [T; N],
+    s_ri: [T; N],
+    s_uoc: [T; N],
+    s_beta: [T; N],
+    /// Charge still to flow from sample l to the newest one, `h·Σ_{k>l} I(k)` (A·s).
+    c: [T; N],
+    /// OCV slope dU_oc/dq inside the window (V/(A·s)); U_oc is the value at
+    /// the newest sample.
+    beta: T,
+    trial: [T; N],
+    n: usize,
+    warm: usize,
+    stamp: Option<u64>,
+    /// `up` holds the simulation of `p` over the loaded window.
+    fresh: bool,
+}
+
+const LAMBDA0: f64 = 1e-3;
+
+impl<T: Real, const N: usize, const MEM: usize> OutputErrorRefinement<T, N, MEM> {
+    /// A refinement started from `start` (usually the paper method's
+    /// estimate, or a cell's datasheet values).
+    ///
+    /// # Errors
+    /// Settings errors; [`Error::BadSetting`] for a non-physical start or
+    /// one whose order is outside the bounds.
+    pub fn new(s: &BatterySettings<T>, start: CellParameters<T>) -> Result<Self, Error> {
+        s.check::<MEM>()?;
+        let mut me = Self {
+            p: start,
+            lambda: T::lit(LAMBDA0),
+            k: 0,
+            w: GlWeights::new(T::lit(0.5), s.h, s.memory)?,
+            i: [T::ZERO; N],
+            v: [T::ZERO; N],
+            up: [T::ZERO; N],
+            e: [T::ZERO; N],
+            s_rct: [T::ZERO; N],
+            s_q: [T::ZERO; N],
+            s_a: [T::ZERO; N],
+            s_ri: [T::ZERO; N],
+            s_uoc: [T::ZERO; N],
+            s_beta: [T::ZERO; N],
+            c: [T::ZERO; N],
+            beta: T::ZERO,
+            trial: [T::ZERO; N],
+            n: 0,
+            warm: 0,
+            stamp: None,
+            fresh: false,
+        };
+        me.set_cell(s, start)?;
+        Ok(me)
+    }
+
+    /// Restarts from `p` (keeps the window cache, resets k and λ).
+    ///
+    /// # Errors
+    /// As [`OutputErrorRefinement::new`]; on error nothing changes.
+    pub fn set_cell(&mut self, s: &BatterySettings<T>, p: CellParameters<T>) -> Result<(), Error> {
+        s.check::<MEM>()?;
+        if !p.is_physical() || p.alpha < s.alpha_min || p.alpha > s.alpha_max {
+            return Err(Error::BadSetting);
+        }
+        self.w.set(p.alpha, s.h, s.memory)?;
+        self.p = p;
+        self.beta = T::zero();
+        self.k = 0;
+        self.lambda = T::lit(LAMBDA0);
+        self.fresh = false;
+        Ok(())
+    }
+
+    /// The current estimate.
+    pub fn cell(&self) -> CellParameters<T> {
+        self.p
+    }
+
+    /// The OCV slope `dU_oc/dq` (V per A·s) identified inside the window
+    /// when [`BatterySettings::ocv_slope`] is set (zero otherwise).
+    pub fn ocv_slope(&self) -> T {
+        self.beta
+    }
+
+    /// Iterations since the last [`set_cell`](Self::set_cell).
+    pub fn iterations(&self) -> u32 {
+        self.k
+    }
+
+    /// The simulated polarization voltage `U_p` of the current estimate over
+    /// the loaded window (after an iteration), and the index of the first
+    /// fitted sample.
+    pub fn polarization(&self) -> (&[T], usize) {
+        (&self.up[..self.n], self.warm)
+    }
+
+    /// One-step prediction of the terminal voltage for the *next* sample at
+    /// current `current`, from the model state of the last iteration; `None`
+    /// before the first iteration. O(M).
+    pub fn predict_next(&self, current: T) -> Option<T> {
+        if !self.fresh || self.n == 0 || self.n > N {
+            return None;
+        }
+        // U_p(n) from U_p(0..n).
+        let h = history(self.w.weights(), &self.up[..self.n], self.n);
+        let a = self.p.tau() * self.w.scale();
+        let up = (self.p.r_ct * current - a * h) / (T::one() + a);
+        Some(self.p.u_oc + self.p.r_i * current + up)
+    }
+
+    fn load(&mut self, s: &BatterySettings<T>, win: &SampleWindow<T, N>) -> Result<(), Error> {
+        if self.w.h() != s.h || self.w.len() != s.memory {
+            self.w.set(self.p.alpha, s.h, s.memory)?;
+            self.stamp = None;
+        }
+        let key = win.pushed();
+        if self.stamp != Some(key) || self.n != win.len() {
+            self.n = win.copy_into(&mut self.i, &mut self.v);
+            self.warm = match s.start {
+                Start::AtRest if !win.has_slid() => 0,
+                _ => s.memory - 1,
+            };
+            self.stamp = Some(key);
+            self.fresh = false;
+            if self.n > 0 {
+                self.c[self.n - 1] = T::zero();
+                for l in (0..self.n - 1).rev() {
+                    self.c[l] = self.c[l + 1] + s.h * self.i[l + 1];
+                }
+            }
+        }
+        let need = self.warm + MIN_ROWS;
+        if self.n < need {
+            self.stamp = None;
+            return Err(Error::NotEnoughData { have: self.n, need });
+        }
+        Ok(())
+    }
+
+    fn sensitivities(&mut self, slope: bool) {
+        let (n, warm) = (self.n, self.warm);
+        let wts = self.w.weights();
+        let dw = self.w.weight_derivatives();
+        let g = self.w.scale();
+        let ln_h = self.w.h().ln();
+        let p = self.p;
+        let a = p.tau() * g;
+        for l in warm..n {
+            self.e[l] = self.up[l] + history(wts, &self.up, l);
+        }
+        let (i, e, up) = (&self.i, &self.e, &self.up);
+        for x in [
+            &mut self.s_rct,
+            &mut self.s_q,
+            &mut self.s_a,
+            &mut self.s_ri,
+            &mut self.s_uoc,
+            &mut self.s_beta,
+        ] {
+            x[..warm].fill(T::zero());
+        }
+        cpe_filter(wts, a, warm, &mut self.s_rct[..n], |l, _| {
+            i[l] - p.q * g * e[l]
+        });
+        cpe_filter(wts, a, warm, &mut self.s_q[..n], |l, _| -p.r_ct * g * e[l]);
+        cpe_filter(wts, a, warm, &mut self.s_a[..n], |l, _| {
+            a * ln_h * e[l] - a * history(dw, up, l)
+        });
+        if warm > 0 {
+            for ((sr, su), &il) in self.s_ri[..warm]
+                .iter_mut()
+                .zip(&mut self.s_uoc[..warm])
+                .zip(&i[..warm])
+            {
+                *sr = -il;
+                *su = -T::one();
+            }
+            cpe_filter(wts, a, warm, &mut self.s_ri[..n], |_, _| T::zero());
+            cpe_filter(wts, a, warm, &mut self.s_uoc[..n], |_, _| T::zero());
+            if slope {
+                self.s_beta[..warm].copy_from_slice(&self.c[..warm]);
+                cpe_filter(wts, a, warm, &mut self.s_beta[..n], |_, _| T::zero());
+            }
+        }
+    }
+
+    /// One Levenberg–Marquardt iteration over the window.
+    ///
+    /// # Errors
+    /// [`Error::NotEnoughData`] while fewer than `warm-up + MIN_ROWS`
+    /// samples are held, [`Error::NotExcited`] for a current whose standard
+    /// deviation is below the threshold, [`Error::Diverged`] for a
+    /// non-finite cost; settings errors. On error the estimate is unchanged.
+    pub fn iterate(
+        &mut self,
+        s: &BatterySettings<T>,
+        win: &SampleWindow<T, N>,
+    ) -> Result<RefinementStep<T>, Error> {
+        s.check::<MEM>()?;
+        self.load(s, win)?;
+        let (n, warm) = (self.n, self.warm);
+        if current_std(&self.i[warm..n]) <= s.min_current_std {
+            return Err(Error::NotExcited);
+        }
+        if self.w.alpha() != self.p.alpha {
+            self.w.set_order(self.p.alpha)?;
+        }
+        let data = WindowData {
+            i: &self.i[..n],
+            v: &self.v[..n],
+            c: &self.c[..n],
+            warm,
+        };
+        let cost0 = simulate_window(&self.w, &data, &self.p, self.beta, &mut self.up[..n]);
+        if !cost0.is_finite() {
+            return Err(Error::Diverged);
+        }
+        self.fresh = true;
+        self.sensitivities(s.ocv_slope);
+
+        // Normal equations in x = [ln R_i, ln R_ct, ln Q, α, U_oc].
+        let p = self.p;
+        let mut a = [[T::zero(); 6]; 6];
+        let mut b = [T::zero(); 6];
+        for l in warm..n {
+            let j = [
+                p.r_i * (self.i[l] + self.s_ri[l]),
+                p.r_ct * self.s_rct[l],
+                p.q * self.s_q[l],
+                if s.estimate_order {
+                    self.s_a[l]
+                } else {
+                    T::zero()
+                },
+                T::one() + self.s_uoc[l],
+                if s.ocv_slope {
+                    self.s_beta[l] - self.c[l]
+                } else {
+                    T::zero()
+                },
+            ];
+            let r = self.v[l] - (p.u_oc - self.beta * self.c[l] + p.r_i * self.i[l] + self.up[l]);
+            for (r_, ja) in a.iter_mut().zip(j) {
+                for (x, jb) in r_.iter_mut().zip(j) {
+                    *x = *x + ja * jb;
+                }
+            }
+            for (bb, ja) in b.iter_mut().zip(j) {
+                *bb = *bb + ja * r;
+            }
+        }
+        let rows = n - warm;
+        let mut step = RefinementStep {
+            k: self.k,
+            cost: cost0,
+            rmse: (T::lit(2.0) * cost0 / T::lit(rows as f64)).sqrt(),
+            change: T::zero(),
+            converged: false,
+            accepted: false,
+            lambda: self.lambda,
+            rows,
+        };
+        let diag: [T; 6] = core::array::from_fn(|k| a[k][k]);
+        let tiny = T::min_positive_value().sqrt();
+        let max_log = T::lit(MAX_LOG_STEP);
+        for _ in 0..MAX_TRIES {
+            let mut m = a;
+            for k in 0..6 {
+                m[k][k] = diag[k] * (T::one() + self.lambda) + tiny;
+            }
+            let Some(dx) = T::solve_spd(&m, &b) else {
+                self.lambda = self.lambda * T::lit(10.0);
+                continue;
+            };
+            let clamp = |x: T| x.max(-max_log).min(max_log);
+            let trial = CellParameters {
+                r_i: p.r_i * clamp(dx[0]).exp(),
+                r_ct: p.r_ct * clamp(dx[1]).exp(),
+                q: p.q * clamp(dx[2]).exp(),
+                alpha: s.clamp_alpha(p.alpha + dx[3]),
+                u_oc: p.u_oc + dx[4],
+            };
+            let beta = self.beta + dx[5];
+            if !trial.is_physical() {
+                self.lambda = self.lambda * T::lit(10.0);
+                continue;
+            }
+            self.w.set_order(trial.alpha)?;
+            let data = WindowData {
+                i: &self.i[..n],
+                v: &self.v[..n],
+                c: &self.c[..n],
+                warm,
+            };
+            let c = simulate_window(&self.w, &data, &trial, beta, &mut self.trial[..n]);
+            if c.is_finite() && c < cost0 {
+                core::mem::swap(&mut self.up, &mut self.trial);
+                let ch = [
+                    (trial.r_i / p.r_i).ln().abs(),
+                    (trial.r_ct / p.r_ct).ln().abs(),
+                    (trial.q / p.q).ln().abs(),
+                    (trial.alpha - p.alpha).abs(),
+                    (trial.u_oc - p.u_oc).abs() / p.u_oc.abs().max(T::one()),
+                    (beta - self.beta).abs() * self.c[warm].abs() / p.u_oc.abs().max(T::one()),
+                ];
+                step.change = ch.iter().fold(T::zero(), |m, &x| m.max(x));
+                self.p = trial;
+                self.beta = beta;
+                self.lambda = (self.lambda / T::lit(10.0)).max(T::lit(1e-12));
+                step.accepted = true;
+                step.cost = c;
+                step.rmse = (T::lit(2.0) * c / T::lit(rows as f64)).sqrt();
+                break;
+            }
+            self.lambda = self.lambda * T::lit(10.0);
+        }
+        if !step.accepted {
+            // Back to the order of the kept estimate; λ is reset so that a
+            // later window starts with a fresh trust region.
+            self.w.set_order(p.alpha)?;
+            self.lambda = T::lit(LAMBDA0);
+        }
+        self.k += 1;
+        step.k = self.k;
+        step.lambda = self.lambda;
+        step.converged = !step.accepted || step.change <= s.epsilon;
+        Ok(step)
+    }
+}
+
+/// The loaded window: current, voltage, charge still to flow, and the
+/// number of warm-up samples.
+#[derive(Clone, Copy)]
+struct WindowData<'a, T> {
+    i: &'a [T],
+    v: &'a [T],
+    c: &'a [T],
+    warm: usize,
+}
+
+/// Simulates `p` over a window into `buf` (weights already at `p.alpha`),
+/// with the open-circuit voltage `U_oc − β·c(l)` (`c` the charge still to
+/// flow), the first `warm` samples of `U_p` taken from the data, and returns
+/// ½Σr² over the fitted samples `warm..`.
+fn simulate_window<T: Real, const MEM: usize>(
+    w: &GlWeights<T, MEM>,
+    data: &WindowData<'_, T>,
+    p: &CellParameters<T>,
+    beta: T,
+    buf: &mut [T],
+) -> T {
+    let WindowData { i, v, c, warm } = *data;
+    for l in 0..warm {
+        buf[l] = v[l] - (p.u_oc - beta * c[l]) - p.r_i * i[l];
+    }
+    let a = p.tau() * w.scale();
+    cpe_filter(w.weights(), a, warm, buf, |l, _| p.r_ct * i[l]);
+    let mut cost = T::zero();
+    for l in warm..buf.len() {
+        let r = v[l] - (p.u_oc - beta * c[l] + p.r_i * i[l] + buf[l]);
+        cost = cost + r * r;
+    }
+    cost / T::lit(2.0)
+}

@@ -1,0 +1,395 @@
+//! The paper's method for the battery (§6.2): a linear regression in θ whose
+//! regressors depend on the order, identified by 2S-OP-GI.
+//!
+//! Writing `Δ^α x(l) = h^(−α)·x(l) + H[x](l)` (the current sample plus the
+//! history part `H`, the paper's `Δ^(α)`), the model becomes, with
+//! `g = h^(−α)`,
+//!
+//! ```text
+//! U_t(l) = φ(l)ᵀ θ
+//! φ(l) = [ I(l),  Δ^α I(l),  −H[U_t](l),  1 ]
+//! θ    = [ (R_i+R_ct)/(1+τg),  R_i·τ/(1+τg),  τ/(1+τg),  U_oc·(1 + τ·g·s_M)/(1+τg) ]
+//! ```
+//!
+//! where `s_M = Σ_{j<M} w_j(α)` is the sum of the truncated weights: with
+//! memory `M`, `Δ^α` of a constant `c` is the constant `c·g·s_M` once `M`
+//! samples have passed, which is why only rows `l ≥ M − 1` are used. (The
+//! paper has `h = 1`, `g = 1` and, with unbounded memory, `s_M → 0`.)
+//!
+//! Back from θ ([`cell_from_theta`]):
+//!
+//! ```text
+//! τ = θ₃ / (1 − θ₃·g),   R_i = θ₂/θ₃,   R_ct = θ₁/(1 − θ₃·g) − R_i,
+//! Q = τ/R_ct,            U_oc = θ₄·(1 + τ·g) / (1 + τ·g·s_M)
+//! ```
+//!
+//! One iteration ([`PaperRegressionGi::iterate`]) is a gradient step on θ
+//! with exact line search (stage 1) and the safeguarded Gauss–Newton search
+//! on α (stage 2), as in 2S-OP-GI.
+
+use super::{current_std, BatterySettings, CellParameters};
+use crate::error::Error;
+use crate::frac::GlWeights;
+use crate::gi::{Iteration, OrderStep, P0};
+use crate::real::{dot, norm, Real};
+use crate::window::SampleWindow;
+
+/// Fewest regression rows an iteration accepts (four parameters and α).
+pub const MIN_ROWS: usize = 8;
+
+/// θ of the regression for given cell parameters, sample period `h` and
+/// memory `memory` (the forward map; inverse of [`cell_from_theta`]).
+///
+/// # Errors
+/// [`Error::Frac`] for a bad period, order or memory.
+pub fn theta_from_cell<T: Real, const MEM: usize>(
+    p: &CellParameters<T>,
+    h: T,
+    memory: usize,
+) -> Result<[T; 4], Error> {
+    let w = GlWeights::<T, MEM>::new(p.alpha, h, memory)?;
+    let g = w.scale();
+    let s_m = w.weights().iter().fold(T::zero(), |s, &x| s + x);
+    let tau = p.tau();
+    let den = T::one() + tau * g;
+    Ok([
+        (p.r_i + p.r_ct) / den,
+        p.r_i * tau / den,
+        tau / den,
+        p.u_oc * (T::one() + tau * g * s_m) / den,
+    ])
+}
+
+/// Cell parameters from θ at order `alpha` (see the module docs). `None`
+/// unless the result is physical (positive resistances and `Q`).
+pub fn cell_from_theta<T: Real, const MEM: usize>(
+    theta: &[T; 4],
+    alpha: T,
+    h: T,
+    memory: usize,
+) -> Option<CellParameters<T>> {
+    let w = GlWeights::<T, MEM>::new(alpha, h, memory).ok()?;
+    cell_from_theta_with(theta, &w)
+}
+
+fn cell_from_theta_with<T: Real, const MEM: usize>(
+    theta: &[T; 4],
+    w: &GlWeights<T, MEM>,
+) -> Option<CellParameters<T>> {
+    let g = w.scale();
+    let s_m = w.weights().iter().fold(T::zero(), |s, &x| s + x);
+    let [t1, t2, t3, t4] = *theta;
+    let d = T::one() - t3 * g;
+    if !(t3 > T::zero() && d > T::zero()) {
+        return None;
+    }
+    let tau = t3 / d;
+    let r_i = t2 / t3;
+    let r_ct = t1 / d - r_i;
+    let p = CellParameters {
+        r_i,
+        r_ct,
+        q: tau / r_ct,
+        alpha: w.alpha(),
+        u_oc: t4 * (T::one() + tau * g) / (T::one() + tau * g * s_m),
+    };
+    p.is_physical().then_some(p)
+}
+
+/// The paper's 2S-OP-GI on the battery regression, over a window of
+/// capacity `N` with memory capacity `MEM`.
+///
+/// ```
+/// use estimator_core::battery::{regression::PaperRegressionGi, BatterySettings};
+/// use estimator_core::window::SampleWindow;
+///
+/// let s = BatterySettings::<f64>::new(1.0, 16);
+/// let mut gi = PaperRegressionGi::<f64, 64, 16>::new(&s, 0.5).unwrap();
+/// let mut window = SampleWindow::<f64, 64>::new();
+/// // Too few samples: a typed error, no panic.
+/// assert!(gi.iterate(&s, &window).is_err());
+/// for l in 0..64 {
+///     let i = if (l / 8) % 2 == 0 { 2.0 } else { -2.0 };
+///     window.push(i, 3.7 + 0.03 * i).unwrap();
+/// }
+/// let it = gi.iterate(&s, &window).unwrap();
+/// assert_eq!((it.k, it.rows), (1, 64 - 15));
+/// ```
+#[derive(Clone, Debug)]
+pub struct PaperRegressionGi<T, const N: usize, const MEM: usize> {
+    theta: [T; 4],
+    k: u32,
+    w: GlWeights<T, MEM>,
+    /// Window data and regressors at the current order.
+    i: [T; N],
+    v: [T; N],
+    di: [T; N],
+    ddi: [T; N],
+    hv: [T; N],
+    dhv: [T; N],
+    res: [T; N],
+    n: usize,
+    stamp: Option<(u64, usize, T)>,
+}
+
+impl<T: Real, const N: usize, const MEM: usize> PaperRegressionGi<T, N, MEM> {
+    /// A new estimator with the paper's initial values `θ̂₀ = 1/p₀` and the
+    /// initial order `alpha0`.
+    ///
+    /// # Errors
+    /// Any error of [`BatterySettings::check`]; [`Error::BadSetting`] for
+    /// an `alpha0` outside the order bounds.
+    pub fn new(s: &BatterySettings<T>, alpha0: T) -> Result<Self, Error> {
+        s.check::<MEM>()?;
+        if !(alpha0.is_finite() && alpha0 >= s.alpha_min && alpha0 <= s.alpha_max) {
+            return Err(Error::BadSetting);
+        }
+        Ok(Self {
+            theta: [T::lit(1.0 / P0); 4],
+            k: 0,
+            w: GlWeights::new(alpha0, s.h, s.memory)?,
+            i: [T::ZERO; N],
+            v: [T::ZERO; N],
+            di: [T::ZERO; N],
+            ddi: [T::ZERO; N],
+            hv: [T::ZERO; N],
+            dhv: [T::ZERO; N],
+            res: [T::ZERO; N],
+            n: 0,
+            stamp: None,
+        })
+    }
+
+    /// Restarts from `θ̂₀ = 1/p₀` and order `alpha0`.
+    ///
+    /// # Errors
+    /// As [`PaperRegressionGi::new`]; on error the state is unchanged.
+    pub fn reset(&mut self, s: &BatterySettings<T>, alpha0: T) -> Result<(), Error> {
+        s.check::<MEM>()?;
+        if !(alpha0.is_finite() && alpha0 >= s.alpha_min && alpha0 <= s.alpha_max) {
+            return Err(Error::BadSetting);
+        }
+        self.w.set(alpha0, s.h, s.memory)?;
+        self.theta = [T::lit(1.0 / P0); 4];
+        self.k = 0;
+        self.stamp = None;
+        Ok(())
+    }
+
+    /// Starts from given cell parameters (a warm start): θ is set from
+    /// them, the counter is kept.
+    ///
+    /// # Errors
+    /// [`Error::BadSetting`] for non-physical parameters or an order outside
+    /// the bounds; [`Error::Frac`] for a bad period or memory.
+    pub fn set_cell(&mut self, s: &BatterySettings<T>, p: &CellParameters<T>) -> Result<(), Error> {
+        s.check::<MEM>()?;
+        if !p.is_physical() || p.alpha < s.alpha_min || p.alpha > s.alpha_max {
+            return Err(Error::BadSetting);
+        }
+        self.theta = theta_from_cell::<T, MEM>(p, s.h, s.memory)?;
+        self.w.set(p.alpha, s.h, s.memory)?;
+        self.stamp = None;
+        Ok(())
+    }
+
+    /// θ̂ of the regression.
+    pub fn theta(&self) -> &[T; 4] {
+        &self.theta
+    }
+
+    /// α̂.
+    pub fn alpha(&self) -> T {
+        self.w.alpha()
+    }
+
+    /// Iterations since the last reset.
+    pub fn iterations(&self) -> u32 {
+        self.k
+    }
+
+    /// The cell parameters recovered from θ̂ and α̂, or `None` while they are
+    /// not physical (e.g. in the first iterations from `1/p₀`).
+    pub fn cell(&self) -> Option<CellParameters<T>> {
+        cell_from_theta_with(&self.theta, &self.w)
+    }
+
+    fn rows(&self) -> core::ops::Range<usize> {
+        (self.w.len() - 1)..self.n
+    }
+
+    /// Copies the window and computes the regressors at the current order,
+    /// unless they are already known for this window and order.
+    fn load(&mut self, s: &BatterySettings<T>, win: &SampleWindow<T, N>) -> Result<(), Error> {
+        if self.w.h() != s.h || self.w.len() != s.memory {
+            self.w.set(self.w.alpha(), s.h, s.memory)?;
+            self.stamp = None;
+        }
+        let key = (win.pushed(), win.len(), self.w.alpha());
+        if self.stamp == Some(key) {
+            return Ok(());
+        }
+        self.n = win.copy_into(&mut self.i, &mut self.v);
+        let need = s.memory - 1 + MIN_ROWS;
+        if self.n < need {
+            self.stamp = None;
+            return Err(Error::NotEnoughData { have: self.n, need });
+        }
+        self.regressors();
+        self.stamp = Some(key);
+        Ok(())
+    }
+
+    fn regressors(&mut self) {
+        let g = self.w.scale();
+        let ln_h = self.w.h().ln();
+        for l in self.rows() {
+            let (d, dd) = self.w.difference_with_derivative(&self.i[..self.n], l);
+            self.di[l] = d;
+            self.ddi[l] = dd;
+            let (d, dd) = self.w.difference_with_derivative(&self.v[..self.n], l);
+            self.hv[l] = d - g * self.v[l];
+            self.dhv[l] = dd + ln_h * g * self.v[l];
+        }
+    }
+
+    #[inline]
+    fn predict(&self, th: &[T; 4], l: usize) -> T {
+        th[0] * self.i[l] + th[1] * self.di[l] - th[2] * self.hv[l] + th[3]
+    }
+
+    fn residual(&mut self) -> T {
+        let mut c = T::zero();
+        for l in self.rows() {
+            let r = self.v[l] - self.predict(&self.theta, l);
+            self.res[l] = r;
+            c = c + r * r;
+        }
+        c / T::lit(2.0)
+    }
+
+    /// ½Σ residual² at a trial order, computed row by row without touching
+    /// the stored regressors.
+    fn trial_cost(&self, alpha: T) -> Result<T, Error> {
+        let mut w = self.w.clone();
+        w.set_order(alpha)?;
+        let g = w.scale();
+        let th = &self.theta;
+        let mut c = T::zero();
+        for l in self.rows() {
+            let di = w.difference(&self.i[..self.n], l);
+            let hv = w.difference(&self.v[..self.n], l) - g * self.v[l];
+            let r = self.v[l] - (th[0] * self.i[l] + th[1] * di - th[2] * hv + th[3]);
+            c = c + r * r;
+        }
+        Ok(c / T::lit(2.0))
+    }
+
+    /// One 2S-OP-GI iteration over the window: a gradient step on θ with
+    /// exact line search, then the order search. Returns what it did.
+    ///
+    /// # Errors
+    /// [`Error::NotEnoughData`] while the window holds fewer than
+    /// `M − 1 + MIN_ROWS` samples, [`Error::NotExcited`] for a constant
+    /// current, [`Error::Diverged`] if a non-finite value appeared (the
+    /// previous estimate is kept), settings errors. On error θ and α are
+    /// unchanged.
+    pub fn iterate(
+        &mut self,
+        s: &BatterySettings<T>,
+        win: &SampleWindow<T, N>,
+    ) -> Result<Iteration<T>, Error> {
+        s.check::<MEM>()?;
+        self.load(s, win)?;
+        let rows = self.rows();
+        if current_std(&self.i[rows.clone()]) <= s.min_current_std {
+            return Err(Error::NotExcited);
+        }
+        let theta0 = self.theta;
+        let alpha0 = self.w.alpha();
+
+        // Stage 1: θ ← θ + μ Φᵀr with μ = ‖g‖²/‖Φg‖².
+        self.residual();
+        let mut grad = [T::zero(); 4];
+        for l in rows.clone() {
+            let r = self.res[l];
+            grad[0] = grad[0] + self.i[l] * r;
+            grad[1] = grad[1] + self.di[l] * r;
+            grad[2] = grad[2] - self.hv[l] * r;
+            grad[3] = grad[3] + r;
+        }
+        let gg = dot(&grad, &grad);
+        let mut pg = T::zero();
+        for l in rows.clone() {
+            let x = self.predict(&grad, l);
+            pg = pg + x * x;
+        }
+        if gg > T::zero() && pg > T::zero() {
+            let mu = gg / pg;
+            for (t, g) in self.theta.iter_mut().zip(grad) {
+                *t = *t + mu * g;
+            }
+        }
+        let mut cost = self.residual();
+
+        // Stage 2: the order.
+        let order_step = if !s.estimate_order {
+            OrderStep::Fixed
+        } else {
+            let th = self.theta;
+            let (mut dd, mut dr) = (T::zero(), T::zero());
+            for l in rows.clone() {
+                let d = th[1] * self.ddi[l] - th[2] * self.dhv[l];
+                dd = dd + d * d;
+                dr = dr + d * self.res[l];
+            }
+            if !(dd > T::zero() && dr.is_finite()) || dr.is_zero() {
+                OrderStep::Flat
+            } else {
+                let step = (dr / dd).max(-s.max_order_step).min(s.max_order_step);
+                let mut t = T::one();
+                let mut out = OrderStep::NoDecrease;
+                for halvings in 0..=s.max_halvings {
+                    let trial = s.clamp_alpha(alpha0 + t * step);
+                    if trial == alpha0 {
+                        break;
+                    }
+                    let c = self.trial_cost(trial)?;
+                    if c.is_finite() && c < cost {
+                        self.w.set_order(trial)?;
+                        self.regressors();
+                        self.stamp = Some((win.pushed(), win.len(), trial));
+                        cost = c;
+                        out = OrderStep::Accepted { halvings };
+                        break;
+                    }
+                    t = t / T::lit(2.0);
+                }
+                out
+            }
+        };
+
+        if !(cost.is_finite() && self.theta.iter().all(|x| x.is_finite())) {
+            self.theta = theta0;
+            self.w.set_order(alpha0)?;
+            self.stamp = None;
+            return Err(Error::Diverged);
+        }
+        self.k += 1;
+        let mut dtheta = [T::zero(); 4];
+        for (d, (a, b)) in dtheta.iter_mut().zip(self.theta.iter().zip(&theta0)) {
+            *d = *a - *b;
+        }
+        let change = norm(&dtheta) / norm(&theta0).max(T::min_positive_value())
+            + (self.w.alpha() - alpha0).abs();
+        Ok(Iteration {
+            k: self.k,
+            alpha: self.w.alpha(),
+            cost,
+            change,
+            converged: change <= s.epsilon,
+            order_step,
+            rows: rows.len(),
+        })
+    }
+}
