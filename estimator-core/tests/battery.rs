@@ -15,7 +15,6 @@ use proptest::prelude::*;
 use rand::SeedableRng;
 use rand_distr::{Distribution, Normal};
 
-
 /// Terminal voltage of `p` for `current` from rest, simulated with memory
 /// `mem` (`L` = the whole record), plus white noise σ.
 fn record(

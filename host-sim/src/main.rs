@@ -1,1 +1,4 @@
-fn main() {}
+//! `host-sim`: see `host-sim --help`.
+fn main() {
+    std::process::exit(host_sim::cli::main());
+}

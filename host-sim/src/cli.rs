@@ -1,0 +1,272 @@
+//! The command line: `simulate`, `identify`, `online`, `reproduce`.
+
+use anyhow::{bail, Result};
+use clap::{Parser, Subcommand, ValueEnum};
+use std::path::PathBuf;
+
+/// Simulate, identify and track fractional-order Hammerstein systems and
+/// battery cells (Ji, Wang & Meng), on files.
+#[derive(Parser, Debug)]
+#[command(name = "host-sim", version, about, propagate_version = true)]
+pub struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// Make synthetic data.
+    #[command(subcommand)]
+    Simulate(SimulateCmd),
+    /// Identify a model from a file.
+    #[command(subcommand)]
+    Identify(IdentifyCmd),
+    /// Feed a file sample by sample through the sliding-window estimator.
+    #[command(subcommand)]
+    Online(OnlineCmd),
+    /// Regenerate the paper's tables and figures as a Markdown report with SVG figures.
+    Reproduce(ReproduceArgs),
+}
+
+#[derive(Subcommand, Debug)]
+enum SimulateCmd {
+    /// Eq. (4) with the paper's Example 1 values; writes `u,y`.
+    Hammerstein(SimHammersteinArgs),
+    /// The fractional battery model of §6.2; writes `time_s,current_a,voltage_v`.
+    Battery(SimBatteryArgs),
+}
+
+#[derive(Subcommand, Debug)]
+enum IdentifyCmd {
+    /// 2S-OP-GI or KT-2S-GI on a `u,y` file.
+    Hammerstein(IdHammersteinArgs),
+    /// R_i, R_ct, Q, α, U_oc from a `time_s,current_a,voltage_v` file.
+    Battery(IdBatteryArgs),
+}
+
+#[derive(Subcommand, Debug)]
+enum OnlineCmd {
+    /// Track a cell's parameters over a sliding window, as the firmware does.
+    Battery(OnlineBatteryArgs),
+}
+
+/// `simulate hammerstein`.
+#[derive(clap::Args, Debug)]
+pub struct SimHammersteinArgs {
+    /// paper-op (Tables 3–4), paper-kt (Tables 5–6 as printed; its C is
+    /// unstable), paper-kt-stable (C sign-flipped, as reproduced).
+    #[arg(long, value_parser = ["paper-op", "paper-kt", "paper-kt-stable"])]
+    pub preset: String,
+    /// Standard deviation of the white noise v(l).
+    #[arg(long, default_value_t = 0.5)]
+    pub sigma: f64,
+    /// Number of samples.
+    #[arg(long, default_value_t = 1000)]
+    pub length: usize,
+    /// Random seed (input and noise).
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Memory of the fractional differences (default: the whole record, at most 4096).
+    #[arg(long)]
+    pub memory: Option<usize>,
+    /// Output CSV.
+    #[arg(long)]
+    pub out: PathBuf,
+}
+
+/// `simulate battery`.
+#[derive(clap::Args, Debug)]
+pub struct SimBatteryArgs {
+    /// paper (§6.2, ±150 A) or cell (18650-like, ±6 A).
+    #[arg(long, value_parser = ["paper", "cell"])]
+    pub preset: String,
+    /// Current profile.
+    #[arg(long, value_parser = ["pulse", "hppc", "drive"], default_value = "pulse")]
+    pub profile: String,
+    /// Voltage noise σ (V); default: the preset's (0.1 V paper, 1 mV cell).
+    #[arg(long)]
+    pub sigma: Option<f64>,
+    /// Number of samples.
+    #[arg(long, default_value_t = 1000)]
+    pub length: usize,
+    /// Random seed of the noise.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Sample period (s).
+    #[arg(long, default_value_t = 1.0)]
+    pub h: f64,
+    /// Open-circuit voltage: constant (the preset's U_oc) or nmc (an NMC OCV(SOC) curve following the charge).
+    #[arg(long, value_parser = ["constant", "nmc"], default_value = "constant")]
+    pub ocv: String,
+    /// Initial state of charge for --ocv nmc.
+    #[arg(long, default_value_t = 0.9)]
+    pub soc0: f64,
+    /// Output CSV.
+    #[arg(long)]
+    pub out: PathBuf,
+}
+
+/// Hammerstein algorithm.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum Algorithm {
+    /// 2S-OP-GI (over-parameterization).
+    Op,
+    /// KT-2S-GI (key term separation).
+    Kt,
+}
+
+/// Battery method.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum BatteryMethod {
+    /// The paper's §6.2 regression with 2S-OP-GI.
+    Paper,
+    /// Output-error refinement started from 2S-OP-GI (most accurate).
+    Refined,
+}
+
+/// `identify hammerstein`.
+#[derive(clap::Args, Debug)]
+pub struct IdHammersteinArgs {
+    /// Input CSV with columns u,y.
+    #[arg(long)]
+    pub input: PathBuf,
+    /// Algorithm.
+    #[arg(long, value_enum, default_value = "op")]
+    pub algorithm: Algorithm,
+    /// Order of A(z).
+    #[arg(long, default_value_t = 2)]
+    pub na: usize,
+    /// Order of B(z).
+    #[arg(long, default_value_t = 3)]
+    pub nb: usize,
+    /// Order of the noise polynomial C(z).
+    #[arg(long, default_value_t = 2)]
+    pub nc: usize,
+    /// Basis of the nonlinearity: poly:m means f_j(u) = u^j, j = 1..m.
+    #[arg(long, default_value = "poly:2")]
+    pub basis: String,
+    /// Memory of the fractional differences (default: all rows, at most 2048).
+    #[arg(long)]
+    pub memory: Option<usize>,
+    /// Iterations.
+    #[arg(long, default_value_t = 100)]
+    pub iterations: u32,
+    /// Initial order α̂₀.
+    #[arg(long, default_value_t = 0.45)]
+    pub alpha0: f64,
+    /// Write the estimates as JSON.
+    #[arg(long)]
+    pub json: Option<PathBuf>,
+}
+
+/// `identify battery`.
+#[derive(clap::Args, Debug)]
+pub struct IdBatteryArgs {
+    /// Input CSV with columns time_s,current_a,voltage_v.
+    #[arg(long)]
+    pub input: PathBuf,
+    /// Method (default: refined, the most accurate).
+    #[arg(long, value_enum, default_value = "refined")]
+    pub method: BatteryMethod,
+    /// Algorithm of the paper stage (the battery regression has no b·γ
+    /// products to separate, so kt runs the same iteration as op).
+    #[arg(long, value_enum, default_value = "op")]
+    pub algorithm: Algorithm,
+    /// Memory M of the paper regression (default 256); the refinement uses
+    /// the whole record (at most 4096).
+    #[arg(long)]
+    pub memory: Option<usize>,
+    /// Iterations of 2S-OP-GI (paper method, or the start of the refinement).
+    #[arg(long, default_value_t = 50)]
+    pub iterations: u32,
+    /// Write the estimates as JSON.
+    #[arg(long)]
+    pub json: Option<PathBuf>,
+    /// Write Figures 8–11 for this file (SVG) into this directory.
+    #[arg(long)]
+    pub plot: Option<PathBuf>,
+}
+
+/// `online battery`.
+#[derive(clap::Args, Debug)]
+pub struct OnlineBatteryArgs {
+    /// Input CSV with columns time_s,current_a,voltage_v.
+    #[arg(long)]
+    pub input: PathBuf,
+    /// Window length L (one of 64, 128, 256, 512, 1024).
+    #[arg(long, default_value_t = 256)]
+    pub window: usize,
+    /// Memory M (default L/4).
+    #[arg(long)]
+    pub memory: Option<usize>,
+    /// Iterations per sample.
+    #[arg(long, default_value_t = 1)]
+    pub iterations_per_sample: u16,
+    /// Method.
+    #[arg(long, value_enum, default_value = "refined")]
+    pub method: BatteryMethod,
+    /// Output CSV time_s,r_i,r_ct,q,alpha,u_oc,status.
+    #[arg(long)]
+    pub out: PathBuf,
+}
+
+/// `reproduce`.
+#[derive(clap::Args, Debug)]
+pub struct ReproduceArgs {
+    /// Output directory (report.md and SVG figures).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Seeds per table (the paper's tables: 10).
+    #[arg(long, default_value_t = 10)]
+    pub seeds: u64,
+}
+
+/// Parses the arguments, runs the command and returns the exit status;
+/// errors are printed as one line.
+pub fn main() -> i32 {
+    let cli = match Cli::try_parse() {
+        Ok(c) => c,
+        Err(e) => {
+            let code = if e.use_stderr() { 2 } else { 0 };
+            let _ = e.print();
+            return code;
+        }
+    };
+    // The estimators hold their windows inline: give them a roomy stack.
+    let worker = std::thread::Builder::new()
+        .stack_size(512 << 20)
+        .spawn(move || run(cli));
+    let res = match worker {
+        Ok(h) => h
+            .join()
+            .unwrap_or_else(|_| Err(anyhow::anyhow!("internal error (please report it)"))),
+        Err(e) => Err(anyhow::anyhow!("cannot start the worker thread: {e}")),
+    };
+    match res {
+        Ok(()) => 0,
+        Err(e) => {
+            let msg = format!("{e:#}").replace('\n', " ");
+            eprintln!("error: {msg}");
+            1
+        }
+    }
+}
+
+fn run(cli: Cli) -> Result<()> {
+    match cli.command {
+        Command::Simulate(SimulateCmd::Hammerstein(a)) => crate::simulate::hammerstein(&a),
+        Command::Simulate(SimulateCmd::Battery(a)) => crate::simulate::battery(&a),
+        Command::Identify(IdentifyCmd::Hammerstein(a)) => crate::identify::hammerstein(&a),
+        Command::Identify(IdentifyCmd::Battery(a)) => crate::identify::battery(&a),
+        Command::Online(OnlineCmd::Battery(a)) => crate::online::battery(&a),
+        Command::Reproduce(a) => crate::reproduce::run(&a),
+    }
+}
+
+/// Parses `poly:m`.
+pub fn parse_basis(s: &str) -> Result<usize> {
+    match s.strip_prefix("poly:").map(str::parse::<usize>) {
+        Some(Ok(m)) if (1..=4).contains(&m) => Ok(m),
+        _ => bail!("--basis `{s}`: expected poly:m with 1 ≤ m ≤ 4"),
+    }
+}

@@ -1,0 +1,433 @@
+//! `identify hammerstein` and `identify battery`.
+
+use crate::cli::{parse_basis, Algorithm, BatteryMethod, IdBatteryArgs, IdHammersteinArgs};
+use crate::{io, plot};
+use anyhow::{anyhow, bail, Context, Result};
+use estimator_core::battery::output_error::OutputErrorRefinement;
+use estimator_core::battery::regression::PaperRegressionGi;
+use estimator_core::battery::simulate::simulate;
+use estimator_core::battery::{BatterySettings, CellParameters};
+use estimator_core::frac::GlWeights;
+use estimator_core::gi::key_term::KeyTermGi;
+use estimator_core::gi::over_param::OverParamGi;
+use estimator_core::gi::{GiSettings, HammersteinEstimate, Normalization};
+use estimator_core::model::{Orders, Polynomial};
+use estimator_core::window::SampleWindow;
+use serde::Serialize;
+use std::path::Path;
+
+/// Most rows `identify` reads (the rest of a longer file is ignored, with a
+/// note; `online` streams files of any length).
+pub const MAX_ROWS: usize = 8192;
+/// Memory capacity of the Hammerstein estimators.
+pub const HAM_MEM: usize = 2048;
+/// Memory capacity of the battery estimators.
+pub const BAT_MEM: usize = 4096;
+
+type OpGi = OverParamGi<f64, MAX_ROWS, HAM_MEM, 4, 4, 4, 4, 16>;
+type KtGi = KeyTermGi<f64, MAX_ROWS, HAM_MEM, 4, 4, 4, 4, 16>;
+
+/// One entry of the iteration history.
+#[derive(Serialize, Clone, Copy, Debug)]
+pub struct HistoryEntry {
+    /// Iteration k.
+    pub k: u32,
+    /// α̂_k.
+    pub alpha: f64,
+    /// Cost after iteration k.
+    pub cost: f64,
+}
+
+/// The JSON of `identify hammerstein`.
+#[derive(Serialize, Debug)]
+pub struct HammersteinJson {
+    /// "op" or "kt".
+    pub algorithm: &'static str,
+    /// â.
+    pub a: Vec<f64>,
+    /// b̂.
+    pub b: Vec<f64>,
+    /// ĉ.
+    pub c: Vec<f64>,
+    /// γ̂.
+    pub gamma: Vec<f64>,
+    /// α̂.
+    pub alpha: f64,
+    /// b̂_i γ̂_j, i-major.
+    pub theta_products: Vec<f64>,
+    /// Iterations run.
+    pub iterations: u32,
+    /// Converged (step 6 of the paper).
+    pub converged: bool,
+    /// Final cost.
+    pub cost: f64,
+    /// Per-iteration α̂ and cost.
+    pub history: Vec<HistoryEntry>,
+}
+
+fn note_truncation(path: &Path, rows: usize) {
+    if rows == MAX_ROWS {
+        eprintln!(
+            "note: {}: only the first {MAX_ROWS} rows are identified (use `online` for longer records)",
+            path.display()
+        );
+    }
+}
+
+fn table_row(k: u32) -> bool {
+    k == 1 || k % 10 == 0
+}
+
+/// Runs `identify hammerstein` and returns the JSON value.
+pub fn hammerstein_json(a: &IdHammersteinArgs) -> Result<HammersteinJson> {
+    let m = parse_basis(&a.basis)?;
+    let cols = io::read_columns(&a.input, &["u", "y"], Some(MAX_ROWS))?;
+    let (u, y) = (&cols.data[0], &cols.data[1]);
+    note_truncation(&a.input, u.len());
+    let orders = Orders {
+        na: a.na,
+        nb: a.nb,
+        nc: a.nc,
+        m,
+    };
+    let memory = a.memory.unwrap_or(u.len().clamp(1, HAM_MEM));
+    let s = GiSettings::new(orders, memory);
+    let mut win = Box::new(SampleWindow::<f64, MAX_ROWS>::new());
+    for (&ui, &yi) in u.iter().zip(y) {
+        win.push(ui, yi)
+            .map_err(|e| anyhow!("{}: {e}", a.input.display()))?;
+    }
+    let ctx = |e: estimator_core::Error| anyhow!("{}: {e}", a.input.display());
+    let mut history = Vec::new();
+    let mut converged = false;
+    let mut cost = f64::NAN;
+    let pb = crate::progress::bar(u64::from(a.iterations), "identifying");
+    let header = |est: &HammersteinEstimate<f64, 4, 4, 4, 4, 16>| {
+        let mut h = String::from("    k");
+        for i in 0..est.orders.na {
+            h += &format!(" {:>10}", format!("a{}", i + 1));
+        }
+        for i in 0..est.orders.nc {
+            h += &format!(" {:>10}", format!("c{}", i + 1));
+        }
+        for i in 0..est.orders.nb {
+            for j in 0..est.orders.m {
+                h += &format!(" {:>10}", format!("b{}g{}", i + 1, j + 1));
+            }
+        }
+        h + &format!(" {:>10} {:>12}", "alpha", "cost")
+    };
+    let line = |k: u32, est: &HammersteinEstimate<f64, 4, 4, 4, 4, 16>, cost: f64| {
+        let mut v = vec![0.0; 32];
+        let n = est.parameter_vector(&mut v);
+        let mut s = format!("{k:>5}");
+        for x in &v[..n - 1] {
+            s += &format!(" {x:>10.5}");
+        }
+        s + &format!(" {:>10.5} {:>12.5e}", est.alpha, cost)
+    };
+    let (est, b, gamma) = match a.algorithm {
+        Algorithm::Op => {
+            let mut gi = Box::new(OpGi::new(&s, a.alpha0).map_err(ctx)?);
+            println!("{}", header(gi.estimate()));
+            for _ in 0..a.iterations {
+                let it = gi.iterate(&s, &Polynomial, &win).map_err(ctx)?;
+                history.push(HistoryEntry {
+                    k: it.k,
+                    alpha: it.alpha,
+                    cost: it.cost,
+                });
+                (converged, cost) = (it.converged, it.cost);
+                if table_row(it.k) {
+                    pb.suspend(|| println!("{}", line(it.k, gi.estimate(), it.cost)));
+                }
+                pb.inc(1);
+                if converged {
+                    break;
+                }
+            }
+            let est = *gi.estimate();
+            let (b, g) = est
+                .factor(Normalization::UnitGamma)
+                .map(|(b, g)| (b[..a.nb].to_vec(), g[..m].to_vec()))
+                .unwrap_or_default();
+            (est, b, g)
+        }
+        Algorithm::Kt => {
+            let mut gi = Box::new(KtGi::new(&s, a.alpha0).map_err(ctx)?);
+            println!("{}", header(&gi.products()));
+            for _ in 0..a.iterations {
+                let it = gi.iterate(&s, &Polynomial, &win).map_err(ctx)?;
+                history.push(HistoryEntry {
+                    k: it.k,
+                    alpha: it.alpha,
+                    cost: it.cost,
+                });
+                (converged, cost) = (it.converged, it.cost);
+                if table_row(it.k) {
+                    pb.suspend(|| println!("{}", line(it.k, &gi.products(), it.cost)));
+                }
+                pb.inc(1);
+                if converged {
+                    break;
+                }
+            }
+            let kt = gi.estimate();
+            (gi.products(), kt.b[..a.nb].to_vec(), kt.gamma[..m].to_vec())
+        }
+    };
+    pb.finish_and_clear();
+    let mut products = Vec::new();
+    for i in 0..a.nb {
+        for j in 0..m {
+            products.push(est.product(i, j));
+        }
+    }
+    Ok(HammersteinJson {
+        algorithm: match a.algorithm {
+            Algorithm::Op => "op",
+            Algorithm::Kt => "kt",
+        },
+        a: est.a[..a.na].to_vec(),
+        b,
+        c: est.c[..a.nc].to_vec(),
+        gamma,
+        alpha: est.alpha,
+        theta_products: products,
+        iterations: history.len() as u32,
+        converged,
+        cost,
+        history,
+    })
+}
+
+pub(crate) fn hammerstein(a: &IdHammersteinArgs) -> Result<()> {
+    let j = hammerstein_json(a)?;
+    println!(
+        "alpha = {:.5}, iterations = {}, converged = {}, cost = {:.6e}",
+        j.alpha, j.iterations, j.converged, j.cost
+    );
+    if let Some(p) = &a.json {
+        io::write_json(p, &j)?;
+        eprintln!("wrote {}", p.display());
+    }
+    Ok(())
+}
+
+/// The JSON of `identify battery`.
+#[derive(Serialize, Debug, Clone)]
+pub struct BatteryJson {
+    /// "paper" or "refined".
+    pub method: &'static str,
+    /// R_i (Ω).
+    pub r_i: f64,
+    /// R_ct (Ω).
+    pub r_ct: f64,
+    /// Q (F·s^(α−1)).
+    pub q: f64,
+    /// α.
+    pub alpha: f64,
+    /// U_oc (V).
+    pub u_oc: f64,
+    /// RMSE of the identified model's simulated voltage against the file (V).
+    pub rmse_v: f64,
+    /// Iterations (2S-OP-GI + refinement).
+    pub iterations: u32,
+    /// Converged.
+    pub converged: bool,
+    /// Per-iteration cost of 2S-OP-GI.
+    pub history: Vec<HistoryEntry>,
+}
+
+/// What `identify battery` computed, for the plots and the report.
+pub struct BatteryResult {
+    /// The JSON summary.
+    pub json: BatteryJson,
+    /// The identified cell.
+    pub cell: CellParameters<f64>,
+    /// Estimates of 2S-OP-GI per iteration (None while not physical).
+    pub paper_track: Vec<Option<CellParameters<f64>>>,
+    /// The identified model's voltage over the record.
+    pub model_voltage: Vec<f64>,
+}
+
+/// Simulates `cell` over a current record from rest (memory ≤ 4096).
+pub fn model_voltage(cell: &CellParameters<f64>, h: f64, current: &[f64]) -> Result<Vec<f64>> {
+    let mem = current.len().clamp(1, BAT_MEM);
+    let mut w = Box::new(GlWeights::<f64, BAT_MEM>::new(cell.alpha, h, mem)?);
+    let (mut up, mut v) = (vec![0.0; current.len()], vec![0.0; current.len()]);
+    simulate(cell, &mut w, current, |_| cell.u_oc, &mut up, &mut v)?;
+    Ok(v)
+}
+
+fn rmse(a: &[f64], b: &[f64]) -> f64 {
+    let s: f64 = a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum();
+    (s / a.len().max(1) as f64).sqrt()
+}
+
+/// A rough physical start from the data alone: least squares of U on
+/// [1, I] gives U_oc and R_i + R_ct; split evenly, α = 0.7, τ = 5 s^α.
+fn rough_start(current: &[f64], voltage: &[f64]) -> CellParameters<f64> {
+    let n = current.len() as f64;
+    let mi = current.iter().sum::<f64>() / n;
+    let mv = voltage.iter().sum::<f64>() / n;
+    let sii: f64 = current.iter().map(|i| (i - mi) * (i - mi)).sum();
+    let siv: f64 = current
+        .iter()
+        .zip(voltage)
+        .map(|(i, v)| (i - mi) * (v - mv))
+        .sum();
+    let r = if sii > 0.0 {
+        (siv / sii).abs().max(1e-5)
+    } else {
+        0.01
+    };
+    CellParameters {
+        r_i: r / 2.0,
+        r_ct: r / 2.0,
+        q: 5.0 / (r / 2.0),
+        alpha: 0.7,
+        u_oc: mv - r * mi,
+    }
+}
+
+/// Identifies a battery record (`method` paper or refined).
+pub fn battery_run(
+    path: &Path,
+    rec: &io::BatteryRecord,
+    method: BatteryMethod,
+    memory: Option<usize>,
+    iterations: u32,
+) -> Result<BatteryResult> {
+    let n = rec.current.len();
+    let mem = memory.unwrap_or(256.min(n / 2).max(1));
+    let need = mem - 1 + estimator_core::battery::regression::MIN_ROWS;
+    if mem == 0 || mem > BAT_MEM {
+        bail!("--memory {mem}: must be in 1..={BAT_MEM}");
+    }
+    if n < need {
+        bail!(
+            "{}: {n} data rows; memory {mem} needs at least {need}",
+            path.display()
+        );
+    }
+    let ctx = |e: estimator_core::Error| anyhow!("{}: {e}", path.display());
+    let mut win = Box::new(SampleWindow::<f64, MAX_ROWS>::new());
+    for (&i, &v) in rec.current.iter().zip(&rec.voltage) {
+        win.push(i, v).map_err(ctx)?;
+    }
+    let sg = BatterySettings::new(rec.h, mem);
+    let mut gi = Box::new(PaperRegressionGi::<f64, MAX_ROWS, BAT_MEM>::new(&sg, 0.5).map_err(ctx)?);
+    let mut history = Vec::new();
+    let mut track = Vec::new();
+    let mut converged = false;
+    println!(
+        "{:>5} {:>10} {:>10} {:>10} {:>8} {:>9} {:>12}",
+        "k", "R_i", "R_ct", "Q", "alpha", "U_oc", "cost"
+    );
+    for _ in 0..iterations {
+        let it = gi.iterate(&sg, &win).map_err(ctx)?;
+        history.push(HistoryEntry {
+            k: it.k,
+            alpha: it.alpha,
+            cost: it.cost,
+        });
+        let cell = gi.cell();
+        track.push(cell);
+        converged = it.converged;
+        if table_row(it.k) || it.converged {
+            match cell {
+                Some(c) => println!(
+                    "{:>5} {:>10.6} {:>10.6} {:>10.3} {:>8.4} {:>9.5} {:>12.5e}",
+                    it.k, c.r_i, c.r_ct, c.q, c.alpha, c.u_oc, it.cost
+                ),
+                None => println!(
+                    "{:>5} {:>10} {:>10} {:>10} {:>8.4} {:>9} {:>12.5e}",
+                    it.k, "-", "-", "-", it.alpha, "-", it.cost
+                ),
+            }
+        }
+        if it.converged {
+            break;
+        }
+    }
+    let mut iters = history.len() as u32;
+    let (cell, rmse_v) = match method {
+        BatteryMethod::Paper => {
+            let cell = gi.cell().ok_or_else(|| {
+                anyhow!(
+                    "{}: 2S-OP-GI has no physical estimate after {iters} iterations (try more --iterations, or --method refined)",
+                    path.display()
+                )
+            })?;
+            let v = model_voltage(&cell, rec.h, &rec.current)?;
+            (cell, rmse(&v, &rec.voltage))
+        }
+        BatteryMethod::Refined => {
+            let so = BatterySettings::new(rec.h, n.min(BAT_MEM));
+            let start = gi
+                .cell()
+                .filter(|c| c.alpha >= so.alpha_min && c.alpha <= so.alpha_max)
+                .unwrap_or_else(|| rough_start(&rec.current, &rec.voltage));
+            let mut oe = Box::new(
+                OutputErrorRefinement::<f64, MAX_ROWS, BAT_MEM>::new(&so, start).map_err(ctx)?,
+            );
+            converged = false;
+            let mut rm = f64::NAN;
+            for _ in 0..200 {
+                let st = oe.iterate(&so, &win).map_err(ctx)?;
+                iters += 1;
+                rm = st.rmse;
+                if st.converged {
+                    converged = true;
+                    break;
+                }
+            }
+            (oe.cell(), rm)
+        }
+    };
+    let model = model_voltage(&cell, rec.h, &rec.current)?;
+    Ok(BatteryResult {
+        json: BatteryJson {
+            method: match method {
+                BatteryMethod::Paper => "paper",
+                BatteryMethod::Refined => "refined",
+            },
+            r_i: cell.r_i,
+            r_ct: cell.r_ct,
+            q: cell.q,
+            alpha: cell.alpha,
+            u_oc: cell.u_oc,
+            rmse_v,
+            iterations: iters,
+            converged,
+            history,
+        },
+        cell,
+        paper_track: track,
+        model_voltage: model,
+    })
+}
+
+pub(crate) fn battery(a: &IdBatteryArgs) -> Result<()> {
+    let rec = io::read_battery(&a.input, Some(MAX_ROWS))?;
+    note_truncation(&a.input, rec.current.len());
+    let _ = a.algorithm; // op and kt coincide for the battery regression
+    let r = battery_run(&a.input, &rec, a.method, a.memory, a.iterations)?;
+    let j = &r.json;
+    println!(
+        "{}: R_i = {:.6} Ω, R_ct = {:.6} Ω, Q = {:.3}, alpha = {:.4}, U_oc = {:.5} V, rmse = {:.3e} V ({} iterations, converged: {})",
+        j.method, j.r_i, j.r_ct, j.q, j.alpha, j.u_oc, j.rmse_v, j.iterations, j.converged
+    );
+    if let Some(p) = &a.json {
+        io::write_json(p, j)?;
+        eprintln!("wrote {}", p.display());
+    }
+    if let Some(dir) = &a.plot {
+        std::fs::create_dir_all(dir)
+            .with_context(|| format!("{}: cannot create", dir.display()))?;
+        plot::battery_figures(dir, &rec, &r.model_voltage, &r.json.history)?;
+        eprintln!("wrote Figures 8–11 to {}", dir.display());
+    }
+    Ok(())
+}

@@ -1,0 +1,238 @@
+//! End-to-end: run the host-sim binary on files.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn bin() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_host-sim-e2e"))
+}
+
+fn tmp(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("fracbms-e2e-{}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    d.join(name)
+}
+
+fn run(args: &[&str]) -> Output {
+    bin().args(args).output().unwrap()
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+#[test]
+fn battery_round_trip_recovers_the_cell() {
+    let csv = tmp("cell.csv");
+    let json = tmp("cell.json");
+    let o = run(&[
+        "simulate",
+        "battery",
+        "--preset",
+        "cell",
+        "--profile",
+        "pulse",
+        "--sigma",
+        "0.001",
+        "--length",
+        "2000",
+        "--seed",
+        "3",
+        "--out",
+        s(&csv),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let head = std::fs::read_to_string(&csv).unwrap();
+    assert!(head.starts_with("time_s,current_a,voltage_v\n"));
+    let o = run(&[
+        "identify",
+        "battery",
+        "--input",
+        s(&csv),
+        "--json",
+        s(&json),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let j: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let g = |k: &str| j[k].as_f64().unwrap_or_else(|| panic!("key {k}"));
+    assert!((g("r_i") / 0.020 - 1.0).abs() < 0.02);
+    assert!((g("r_ct") / 0.015 - 1.0).abs() < 0.02);
+    assert!((g("q") / (8.0 / 0.015) - 1.0).abs() < 0.02);
+    assert!((g("alpha") - 0.75).abs() < 0.02);
+    assert!((g("u_oc") - 3.7).abs() < 0.001);
+    assert!(g("rmse_v") < 1.1e-3);
+    assert!(j["converged"].as_bool().unwrap());
+    assert!(j["iterations"].as_u64().unwrap() > 0);
+}
+
+#[test]
+fn hammerstein_identify_writes_the_contract_json() {
+    let csv = tmp("ham.csv");
+    let json = tmp("ham.json");
+    let o = run(&[
+        "simulate",
+        "hammerstein",
+        "--preset",
+        "paper-op",
+        "--sigma",
+        "0.1",
+        "--length",
+        "300",
+        "--seed",
+        "1",
+        "--out",
+        s(&csv),
+    ]);
+    assert!(o.status.success());
+    assert!(std::fs::read_to_string(&csv).unwrap().starts_with("u,y\n"));
+    for alg in ["op", "kt"] {
+        let o = run(&[
+            "identify",
+            "hammerstein",
+            "--input",
+            s(&csv),
+            "--algorithm",
+            alg,
+            "--na",
+            "2",
+            "--nb",
+            "3",
+            "--nc",
+            "2",
+            "--basis",
+            "poly:2",
+            "--iterations",
+            "12",
+            "--json",
+            s(&json),
+        ]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let out = String::from_utf8_lossy(&o.stdout);
+        assert!(
+            out.lines().any(|l| l.trim_start().starts_with("10 ")),
+            "{out}"
+        );
+        let j: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+        assert_eq!(j["algorithm"], alg);
+        assert_eq!(j["a"].as_array().unwrap().len(), 2);
+        assert_eq!(j["b"].as_array().unwrap().len(), 3);
+        assert_eq!(j["c"].as_array().unwrap().len(), 2);
+        assert_eq!(j["gamma"].as_array().unwrap().len(), 2);
+        assert_eq!(j["theta_products"].as_array().unwrap().len(), 6);
+        assert_eq!(j["history"].as_array().unwrap().len(), 12);
+        for k in ["alpha", "cost"] {
+            assert!(j[k].as_f64().unwrap().is_finite());
+        }
+        assert!(j["history"][0]["k"].as_u64() == Some(1));
+    }
+}
+
+#[test]
+fn online_writes_a_track() {
+    let csv = tmp("online.csv");
+    let out = tmp("track.csv");
+    assert!(run(&[
+        "simulate",
+        "battery",
+        "--preset",
+        "cell",
+        "--length",
+        "600",
+        "--out",
+        s(&csv)
+    ])
+    .status
+    .success());
+    let o = run(&[
+        "online",
+        "battery",
+        "--input",
+        s(&csv),
+        "--window",
+        "128",
+        "--out",
+        s(&out),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let t = std::fs::read_to_string(&out).unwrap();
+    let mut lines = t.lines();
+    assert_eq!(lines.next(), Some("time_s,r_i,r_ct,q,alpha,u_oc,status"));
+    let rows: Vec<&str> = lines.collect();
+    assert_eq!(rows.len(), 600);
+    assert!(rows[0].ends_with(",filling"));
+    assert!(rows[599].ends_with(",tracking"));
+}
+
+/// Every malformed file gives exit code 1 and one line naming the file
+/// (and the row and column where there is one), and writes nothing.
+#[test]
+fn malformed_files_give_one_line_errors() {
+    let cases: &[(&str, &str, &str)] = &[
+        (
+            "missing.csv",
+            "time_s,current_a\n0,1\n1,2\n",
+            "missing column `voltage_v`",
+        ),
+        (
+            "text.csv",
+            "time_s,current_a,voltage_v\n0,1,3.7\n1,abc,3.7\n",
+            "row 3, column `current_a`",
+        ),
+        (
+            "step.csv",
+            "time_s,current_a,voltage_v\n0,1,3.7\n1,1,3.7\n2.5,1,3.7\n",
+            "row 4, column `time_s`: non-uniform",
+        ),
+        (
+            "nan.csv",
+            "time_s,current_a,voltage_v\n0,1,3.7\n1,1,NaN\n",
+            "row 3, column `voltage_v`: `NaN` is not finite",
+        ),
+        (
+            "short.csv",
+            "time_s,current_a,voltage_v\n0,1,3.7\n1,1,3.7\n2,1,3.7\n",
+            "memory",
+        ),
+    ];
+    for (name, body, expect) in cases {
+        let p = tmp(name);
+        std::fs::write(&p, body).unwrap();
+        let json = tmp(&format!("{name}.json"));
+        let _ = std::fs::remove_file(&json);
+        let o = run(&["identify", "battery", "--input", s(&p), "--json", s(&json)]);
+        assert_eq!(o.status.code(), Some(1), "{name}");
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(err.trim_end().lines().count(), 1, "{name}: {err}");
+        assert!(err.contains(name) && err.contains(expect), "{name}: {err}");
+        assert!(!err.contains("panicked") && !err.contains("backtrace"));
+        assert!(!json.exists(), "{name}: nothing written half-way");
+    }
+    let o = run(&[
+        "identify",
+        "battery",
+        "--input",
+        s(&tmp("does-not-exist.csv")),
+    ]);
+    assert_eq!(o.status.code(), Some(1));
+    let o = run(&[
+        "identify",
+        "hammerstein",
+        "--input",
+        s(&tmp("text.csv")),
+        "--basis",
+        "spline:3",
+    ]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("--basis"));
+    let o = run(&[
+        "simulate",
+        "battery",
+        "--preset",
+        "nope",
+        "--out",
+        s(&tmp("x.csv")),
+    ]);
+    assert_eq!(o.status.code(), Some(2), "clap usage error");
+}
