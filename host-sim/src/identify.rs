@@ -291,13 +291,15 @@ fn rough_start(current: &[f64], voltage: &[f64]) -> CellParameters<f64> {
     }
 }
 
-/// Identifies a battery record (`method` paper or refined).
+/// Identifies a battery record (`method` paper or refined), printing the
+/// 2S-OP-GI table of estimates versus k when `print_table` is set.
 pub fn battery_run(
     path: &Path,
     rec: &io::BatteryRecord,
     method: BatteryMethod,
     memory: Option<usize>,
     iterations: u32,
+    print_table: bool,
 ) -> Result<BatteryResult> {
     let n = rec.current.len();
     let mem = memory.unwrap_or(256.min(n / 2).max(1));
@@ -321,10 +323,12 @@ pub fn battery_run(
     let mut history = Vec::new();
     let mut track = Vec::new();
     let mut converged = false;
-    println!(
-        "{:>5} {:>10} {:>10} {:>10} {:>8} {:>9} {:>12}",
-        "k", "R_i", "R_ct", "Q", "alpha", "U_oc", "cost"
-    );
+    if print_table {
+        println!(
+            "{:>5} {:>10} {:>10} {:>10} {:>8} {:>9} {:>12}",
+            "k", "R_i", "R_ct", "Q", "alpha", "U_oc", "cost"
+        );
+    }
     for _ in 0..iterations {
         let it = gi.iterate(&sg, &win).map_err(ctx)?;
         history.push(HistoryEntry {
@@ -335,7 +339,7 @@ pub fn battery_run(
         let cell = gi.cell();
         track.push(cell);
         converged = it.converged;
-        if table_row(it.k) || it.converged {
+        if print_table && (table_row(it.k) || it.converged) {
             match cell {
                 Some(c) => println!(
                     "{:>5} {:>10.6} {:>10.6} {:>10.3} {:>8.4} {:>9.5} {:>12.5e}",
@@ -413,7 +417,7 @@ pub(crate) fn battery(a: &IdBatteryArgs) -> Result<()> {
     let rec = io::read_battery(&a.input, Some(MAX_ROWS))?;
     note_truncation(&a.input, rec.current.len());
     let _ = a.algorithm; // op and kt coincide for the battery regression
-    let r = battery_run(&a.input, &rec, a.method, a.memory, a.iterations)?;
+    let r = battery_run(&a.input, &rec, a.method, a.memory, a.iterations, true)?;
     let j = &r.json;
     println!(
         "{}: R_i = {:.6} Ω, R_ct = {:.6} Ω, Q = {:.3}, alpha = {:.4}, U_oc = {:.5} V, rmse = {:.3e} V ({} iterations, converged: {})",

@@ -103,6 +103,7 @@ fn table7(dir: &Path, seeds: u64, md: &mut String) -> Result<()> {
             BatteryMethod::Refined,
             Some(256),
             50,
+            false,
         )?;
         for (k, (c, h)) in r.paper_track.iter().zip(&r.json.history).enumerate() {
             if let Some(c) = c {
@@ -244,7 +245,7 @@ fn cell_side_by_side(seeds: u64, md: &mut String) -> Result<()> {
                 None,
             )?;
             let rec = record(&d, 1.0);
-            let r = battery_run(Path::new("cell preset"), &rec, method, Some(256), 50)?;
+            let r = battery_run(Path::new("cell preset"), &rec, method, Some(256), 50, false)?;
             let c = r.cell;
             rows.push([
                 rel(c.r_i, truth.r_i),

@@ -193,26 +193,14 @@ impl<T: Real> BatterySettings<T> {
     /// [`crate::Error::BadSetting`] for order bounds outside `(0, 2)`, a
     /// negative or non-finite ε, trust radius or excitation threshold.
     pub fn check<const MEM: usize>(&self) -> Result<(), crate::Error> {
-        crate::frac::GlWeights::<T, 1>::new(T::lit(0.5), self.h, 1)?;
-        if self.memory == 0 || self.memory > MEM {
-            return Err(crate::FracError::BadMemory {
-                requested: self.memory,
-                capacity: MEM,
-            }
-            .into());
-        }
-        let ok = self.alpha_min.is_finite()
-            && self.alpha_max.is_finite()
-            && self.alpha_min > T::zero()
-            && self.alpha_min <= self.alpha_max
-            && self.alpha_max < T::lit(2.0)
-            && self.epsilon.is_finite()
-            && self.epsilon >= T::zero()
-            && self.max_order_step.is_finite()
-            && self.max_order_step > T::zero()
-            && self.min_current_std.is_finite()
-            && self.min_current_std >= T::zero();
-        if ok {
+        crate::gi::check_search::<T, MEM>(
+            self.h,
+            self.memory,
+            [self.alpha_min, self.alpha_max],
+            self.epsilon,
+            self.max_order_step,
+        )?;
+        if self.min_current_std.is_finite() && self.min_current_std >= T::zero() {
             Ok(())
         } else {
             Err(crate::Error::BadSetting)

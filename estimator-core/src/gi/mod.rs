@@ -107,28 +107,13 @@ impl<T: Real> GiSettings<T> {
         &self,
     ) -> Result<(), Error> {
         self.orders.check::<NA, NB, NC, NF, NP>()?;
-        crate::frac::GlWeights::<T, 1>::new(T::lit(0.5), self.h, 1)?;
-        if self.memory == 0 || self.memory > MEM {
-            return Err(crate::error::FracError::BadMemory {
-                requested: self.memory,
-                capacity: MEM,
-            }
-            .into());
-        }
-        let ok = self.alpha_min.is_finite()
-            && self.alpha_max.is_finite()
-            && self.alpha_min > T::zero()
-            && self.alpha_max < T::lit(2.0)
-            && self.alpha_min <= self.alpha_max
-            && self.epsilon.is_finite()
-            && self.epsilon >= T::zero()
-            && self.max_order_step > T::zero()
-            && self.max_order_step.is_finite();
-        if ok {
-            Ok(())
-        } else {
-            Err(Error::BadSetting)
-        }
+        check_search::<T, MEM>(
+            self.h,
+            self.memory,
+            [self.alpha_min, self.alpha_max],
+            self.epsilon,
+            self.max_order_step,
+        )
     }
 
     /// Checks an initial or imposed order against the bounds.
@@ -138,6 +123,40 @@ impl<T: Real> GiSettings<T> {
         } else {
             Err(Error::BadSetting)
         }
+    }
+}
+
+/// The checks every iterative estimator's settings share: a valid sample
+/// period, `1 ≤ memory ≤ MEM`, order bounds inside `(0, 2)`, a finite
+/// `ε ≥ 0` and a finite positive trust radius.
+pub(crate) fn check_search<T: Real, const MEM: usize>(
+    h: T,
+    memory: usize,
+    [alpha_min, alpha_max]: [T; 2],
+    epsilon: T,
+    max_order_step: T,
+) -> Result<(), Error> {
+    crate::frac::GlWeights::<T, 1>::new(T::lit(0.5), h, 1)?;
+    if memory == 0 || memory > MEM {
+        return Err(crate::error::FracError::BadMemory {
+            requested: memory,
+            capacity: MEM,
+        }
+        .into());
+    }
+    let ok = alpha_min.is_finite()
+        && alpha_max.is_finite()
+        && alpha_min > T::zero()
+        && alpha_max < T::lit(2.0)
+        && alpha_min <= alpha_max
+        && epsilon.is_finite()
+        && epsilon >= T::zero()
+        && max_order_step > T::zero()
+        && max_order_step.is_finite();
+    if ok {
+        Ok(())
+    } else {
+        Err(Error::BadSetting)
     }
 }
 
