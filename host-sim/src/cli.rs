@@ -54,8 +54,9 @@ enum OnlineCmd {
 #[derive(clap::Args, Debug)]
 pub struct SimHammersteinArgs {
     /// paper-op (Tables 3–4), paper-kt (Tables 5–6 as printed; its C is
-    /// unstable), paper-kt-stable (C sign-flipped, as reproduced).
-    #[arg(long, value_parser = ["paper-op", "paper-kt", "paper-kt-stable"])]
+    /// unstable), paper-kt-stable (C sign-flipped, as reproduced), identifiable
+    /// (well excited, docs/identification.md).
+    #[arg(long, value_parser = ["paper-op", "paper-kt", "paper-kt-stable", "identifiable"])]
     pub preset: String,
     /// Standard deviation of the white noise v(l).
     #[arg(long, default_value_t = 0.5)]
@@ -219,6 +220,21 @@ pub struct ReproduceArgs {
     /// Seeds per table (the paper's tables: 10).
     #[arg(long, default_value_t = 10)]
     pub seeds: u64,
+    /// Which part: `all`, `example1` (Tables 3–6, Figures 2–5, about 5 min
+    /// on 2 cores) or `battery` (Figure 6, Table 7, Figures 7–11, seconds).
+    #[arg(long, value_enum, default_value = "all")]
+    pub part: ReproducePart,
+}
+
+/// The parts of `reproduce`.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ReproducePart {
+    /// Both parts.
+    All,
+    /// §6.1 Example 1: Tables 3–6, Figures 2–5.
+    Example1,
+    /// §6.2 battery: Figure 6, Table 7, Figures 7–11, our refinement and tracking.
+    Battery,
 }
 
 /// Parses the arguments, runs the command and returns the exit status;
