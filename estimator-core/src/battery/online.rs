@@ -7,8 +7,8 @@
 //!    `max(spike_sigmas·RMSE, spike_floor)` from the model's one-step
 //!    prediction is *rejected*: counted, never learned. So that the time base
 //!    stays uniform (the fractional differences assume it) a substitute takes
-//!    its place: the last current and the predicted voltage (or the last
-//!    voltage). After `max_consecutive_spikes` rejected spikes in a row the
+//!    its place: the measured current when it is plausible (else the last
+//!    one) and the model's voltage for it (or the last voltage). After `max_consecutive_spikes` rejected spikes in a row the
 //!    sample is believed (a real step, e.g. a contactor closing).
 //! 2. **Window.** The sample enters the [`SampleWindow`].
 //! 3. **Excitation.** A window whose current barely varies (rest) carries no
@@ -315,13 +315,13 @@ impl<T: Real, const N: usize, const MEM: usize> CellEstimator<T, N, MEM> {
                         self.spikes_in_row = self.spikes_in_row.saturating_add(1);
                     }
                 }
-                // Substitute: the last current; the predicted (or last) voltage.
-                self.window.recent().next().map(|(i, u)| {
-                    let i = if why == Rejection::Spike && current.is_finite() {
-                        current.max(-s.current_limit).min(s.current_limit)
-                    } else {
-                        i
-                    };
+                // Substitute. The current: the measured one when it is
+                // itself plausible (only the voltage was bad), else the last
+                // one. The voltage: the model's prediction for that current
+                // (or the last voltage before a model exists).
+                let plausible = current.is_finite() && current.abs() <= s.current_limit;
+                self.window.recent().next().map(|(last_i, u)| {
+                    let i = if plausible { current } else { last_i };
                     (i, self.predict(i).unwrap_or(u))
                 })
             }
