@@ -180,6 +180,14 @@ pub struct IdBatteryArgs {
     /// Iterations of 2S-OP-GI (paper method, or the start of the refinement).
     #[arg(long, default_value_t = 50)]
     pub iterations: u32,
+    /// Memory of the refinement (default: the whole record, at most 4096;
+    /// give the firmware's memory to compare with it).
+    #[arg(long)]
+    pub refine_memory: Option<usize>,
+    /// Fit an OCV slope dU_oc/dq (the state of charge drifting through the
+    /// record), as the firmware does.
+    #[arg(long)]
+    pub ocv_slope: bool,
     /// Write the estimates as JSON.
     #[arg(long)]
     pub json: Option<PathBuf>,

@@ -301,6 +301,36 @@ pub fn battery_run(
     iterations: u32,
     print_table: bool,
 ) -> Result<BatteryResult> {
+    battery_run_with(
+        path,
+        rec,
+        method,
+        memory,
+        iterations,
+        print_table,
+        Refine::default(),
+    )
+}
+
+/// Options of the output-error refinement.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Refine {
+    /// Memory (default: the whole record, at most [`BAT_MEM`]).
+    pub memory: Option<usize>,
+    /// Fit the OCV slope.
+    pub ocv_slope: bool,
+}
+
+/// [`battery_run`] with refinement options.
+pub fn battery_run_with(
+    path: &Path,
+    rec: &io::BatteryRecord,
+    method: BatteryMethod,
+    memory: Option<usize>,
+    iterations: u32,
+    print_table: bool,
+    refine: Refine,
+) -> Result<BatteryResult> {
     let n = rec.current.len();
     let mem = memory.unwrap_or(256.min(n / 2).max(1));
     let need = mem - 1 + estimator_core::battery::regression::MIN_ROWS;
@@ -368,7 +398,15 @@ pub fn battery_run(
             (cell, rmse(&v, &rec.voltage))
         }
         BatteryMethod::Refined => {
-            let so = BatterySettings::new(rec.h, n.min(BAT_MEM));
+            let rm = refine.memory.unwrap_or(n.min(BAT_MEM));
+            if rm == 0 || rm > BAT_MEM.min(n) {
+                bail!(
+                    "--refine-memory {rm}: must be in 1..={} for {n} rows",
+                    BAT_MEM.min(n)
+                );
+            }
+            let mut so = BatterySettings::new(rec.h, rm);
+            so.ocv_slope = refine.ocv_slope;
             let start = gi
                 .cell()
                 .filter(|c| c.alpha >= so.alpha_min && c.alpha <= so.alpha_max)
@@ -417,7 +455,19 @@ pub(crate) fn battery(a: &IdBatteryArgs) -> Result<()> {
     let rec = io::read_battery(&a.input, Some(MAX_ROWS))?;
     note_truncation(&a.input, rec.current.len());
     let _ = a.algorithm; // op and kt coincide for the battery regression
-    let r = battery_run(&a.input, &rec, a.method, a.memory, a.iterations, true)?;
+    let refine = Refine {
+        memory: a.refine_memory,
+        ocv_slope: a.ocv_slope,
+    };
+    let r = battery_run_with(
+        &a.input,
+        &rec,
+        a.method,
+        a.memory,
+        a.iterations,
+        true,
+        refine,
+    )?;
     let j = &r.json;
     println!(
         "{}: R_i = {:.6} Ω, R_ct = {:.6} Ω, Q = {:.3}, alpha = {:.4}, U_oc = {:.5} V, rmse = {:.3e} V ({} iterations, converged: {})",
