@@ -13,6 +13,19 @@ if command -v rustup >/dev/null 2>&1; then
   rustup component add clippy rustfmt llvm-tools >/dev/null 2>&1 || true
 fi
 
+# The firmware runs under QEMU (mps2-an386) in the tests; its log is decoded
+# by defmt-print (installed once into ~/.cargo/bin, then reused).
+if ! command -v qemu-system-arm >/dev/null 2>&1; then
+  echo "== installing qemu-system-arm"
+  SUDO=""; [ "$(id -u)" -ne 0 ] && SUDO="sudo"
+  $SUDO apt-get update -qq
+  $SUDO apt-get install -y --no-install-recommends qemu-system-arm >/dev/null
+fi
+if ! command -v defmt-print >/dev/null 2>&1; then
+  echo "== installing defmt-print"
+  cargo install defmt-print --version 1.2.0 --locked --quiet
+fi
+
 echo "== cargo fmt --check"
 cargo fmt --all --check
 echo "== cargo clippy (host crates, all targets)"
@@ -20,7 +33,10 @@ cargo clippy --all-targets -- -D warnings
 echo "== no_std build: estimator-core for thumbv7em-none-eabihf"
 cargo build -p estimator-core --target thumbv7em-none-eabihf --release
 cargo clippy -p estimator-core --target thumbv7em-none-eabihf -- -D warnings
-echo "== cargo test"
-cargo test --workspace --exclude firmware 2>&1 | tee target/test-output.txt
+echo "== firmware for thumbv7em-none-eabihf (QEMU board), with clippy"
+cargo clippy -p firmware --target thumbv7em-none-eabihf --release -- -D warnings
+cargo build -p firmware --target thumbv7em-none-eabihf --release
+echo "== cargo test (host crates, CLI end to end, firmware under QEMU)"
+cargo test --workspace 2>&1 | tee target/test-output.txt
 # Finish on a one-line summary of every test binary.
 awk '/^test result:/ { p += $4; f += $6 } END { printf "%d passed, %d failed\n", p, f; exit (f > 0) }' target/test-output.txt

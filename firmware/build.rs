@@ -1,0 +1,215 @@
+//! Build script of the firmware.
+//!
+//! * Writes `config.rs` (window, memory, method, iterations per sample, log
+//!   rate) from `FRACBMS_*` environment variables, so that `cargo xtask qemu
+//!   --window L` picks the const-generic sizes at build time.
+//! * Converts the replay record (`FRACBMS_REPLAY`, a `time_s,current_a,
+//!   voltage_v[,temperature_c]` CSV; default `data/cell-pulse.csv`) into
+//!   `replay.bin`, 16 bytes per sample period: `u32` flags (1 = the row is
+//!   missing: a dropped sample), then current, voltage and temperature as
+//!   little-endian `f32`. A gap in the time column becomes dropped samples;
+//!   an empty cell becomes NaN.
+//! * For `target_os = "none"` only: puts `memory.x` (which includes
+//!   `fracbms-board.x`) and the board's map as `fracbms-board.x` on the link
+//!   path and passes `-Tlink.x` and `-Tdefmt.x`.
+
+use std::env;
+use std::fmt::Write as _;
+use std::fs;
+use std::path::{Path, PathBuf};
+
+fn var(name: &str, default: &str) -> String {
+    println!("cargo:rerun-if-env-changed={name}");
+    env::var(name).unwrap_or_else(|_| default.to_owned())
+}
+
+fn fail(msg: String) -> ! {
+    // One clear line; cargo shows it under "error: failed to run custom build command".
+    eprintln!("error: {msg}");
+    std::process::exit(1)
+}
+
+fn number(name: &str, default: usize, lo: usize, hi: usize) -> usize {
+    let s = var(name, &default.to_string());
+    match s.parse::<usize>() {
+        Ok(v) if (lo..=hi).contains(&v) => v,
+        _ => fail(format!("{name}={s}: must be an integer in {lo}..={hi}")),
+    }
+}
+
+fn cell(path: &Path, row: usize, col: &str, s: &str) -> f32 {
+    let s = s.trim();
+    if s.is_empty() {
+        return f32::NAN;
+    }
+    s.parse::<f32>().unwrap_or_else(|_| {
+        fail(format!(
+            "{}: row {row}, column {col}: {s:?} is not a number",
+            path.display()
+        ))
+    })
+}
+
+/// Reads the replay CSV; returns (h, records).
+fn replay(path: &Path) -> (f64, Vec<(u32, f32, f32, f32)>) {
+    let mut rd = csv::Reader::from_path(path)
+        .unwrap_or_else(|e| fail(format!("{}: cannot read ({e})", path.display())));
+    let headers = rd
+        .headers()
+        .unwrap_or_else(|e| fail(format!("{}: no header ({e})", path.display())))
+        .clone();
+    let find = |name: &str| headers.iter().position(|h| h.trim() == name);
+    let (Some(ct), Some(ci), Some(cv)) = (find("time_s"), find("current_a"), find("voltage_v"))
+    else {
+        fail(format!(
+            "{}: the header must have time_s,current_a,voltage_v",
+            path.display()
+        ))
+    };
+    let ctemp = find("temperature_c");
+    let mut rows: Vec<(f64, f32, f32, f32)> = Vec::new();
+    for (k, rec) in rd.records().enumerate() {
+        let row = k + 2;
+        let rec = rec.unwrap_or_else(|e| fail(format!("{}: row {row}: {e}", path.display())));
+        let get = |c: usize| rec.get(c).unwrap_or("");
+        let t: f64 = get(ct).trim().parse().unwrap_or_else(|_| {
+            fail(format!(
+                "{}: row {row}, column time_s: {:?} is not a number",
+                path.display(),
+                get(ct)
+            ))
+        });
+        let temp = ctemp.map_or(25.0, |c| cell(path, row, "temperature_c", get(c)));
+        rows.push((
+            t,
+            cell(path, row, "current_a", get(ci)),
+            cell(path, row, "voltage_v", get(cv)),
+            temp,
+        ));
+    }
+    if rows.len() < 2 {
+        fail(format!("{}: needs at least 2 data rows", path.display()));
+    }
+    let mut steps: Vec<f64> = rows.windows(2).map(|w| w[1].0 - w[0].0).collect();
+    if steps.iter().any(|d| !(d.is_finite() && *d > 0.0)) {
+        fail(format!(
+            "{}: the time column must increase strictly",
+            path.display()
+        ));
+    }
+    steps.sort_by(f64::total_cmp);
+    let h = steps[steps.len() / 2];
+    let mut out = Vec::with_capacity(rows.len());
+    for (k, r) in rows.iter().enumerate() {
+        if k > 0 {
+            let gap = (r.0 - rows[k - 1].0) / h;
+            if (gap - gap.round()).abs() > 0.1 {
+                fail(format!(
+                    "{}: row {}: time step {} s is not a multiple of the sample period {h} s",
+                    path.display(),
+                    k + 2,
+                    r.0 - rows[k - 1].0
+                ));
+            }
+            for _ in 1..gap.round() as usize {
+                out.push((1, f32::NAN, f32::NAN, f32::NAN));
+            }
+        }
+        out.push((0, r.1, r.2, r.3));
+    }
+    (h, out)
+}
+
+fn main() {
+    let manifest = PathBuf::from(env::var("CARGO_MANIFEST_DIR").expect("cargo sets this"));
+    let out = PathBuf::from(env::var("OUT_DIR").expect("cargo sets this"));
+
+    // ---- configuration ----
+    let window = number("FRACBMS_WINDOW", 256, 16, 4096);
+    let memory = number("FRACBMS_MEMORY", 64, 2, 1024);
+    if memory + 8 > window + 1 {
+        fail(format!(
+            "FRACBMS_MEMORY={memory} needs a window of at least {} (FRACBMS_WINDOW={window})",
+            memory + 7
+        ));
+    }
+    let iterations = number("FRACBMS_ITERATIONS", 1, 1, 1000);
+    let log_every = number("FRACBMS_LOG_EVERY", 100, 1, 1_000_000);
+    let method = match var("FRACBMS_METHOD", "refined").as_str() {
+        "refined" => "Method::Refined",
+        "paper" => "Method::Paper",
+        m => fail(format!("FRACBMS_METHOD={m}: must be paper or refined")),
+    };
+    let algorithm = match var("FRACBMS_ALGORITHM", "op").as_str() {
+        a @ ("op" | "kt") => a.to_owned(),
+        a => fail(format!("FRACBMS_ALGORITHM={a}: must be op or kt")),
+    };
+    let inject = match var("FRACBMS_INJECT", "none").as_str() {
+        i @ ("none" | "panic" | "hardfault") => i.to_owned(),
+        i => fail(format!(
+            "FRACBMS_INJECT={i}: must be none, panic or hardfault"
+        )),
+    };
+    let default_replay = manifest.join("data/cell-pulse.csv");
+    let replay_path = PathBuf::from(var(
+        "FRACBMS_REPLAY",
+        default_replay.to_str().expect("UTF-8 path"),
+    ));
+    println!("cargo:rerun-if-changed={}", replay_path.display());
+    let (h, records) = replay(&replay_path);
+
+    let mut cfg = String::new();
+    let _ = writeln!(
+        cfg,
+        "// Generated by build.rs from FRACBMS_* (do not edit).\n\
+         /// Samples in the sliding window (`FRACBMS_WINDOW`).\n\
+         pub const WINDOW: usize = {window};\n\
+         /// Grünwald–Letnikov memory in samples (`FRACBMS_MEMORY`).\n\
+         pub const MEMORY: usize = {memory};\n\
+         /// Iterations run after each sample (`FRACBMS_ITERATIONS`).\n\
+         pub const ITERATIONS_PER_SAMPLE: u16 = {iterations};\n\
+         /// Log the estimate every this many samples (`FRACBMS_LOG_EVERY`).\n\
+         pub const LOG_EVERY: u32 = {log_every};\n\
+         /// Identification method (`FRACBMS_METHOD`).\n\
+         pub const METHOD: estimator_core::battery::online::Method = estimator_core::battery::online::{method};\n\
+         /// The paper's algorithm requested (`FRACBMS_ALGORITHM`); for the battery\n\
+         /// regression KT-2S-GI and 2S-OP-GI coincide (docs/firmware.md).\n\
+         pub const ALGORITHM: &str = \"{algorithm}\";\n\
+         /// A fault injected at start-up to test the fault exits (`FRACBMS_INJECT`:\n\
+         /// none, panic, hardfault).\n\
+         pub const INJECT: &str = \"{inject}\";\n\
+         /// Sample period of the replay record (s).\n\
+         pub const REPLAY_PERIOD_S: f32 = {h:?};\n\
+         /// Sample periods in the replay record (dropped rows included).\n\
+         pub const REPLAY_LEN: usize = {};\n",
+        records.len()
+    );
+    fs::write(out.join("config.rs"), cfg).expect("write config.rs");
+    let mut bin = Vec::with_capacity(16 * records.len());
+    for (flags, i, v, t) in &records {
+        bin.extend_from_slice(&flags.to_le_bytes());
+        bin.extend_from_slice(&i.to_le_bytes());
+        bin.extend_from_slice(&v.to_le_bytes());
+        bin.extend_from_slice(&t.to_le_bytes());
+    }
+    fs::write(out.join("replay.bin"), bin).expect("write replay.bin");
+
+    // ---- linking (the target only) ----
+    println!("cargo:rerun-if-changed=build.rs");
+    if env::var("CARGO_CFG_TARGET_OS").as_deref() == Ok("none") {
+        let board = if env::var_os("CARGO_FEATURE_BOARD_STM32L452").is_some() {
+            manifest.join("boards/stm32l452.x")
+        } else {
+            manifest.join("boards/mps2-an386.x")
+        };
+        let root = manifest.join("../memory.x");
+        println!("cargo:rerun-if-changed={}", board.display());
+        println!("cargo:rerun-if-changed={}", root.display());
+        fs::copy(&board, out.join("fracbms-board.x")).expect("copy the board's memory map");
+        fs::copy(&root, out.join("memory.x")).expect("copy memory.x");
+        println!("cargo:rustc-link-search={}", out.display());
+        println!("cargo:rustc-link-arg-bins=--nmagic");
+        println!("cargo:rustc-link-arg-bins=-Tlink.x");
+        println!("cargo:rustc-link-arg-bins=-Tdefmt.x");
+    }
+}

@@ -1,0 +1,151 @@
+//! The application: one sample per timer tick into the estimator task,
+//! logs at the configured rate, a final report and a self-check.
+
+use crate::board::{self, BoardApi};
+use firmware::config;
+use firmware::sampler::CellSampler;
+use firmware::ConfiguredTask;
+
+/// Cost of the sample updates (timer clocks), for the performance docs.
+#[derive(Default)]
+struct Cost {
+    /// Updates that ran at least one iteration.
+    updates: u32,
+    /// Iterations in those updates.
+    iterations: u32,
+    /// Clocks spent in those updates.
+    clocks: u64,
+    /// The longest update.
+    max: u64,
+}
+
+/// Builds the task and moves it into its static. Not inlined, so that the
+/// temporaries (a task each) live in this frame, popped before the sample
+/// loop, not in `main`'s frame for ever.
+#[inline(never)]
+fn make_task(s: &firmware::task::TaskSettings) -> Option<&'static mut ConfiguredTask> {
+    match ConfiguredTask::new(s) {
+        Ok(t) => cortex_m::singleton!(: ConfiguredTask = t),
+        Err(e) => {
+            defmt::error!("settings rejected: {}", e);
+            None
+        }
+    }
+}
+
+#[cortex_m_rt::entry]
+fn main() -> ! {
+    let mut b = board::init();
+    match config::INJECT {
+        "panic" => panic!("injected panic (FRACBMS_INJECT)"),
+        // A read from an address outside every memory region: a bus fault
+        // escalated to HardFault.
+        "hardfault" => {
+            let bad = 0xF000_0000 as *const u32;
+            // SAFETY: none; the read is meant to fault (FRACBMS_INJECT).
+            let _ = unsafe { core::ptr::read_volatile(bad) };
+        }
+        _ => {}
+    }
+    let s = firmware::configured_settings();
+    let Some(task) = make_task(&s) else {
+        b.finish(false)
+    };
+    // The task is built on the stack and moved into its static: that peak
+    // is the start-up depth. Paint again for the depth of the sample loop.
+    let init_stack = b.stack_high_water();
+    crate::board::stack::paint();
+    defmt::info!(
+        "fracbms: window {=usize}, memory {=usize}, method {}, algorithm {=str}, {=u16} iteration(s)/sample, h = {=f32} s",
+        config::WINDOW,
+        config::MEMORY,
+        config::METHOD,
+        config::ALGORITHM,
+        config::ITERATIONS_PER_SAMPLE,
+        config::REPLAY_PERIOD_S
+    );
+    let (mut period, mut overruns) = (0u32, 0u32);
+    let mut cost = Cost::default();
+    loop {
+        overruns += u32::from(b.wait_for_tick() > 0);
+        let x = b.sampler().sample();
+        let t0 = b.clocks();
+        let Some(r) = task.on_sample(&s, x) else {
+            break;
+        };
+        let dt = b.clocks() - t0;
+        if r.core.iterations > 0 {
+            cost.updates += 1;
+            cost.iterations += u32::from(r.core.iterations);
+            cost.clocks += dt;
+            cost.max = cost.max.max(dt);
+        }
+        if let Some(f) = r.fault {
+            defmt::warn!("period {=u32}: {}", period, f);
+        }
+        if let Some(why) = r.core.rejected {
+            defmt::warn!("period {=u32}: rejected ({})", period, why);
+        }
+        if period % config::LOG_EVERY == 0 {
+            match task.estimate() {
+                Some(e) => defmt::info!(
+                    "period {=u32} {}: R_i {=f32} R_ct {=f32} Q {=f32} alpha {=f32} U_oc {=f32} rmse {=f32}",
+                    period, r.core.status, e.r_i, e.r_ct, e.q, e.alpha, e.u_oc, r.core.rmse
+                ),
+                None => defmt::info!("period {=u32} {}", period, r.core.status),
+            }
+        }
+        period += 1;
+    }
+    let counts = task.counts();
+    let f = task.faults();
+    defmt::println!(
+        "FAULTS adc={=u32} saturated={=u32} dropped={=u32} stuck={=u32} temperature={=u32} non_finite={=u32} out_of_range={=u32} spikes={=u32} overruns={=u32}",
+        f.adc, f.saturated, f.dropped, f.stuck, f.temperature,
+        counts.non_finite, counts.out_of_range, counts.spikes, overruns
+    );
+    defmt::println!(
+        "COST updates={=u32} iterations={=u32} clocks={=u64} max_clocks={=u64} clock_hz={=u32} window={=usize} memory={=usize}",
+        cost.updates,
+        cost.iterations,
+        cost.clocks,
+        cost.max,
+        <board::Board as BoardApi>::CLOCK_HZ,
+        config::WINDOW,
+        config::MEMORY
+    );
+    defmt::println!(
+        "STACK high_water_bytes={=u32} init_bytes={=u32} task_bytes={=usize}",
+        b.stack_high_water(),
+        init_stack,
+        core::mem::size_of::<ConfiguredTask>()
+    );
+    let ok = match task.estimate() {
+        Some(e) => {
+            defmt::println!(
+                "RESULT r_i={=f32} r_ct={=f32} q={=f32} alpha={=f32} u_oc={=f32} samples={=u64} rejected={=u32}",
+                e.r_i, e.r_ct, e.q, e.alpha, e.u_oc, counts.samples, counts.rejected()
+            );
+            let all = counts.samples == config::REPLAY_LEN as u64;
+            if !all {
+                defmt::error!(
+                    "check failed: {=u64} of {=usize} sample periods pushed",
+                    counts.samples,
+                    config::REPLAY_LEN
+                );
+            }
+            if !e.is_physical() {
+                defmt::error!("check failed: the final estimate is not physical");
+            }
+            all && e.is_physical()
+        }
+        None => {
+            defmt::error!(
+                "check failed: no estimate after {=u64} samples",
+                counts.samples
+            );
+            false
+        }
+    };
+    b.finish(ok)
+}

@@ -1,0 +1,204 @@
+//! The firmware under QEMU (`cargo xtask qemu`), checked against host-sim.
+//!
+//! Needs `qemu-system-arm`, `defmt-print` and the thumbv7em-none-eabihf
+//! target; `scripts/check.sh` installs them. The runs share one firmware
+//! build directory, so they take turns (a process-wide lock).
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::sync::Mutex;
+
+static QEMU: Mutex<()> = Mutex::new(());
+
+fn root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .unwrap()
+        .to_path_buf()
+}
+
+fn tmp(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("fracbms-fw-{}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    d.join(name)
+}
+
+fn host_sim(args: &[&str]) {
+    let o = Command::new(env!("CARGO_BIN_EXE_host-sim-e2e"))
+        .args(args)
+        .output()
+        .unwrap();
+    assert!(
+        o.status.success(),
+        "host-sim {args:?}: {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+}
+
+/// Runs `cargo xtask qemu --input FILE ARGS…`; returns the last stdout line
+/// as JSON.
+fn firmware(input: &Path, args: &[&str]) -> serde_json::Value {
+    let _turn = QEMU.lock().unwrap_or_else(|p| p.into_inner());
+    let o = Command::new(env!("CARGO"))
+        .current_dir(root())
+        .args(["xtask", "qemu", "--input", input.to_str().unwrap()])
+        .args(args)
+        .output()
+        .unwrap();
+    let out = String::from_utf8_lossy(&o.stdout);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "cargo xtask qemu failed:\n{err}");
+    let last = out
+        .lines()
+        .last()
+        .unwrap_or_else(|| panic!("no output:\n{err}"));
+    serde_json::from_str(last).unwrap_or_else(|e| panic!("{e}: {last:?}"))
+}
+
+fn simulate(out: &Path, profile: &str, seed: &str) {
+    host_sim(&[
+        "simulate",
+        "battery",
+        "--preset",
+        "cell",
+        "--profile",
+        profile,
+        "--sigma",
+        "0.001",
+        "--length",
+        "1000",
+        "--seed",
+        seed,
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+}
+
+fn f(j: &serde_json::Value, k: &str) -> f64 {
+    j[k].as_f64().unwrap_or_else(|| panic!("key {k} in {j}"))
+}
+
+/// The stated tolerance of the firmware (f32, online) against host-sim
+/// (f64, batch): R_i, R_ct, Q within 1 %, α within 0.005, U_oc within 1 mV.
+fn assert_agree(fw: &serde_json::Value, host: &serde_json::Value) {
+    for k in ["r_i", "r_ct", "q"] {
+        let r = (f(fw, k) / f(host, k) - 1.0).abs();
+        assert!(r < 0.01, "{k}: firmware {fw} host {host}");
+    }
+    assert!(
+        (f(fw, "alpha") - f(host, "alpha")).abs() < 0.005,
+        "{fw} {host}"
+    );
+    assert!(
+        (f(fw, "u_oc") - f(host, "u_oc")).abs() < 1e-3,
+        "{fw} {host}"
+    );
+}
+
+/// Same file, same model (memory 64, OCV slope, from rest): the firmware's
+/// f32 sliding-window estimate after the last sample agrees with
+/// `host-sim identify battery` (f64, batch, iterated to convergence).
+/// The window (1024) holds the whole record, so both fit the same data.
+#[test]
+fn qemu_firmware_agrees_with_host_sim() {
+    let csv = tmp("agree.csv");
+    let json = tmp("agree.json");
+    simulate(&csv, "pulse", "11");
+    host_sim(&[
+        "identify",
+        "battery",
+        "--input",
+        csv.to_str().unwrap(),
+        "--refine-memory",
+        "64",
+        "--ocv-slope",
+        "--json",
+        json.to_str().unwrap(),
+    ]);
+    let host: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    assert!(host["converged"].as_bool().unwrap(), "{host}");
+    let fw = firmware(&csv, &["--window", "1024", "--memory", "64"]);
+    assert_eq!(fw["samples"].as_u64(), Some(1000), "{fw}");
+    assert_eq!(fw["rejected"].as_u64(), Some(0), "{fw}");
+    assert_agree(&fw, &host);
+}
+
+/// A record with bad samples: 2 NaN voltages, an empty current cell, an
+/// out-of-range current (900 A) and voltage (9 V), a voltage channel stuck
+/// for 16 rows while the current moves (flagged from the 4th identical
+/// reading: 13 rows), and one missing row (a dropped sample). The
+/// firmware runs to the end, pushes every period (1000), counts exactly the
+/// bad ones (2 + 1 + 2 + 13 + 1 = 19) and ends within the stated tolerance
+/// of the clean run. The window (1024) holds every bad sample at the end,
+/// so their substitutes (and the 3 stuck readings accepted before the run
+/// was recognisable) are all still in the fit.
+#[test]
+fn qemu_firmware_survives_bad_samples() {
+    let clean = tmp("drive.csv");
+    let bad = tmp("drive-bad.csv");
+    simulate(&clean, "drive", "5");
+    let text = std::fs::read_to_string(&clean).unwrap();
+    let mut rows: Vec<Vec<String>> = text
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').map(str::to_owned).collect())
+        .collect();
+    assert_eq!(rows.len(), 1000);
+    rows[300][2] = "NaN".into();
+    rows[301][2] = "nan".into();
+    rows[350][1] = String::new();
+    rows[400][1] = "900".into();
+    rows[450][2] = "9.0".into();
+    let stuck = rows[500][2].clone();
+    for r in &mut rows[501..516] {
+        r[2] = stuck.clone();
+    }
+    rows.remove(600);
+    let mut out = String::from("time_s,current_a,voltage_v\n");
+    for r in &rows {
+        out.push_str(&r.join(","));
+        out.push('\n');
+    }
+    std::fs::write(&bad, out).unwrap();
+    let base = firmware(&clean, &["--window", "1024"]);
+    let fw = firmware(&bad, &["--window", "1024"]);
+    assert_eq!(base["rejected"].as_u64(), Some(0), "{base}");
+    assert_eq!(fw["samples"].as_u64(), Some(1000), "{fw}");
+    assert_eq!(fw["rejected"].as_u64(), Some(19), "{fw}");
+    assert_agree(&fw, &base);
+}
+
+/// A panic and a HardFault inside the firmware end the QEMU run with a
+/// non-zero exit status (through semihosting) and one error line, instead
+/// of hanging until the timeout.
+#[test]
+fn qemu_firmware_faults_exit_non_zero() {
+    let input = root().join("firmware/data/cell-pulse.csv");
+    for (inject, says) in [("panic", "ERROR panic"), ("hardfault", "ERROR HardFault")] {
+        let _turn = QEMU.lock().unwrap_or_else(|p| p.into_inner());
+        let o = Command::new(env!("CARGO"))
+            .current_dir(root())
+            .args([
+                "xtask",
+                "qemu",
+                "--timeout",
+                "120",
+                "--inject",
+                inject,
+                "--input",
+            ])
+            .arg(&input)
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(1), "{inject}: {err}");
+        assert!(err.contains(says), "{inject}: {err}");
+        assert!(
+            err.lines()
+                .last()
+                .is_some_and(|l| l.starts_with("error: the firmware failed under QEMU")),
+            "{inject}: {err}"
+        );
+    }
+}

@@ -1,0 +1,259 @@
+//! `cargo xtask`: run the firmware under QEMU on any data file.
+//!
+//! * `cargo xtask qemu --input FILE.csv [--method paper|refined]
+//!   [--algorithm op|kt] [--window L] [--memory M] [--iterations K]` builds
+//!   the QEMU firmware for that `time_s,current_a,voltage_v` file, runs it
+//!   under `qemu-system-arm -machine mps2-an386` (inside `timeout`), decodes
+//!   its defmt log with `defmt-print` (to stderr) and prints the final
+//!   estimates as the last line of stdout, one JSON object with the keys
+//!   `r_i`, `r_ct`, `q`, `alpha`, `u_oc`, `samples`, `rejected`. The exit
+//!   status is non-zero when the firmware failed.
+//! * `cargo xtask run-elf ELF` runs a built image the same way (the
+//!   target's cargo runner).
+//!
+//! Errors are one line on stderr and exit status 1.
+
+use anyhow::{bail, Context, Result};
+use clap::{Parser, Subcommand, ValueEnum};
+use std::collections::BTreeMap;
+use std::io::{BufRead, BufReader};
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+
+#[derive(Parser)]
+#[command(about = "fracbms helper commands", version)]
+struct Cli {
+    #[command(subcommand)]
+    cmd: Cmd,
+}
+
+#[derive(Subcommand)]
+enum Cmd {
+    /// Build the QEMU firmware for a data file, run it, print its estimates
+    /// as one JSON line.
+    Qemu(QemuArgs),
+    /// Run a built firmware image under QEMU and decode its log.
+    RunElf {
+        /// The image.
+        elf: PathBuf,
+        /// Seconds before QEMU is stopped.
+        #[arg(long, default_value_t = 600)]
+        timeout: u32,
+    },
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum Method {
+    /// The paper's 2S-OP-GI alone.
+    Paper,
+    /// Output-error refinement started from 2S-OP-GI (most accurate).
+    Refined,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum Algorithm {
+    /// 2S-OP-GI.
+    Op,
+    /// KT-2S-GI (coincides with 2S-OP-GI for the battery regression).
+    Kt,
+}
+
+#[derive(clap::Args)]
+struct QemuArgs {
+    /// Record `time_s,current_a,voltage_v[,temperature_c]` (e.g. from
+    /// `host-sim simulate battery`); gaps in time are dropped samples,
+    /// empty cells NaN.
+    #[arg(long)]
+    input: PathBuf,
+    /// Identification method.
+    #[arg(long, value_enum, default_value = "refined")]
+    method: Method,
+    /// The paper's algorithm for the 2S-GI stage.
+    #[arg(long, value_enum, default_value = "op")]
+    algorithm: Algorithm,
+    /// Sliding-window length L (samples).
+    #[arg(long, default_value_t = 256)]
+    window: usize,
+    /// Grünwald–Letnikov memory M (samples).
+    #[arg(long, default_value_t = 64)]
+    memory: usize,
+    /// Iterations per sample.
+    #[arg(long, default_value_t = 1)]
+    iterations: u16,
+    /// Seconds before QEMU is stopped.
+    #[arg(long, default_value_t = 600)]
+    timeout: u32,
+    /// Inject a fault at start-up (to test that it fails the run).
+    #[arg(long, value_parser = ["none", "panic", "hardfault"], default_value = "none")]
+    inject: String,
+    /// Run QEMU with `-icount shift=0` (one instruction = 1 ns of virtual
+    /// time, so the firmware's timer counts instructions).
+    #[arg(long)]
+    icount: bool,
+}
+
+fn root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .expect("xtask lives in the workspace")
+        .to_path_buf()
+}
+
+fn target_dir() -> PathBuf {
+    std::env::var_os("CARGO_TARGET_DIR").map_or_else(|| root().join("target"), PathBuf::from)
+}
+
+/// Builds the QEMU image for `a`; returns its path.
+fn build(a: &QemuArgs) -> Result<PathBuf> {
+    let input = a
+        .input
+        .canonicalize()
+        .with_context(|| format!("{}: cannot open", a.input.display()))?;
+    let status = Command::new(std::env::var("CARGO").unwrap_or_else(|_| "cargo".into()))
+        .current_dir(root())
+        .args([
+            "build",
+            "--quiet",
+            "--release",
+            "-p",
+            "firmware",
+            "--target",
+            "thumbv7em-none-eabihf",
+        ])
+        .env("FRACBMS_REPLAY", &input)
+        .env("FRACBMS_WINDOW", a.window.to_string())
+        .env("FRACBMS_MEMORY", a.memory.to_string())
+        .env("FRACBMS_ITERATIONS", a.iterations.to_string())
+        .env("FRACBMS_INJECT", &a.inject)
+        .env(
+            "FRACBMS_METHOD",
+            match a.method {
+                Method::Paper => "paper",
+                Method::Refined => "refined",
+            },
+        )
+        .env(
+            "FRACBMS_ALGORITHM",
+            match a.algorithm {
+                Algorithm::Op => "op",
+                Algorithm::Kt => "kt",
+            },
+        )
+        .status()
+        .context("cannot run cargo")?;
+    if !status.success() {
+        bail!(
+            "the firmware build failed for {} (see above)",
+            input.display()
+        );
+    }
+    Ok(target_dir().join("thumbv7em-none-eabihf/release/firmware"))
+}
+
+/// What a firmware run printed: the `KEY a=b …` summary lines by key.
+type Summary = BTreeMap<String, BTreeMap<String, String>>;
+
+/// Runs `elf` under QEMU, echoes the decoded log to stderr, returns the
+/// summary lines; fails when QEMU fails or times out.
+fn run_elf(elf: &Path, timeout: u32, icount: bool) -> Result<Summary> {
+    if !elf.exists() {
+        bail!("{}: no such firmware image", elf.display());
+    }
+    let mut qemu = Command::new("timeout");
+    qemu.arg(timeout.to_string()).args([
+        "qemu-system-arm",
+        "-machine",
+        "mps2-an386",
+        "-cpu",
+        "cortex-m4",
+        "-nographic",
+        "-monitor",
+        "none",
+        "-serial",
+        "none",
+        "-semihosting-config",
+        "enable=on,target=native",
+    ]);
+    if icount {
+        qemu.args(["-icount", "shift=0"]);
+    }
+    let mut qemu = qemu
+        .arg("-kernel")
+        .arg(elf)
+        .stdout(Stdio::piped())
+        .spawn()
+        .context("cannot start qemu-system-arm (apt-get install qemu-system-arm)")?;
+    let frames = qemu.stdout.take().context("qemu stdout")?;
+    let mut print = Command::new("defmt-print")
+        .arg("-e")
+        .arg(elf)
+        .args(["--log-format", "{L} {s}"])
+        .stdin(Stdio::from(frames))
+        .stdout(Stdio::piped())
+        .spawn()
+        .context("cannot start defmt-print (cargo install defmt-print --locked)")?;
+    let mut summary = Summary::new();
+    for line in BufReader::new(print.stdout.take().context("defmt-print stdout")?).lines() {
+        let line = line.context("reading the decoded log")?;
+        eprintln!("{line}");
+        let mut words = line.split_whitespace();
+        // println! lines carry no level; "{L} " leaves a leading space.
+        if let Some(key) = words
+            .next()
+            .filter(|k| k.chars().all(|c| c.is_ascii_uppercase()))
+        {
+            let kv = words
+                .filter_map(|w| w.split_once('='))
+                .map(|(k, v)| (k.to_owned(), v.to_owned()))
+                .collect();
+            summary.insert(key.to_owned(), kv);
+        }
+    }
+    let st = qemu.wait().context("waiting for qemu")?;
+    let _ = print.wait();
+    match st.code() {
+        Some(0) => Ok(summary),
+        Some(124) => bail!("QEMU was stopped after {timeout} s (timeout)"),
+        Some(c) => bail!("the firmware failed under QEMU (exit status {c}; log above)"),
+        None => bail!("QEMU was killed by a signal"),
+    }
+}
+
+fn number(s: &Summary, line: &str, key: &str) -> Result<serde_json::Value> {
+    let v = s
+        .get(line)
+        .and_then(|m| m.get(key))
+        .with_context(|| format!("the firmware printed no {line} {key}="))?;
+    if let Ok(n) = v.parse::<u64>() {
+        return Ok(n.into());
+    }
+    let x: f64 = v
+        .parse()
+        .with_context(|| format!("{line} {key}={v}: not a number"))?;
+    Ok(serde_json::Number::from_f64(x)
+        .with_context(|| format!("{line} {key}={v}: not finite"))?
+        .into())
+}
+
+fn qemu(a: &QemuArgs) -> Result<()> {
+    let elf = build(a)?;
+    let s = run_elf(&elf, a.timeout, a.icount)?;
+    let mut out = serde_json::Map::new();
+    for key in ["r_i", "r_ct", "q", "alpha", "u_oc", "samples", "rejected"] {
+        out.insert(key.into(), number(&s, "RESULT", key)?);
+    }
+    println!("{}", serde_json::Value::Object(out));
+    Ok(())
+}
+
+fn main() {
+    let cli = Cli::parse();
+    let r = match &cli.cmd {
+        Cmd::Qemu(a) => qemu(a),
+        Cmd::RunElf { elf, timeout } => run_elf(elf, *timeout, false).map(|_| ()),
+    };
+    if let Err(e) = r {
+        eprintln!("error: {e:#}");
+        std::process::exit(1);
+    }
+}
