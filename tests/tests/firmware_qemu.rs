@@ -202,3 +202,22 @@ fn qemu_firmware_faults_exit_non_zero() {
         );
     }
 }
+
+/// A malformed record stops `cargo xtask qemu` before QEMU with one error
+/// line naming the file, row and column, and exit status 1.
+#[test]
+fn qemu_xtask_rejects_a_malformed_record() {
+    let bad = tmp("bad-cell.csv");
+    std::fs::write(&bad, "time_s,current_a,voltage_v\n0,1,3.7\n1,x,3.7\n").unwrap();
+    let _turn = QEMU.lock().unwrap_or_else(|p| p.into_inner());
+    let o = Command::new(env!("CARGO"))
+        .current_dir(root())
+        .args(["xtask", "qemu", "--input"])
+        .arg(&bad)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(err.contains("row 3, column current_a"), "{err}");
+}

@@ -109,7 +109,7 @@ fn build(a: &QemuArgs) -> Result<PathBuf> {
         .input
         .canonicalize()
         .with_context(|| format!("{}: cannot open", a.input.display()))?;
-    let status = Command::new(std::env::var("CARGO").unwrap_or_else(|_| "cargo".into()))
+    let build = Command::new(std::env::var("CARGO").unwrap_or_else(|_| "cargo".into()))
         .current_dir(root())
         .args([
             "build",
@@ -139,9 +139,21 @@ fn build(a: &QemuArgs) -> Result<PathBuf> {
                 Algorithm::Kt => "kt",
             },
         )
-        .status()
+        .stderr(Stdio::piped())
+        .output()
         .context("cannot run cargo")?;
-    if !status.success() {
+    if !build.status.success() {
+        let err = String::from_utf8_lossy(&build.stderr);
+        // build.rs reports a bad record or setting as one `error: …` line;
+        // give the user that line alone.
+        if let Some(line) = err
+            .lines()
+            .map(str::trim)
+            .find(|l| l.starts_with("error: ") && !l.starts_with("error: failed to run"))
+        {
+            bail!("{}", line.trim_start_matches("error: "));
+        }
+        eprint!("{err}");
         bail!(
             "the firmware build failed for {} (see above)",
             input.display()
