@@ -5,7 +5,7 @@
 //! build directory, so they take turns (a process-wide lock).
 
 use std::path::{Path, PathBuf};
-use std::process::Command;
+use std::process::{Command, Output};
 use std::sync::Mutex;
 
 static QEMU: Mutex<()> = Mutex::new(());
@@ -35,16 +35,22 @@ fn host_sim(args: &[&str]) {
     );
 }
 
+/// Runs `cargo xtask qemu --input FILE ARGS…` (taking its turn).
+fn xtask_qemu(input: &Path, args: &[&str]) -> Output {
+    let _turn = QEMU.lock().unwrap_or_else(|p| p.into_inner());
+    Command::new(env!("CARGO"))
+        .current_dir(root())
+        .args(["xtask", "qemu", "--input"])
+        .arg(input)
+        .args(args)
+        .output()
+        .unwrap()
+}
+
 /// Runs `cargo xtask qemu --input FILE ARGS…`; returns the last stdout line
 /// as JSON.
 fn firmware(input: &Path, args: &[&str]) -> serde_json::Value {
-    let _turn = QEMU.lock().unwrap_or_else(|p| p.into_inner());
-    let o = Command::new(env!("CARGO"))
-        .current_dir(root())
-        .args(["xtask", "qemu", "--input", input.to_str().unwrap()])
-        .args(args)
-        .output()
-        .unwrap();
+    let o = xtask_qemu(input, args);
     let out = String::from_utf8_lossy(&o.stdout);
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(o.status.success(), "cargo xtask qemu failed:\n{err}");
@@ -176,21 +182,7 @@ fn qemu_firmware_survives_bad_samples() {
 fn qemu_firmware_faults_exit_non_zero() {
     let input = root().join("firmware/data/cell-pulse.csv");
     for (inject, says) in [("panic", "ERROR panic"), ("hardfault", "ERROR HardFault")] {
-        let _turn = QEMU.lock().unwrap_or_else(|p| p.into_inner());
-        let o = Command::new(env!("CARGO"))
-            .current_dir(root())
-            .args([
-                "xtask",
-                "qemu",
-                "--timeout",
-                "120",
-                "--inject",
-                inject,
-                "--input",
-            ])
-            .arg(&input)
-            .output()
-            .unwrap();
+        let o = xtask_qemu(&input, &["--timeout", "120", "--inject", inject]);
         let err = String::from_utf8_lossy(&o.stderr);
         assert_eq!(o.status.code(), Some(1), "{inject}: {err}");
         assert!(err.contains(says), "{inject}: {err}");
@@ -209,13 +201,7 @@ fn qemu_firmware_faults_exit_non_zero() {
 fn qemu_xtask_rejects_a_malformed_record() {
     let bad = tmp("bad-cell.csv");
     std::fs::write(&bad, "time_s,current_a,voltage_v\n0,1,3.7\n1,x,3.7\n").unwrap();
-    let _turn = QEMU.lock().unwrap_or_else(|p| p.into_inner());
-    let o = Command::new(env!("CARGO"))
-        .current_dir(root())
-        .args(["xtask", "qemu", "--input"])
-        .arg(&bad)
-        .output()
-        .unwrap();
+    let o = xtask_qemu(&bad, &[]);
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(1), "{err}");
     assert_eq!(err.lines().count(), 1, "{err}");
