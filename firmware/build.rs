@@ -157,6 +157,16 @@ fn main() {
     ));
     println!("cargo:rerun-if-changed={}", replay_path.display());
     let (h, records) = replay(&replay_path);
+    println!("cargo:rerun-if-env-changed=FRACBMS_PERIOD_S");
+    let period = match env::var("FRACBMS_PERIOD_S") {
+        Err(_) => h,
+        Ok(s) => match s.parse::<f64>() {
+            Ok(p) if (1e-3..=3600.0).contains(&p) => p,
+            _ => fail(format!(
+                "FRACBMS_PERIOD_S={s}: must be a number of seconds in 0.001..=3600"
+            )),
+        },
+    };
 
     let mut cfg = String::new();
     let _ = writeln!(
@@ -180,6 +190,9 @@ fn main() {
          pub const INJECT: &str = \"{inject}\";\n\
          /// Sample period of the replay record (s).\n\
          pub const REPLAY_PERIOD_S: f32 = {h:?};\n\
+         /// Sample period of the estimator and of a live board's timer (s):\n\
+         /// `FRACBMS_PERIOD_S`, default the replay record's period.\n\
+         pub const SAMPLE_PERIOD_S: f32 = {period:?};\n\
          /// Sample periods in the replay record (dropped rows included).\n\
          pub const REPLAY_LEN: usize = {};\n",
         records.len()

@@ -33,6 +33,11 @@ cargo clippy --all-targets -- -D warnings
 echo "== no_std build: estimator-core for thumbv7em-none-eabihf"
 cargo build -p estimator-core --target thumbv7em-none-eabihf --release
 cargo clippy -p estimator-core --target thumbv7em-none-eabihf -- -D warnings
+echo "== firmware for the STM32L452 board (built, not run: no board here), with clippy"
+for f in board-stm32l452 stm32l452-bq769x0; do
+  cargo clippy -p firmware --target thumbv7em-none-eabihf --release --no-default-features --features "$f" -- -D warnings
+  cargo build -p firmware --target thumbv7em-none-eabihf --release --no-default-features --features "$f"
+done
 echo "== firmware for thumbv7em-none-eabihf (QEMU board), with clippy"
 cargo clippy -p firmware --target thumbv7em-none-eabihf --release -- -D warnings
 cargo build -p firmware --target thumbv7em-none-eabihf --release

@@ -8,12 +8,15 @@
 //!
 //! * [`sampler`]: [`sampler::CellSampler`] (one calibrated sample per
 //!   period), over a raw [`sampler::AdcChannel`] or a recorded stream.
+//! * [`bq769x0`]: a [`sampler::CellSampler`] over a TI bq769x0 cell monitor
+//!   on an embedded-hal 1.0 `I2c` bus.
 //! * [`task`]: [`task::EstimatorTask`], validation plus the core's
 //!   [`estimator_core::battery::online::CellEstimator`] in `f32`.
 //! * [`config`]: sizes and method chosen at build time (`FRACBMS_*`).
 #![cfg_attr(not(test), no_std)]
 #![deny(missing_docs)]
 
+pub mod bq769x0;
 pub mod sampler;
 pub mod task;
 
@@ -32,7 +35,7 @@ pub type ConfiguredTask = task::EstimatorTask<{ config::WINDOW }, { config::MEMO
 /// Task settings from the build-time configuration.
 pub fn configured_settings() -> task::TaskSettings {
     task::TaskSettings::new(
-        config::REPLAY_PERIOD_S,
+        config::SAMPLE_PERIOD_S,
         config::MEMORY,
         config::METHOD,
         config::ITERATIONS_PER_SAMPLE,
@@ -59,7 +62,7 @@ mod tests {
         let s = configured_settings();
         let mut task = Box::new(ConfiguredTask::new(&s).unwrap());
         let mut s64 = OnlineSettings::<f64>::new(
-            f64::from(config::REPLAY_PERIOD_S),
+            f64::from(config::SAMPLE_PERIOD_S),
             config::MEMORY,
             CellParameters::cell_18650(),
         );

@@ -62,7 +62,7 @@ fn main() -> ! {
         config::METHOD,
         config::ALGORITHM,
         config::ITERATIONS_PER_SAMPLE,
-        config::REPLAY_PERIOD_S
+        config::SAMPLE_PERIOD_S
     );
     let (mut period, mut overruns) = (0u32, 0u32);
     let mut cost = Cost::default();

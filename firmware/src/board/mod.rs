@@ -11,8 +11,19 @@ pub mod qemu;
 #[cfg(feature = "board-qemu")]
 pub use qemu::{init, Qemu as Board};
 
-#[cfg(not(feature = "board-qemu"))]
-compile_error!("choose a board feature: board-qemu (the default)");
+#[cfg(feature = "board-stm32l452")]
+pub mod stm32l452;
+#[cfg(feature = "board-stm32l452")]
+pub use stm32l452::{init, Stm32l452 as Board};
+
+#[cfg(not(any(feature = "board-qemu", feature = "board-stm32l452")))]
+compile_error!(
+    "choose a board feature: board-qemu (the default) or board-stm32l452 (with --no-default-features)"
+);
+#[cfg(all(feature = "board-qemu", feature = "board-stm32l452"))]
+compile_error!(
+    "board-qemu and board-stm32l452 exclude each other: build the STM32 board with --no-default-features --features board-stm32l452"
+);
 
 /// What the application needs from a board.
 pub trait BoardApi {
