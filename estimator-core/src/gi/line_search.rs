@@ -27,6 +27,9 @@ pub enum OrderStep {
     NoDecrease,
     /// The cost does not depend on α here (zero derivative); α kept.
     Flat,
+    /// The Gauss–Newton model predicts a decrease below the rounding error
+    /// of the cost, which no trial could verify; α kept without a trial.
+    BelowRounding,
     /// Order estimation is switched off; α kept.
     Fixed,
 }
