@@ -150,6 +150,11 @@ fn main() {
             "FRACBMS_INJECT={i}: must be none, panic or hardfault"
         )),
     };
+    let bench = match var("FRACBMS_BENCH", "0").as_str() {
+        "0" => false,
+        "1" => true,
+        b => fail(format!("FRACBMS_BENCH={b}: must be 0 or 1")),
+    };
     let default_replay = manifest.join("data/cell-pulse.csv");
     let replay_path = PathBuf::from(var(
         "FRACBMS_REPLAY",
@@ -188,6 +193,10 @@ fn main() {
          /// A fault injected at start-up to test the fault exits (`FRACBMS_INJECT`:\n\
          /// none, panic, hardfault).\n\
          pub const INJECT: &str = \"{inject}\";\n\
+         /// Cost measurement (`FRACBMS_BENCH=1`, `cargo xtask bench-target`): the\n\
+         /// end-of-run check asks only that every sample period was pushed, not\n\
+         /// for a physical estimate.\n\
+         pub const BENCH: bool = {bench};\n\
          /// Sample period of the replay record (s).\n\
          pub const REPLAY_PERIOD_S: f32 = {h:?};\n\
          /// Sample period of the estimator and of a live board's timer (s):\n\

@@ -52,6 +52,14 @@ pub fn key_term(o: Orders, l: usize, k: usize) -> FlopCount {
     table(na + nc + m + nb - 1, nb - 1, l as i64, k as i64)
 }
 
+/// The Table 1 count for `k` 2S-OP-GI iterations on the battery regression
+/// of §6.2: `n = 4` parameters θ in one linear stage over `rows` rows. Like
+/// the paper's tables it leaves out the fractional differences and the
+/// order search, which dominate the real cost (`docs/performance.md`).
+pub fn battery_regression(rows: usize, k: usize) -> FlopCount {
+    table(4, 0, rows as i64, k as i64)
+}
+
 /// The closed form `N₁` of Table 1.
 pub fn over_param_total(o: Orders, l: usize, k: usize) -> i64 {
     let (nb, m, l, k) = (o.nb as i64, o.m as i64, l as i64, k as i64);

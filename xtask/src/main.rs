@@ -10,6 +10,14 @@
 //!   status is non-zero when the firmware failed.
 //! * `cargo xtask run-elf ELF` runs a built image the same way (the
 //!   target's cargo runner).
+//! * `cargo xtask bench-target [--window L] [--memory M] [--iterations K]
+//!   [--method paper|refined] [--input FILE.csv]` measures the firmware's
+//!   cost under `qemu-system-arm -icount shift=0` (one instruction per ns
+//!   of virtual time; the 25 MHz SysTick then counts 40 instructions per
+//!   clock) and prints, as the last line, `{"window": L, "memory": M,
+//!   "iterations_per_update": K, "instructions_per_update": N,
+//!   "instructions_per_iteration": N}` (means over the updates that ran
+//!   iterations; details on stderr).
 //!
 //! Errors are one line on stderr and exit status 1.
 
@@ -32,6 +40,9 @@ enum Cmd {
     /// Build the QEMU firmware for a data file, run it, print its estimates
     /// as one JSON line.
     Qemu(QemuArgs),
+    /// Measure instructions per sample update and per iteration under QEMU
+    /// (`-icount shift=0`); the last line is one JSON object.
+    BenchTarget(BenchArgs),
     /// Run a built firmware image under QEMU and decode its log.
     RunElf {
         /// The image.
@@ -90,6 +101,33 @@ struct QemuArgs {
     /// time, so the firmware's timer counts instructions).
     #[arg(long)]
     icount: bool,
+    /// Build the cost-measurement image (no physical-estimate check).
+    #[arg(skip)]
+    bench: bool,
+}
+
+#[derive(clap::Args)]
+struct BenchArgs {
+    /// The record replayed (the cost depends little on the data, but the
+    /// order search does depend on it).
+    #[arg(long, default_value = "firmware/data/cell-pulse.csv")]
+    input: PathBuf,
+    /// Identification method: the paper's 2S-OP-GI (whose cost the goal is
+    /// about) or the output-error refinement.
+    #[arg(long, value_enum, default_value = "paper")]
+    method: Method,
+    /// Sliding-window length L (samples).
+    #[arg(long, default_value_t = 256)]
+    window: usize,
+    /// Grünwald–Letnikov memory M (samples).
+    #[arg(long, default_value_t = 64)]
+    memory: usize,
+    /// Iterations per sample update.
+    #[arg(long, default_value_t = 5)]
+    iterations: u16,
+    /// Seconds before QEMU is stopped.
+    #[arg(long, default_value_t = 1800)]
+    timeout: u32,
 }
 
 fn root() -> PathBuf {
@@ -125,6 +163,7 @@ fn build(a: &QemuArgs) -> Result<PathBuf> {
         .env("FRACBMS_MEMORY", a.memory.to_string())
         .env("FRACBMS_ITERATIONS", a.iterations.to_string())
         .env("FRACBMS_INJECT", &a.inject)
+        .env("FRACBMS_BENCH", if a.bench { "1" } else { "0" })
         .env(
             "FRACBMS_METHOD",
             match a.method {
@@ -258,10 +297,75 @@ fn qemu(a: &QemuArgs) -> Result<()> {
     Ok(())
 }
 
+fn int(s: &Summary, line: &str, key: &str) -> Result<u64> {
+    number(s, line, key)?
+        .as_u64()
+        .with_context(|| format!("{line} {key}: not an integer"))
+}
+
+fn bench_target(b: &BenchArgs) -> Result<()> {
+    let a = QemuArgs {
+        input: if b.input.is_absolute() {
+            b.input.clone()
+        } else {
+            root().join(&b.input)
+        },
+        method: b.method,
+        algorithm: Algorithm::Op,
+        window: b.window,
+        memory: b.memory,
+        iterations: b.iterations,
+        timeout: b.timeout,
+        inject: "none".into(),
+        icount: true,
+        bench: true,
+    };
+    let elf = build(&a)?;
+    let s = run_elf(&elf, a.timeout, true)?;
+    let updates = int(&s, "COST", "updates")?;
+    let iterations = int(&s, "COST", "iterations")?;
+    let clocks = int(&s, "COST", "clocks")?;
+    let max_clocks = int(&s, "COST", "max_clocks")?;
+    let hz = int(&s, "COST", "clock_hz")?;
+    if updates == 0 || iterations == 0 || hz == 0 {
+        bail!("no sample update ran an iteration (record shorter than the memory?)");
+    }
+    // -icount shift=0: one instruction per ns of virtual time.
+    let per_clock = 1e9 / hz as f64;
+    let per_update = clocks as f64 * per_clock / updates as f64;
+    let per_iteration = clocks as f64 * per_clock / iterations as f64;
+    let rows = b.window + 1 - b.memory;
+    let flops = estimator_core::flops::battery_regression(rows, 1).total();
+    eprintln!(
+        "bench-target: method {}, {updates} updates, {iterations} iterations; \
+         mean {per_update:.0} instructions per update, longest {:.0}; \
+         {per_iteration:.0} per iteration (push included) = {:.1} instructions per \
+         Table-1 flop ({flops} flops per 2S-OP-GI iteration over {rows} rows)",
+        match b.method {
+            Method::Paper => "paper (2S-OP-GI)",
+            Method::Refined => "refined (output error)",
+        },
+        max_clocks as f64 * per_clock,
+        per_iteration / flops as f64,
+    );
+    println!(
+        "{}",
+        serde_json::json!({
+            "window": b.window,
+            "memory": b.memory,
+            "iterations_per_update": b.iterations,
+            "instructions_per_update": per_update.round() as u64,
+            "instructions_per_iteration": per_iteration.round() as u64,
+        })
+    );
+    Ok(())
+}
+
 fn main() {
     let cli = Cli::parse();
     let r = match &cli.cmd {
         Cmd::Qemu(a) => qemu(a),
+        Cmd::BenchTarget(b) => bench_target(b),
         Cmd::RunElf { elf, timeout } => run_elf(elf, *timeout, false).map(|_| ()),
     };
     if let Err(e) = r {
