@@ -169,8 +169,8 @@ criterion_group! {
     name = benches;
     config = Criterion::default()
         .sample_size(10)
-        .warm_up_time(Duration::from_millis(500))
-        .measurement_time(Duration::from_secs(2));
+        .warm_up_time(Duration::from_millis(300))
+        .measurement_time(Duration::from_secs(1));
     targets = updates, f64_256, f64_1000, f64_4000, f32_256, f32_1000, f32_4000
 }
 criterion_main!(benches);

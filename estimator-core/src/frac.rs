@@ -189,6 +189,7 @@ impl<T: Real, const MEM: usize> GlWeights<T, MEM> {
 /// the additions do not wait on each other (about 4× faster on a host
 /// core; the Cortex-M4F gains from the shorter dependency chain too).
 #[inline]
+#[cfg(not(target_arch = "arm"))]
 pub(crate) fn dot_rev<T: Real>(w: &[T], x: &[T]) -> T {
     let n = w.len().min(x.len());
     let (w, x) = (&w[..n], &x[x.len() - n..]);
@@ -208,8 +209,31 @@ pub(crate) fn dot_rev<T: Real>(w: &[T], x: &[T]) -> T {
     (s[0] + s[1]) + (s[2] + s[3])
 }
 
+/// [`dot_rev`] on Arm: one running sum, measured cheaper on the
+/// Cortex-M4F (`docs/performance.md`).
+#[inline]
+#[cfg(target_arch = "arm")]
+pub(crate) fn dot_rev<T: Real>(w: &[T], x: &[T]) -> T {
+    w.iter()
+        .zip(x.iter().rev())
+        .fold(T::zero(), |s, (&w, &x)| s + w * x)
+}
+
 /// [`dot_rev`] of two weight sets against the same samples at once.
 #[inline]
+#[cfg(target_arch = "arm")]
+pub(crate) fn dot_rev2<T: Real>(w: &[T], dw: &[T], x: &[T]) -> (T, T) {
+    w.iter()
+        .zip(dw)
+        .zip(x.iter().rev())
+        .fold((T::zero(), T::zero()), |(s, d), ((&w, &dw), &x)| {
+            (s + w * x, d + dw * x)
+        })
+}
+
+/// [`dot_rev`] of two weight sets against the same samples at once.
+#[inline]
+#[cfg(not(target_arch = "arm"))]
 pub(crate) fn dot_rev2<T: Real>(w: &[T], dw: &[T], x: &[T]) -> (T, T) {
     let n = w.len().min(dw.len()).min(x.len());
     let (w, dw, x) = (&w[..n], &dw[..n], &x[x.len() - n..]);
