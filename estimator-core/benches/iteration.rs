@@ -12,7 +12,7 @@
 //! timed on a state that has already iterated (the window's differences
 //! loaded), so the numbers are the steady per-iteration cost.
 //!
-//! `cargo bench -p estimator-core --bench iteration` (about 10 minutes);
+//! `cargo bench -p estimator-core --bench iteration` (about 15 minutes);
 //! `-- 'op_gi/f64'` for a subset. `docs/performance.md` has the results.
 
 #[path = "../tests/common/mod.rs"]
@@ -73,10 +73,6 @@ fn window<T: Real, const N: usize>(u: &[f64], y: &[f64]) -> Box<SampleWindow<T, 
     w
 }
 
-fn config(c: &mut Criterion) -> &mut Criterion {
-    c
-}
-
 macro_rules! sizes {
     ($name:ident, $t:ty, $tn:literal, $l:literal) => {
         fn $name(c: &mut Criterion) {
@@ -87,7 +83,7 @@ macro_rules! sizes {
             let bw = window::<$t, L>(&i, &v);
             for m in memories(L) {
                 let s = GiSettings::<$t>::new(Orders::PAPER, m);
-                let mut g = config(c).benchmark_group(format!("op_gi/{}", $tn));
+                let mut g = c.benchmark_group(format!("op_gi/{}", $tn));
                 let mut op =
                     Box::new(OverParamGi::<$t, L, L, 2, 3, 2, 2, 6>::new(&s, 0.5).unwrap());
                 let _ = op.iterate(&s, &Polynomial, &hw);
@@ -95,7 +91,7 @@ macro_rules! sizes {
                     b.iter(|| black_box(op.iterate(&s, &Polynomial, &hw)))
                 });
                 g.finish();
-                let mut g = config(c).benchmark_group(format!("kt_gi/{}", $tn));
+                let mut g = c.benchmark_group(format!("kt_gi/{}", $tn));
                 let mut kt = Box::new(KeyTermGi::<$t, L, L, 2, 3, 2, 2, 6>::new(&s, 0.5).unwrap());
                 let _ = kt.iterate(&s, &Polynomial, &hw);
                 g.bench_with_input(BenchmarkId::new(format!("L{L}"), m), &m, |b, _| {
@@ -103,7 +99,7 @@ macro_rules! sizes {
                 });
                 g.finish();
                 let bs = BatterySettings::<$t>::new(1.0, m);
-                let mut g = config(c).benchmark_group(format!("battery_paper/{}", $tn));
+                let mut g = c.benchmark_group(format!("battery_paper/{}", $tn));
                 let mut gi = Box::new(PaperRegressionGi::<$t, L, L>::new(&bs, 0.5).unwrap());
                 let _ = gi.iterate(&bs, &bw);
                 g.bench_with_input(BenchmarkId::new(format!("L{L}"), m), &m, |b, _| {
@@ -113,7 +109,7 @@ macro_rules! sizes {
                 let mut bs = bs;
                 bs.start = Start::FromData;
                 let start = CellParameters::<$t>::cell_18650();
-                let mut g = config(c).benchmark_group(format!("battery_refined/{}", $tn));
+                let mut g = c.benchmark_group(format!("battery_refined/{}", $tn));
                 let mut oe = Box::new(OutputErrorRefinement::<$t, L, L>::new(&bs, start).unwrap());
                 let _ = oe.iterate(&bs, &bw);
                 g.bench_with_input(BenchmarkId::new(format!("L{L}"), m), &m, |b, _| {
