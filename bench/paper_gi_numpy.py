@@ -108,13 +108,18 @@ class PaperGi:
         dd = float(d @ d)
         dr = float(d @ self.res)
         rows = len(ir)
-        predicted = dr * dr / (2.0 * dd) if dd > 0 else 0.0
-        if dd > 0 and math.isfinite(dr) and dr != 0 and predicted > EPS * cost * math.sqrt(rows):
+        # No trial whose Gauss-Newton predicted decrease dr*δ - dd*δ²/2 is
+        # below the cost's rounding (eps*cost*sqrt(rows)).
+        noise = EPS * cost * math.sqrt(rows)
+        if dd > 0 and math.isfinite(dr) and dr != 0:
             step = max(-MAX_ORDER_STEP, min(MAX_ORDER_STEP, dr / dd))
             t = 1.0
             for _ in range(MAX_HALVINGS + 1):
                 trial = max(ALPHA_MIN, min(ALPHA_MAX, alpha0 + t * step))
                 if trial == alpha0:
+                    break
+                delta = trial - alpha0
+                if not dr * delta - dd * delta * delta / 2.0 > noise:
                     break
                 c = self.trial_cost(trial)
                 if math.isfinite(c) and c < cost:

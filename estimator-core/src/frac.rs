@@ -21,6 +21,7 @@
 
 use crate::error::FracError;
 use crate::real::Real;
+use core::ops::Range;
 
 /// Grünwald–Letnikov weights `w_j(α)` and `∂w_j/∂α` for `j < len ≤ MEM`,
 /// together with the scale `h^(−α)`.
@@ -165,54 +166,125 @@ impl<T: Real, const MEM: usize> GlWeights<T, MEM> {
         (d, self.scale * ds - self.ln_h * d)
     }
 
+    /// Calls `f(l, Δ^α x(l))` for every `l` in `rows` (up to `x.len()`),
+    /// in increasing `l`. The same values as [`GlWeights::difference`]
+    /// row by row, bit for bit, at about half the loads: rows with the full
+    /// memory are summed four at a time, sharing each weight and sample.
+    pub fn for_each_difference(&self, x: &[T], rows: Range<usize>, mut f: impl FnMut(usize, T)) {
+        let m = self.len;
+        let end = rows.end.min(x.len());
+        let mut l = rows.start;
+        while l < end && l + 1 < m {
+            f(l, self.difference(x, l));
+            l += 1;
+        }
+        while l + BLOCK <= end {
+            let s = block_sums(&self.w[..m], &x[l + 1 - m..l + BLOCK]);
+            for (b, sb) in s.into_iter().enumerate() {
+                f(l + b, self.scale * sb);
+            }
+            l += BLOCK;
+        }
+        while l < end {
+            f(l, self.difference(x, l));
+            l += 1;
+        }
+    }
+
+    /// Calls `f(l, Δ^α x(l), ∂(Δ^α x(l))/∂α)` for every `l` in `rows` (up
+    /// to `x.len()`), in increasing `l`: [`GlWeights::difference_with_derivative`]
+    /// row by row, bit for bit, in blocks as [`GlWeights::for_each_difference`].
+    pub fn for_each_difference_with_derivative(
+        &self,
+        x: &[T],
+        rows: Range<usize>,
+        mut f: impl FnMut(usize, T, T),
+    ) {
+        let m = self.len;
+        let end = rows.end.min(x.len());
+        let mut l = rows.start;
+        while l < end && l + 1 < m {
+            let (d, dd) = self.difference_with_derivative(x, l);
+            f(l, d, dd);
+            l += 1;
+        }
+        while l + BLOCK <= end {
+            let (s, ds) = block_sums2(&self.w[..m], &self.dw[..m], &x[l + 1 - m..l + BLOCK]);
+            for b in 0..BLOCK {
+                let d = self.scale * s[b];
+                f(l + b, d, self.scale * ds[b] - self.ln_h * d);
+            }
+            l += BLOCK;
+        }
+        while l < end {
+            let (d, dd) = self.difference_with_derivative(x, l);
+            f(l, d, dd);
+            l += 1;
+        }
+    }
+
+    /// Calls `f(l, Δ^α x(l), Δ^α y(l))` for every `l` in `rows` (up to the
+    /// shorter of `x` and `y`): two sequences at once, each weight loaded
+    /// once for both. Bit for bit [`GlWeights::difference`] of each.
+    pub fn for_each_difference_pair(
+        &self,
+        x: &[T],
+        y: &[T],
+        rows: Range<usize>,
+        mut f: impl FnMut(usize, T, T),
+    ) {
+        let s = self.scale;
+        pair_sums(&self.w[..self.len], x, y, rows, |l, a, b| {
+            f(l, s * a, s * b)
+        });
+    }
+
+    /// Calls `f(l, D x(l), D y(l))` for every `l` in `rows` (up to the
+    /// shorter of `x` and `y`), where `D x(l) = h^(−α)·Σ_j (∂w_j/∂α)·x(l−j)`
+    /// is the weight part of the order derivative:
+    /// `∂(Δ^α x(l))/∂α = D x(l) − ln h · Δ^α x(l)`. Bit for bit the
+    /// derivative of [`GlWeights::difference_with_derivative`] once the
+    /// `ln h` term is subtracted the same way.
+    pub fn for_each_weight_derivative_pair(
+        &self,
+        x: &[T],
+        y: &[T],
+        rows: Range<usize>,
+        mut f: impl FnMut(usize, T, T),
+    ) {
+        let s = self.scale;
+        pair_sums(&self.dw[..self.len], x, y, rows, |l, a, b| {
+            f(l, s * a, s * b)
+        });
+    }
+
+    /// `ln h`, the factor of the order derivative's second term.
+    pub fn ln_h(&self) -> T {
+        self.ln_h
+    }
+
     /// Writes `Δ^α x(l)` for every `l < min(x.len(), out.len())` into `out`.
     pub fn apply(&self, x: &[T], out: &mut [T]) {
-        for (l, o) in out.iter_mut().enumerate().take(x.len()) {
-            *o = self.difference(x, l);
-        }
+        let n = x.len().min(out.len());
+        self.for_each_difference(x, 0..n, |l, d| out[l] = d);
     }
 
     /// Writes `Δ^α x(l)` into `out` and `∂(Δ^α x(l))/∂α` into `dout` for
     /// every `l` covered by all three slices.
     pub fn apply_with_derivative(&self, x: &[T], out: &mut [T], dout: &mut [T]) {
         let n = x.len().min(out.len()).min(dout.len());
-        for l in 0..n {
-            let (d, dd) = self.difference_with_derivative(x, l);
+        self.for_each_difference_with_derivative(x, 0..n, |l, d, dd| {
             out[l] = d;
             dout[l] = dd;
-        }
+        });
     }
 }
 
 /// `Σ_k w[k]·x[n−1−k]` over the common length `n` (a convolution tap sum
-/// with the newest sample last), in four interleaved partial sums so that
-/// the additions do not wait on each other (about 4× faster on a host
-/// core; the Cortex-M4F gains from the shorter dependency chain too).
+/// with the newest sample last), one running sum in tap order. The block
+/// kernels below add in the same order, so a row's value does not depend on
+/// whether it was computed alone or in a block.
 #[inline]
-#[cfg(not(target_arch = "arm"))]
-pub(crate) fn dot_rev<T: Real>(w: &[T], x: &[T]) -> T {
-    let n = w.len().min(x.len());
-    let (w, x) = (&w[..n], &x[x.len() - n..]);
-    let mut s = [T::zero(); 4];
-    let wc = w.chunks_exact(4);
-    let xc = x.rchunks_exact(4);
-    let (wr, xr) = (wc.remainder(), xc.remainder());
-    for (wq, xq) in wc.zip(xc) {
-        s[0] = s[0] + wq[0] * xq[3];
-        s[1] = s[1] + wq[1] * xq[2];
-        s[2] = s[2] + wq[2] * xq[1];
-        s[3] = s[3] + wq[3] * xq[0];
-    }
-    for (&a, &b) in wr.iter().zip(xr.iter().rev()) {
-        s[0] = s[0] + a * b;
-    }
-    (s[0] + s[1]) + (s[2] + s[3])
-}
-
-/// [`dot_rev`] on Arm: one running sum, measured cheaper on the
-/// Cortex-M4F (`docs/performance.md`).
-#[inline]
-#[cfg(target_arch = "arm")]
 pub(crate) fn dot_rev<T: Real>(w: &[T], x: &[T]) -> T {
     w.iter()
         .zip(x.iter().rev())
@@ -221,7 +293,6 @@ pub(crate) fn dot_rev<T: Real>(w: &[T], x: &[T]) -> T {
 
 /// [`dot_rev`] of two weight sets against the same samples at once.
 #[inline]
-#[cfg(target_arch = "arm")]
 pub(crate) fn dot_rev2<T: Real>(w: &[T], dw: &[T], x: &[T]) -> (T, T) {
     w.iter()
         .zip(dw)
@@ -231,36 +302,200 @@ pub(crate) fn dot_rev2<T: Real>(w: &[T], dw: &[T], x: &[T]) -> (T, T) {
         })
 }
 
-/// [`dot_rev`] of two weight sets against the same samples at once.
+/// Rows of a block kernel.
+pub(crate) const BLOCK: usize = 4;
+
+/// The tap sums of [`BLOCK`] consecutive rows with `m = w.len()` taps each:
+/// `xs` holds the `m − 1` samples before the first row and then the rows'
+/// own samples (`m + 3` in all), and row `b` gets
+/// `Σ_j w[j]·xs[m − 1 + b − j]`.
+///
+/// Each tap loads its weight once for the four rows, and each sample is
+/// loaded once and then shifted from row to row in registers: about half
+/// the loads of four [`dot_rev`] calls (measured in `docs/performance.md`).
+/// Every row still adds its taps in order `j = 0, 1, …`, so the sums are
+/// bit-identical to [`dot_rev`].
 #[inline]
+fn block_sums<T: Real>(w: &[T], xs: &[T]) -> [T; BLOCK] {
+    let m = w.len();
+    let xs = &xs[..m + BLOCK - 1];
+    let (mut x1, mut x2, mut x3) = (xs[m], xs[m + 1], xs[m + 2]);
+    let mut s = [T::zero(); BLOCK];
+    for (&wj, &x0) in w.iter().zip(xs[..m].iter().rev()) {
+        s[0] = s[0] + wj * x0;
+        s[1] = s[1] + wj * x1;
+        s[2] = s[2] + wj * x2;
+        s[3] = s[3] + wj * x3;
+        x3 = x2;
+        x2 = x1;
+        x1 = x0;
+    }
+    s
+}
+
+/// Tap sums of one weight set `w` (`m` taps) against two sequences, row by
+/// row over `rows` (up to the shorter sequence): `f(l, Σ w_j x(l−j),
+/// Σ w_j y(l−j))`, fewer taps before row `m − 1`, in blocks after it.
+#[inline]
+fn pair_sums<T: Real>(
+    w: &[T],
+    x: &[T],
+    y: &[T],
+    rows: Range<usize>,
+    mut f: impl FnMut(usize, T, T),
+) {
+    let m = w.len();
+    let end = rows.end.min(x.len()).min(y.len());
+    let mut l = rows.start;
+    let one = |l: usize| {
+        let taps = (l + 1).min(m);
+        let lo = l + 1 - taps;
+        (
+            dot_rev(&w[..taps], &x[lo..=l]),
+            dot_rev(&w[..taps], &y[lo..=l]),
+        )
+    };
+    while l < end && l + 1 < m {
+        let (a, b) = one(l);
+        f(l, a, b);
+        l += 1;
+    }
+    while l + PAIR_BLOCK <= end {
+        let (xs, ys) = (&x[l + 1 - m..l + PAIR_BLOCK], &y[l + 1 - m..l + PAIR_BLOCK]);
+        #[cfg(target_arch = "arm")]
+        let (a, b) = block_sums_pair(w, xs, ys);
+        #[cfg(not(target_arch = "arm"))]
+        let (a, b) = block_sums_pair_lanes::<T, PAIR_BLOCK>(w, xs, ys);
+        for k in 0..PAIR_BLOCK {
+            f(l + k, a[k], b[k]);
+        }
+        l += PAIR_BLOCK;
+    }
+    while l < end {
+        let (a, b) = one(l);
+        f(l, a, b);
+        l += 1;
+    }
+}
+
+/// One tap of a block: `s[b] += w·x[b]`.
+#[inline(always)]
+fn tap<T: Real>(s: &mut [T; BLOCK], w: T, x: [T; BLOCK]) {
+    for b in 0..BLOCK {
+        s[b] = s[b] + w * x[b];
+    }
+}
+
+/// Rows of a block of [`pair_sums`]: 4 on Arm ([`block_sums_pair`]), 8 on
+/// hosts with vector units ([`block_sums_pair_lanes`]).
+#[cfg(target_arch = "arm")]
+const PAIR_BLOCK: usize = BLOCK;
+/// Rows of a block of [`pair_sums`]: 4 on Arm ([`block_sums_pair`]), 8 on
+/// hosts with vector units ([`block_sums_pair_lanes`]).
 #[cfg(not(target_arch = "arm"))]
-pub(crate) fn dot_rev2<T: Real>(w: &[T], dw: &[T], x: &[T]) -> (T, T) {
-    let n = w.len().min(dw.len()).min(x.len());
-    let (w, dw, x) = (&w[..n], &dw[..n], &x[x.len() - n..]);
-    let (mut s, mut d) = ([T::zero(); 4], [T::zero(); 4]);
+const PAIR_BLOCK: usize = 8;
+
+/// [`block_sums`] of one weight set against two sequences at once, for
+/// cores without vector units (the Cortex-M4F).
+///
+/// Four taps at a time, written out so that the samples stay in registers
+/// without moves (the compiler does not unroll the rotating loop of two
+/// sequences by itself: measured 21 instead of 11 instructions a tap on the
+/// Cortex-M4F).
+#[inline]
+#[cfg_attr(not(target_arch = "arm"), allow(dead_code))]
+fn block_sums_pair<T: Real>(w: &[T], xs: &[T], ys: &[T]) -> ([T; BLOCK], [T; BLOCK]) {
+    let m = w.len();
+    let (xs, ys) = (&xs[..m + BLOCK - 1], &ys[..m + BLOCK - 1]);
+    // x[1..4]: the samples of rows 1..3 at the current tap.
+    let mut xr = [xs[m], xs[m + 1], xs[m + 2]];
+    let mut yr = [ys[m], ys[m + 1], ys[m + 2]];
+    let mut s = [T::zero(); BLOCK];
+    let mut d = [T::zero(); BLOCK];
     let wc = w.chunks_exact(4);
-    let dc = dw.chunks_exact(4);
-    let xc = x.rchunks_exact(4);
-    let (wr, dr, xr) = (wc.remainder(), dc.remainder(), xc.remainder());
-    for ((wq, dq), xq) in wc.zip(dc).zip(xc) {
-        for k in 0..4 {
-            s[k] = s[k] + wq[k] * xq[3 - k];
-            d[k] = d[k] + dq[k] * xq[3 - k];
+    let wr = wc.remainder();
+    let xc = xs[..m].rchunks_exact(4);
+    let xt = xc.remainder();
+    let yc = ys[..m].rchunks_exact(4);
+    let yt = yc.remainder();
+    for ((wq, xq), yq) in wc.zip(xc).zip(yc) {
+        // xq = [x(l−j−3), x(l−j−2), x(l−j−1), x(l−j)] for row 0 at taps j..j+3.
+        let [a, b, c] = xr;
+        let [p, q, r] = yr;
+        tap(&mut s, wq[0], [xq[3], a, b, c]);
+        tap(&mut d, wq[0], [yq[3], p, q, r]);
+        tap(&mut s, wq[1], [xq[2], xq[3], a, b]);
+        tap(&mut d, wq[1], [yq[2], yq[3], p, q]);
+        tap(&mut s, wq[2], [xq[1], xq[2], xq[3], a]);
+        tap(&mut d, wq[2], [yq[1], yq[2], yq[3], p]);
+        tap(&mut s, wq[3], [xq[0], xq[1], xq[2], xq[3]]);
+        tap(&mut d, wq[3], [yq[0], yq[1], yq[2], yq[3]]);
+        xr = [xq[0], xq[1], xq[2]];
+        yr = [yq[0], yq[1], yq[2]];
+    }
+    for ((&wj, &x0), &y0) in wr.iter().zip(xt.iter().rev()).zip(yt.iter().rev()) {
+        let [a, b, c] = xr;
+        let [p, q, r] = yr;
+        tap(&mut s, wj, [x0, a, b, c]);
+        tap(&mut d, wj, [y0, p, q, r]);
+        xr = [x0, a, b];
+        yr = [y0, p, q];
+    }
+    (s, d)
+}
+
+/// The host version of [`block_sums_pair`] for `K` rows: at tap `j` the
+/// samples of the `K` rows are `K` consecutive samples, so each tap is a
+/// few vector loads and multiply-adds (SSE2 on any x86-64). Each row still
+/// adds its taps in order, so the sums are bit-identical to [`dot_rev`].
+#[inline]
+#[cfg_attr(target_arch = "arm", allow(dead_code))]
+fn block_sums_pair_lanes<T: Real, const K: usize>(w: &[T], xs: &[T], ys: &[T]) -> ([T; K], [T; K]) {
+    let m = w.len();
+    let (xs, ys) = (&xs[..m + K - 1], &ys[..m + K - 1]);
+    let mut s = [T::zero(); K];
+    let mut d = [T::zero(); K];
+    for ((&wj, xv), yv) in w.iter().zip(xs.windows(K).rev()).zip(ys.windows(K).rev()) {
+        for k in 0..K {
+            s[k] = s[k] + wj * xv[k];
+            d[k] = d[k] + wj * yv[k];
         }
     }
-    for ((&a, &da), &b) in wr.iter().zip(dr).zip(xr.iter().rev()) {
-        s[0] = s[0] + a * b;
-        d[0] = d[0] + da * b;
+    (s, d)
+}
+
+/// [`block_sums`] of two weight sets against the same samples at once.
+#[inline]
+fn block_sums2<T: Real>(w: &[T], dw: &[T], xs: &[T]) -> ([T; BLOCK], [T; BLOCK]) {
+    let m = w.len();
+    let (dw, xs) = (&dw[..m], &xs[..m + BLOCK - 1]);
+    let (mut x1, mut x2, mut x3) = (xs[m], xs[m + 1], xs[m + 2]);
+    let mut s = [T::zero(); BLOCK];
+    let mut d = [T::zero(); BLOCK];
+    for ((&wj, &dwj), &x0) in w.iter().zip(dw).zip(xs[..m].iter().rev()) {
+        s[0] = s[0] + wj * x0;
+        d[0] = d[0] + dwj * x0;
+        s[1] = s[1] + wj * x1;
+        d[1] = d[1] + dwj * x1;
+        s[2] = s[2] + wj * x2;
+        d[2] = d[2] + dwj * x2;
+        s[3] = s[3] + wj * x3;
+        d[3] = d[3] + dwj * x3;
+        x3 = x2;
+        x2 = x1;
+        x1 = x0;
     }
-    ((s[0] + s[1]) + (s[2] + s[3]), (d[0] + d[1]) + (d[2] + d[3]))
+    (s, d)
 }
 
 #[cfg(test)]
 mod dot_tests {
-    use super::{dot_rev, dot_rev2};
+    use super::{
+        block_sums, block_sums2, block_sums_pair, block_sums_pair_lanes, dot_rev, dot_rev2, BLOCK,
+    };
 
     #[test]
-    fn interleaved_sums_equal_the_plain_tap_sum() {
+    fn tap_sums_equal_the_plain_sum() {
         for n in 0..14 {
             let w: Vec<f64> = (0..n).map(|k| 1.0 / (k as f64 + 1.5)).collect();
             let dw: Vec<f64> = (0..n).map(|k| (k as f64).sin()).collect();
@@ -273,6 +508,44 @@ mod dot_tests {
                 (a - plain(&w)).abs() < 1e-14 && (b - plain(&dw)).abs() < 1e-14,
                 "n = {n}"
             );
+        }
+    }
+
+    #[test]
+    fn block_sums_are_bit_identical_to_one_row_at_a_time() {
+        for m in 1..20 {
+            let w: Vec<f64> = (0..m).map(|k| 1.0 / (k as f64 + 1.5)).collect();
+            let dw: Vec<f64> = (0..m).map(|k| (k as f64 * 1.3).sin()).collect();
+            let xs: Vec<f64> = (0..m + 7)
+                .map(|k| (k as f64 * 0.7).cos() * 1e3 + 0.1)
+                .collect();
+            let ys: Vec<f64> = xs.iter().map(|x| x.sin() - 0.3).collect();
+            let s = block_sums(&w, &xs);
+            let (s2, d2) = block_sums2(&w, &dw, &xs);
+            for b in 0..BLOCK {
+                let row = &xs[..m + b];
+                assert_eq!(s[b].to_bits(), dot_rev(&w, row).to_bits(), "m {m} row {b}");
+                let (a, d) = dot_rev2(&w, &dw, row);
+                assert_eq!(s2[b].to_bits(), a.to_bits(), "m {m} row {b}");
+                assert_eq!(d2[b].to_bits(), d.to_bits(), "m {m} row {b}");
+                let (p, q) = block_sums_pair(&w, &xs, &ys);
+                assert_eq!(p[b].to_bits(), dot_rev(&w, row).to_bits(), "m {m} row {b}");
+                assert_eq!(
+                    q[b].to_bits(),
+                    dot_rev(&w, &ys[..m + b]).to_bits(),
+                    "m {m} row {b}"
+                );
+            }
+            let (p, q) = block_sums_pair_lanes::<f64, 8>(&w, &xs, &ys);
+            for b in 0..8 {
+                let row = &xs[..m + b];
+                assert_eq!(p[b].to_bits(), dot_rev(&w, row).to_bits(), "m {m} row {b}");
+                assert_eq!(
+                    q[b].to_bits(),
+                    dot_rev(&w, &ys[..m + b]).to_bits(),
+                    "m {m} row {b}"
+                );
+            }
         }
     }
 }

@@ -406,3 +406,38 @@ fn paper_method_runs_online_and_bad_settings_are_typed_errors() {
     bad.battery.alpha_max = 2.5;
     assert!(CellEstimator::<f64, 128, 32>::new(&bad).is_err());
 }
+
+/// The paper method in `f32` follows the `f64` one on the same window: the
+/// regression is evaluated on centred voltages (`battery::regression`
+/// module docs), so the `f32` residuals keep their digits and the order
+/// steps `f64` takes stay verifiable in `f32`.
+#[test]
+fn f32_paper_method_follows_f64() {
+    let truth = CellParameters::<f64>::cell_18650();
+    let i = profile(Profile::Pulse, 6.0, 256);
+    let v = record(&truth, &i, |_| truth.u_oc, 256, 1e-4, 1);
+    let s64 = BatterySettings::<f64>::new(1.0, 64);
+    let s32 = BatterySettings::<f32>::new(1.0, 64);
+    let mut w64 = SampleWindow::<f64, 256>::new();
+    let mut w32 = SampleWindow::<f32, 256>::new();
+    for (&a, &b) in i.iter().zip(&v) {
+        w64.push(a, b).unwrap();
+        w32.push(a as f32, b as f32).unwrap();
+    }
+    let mut g64 = PaperRegressionGi::<f64, 256, 64>::new(&s64, 0.5).unwrap();
+    let mut g32 = PaperRegressionGi::<f32, 256, 64>::new(&s32, 0.5).unwrap();
+    for _ in 0..400 {
+        g64.iterate(&s64, &w64).unwrap();
+        g32.iterate(&s32, &w32).unwrap();
+    }
+    let d_alpha = (g64.alpha() - g32.alpha() as f64).abs();
+    let (a, b) = (g64.cell().unwrap(), g32.cell().unwrap().cast::<f64>());
+    eprintln!(
+        "after 400 iterations: |Δα| = {d_alpha:.2e}, R_ct {:.3e} relative, α64 = {:.5}",
+        rel(b.r_ct, a.r_ct),
+        a.alpha
+    );
+    assert!(d_alpha < 1e-4, "α: f64 {} f32 {}", g64.alpha(), g32.alpha());
+    assert!(rel(b.r_i, a.r_i) < 1e-4, "{a:?} {b:?}");
+    assert!(rel(b.r_ct, a.r_ct) < 1e-3, "{a:?} {b:?}");
+}

@@ -301,13 +301,25 @@ fn factor_recovers_b_and_gamma() {
 
 #[test]
 fn footprint_of_an_f32_estimator() {
-    // Reported in docs/footprint.md; the bound guards against accidental growth.
+    // Reported in docs/footprint.md and docs/performance.md; the bounds guard
+    // against accidental growth.
     let op = core::mem::size_of::<PaperOverParamGi<f32, 256, 64>>();
     let kt = core::mem::size_of::<estimator_core::gi::key_term::PaperKeyTermGi<f32, 256, 64>>();
     let win = core::mem::size_of::<SampleWindow<f32, 256>>();
     println!("size_of: 2S-OP-GI {op} B, KT-2S-GI {kt} B, window {win} B");
     assert!(op < 32 * 1024 && kt < 32 * 1024, "{op} {kt}");
     assert!(win <= 2 * 256 * 4 + 64);
+    // The battery cell estimator (docs/performance.md, Memory).
+    use estimator_core::battery::online::CellEstimator;
+    use estimator_core::battery::output_error::OutputErrorRefinement;
+    use estimator_core::battery::regression::PaperRegressionGi;
+    let paper = core::mem::size_of::<PaperRegressionGi<f32, 256, 64>>();
+    let oe = core::mem::size_of::<OutputErrorRefinement<f32, 256, 64>>();
+    let cell = core::mem::size_of::<CellEstimator<f32, 256, 64>>();
+    println!("size_of: battery 2S-OP-GI {paper} B, refinement {oe} B, cell estimator {cell} B");
+    // 9 window-length arrays and the weights for 2S-OP-GI.
+    assert!(paper <= (9 * 256 + 2 * 64) * 4 + 128, "{paper}");
+    assert!(cell < 26 * 1024, "{cell}");
 }
 
 proptest! {

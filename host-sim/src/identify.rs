@@ -201,6 +201,10 @@ pub fn hammerstein_json(a: &IdHammersteinArgs) -> Result<HammersteinJson> {
     })
 }
 
+// Not inlined into `cli::run`: the estimators are built on the stack before
+// boxing, and an inlined frame of every command would be probed (page
+// faults over megabytes) even for the command that does not run.
+#[inline(never)]
 pub(crate) fn hammerstein(a: &IdHammersteinArgs) -> Result<()> {
     let j = hammerstein_json(a)?;
     println!(
@@ -331,6 +335,28 @@ pub fn battery_run_with(
     print_table: bool,
     refine: Refine,
 ) -> Result<BatteryResult> {
+    // Estimator state sized to the record (a 1 000-row file does not
+    // allocate and clear the state of an 8 192-row one).
+    let run = match rec.current.len() {
+        0..=1024 => battery_run_sized::<1024, 1024>,
+        1025..=2048 => battery_run_sized::<2048, 2048>,
+        2049..=4096 => battery_run_sized::<4096, BAT_MEM>,
+        _ => battery_run_sized::<MAX_ROWS, BAT_MEM>,
+    };
+    run(path, rec, method, memory, iterations, print_table, refine)
+}
+
+/// [`battery_run_with`] for records of at most `N` rows, memories up to
+/// `MEM = min(N, BAT_MEM)`.
+fn battery_run_sized<const N: usize, const MEM: usize>(
+    path: &Path,
+    rec: &io::BatteryRecord,
+    method: BatteryMethod,
+    memory: Option<usize>,
+    iterations: u32,
+    print_table: bool,
+    refine: Refine,
+) -> Result<BatteryResult> {
     let n = rec.current.len();
     let mem = memory.unwrap_or(256.min(n / 2).max(1));
     let need = mem - 1 + estimator_core::battery::regression::MIN_ROWS;
@@ -344,12 +370,12 @@ pub fn battery_run_with(
         );
     }
     let ctx = |e: estimator_core::Error| anyhow!("{}: {e}", path.display());
-    let mut win = Box::new(SampleWindow::<f64, MAX_ROWS>::new());
+    let mut win = Box::new(SampleWindow::<f64, N>::new());
     for (&i, &v) in rec.current.iter().zip(&rec.voltage) {
         win.push(i, v).map_err(ctx)?;
     }
     let sg = BatterySettings::new(rec.h, mem);
-    let mut gi = Box::new(PaperRegressionGi::<f64, MAX_ROWS, BAT_MEM>::new(&sg, 0.5).map_err(ctx)?);
+    let mut gi = Box::new(PaperRegressionGi::<f64, N, MEM>::new(&sg, 0.5).map_err(ctx)?);
     let mut history = Vec::new();
     let mut track = Vec::new();
     let mut converged = false;
@@ -394,8 +420,8 @@ pub fn battery_run_with(
                     path.display()
                 )
             })?;
-            let v = model_voltage(&cell, rec.h, &rec.current)?;
-            (cell, rmse(&v, &rec.voltage))
+            // The RMSE of the model voltage, computed below.
+            (cell, None)
         }
         BatteryMethod::Refined => {
             let rm = refine.memory.unwrap_or(n.min(BAT_MEM));
@@ -411,9 +437,8 @@ pub fn battery_run_with(
                 .cell()
                 .filter(|c| c.alpha >= so.alpha_min && c.alpha <= so.alpha_max)
                 .unwrap_or_else(|| rough_start(&rec.current, &rec.voltage));
-            let mut oe = Box::new(
-                OutputErrorRefinement::<f64, MAX_ROWS, BAT_MEM>::new(&so, start).map_err(ctx)?,
-            );
+            let mut oe =
+                Box::new(OutputErrorRefinement::<f64, N, MEM>::new(&so, start).map_err(ctx)?);
             converged = false;
             let mut rm = f64::NAN;
             for _ in 0..200 {
@@ -425,10 +450,11 @@ pub fn battery_run_with(
                     break;
                 }
             }
-            (oe.cell(), rm)
+            (oe.cell(), Some(rm))
         }
     };
     let model = model_voltage(&cell, rec.h, &rec.current)?;
+    let rmse_v = rmse_v.unwrap_or_else(|| rmse(&model, &rec.voltage));
     Ok(BatteryResult {
         json: BatteryJson {
             method: match method {
@@ -451,6 +477,10 @@ pub fn battery_run_with(
     })
 }
 
+// Not inlined into `cli::run`: the estimators are built on the stack before
+// boxing, and an inlined frame of every command would be probed (page
+// faults over megabytes) even for the command that does not run.
+#[inline(never)]
 pub(crate) fn battery(a: &IdBatteryArgs) -> Result<()> {
     let rec = io::read_battery(&a.input, Some(MAX_ROWS))?;
     note_truncation(&a.input, rec.current.len());

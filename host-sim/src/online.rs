@@ -79,6 +79,10 @@ pub fn track(
     }
 }
 
+// Not inlined into `cli::run`: the estimators are built on the stack before
+// boxing, and an inlined frame of every command would be probed (page
+// faults over megabytes) even for the command that does not run.
+#[inline(never)]
 pub(crate) fn battery(a: &OnlineBatteryArgs) -> Result<()> {
     let t0 = std::time::Instant::now();
     let rec = io::read_battery(&a.input, None)?;

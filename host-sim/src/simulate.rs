@@ -49,6 +49,10 @@ pub fn hammerstein_data(
     Ok(HammersteinData { u, y })
 }
 
+// Not inlined into `cli::run`: the estimators are built on the stack before
+// boxing, and an inlined frame of every command would be probed (page
+// faults over megabytes) even for the command that does not run.
+#[inline(never)]
 pub(crate) fn hammerstein(a: &SimHammersteinArgs) -> Result<()> {
     let sys = presets::hammerstein(&a.preset).context("unknown preset")?;
     if a.length == 0 {
@@ -139,6 +143,10 @@ pub fn battery_data(
     })
 }
 
+// Not inlined into `cli::run`: the estimators are built on the stack before
+// boxing, and an inlined frame of every command would be probed (page
+// faults over megabytes) even for the command that does not run.
+#[inline(never)]
 pub(crate) fn battery(a: &SimBatteryArgs) -> Result<()> {
     let preset = presets::battery(&a.preset).context("unknown preset")?;
     let profile = presets::profile(&a.profile).context("unknown profile")?;

@@ -46,6 +46,10 @@ fn rel(a: f64, b: f64) -> f64 {
 }
 
 /// Runs the reproduction (all of it, or one part) into `dir`.
+// Not inlined into `cli::run`: the estimators are built on the stack before
+// boxing, and an inlined frame of every command would be probed (page
+// faults over megabytes) even for the command that does not run.
+#[inline(never)]
 pub fn run(a: &ReproduceArgs) -> Result<()> {
     std::fs::create_dir_all(&a.out)
         .with_context(|| format!("{}: cannot create", a.out.display()))?;
