@@ -414,9 +414,9 @@ impl<T: Real, const N: usize, const MEM: usize> PaperRegressionGi<T, N, MEM> {
         th[0] * self.i[l] + th[1] * self.di[l] - th[2] * self.hv[l] + b
     }
 
-    /// `r = U_t − φᵀθ` on the rows into `res`; returns `½Σr²`.
-    fn residual(&mut self) -> T {
-        let (k, _) = Self::unit_history(&self.w);
+    /// `r = U_t − φᵀθ` on the rows into `res`; returns `½Σr²`. `k` is
+    /// the unit history at the current order ([`Self::unit_history`]).
+    fn residual(&mut self, k: T) -> T {
         let b = self.centred_constant(&self.theta, k, self.vref.unwrap_or(T::zero()));
         let mut c = T::zero();
         for l in self.rows() {
@@ -529,7 +529,7 @@ impl<T: Real, const N: usize, const MEM: usize> PaperRegressionGi<T, N, MEM> {
         // gains −vref·k·Σr and Φg the constant −g₃·vref·k.
         let vref = self.vref.unwrap_or(T::zero());
         let (k, dk) = Self::unit_history(&self.w);
-        self.residual();
+        self.residual(k);
         let mut grad = [T::zero(); 4];
         for l in rows.clone() {
             let r = self.res[l];
@@ -552,7 +552,7 @@ impl<T: Real, const N: usize, const MEM: usize> PaperRegressionGi<T, N, MEM> {
                 *t = *t + mu * g;
             }
         }
-        let mut cost = self.residual();
+        let mut cost = self.residual(k);
 
         // Stage 2: the order.
         let order_step = if !s.estimate_order {
@@ -716,7 +716,7 @@ mod tests {
         }
         gi.theta = [0.03, 0.004, 0.2, 3.1];
         gi.load(&s, &win).unwrap();
-        let direct = gi.residual();
+        let direct = gi.residual(PaperRegressionGi::<f64, N, 20>::unit_history(&gi.w).0);
         let alpha = gi.w.alpha();
         let trial = gi.trial_cost(alpha).unwrap();
         assert!(
@@ -727,7 +727,7 @@ mod tests {
         let other = gi.trial_cost(0.55).unwrap();
         gi.w.set_order(0.55).unwrap();
         gi.regressors();
-        let there = gi.residual();
+        let there = gi.residual(PaperRegressionGi::<f64, N, 20>::unit_history(&gi.w).0);
         assert!(
             ((other - there) / there).abs() < 1e-12,
             "{other} vs {there}"
