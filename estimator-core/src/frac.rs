@@ -169,26 +169,26 @@ impl<T: Real, const MEM: usize> GlWeights<T, MEM> {
     /// Calls `f(l, Δ^α x(l))` for every `l` in `rows` (up to `x.len()`),
     /// in increasing `l`. The same values as [`GlWeights::difference`]
     /// row by row, bit for bit, at about half the loads: rows with the full
-    /// memory are summed four at a time, sharing each weight and sample.
+    /// memory are summed several at a time, sharing each weight and sample.
     pub fn for_each_difference(&self, x: &[T], rows: Range<usize>, mut f: impl FnMut(usize, T)) {
-        let m = self.len;
-        let end = rows.end.min(x.len());
-        let mut l = rows.start;
-        while l < end && l + 1 < m {
-            f(l, self.difference(x, l));
-            l += 1;
-        }
-        while l + BLOCK <= end {
-            let s = block_sums(&self.w[..m], &x[l + 1 - m..l + BLOCK]);
-            for (b, sb) in s.into_iter().enumerate() {
-                f(l + b, self.scale * sb);
-            }
-            l += BLOCK;
-        }
-        while l < end {
-            f(l, self.difference(x, l));
-            l += 1;
-        }
+        let s = self.scale;
+        single_sums(&self.w[..self.len], x, rows, |l, a| f(l, s * a));
+    }
+
+    /// Calls `f(l, D x(l))` for every `l` in `rows` (up to `x.len()`), where
+    /// `D x(l) = h^(−α)·Σ_j (∂w_j/∂α)·x(l−j)` is the weight part of the
+    /// order derivative, `∂(Δ^α x(l))/∂α = D x(l) − ln h · Δ^α x(l)`: one
+    /// sequence of [`GlWeights::for_each_weight_derivative_pair`]. Since `D`
+    /// is linear, the derivative of a combination `a·Δ^α x + b·Δ^α y` costs
+    /// one call on `a·x + b·y` instead of a pair.
+    pub fn for_each_weight_derivative(
+        &self,
+        x: &[T],
+        rows: Range<usize>,
+        mut f: impl FnMut(usize, T),
+    ) {
+        let s = self.scale;
+        single_sums(&self.dw[..self.len], x, rows, |l, a| f(l, s * a));
     }
 
     /// Calls `f(l, Δ^α x(l), ∂(Δ^α x(l))/∂α)` for every `l` in `rows` (up
@@ -316,21 +316,67 @@ pub(crate) const BLOCK: usize = 4;
 /// Every row still adds its taps in order `j = 0, 1, …`, so the sums are
 /// bit-identical to [`dot_rev`].
 #[inline]
+#[cfg_attr(not(target_arch = "arm"), allow(dead_code))]
 fn block_sums<T: Real>(w: &[T], xs: &[T]) -> [T; BLOCK] {
     let m = w.len();
     let xs = &xs[..m + BLOCK - 1];
-    let (mut x1, mut x2, mut x3) = (xs[m], xs[m + 1], xs[m + 2]);
+    // The samples of rows 1..3 at the current tap.
+    let mut xr = [xs[m], xs[m + 1], xs[m + 2]];
     let mut s = [T::zero(); BLOCK];
-    for (&wj, &x0) in w.iter().zip(xs[..m].iter().rev()) {
-        s[0] = s[0] + wj * x0;
-        s[1] = s[1] + wj * x1;
-        s[2] = s[2] + wj * x2;
-        s[3] = s[3] + wj * x3;
-        x3 = x2;
-        x2 = x1;
-        x1 = x0;
+    let wc = w.chunks_exact(4);
+    let wr = wc.remainder();
+    let xc = xs[..m].rchunks_exact(4);
+    let xt = xc.remainder();
+    // Four taps at a time, written out as in [`block_sums_pair`], so that
+    // the samples stay in registers without moves.
+    for (wq, xq) in wc.zip(xc) {
+        let [a, b, c] = xr;
+        tap(&mut s, wq[0], [xq[3], a, b, c]);
+        tap(&mut s, wq[1], [xq[2], xq[3], a, b]);
+        tap(&mut s, wq[2], [xq[1], xq[2], xq[3], a]);
+        tap(&mut s, wq[3], [xq[0], xq[1], xq[2], xq[3]]);
+        xr = [xq[0], xq[1], xq[2]];
+    }
+    for (&wj, &x0) in wr.iter().zip(xt.iter().rev()) {
+        let [a, b, c] = xr;
+        tap(&mut s, wj, [x0, a, b, c]);
+        xr = [x0, a, b];
     }
     s
+}
+
+/// Tap sums of one weight set `w` (`m` taps) against one sequence, row by
+/// row over `rows` (up to `x.len()`): `f(l, Σ w_j x(l−j))`, fewer taps
+/// before row `m − 1`, in blocks after it ([`block_sums`] on Arm,
+/// [`block_sums_lanes`] elsewhere).
+#[inline]
+fn single_sums<T: Real>(w: &[T], x: &[T], rows: Range<usize>, mut f: impl FnMut(usize, T)) {
+    let m = w.len();
+    let end = rows.end.min(x.len());
+    let mut l = rows.start;
+    let one = |l: usize| {
+        let taps = (l + 1).min(m);
+        dot_rev(&w[..taps], &x[l + 1 - taps..=l])
+    };
+    while l < end && l + 1 < m {
+        f(l, one(l));
+        l += 1;
+    }
+    while l + ROW_BLOCK <= end {
+        let xs = &x[l + 1 - m..l + ROW_BLOCK];
+        #[cfg(target_arch = "arm")]
+        let s = block_sums(w, xs);
+        #[cfg(not(target_arch = "arm"))]
+        let s = block_sums_lanes::<T, ROW_BLOCK>(w, xs);
+        for (k, sk) in s.into_iter().enumerate() {
+            f(l + k, sk);
+        }
+        l += ROW_BLOCK;
+    }
+    while l < end {
+        f(l, one(l));
+        l += 1;
+    }
 }
 
 /// Tap sums of one weight set `w` (`m` taps) against two sequences, row by
@@ -360,16 +406,16 @@ fn pair_sums<T: Real>(
         f(l, a, b);
         l += 1;
     }
-    while l + PAIR_BLOCK <= end {
-        let (xs, ys) = (&x[l + 1 - m..l + PAIR_BLOCK], &y[l + 1 - m..l + PAIR_BLOCK]);
+    while l + ROW_BLOCK <= end {
+        let (xs, ys) = (&x[l + 1 - m..l + ROW_BLOCK], &y[l + 1 - m..l + ROW_BLOCK]);
         #[cfg(target_arch = "arm")]
         let (a, b) = block_sums_pair(w, xs, ys);
         #[cfg(not(target_arch = "arm"))]
-        let (a, b) = block_sums_pair_lanes::<T, PAIR_BLOCK>(w, xs, ys);
-        for k in 0..PAIR_BLOCK {
+        let (a, b) = block_sums_pair_lanes::<T, ROW_BLOCK>(w, xs, ys);
+        for k in 0..ROW_BLOCK {
             f(l + k, a[k], b[k]);
         }
-        l += PAIR_BLOCK;
+        l += ROW_BLOCK;
     }
     while l < end {
         let (a, b) = one(l);
@@ -386,14 +432,16 @@ fn tap<T: Real>(s: &mut [T; BLOCK], w: T, x: [T; BLOCK]) {
     }
 }
 
-/// Rows of a block of [`pair_sums`]: 4 on Arm ([`block_sums_pair`]), 8 on
-/// hosts with vector units ([`block_sums_pair_lanes`]).
+/// Rows of a block of [`single_sums`] and [`pair_sums`]: 4 on Arm
+/// ([`block_sums`], [`block_sums_pair`]), 8 on hosts with vector units
+/// ([`block_sums_lanes`], [`block_sums_pair_lanes`]).
 #[cfg(target_arch = "arm")]
-const PAIR_BLOCK: usize = BLOCK;
-/// Rows of a block of [`pair_sums`]: 4 on Arm ([`block_sums_pair`]), 8 on
-/// hosts with vector units ([`block_sums_pair_lanes`]).
+const ROW_BLOCK: usize = BLOCK;
+/// Rows of a block of [`single_sums`] and [`pair_sums`]: 4 on Arm
+/// ([`block_sums`], [`block_sums_pair`]), 8 on hosts with vector units
+/// ([`block_sums_lanes`], [`block_sums_pair_lanes`]).
 #[cfg(not(target_arch = "arm"))]
-const PAIR_BLOCK: usize = 8;
+const ROW_BLOCK: usize = 8;
 
 /// [`block_sums`] of one weight set against two sequences at once, for
 /// cores without vector units (the Cortex-M4F).
@@ -464,6 +512,22 @@ fn block_sums_pair_lanes<T: Real, const K: usize>(w: &[T], xs: &[T], ys: &[T]) -
     (s, d)
 }
 
+/// The host version of [`block_sums`] for `K` rows, as
+/// [`block_sums_pair_lanes`] for one sequence.
+#[inline]
+#[cfg_attr(target_arch = "arm", allow(dead_code))]
+fn block_sums_lanes<T: Real, const K: usize>(w: &[T], xs: &[T]) -> [T; K] {
+    let m = w.len();
+    let xs = &xs[..m + K - 1];
+    let mut s = [T::zero(); K];
+    for (&wj, xv) in w.iter().zip(xs.windows(K).rev()) {
+        for k in 0..K {
+            s[k] = s[k] + wj * xv[k];
+        }
+    }
+    s
+}
+
 /// [`block_sums`] of two weight sets against the same samples at once.
 #[inline]
 fn block_sums2<T: Real>(w: &[T], dw: &[T], xs: &[T]) -> ([T; BLOCK], [T; BLOCK]) {
@@ -491,7 +555,8 @@ fn block_sums2<T: Real>(w: &[T], dw: &[T], xs: &[T]) -> ([T; BLOCK], [T; BLOCK])
 #[cfg(test)]
 mod dot_tests {
     use super::{
-        block_sums, block_sums2, block_sums_pair, block_sums_pair_lanes, dot_rev, dot_rev2, BLOCK,
+        block_sums, block_sums2, block_sums_lanes, block_sums_pair, block_sums_pair_lanes, dot_rev,
+        dot_rev2, BLOCK,
     };
 
     #[test]
@@ -537,8 +602,14 @@ mod dot_tests {
                 );
             }
             let (p, q) = block_sums_pair_lanes::<f64, 8>(&w, &xs, &ys);
+            let single = block_sums_lanes::<f64, 8>(&w, &xs);
             for b in 0..8 {
                 let row = &xs[..m + b];
+                assert_eq!(
+                    single[b].to_bits(),
+                    dot_rev(&w, row).to_bits(),
+                    "m {m} row {b}"
+                );
                 assert_eq!(p[b].to_bits(), dot_rev(&w, row).to_bits(), "m {m} row {b}");
                 assert_eq!(
                     q[b].to_bits(),

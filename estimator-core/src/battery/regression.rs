@@ -150,6 +150,11 @@ pub struct PaperRegressionGi<T, const N: usize, const MEM: usize> {
     ddi: [T; N],
     dhv: [T; N],
     derivatives: bool,
+    /// How many iterations in a row moved the order. After two, the next
+    /// one will probably move it again, so its order stage differentiates
+    /// only the combined regressor instead of computing `ddi`, `dhv` to
+    /// keep ([`Self::order_gradient`]).
+    order_moves: u32,
     /// The regressors `Δ^α I` and `H[U_t]` at a trial order, taken over
     /// when the trial is accepted.
     trial_di: [T; N],
@@ -183,6 +188,7 @@ impl<T: Real, const N: usize, const MEM: usize> PaperRegressionGi<T, N, MEM> {
             ddi: [T::ZERO; N],
             dhv: [T::ZERO; N],
             derivatives: false,
+            order_moves: 0,
             trial_di: [T::ZERO; N],
             trial_hv: [T::ZERO; N],
             res: [T::ZERO; N],
@@ -204,6 +210,7 @@ impl<T: Real, const N: usize, const MEM: usize> PaperRegressionGi<T, N, MEM> {
         self.theta = [T::lit(1.0 / P0); 4];
         self.k = 0;
         self.stamp = None;
+        self.order_moves = 0;
         Ok(())
     }
 
@@ -378,6 +385,59 @@ impl<T: Real, const N: usize, const MEM: usize> PaperRegressionGi<T, N, MEM> {
             dhv[l] = b - ln_h * hv[l];
         });
         self.derivatives = true;
+    }
+
+    /// `(Σd², Σd·r)` over the rows, for the order derivative of the
+    /// prediction `d = ∂(φᵀθ)/∂α = θ₂·∂Δ^α I/∂α − θ₃·∂H[U_t]/∂α` and the
+    /// residuals in `res`. `dk` is the order derivative of the unit history
+    /// ([`Self::unit_history`]): `∂H[U_t]/∂α = ∂H[v]/∂α + vref·∂k/∂α`.
+    ///
+    /// With the derivatives kept ([`Self::derivatives`]), or unless the
+    /// order moved in each of the last two iterations, `d` comes from the
+    /// kept `ddi`, `dhv` (computed if need be, to serve again while the
+    /// order stays and, in a sliding window, to be slid row by row). While
+    /// the order is travelling they would serve once: `D` being linear,
+    /// `d = D z − ln h·(θ₂·Δ^α I − θ₃·H[v])` with `z = θ₂·I − θ₃·v` then
+    /// costs one tap sum per row instead of two (`z` is kept in `trial_di`,
+    /// free until the order trial). Two moves rather than one: measured in
+    /// `docs/performance.md`, a single move is often the last in a sliding
+    /// window, where the kept derivatives are worth their second sum.
+    fn order_gradient(&mut self, vref: T, dk: T) -> (T, T) {
+        let th = self.theta;
+        let rows = self.rows();
+        let shift = th[2] * vref * dk;
+        let (mut dd, mut dr) = (T::zero(), T::zero());
+        if self.derivatives || self.order_moves < 2 {
+            self.derivatives();
+            let (ddi, dhv) = (&self.ddi[rows.clone()], &self.dhv[rows.clone()]);
+            for ((&a, &b), &r) in ddi.iter().zip(dhv).zip(&self.res[rows]) {
+                let d = th[1] * a - th[2] * b - shift;
+                dd = dd + d * d;
+                dr = dr + d * r;
+            }
+        } else {
+            let Self {
+                w,
+                i,
+                v,
+                di,
+                hv,
+                trial_di: z,
+                res,
+                n,
+                ..
+            } = self;
+            let ln_h = w.ln_h();
+            for l in 0..*n {
+                z[l] = th[1] * i[l] - th[2] * v[l];
+            }
+            w.for_each_weight_derivative(&z[..*n], rows, |l, a| {
+                let d = a - ln_h * (th[1] * di[l] - th[2] * hv[l]) - shift;
+                dd = dd + d * d;
+                dr = dr + d * res[l];
+            });
+        }
+        (dd, dr)
     }
 
     /// The regressors of the newest row `l` after a one-sample slide, and
@@ -558,16 +618,7 @@ impl<T: Real, const N: usize, const MEM: usize> PaperRegressionGi<T, N, MEM> {
         let order_step = if !s.estimate_order {
             OrderStep::Fixed
         } else {
-            self.derivatives();
-            let th = self.theta;
-            let (mut dd, mut dr) = (T::zero(), T::zero());
-            // ∂H[U_t]/∂α = ∂H[v]/∂α + vref·∂k/∂α.
-            let shift = th[2] * vref * dk;
-            for l in rows.clone() {
-                let d = th[1] * self.ddi[l] - th[2] * self.dhv[l] - shift;
-                dd = dd + d * d;
-                dr = dr + d * self.res[l];
-            }
+            let (dd, dr) = self.order_gradient(vref, dk);
             // The Gauss–Newton model of the cost along α,
             // `cost(α₀ + δ) ≈ cost − dr·δ + ½·dd·δ²`, predicts a decrease of
             // `dr·δ − ½·dd·δ²` for a step δ. A trial whose predicted decrease
@@ -620,11 +671,17 @@ impl<T: Real, const N: usize, const MEM: usize> PaperRegressionGi<T, N, MEM> {
                 out
             }
         };
+        self.order_moves = if matches!(order_step, OrderStep::Accepted { .. }) {
+            self.order_moves.saturating_add(1)
+        } else {
+            0
+        };
 
         if !(cost.is_finite() && self.theta.iter().all(|x| x.is_finite())) {
             self.theta = theta0;
             self.w.set_order(alpha0)?;
             self.stamp = None;
+            self.order_moves = 0;
             return Err(Error::Diverged);
         }
         self.k += 1;
@@ -702,6 +759,33 @@ mod tests {
             }
         }
         assert!(incremental > 100, "the cache path ran {incremental} times");
+    }
+
+    #[test]
+    fn combined_order_gradient_equals_the_kept_derivatives() {
+        const N: usize = 64;
+        let s = BatterySettings::<f64>::new(0.5, 20); // ln h ≠ 0
+        let mut gi = PaperRegressionGi::<f64, N, 20>::new(&s, 0.7).unwrap();
+        let mut win = SampleWindow::<f64, N>::new();
+        for l in 0..N {
+            let (i, v) = sample(l);
+            win.push(i, v).unwrap();
+        }
+        gi.theta = [0.03, 0.004, 0.2, 3.1];
+        gi.load(&s, &win).unwrap();
+        assert!(gi.vref.unwrap() > 3.0, "the test needs a centred voltage");
+        let (k, dk) = PaperRegressionGi::<f64, N, 20>::unit_history(&gi.w);
+        gi.residual(k);
+        let vref = gi.vref.unwrap();
+        gi.order_moves = 2;
+        let (dd_z, dr_z) = gi.order_gradient(vref, dk);
+        assert!(!gi.derivatives, "the combined path keeps no derivatives");
+        gi.order_moves = 0;
+        let (dd, dr) = gi.order_gradient(vref, dk);
+        assert!(gi.derivatives);
+        assert!(dd > 0.0 && dr != 0.0);
+        assert!(((dd_z - dd) / dd).abs() < 1e-12, "{dd_z} vs {dd}");
+        assert!(((dr_z - dr) / dr).abs() < 1e-10, "{dr_z} vs {dr}");
     }
 
     #[test]
