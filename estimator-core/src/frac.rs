@@ -362,17 +362,13 @@ fn single_sums<T: Real>(w: &[T], x: &[T], rows: Range<usize>, mut f: impl FnMut(
         f(l, one(l));
         l += 1;
     }
-    while l + ROW_BLOCK <= end {
-        let xs = &x[l + 1 - m..l + ROW_BLOCK];
-        #[cfg(target_arch = "arm")]
-        let s = block_sums(w, xs);
-        #[cfg(not(target_arch = "arm"))]
-        let s = block_sums_lanes::<T, ROW_BLOCK>(w, xs);
-        for (k, sk) in s.into_iter().enumerate() {
-            f(l + k, sk);
-        }
-        l += ROW_BLOCK;
-    }
+    l = host_simd(SingleBlocks {
+        w,
+        x,
+        l,
+        end,
+        f: &mut f,
+    });
     while l < end {
         f(l, one(l));
         l += 1;
@@ -406,21 +402,152 @@ fn pair_sums<T: Real>(
         f(l, a, b);
         l += 1;
     }
-    while l + ROW_BLOCK <= end {
-        let (xs, ys) = (&x[l + 1 - m..l + ROW_BLOCK], &y[l + 1 - m..l + ROW_BLOCK]);
-        #[cfg(target_arch = "arm")]
-        let (a, b) = block_sums_pair(w, xs, ys);
-        #[cfg(not(target_arch = "arm"))]
-        let (a, b) = block_sums_pair_lanes::<T, ROW_BLOCK>(w, xs, ys);
-        for k in 0..ROW_BLOCK {
-            f(l + k, a[k], b[k]);
-        }
-        l += ROW_BLOCK;
-    }
+    l = host_simd(PairBlocks {
+        w,
+        x,
+        y,
+        l,
+        end,
+        f: &mut f,
+    });
     while l < end {
         let (a, b) = one(l);
         f(l, a, b);
         l += 1;
+    }
+}
+
+/// The rows of [`single_sums`] from `l` that fill whole blocks; `run`
+/// returns the first row left over.
+struct SingleBlocks<'a, T, F> {
+    w: &'a [T],
+    x: &'a [T],
+    l: usize,
+    end: usize,
+    f: &'a mut F,
+}
+
+impl<T: Real, F: FnMut(usize, T)> SingleBlocks<'_, T, F> {
+    #[inline(always)]
+    fn run(self) -> usize {
+        let Self {
+            w,
+            x,
+            mut l,
+            end,
+            f,
+        } = self;
+        let m = w.len();
+        while l + ROW_BLOCK <= end {
+            let xs = &x[l + 1 - m..l + ROW_BLOCK];
+            #[cfg(target_arch = "arm")]
+            let s = block_sums(w, xs);
+            #[cfg(not(target_arch = "arm"))]
+            let s = block_sums_lanes::<T, ROW_BLOCK>(w, xs);
+            for (k, sk) in s.into_iter().enumerate() {
+                f(l + k, sk);
+            }
+            l += ROW_BLOCK;
+        }
+        l
+    }
+}
+
+/// The rows of [`pair_sums`] from `l` that fill whole blocks; `run`
+/// returns the first row left over.
+struct PairBlocks<'a, T, F> {
+    w: &'a [T],
+    x: &'a [T],
+    y: &'a [T],
+    l: usize,
+    end: usize,
+    f: &'a mut F,
+}
+
+impl<T: Real, F: FnMut(usize, T, T)> PairBlocks<'_, T, F> {
+    #[inline(always)]
+    fn run(self) -> usize {
+        let Self {
+            w,
+            x,
+            y,
+            mut l,
+            end,
+            f,
+        } = self;
+        let m = w.len();
+        while l + ROW_BLOCK <= end {
+            let (xs, ys) = (&x[l + 1 - m..l + ROW_BLOCK], &y[l + 1 - m..l + ROW_BLOCK]);
+            #[cfg(target_arch = "arm")]
+            let (a, b) = block_sums_pair(w, xs, ys);
+            #[cfg(not(target_arch = "arm"))]
+            let (a, b) = block_sums_pair_lanes::<T, ROW_BLOCK>(w, xs, ys);
+            for k in 0..ROW_BLOCK {
+                f(l + k, a[k], b[k]);
+            }
+            l += ROW_BLOCK;
+        }
+        l
+    }
+}
+
+/// Runs a block loop compiled for the widest vector unit of this x86-64
+/// CPU (AVX2 or AVX-512 when present, detected once at run time by
+/// `pulp`; SSE2 otherwise), so that the `*_lanes` kernels inlined into it
+/// use wide vectors. Each row's sum keeps its order (no fused multiply-add:
+/// Rust never contracts `a * b + c`), so the values do not depend on the
+/// CPU (checked by `dot_tests::row_sums_are_bit_identical_to_one_row_at_a_time`).
+#[cfg(all(target_arch = "x86_64", feature = "host-simd"))]
+#[inline(always)]
+fn host_simd<Op: pulp::WithSimd<Output = usize>>(op: Op) -> usize {
+    pulp::Arch::new().dispatch(op)
+}
+
+#[cfg(all(target_arch = "x86_64", feature = "host-simd"))]
+impl<T: Real, F: FnMut(usize, T)> pulp::WithSimd for SingleBlocks<'_, T, F> {
+    type Output = usize;
+    #[inline(always)]
+    fn with_simd<S: pulp::Simd>(self, _: S) -> usize {
+        self.run()
+    }
+}
+
+#[cfg(all(target_arch = "x86_64", feature = "host-simd"))]
+impl<T: Real, F: FnMut(usize, T, T)> pulp::WithSimd for PairBlocks<'_, T, F> {
+    type Output = usize;
+    #[inline(always)]
+    fn with_simd<S: pulp::Simd>(self, _: S) -> usize {
+        self.run()
+    }
+}
+
+/// Runs a block loop (no run-time dispatch on this target or without the
+/// `host-simd` feature).
+#[cfg(not(all(target_arch = "x86_64", feature = "host-simd")))]
+#[inline(always)]
+fn host_simd<Op: BlockLoop>(op: Op) -> usize {
+    op.run_loop()
+}
+
+/// A block loop, for [`host_simd`] without dispatch.
+#[cfg(not(all(target_arch = "x86_64", feature = "host-simd")))]
+trait BlockLoop {
+    fn run_loop(self) -> usize;
+}
+
+#[cfg(not(all(target_arch = "x86_64", feature = "host-simd")))]
+impl<T: Real, F: FnMut(usize, T)> BlockLoop for SingleBlocks<'_, T, F> {
+    #[inline(always)]
+    fn run_loop(self) -> usize {
+        self.run()
+    }
+}
+
+#[cfg(not(all(target_arch = "x86_64", feature = "host-simd")))]
+impl<T: Real, F: FnMut(usize, T, T)> BlockLoop for PairBlocks<'_, T, F> {
+    #[inline(always)]
+    fn run_loop(self) -> usize {
+        self.run()
     }
 }
 
@@ -496,7 +623,7 @@ fn block_sums_pair<T: Real>(w: &[T], xs: &[T], ys: &[T]) -> ([T; BLOCK], [T; BLO
 /// samples of the `K` rows are `K` consecutive samples, so each tap is a
 /// few vector loads and multiply-adds (SSE2 on any x86-64). Each row still
 /// adds its taps in order, so the sums are bit-identical to [`dot_rev`].
-#[inline]
+#[inline(always)]
 #[cfg_attr(target_arch = "arm", allow(dead_code))]
 fn block_sums_pair_lanes<T: Real, const K: usize>(w: &[T], xs: &[T], ys: &[T]) -> ([T; K], [T; K]) {
     let m = w.len();
@@ -514,7 +641,7 @@ fn block_sums_pair_lanes<T: Real, const K: usize>(w: &[T], xs: &[T], ys: &[T]) -
 
 /// The host version of [`block_sums`] for `K` rows, as
 /// [`block_sums_pair_lanes`] for one sequence.
-#[inline]
+#[inline(always)]
 #[cfg_attr(target_arch = "arm", allow(dead_code))]
 fn block_sums_lanes<T: Real, const K: usize>(w: &[T], xs: &[T]) -> [T; K] {
     let m = w.len();
@@ -618,5 +745,61 @@ mod dot_tests {
                 );
             }
         }
+    }
+
+    /// The public block paths (dispatched to AVX2/AVX-512 on x86-64 hosts
+    /// that have them) against [`GlWeights::difference`] and
+    /// [`GlWeights::difference_with_derivative`] row by row, bit for bit,
+    /// over the short first rows, whole blocks and a ragged tail, in f64 and
+    /// f32.
+    #[test]
+    fn row_sums_are_bit_identical_to_one_row_at_a_time() {
+        use super::GlWeights;
+        fn check<T: crate::real::Real + core::fmt::Debug>(cast: impl Fn(f64) -> T) {
+            for (m, n) in [(1, 9), (5, 40), (16, 61), (37, 150), (64, 64 + 3 * 16 + 5)] {
+                let w = GlWeights::<T, 64>::new(cast(0.63), cast(0.5), m).unwrap();
+                let x: Vec<T> = (0..n)
+                    .map(|k| cast((k as f64 * 0.7).cos() * 3.0 + 0.1))
+                    .collect();
+                let y: Vec<T> = (0..n).map(|k| cast((k as f64 * 0.3).sin() - 0.2)).collect();
+                let ln_h = w.ln_h();
+                let mut seen = 0;
+                w.for_each_difference_pair(&x, &y, 2..n, |l, a, b| {
+                    assert_eq!(a, w.difference(&x, l), "pair x, m {m} row {l}");
+                    assert_eq!(b, w.difference(&y, l), "pair y, m {m} row {l}");
+                    seen += 1;
+                });
+                w.for_each_difference(&x, 2..n, |l, a| {
+                    assert_eq!(a, w.difference(&x, l), "single, m {m} row {l}");
+                    seen += 1;
+                });
+                w.for_each_weight_derivative_pair(&x, &y, 2..n, |l, a, b| {
+                    let (dx, dy) = (w.difference(&x, l), w.difference(&y, l));
+                    assert_eq!(
+                        a - ln_h * dx,
+                        w.difference_with_derivative(&x, l).1,
+                        "m {m} row {l}"
+                    );
+                    assert_eq!(
+                        b - ln_h * dy,
+                        w.difference_with_derivative(&y, l).1,
+                        "m {m} row {l}"
+                    );
+                    seen += 1;
+                });
+                w.for_each_weight_derivative(&y, 2..n, |l, a| {
+                    let dy = w.difference(&y, l);
+                    assert_eq!(
+                        a - ln_h * dy,
+                        w.difference_with_derivative(&y, l).1,
+                        "m {m} row {l}"
+                    );
+                    seen += 1;
+                });
+                assert_eq!(seen, 4 * (n - 2), "m {m}: every row once");
+            }
+        }
+        check::<f64>(|v| v);
+        check::<f32>(|v| v as f32);
     }
 }
