@@ -492,7 +492,7 @@ impl<T: Real, F: FnMut(usize, T, T)> PairBlocks<'_, T, F> {
 }
 
 /// Runs a block loop compiled for the widest vector unit of this x86-64
-/// CPU (AVX2 or AVX-512 when present, detected once at run time by
+/// CPU (AVX2 when present, detected once at run time by
 /// `pulp`; SSE2 otherwise), so that the `*_lanes` kernels inlined into it
 /// use wide vectors. Each row's sum keeps its order (no fused multiply-add:
 /// Rust never contracts `a * b + c`), so the values do not depend on the
@@ -747,7 +747,7 @@ mod dot_tests {
         }
     }
 
-    /// The public block paths (dispatched to AVX2/AVX-512 on x86-64 hosts
+    /// The public block paths (dispatched to AVX2 on x86-64 hosts
     /// that have them) against [`GlWeights::difference`] and
     /// [`GlWeights::difference_with_derivative`] row by row, bit for bit,
     /// over the short first rows, whole blocks and a ragged tail, in f64 and
