@@ -358,10 +358,6 @@ fn single_sums<T: Real>(w: &[T], x: &[T], rows: Range<usize>, mut f: impl FnMut(
         let taps = (l + 1).min(m);
         dot_rev(&w[..taps], &x[l + 1 - taps..=l])
     };
-    while l < end && l + 1 < m {
-        f(l, one(l));
-        l += 1;
-    }
     l = host_simd(SingleBlocks {
         w,
         x,
@@ -397,11 +393,6 @@ fn pair_sums<T: Real>(
             dot_rev(&w[..taps], &y[lo..=l]),
         )
     };
-    while l < end && l + 1 < m {
-        let (a, b) = one(l);
-        f(l, a, b);
-        l += 1;
-    }
     l = host_simd(PairBlocks {
         w,
         x,
@@ -438,12 +429,28 @@ impl<T: Real, F: FnMut(usize, T)> SingleBlocks<'_, T, F> {
             f,
         } = self;
         let m = w.len();
+        // Rows with fewer than m taps: a block of rows l..l+K shares its
+        // first l + 1 taps; each row then adds its own few last taps, still
+        // in tap order.
+        while l < end && l + 1 < m {
+            if l + ROW_BLOCK <= end && l + ROW_BLOCK <= m {
+                let taps = l + 1;
+                let s = row_block(&w[..taps], &x[..l + ROW_BLOCK]);
+                for (k, mut a) in s.into_iter().enumerate() {
+                    let r = l + k;
+                    for j in taps..=r {
+                        a = a + w[j] * x[r - j];
+                    }
+                    f(r, a);
+                }
+                l += ROW_BLOCK;
+            } else {
+                f(l, dot_rev(&w[..=l], &x[..=l]));
+                l += 1;
+            }
+        }
         while l + ROW_BLOCK <= end {
-            let xs = &x[l + 1 - m..l + ROW_BLOCK];
-            #[cfg(target_arch = "arm")]
-            let s = block_sums(w, xs);
-            #[cfg(not(target_arch = "arm"))]
-            let s = block_sums_lanes::<T, ROW_BLOCK>(w, xs);
+            let s = row_block(w, &x[l + 1 - m..l + ROW_BLOCK]);
             for (k, sk) in s.into_iter().enumerate() {
                 f(l + k, sk);
             }
@@ -476,12 +483,29 @@ impl<T: Real, F: FnMut(usize, T, T)> PairBlocks<'_, T, F> {
             f,
         } = self;
         let m = w.len();
+        // Rows with fewer than m taps, as in `SingleBlocks::run`.
+        while l < end && l + 1 < m {
+            if l + ROW_BLOCK <= end && l + ROW_BLOCK <= m {
+                let taps = l + 1;
+                let (s, d) = row_block_pair(&w[..taps], &x[..l + ROW_BLOCK], &y[..l + ROW_BLOCK]);
+                for k in 0..ROW_BLOCK {
+                    let r = l + k;
+                    let (mut a, mut b) = (s[k], d[k]);
+                    for j in taps..=r {
+                        a = a + w[j] * x[r - j];
+                        b = b + w[j] * y[r - j];
+                    }
+                    f(r, a, b);
+                }
+                l += ROW_BLOCK;
+            } else {
+                f(l, dot_rev(&w[..=l], &x[..=l]), dot_rev(&w[..=l], &y[..=l]));
+                l += 1;
+            }
+        }
         while l + ROW_BLOCK <= end {
             let (xs, ys) = (&x[l + 1 - m..l + ROW_BLOCK], &y[l + 1 - m..l + ROW_BLOCK]);
-            #[cfg(target_arch = "arm")]
-            let (a, b) = block_sums_pair(w, xs, ys);
-            #[cfg(not(target_arch = "arm"))]
-            let (a, b) = block_sums_pair_lanes::<T, ROW_BLOCK>(w, xs, ys);
+            let (a, b) = row_block_pair(w, xs, ys);
             for k in 0..ROW_BLOCK {
                 f(l + k, a[k], b[k]);
             }
@@ -489,6 +513,26 @@ impl<T: Real, F: FnMut(usize, T, T)> PairBlocks<'_, T, F> {
         }
         l
     }
+}
+
+/// The block kernel of this target for one sequence: [`block_sums`] on
+/// Arm, [`block_sums_lanes`] elsewhere.
+#[inline(always)]
+fn row_block<T: Real>(w: &[T], xs: &[T]) -> [T; ROW_BLOCK] {
+    #[cfg(target_arch = "arm")]
+    return block_sums(w, xs);
+    #[cfg(not(target_arch = "arm"))]
+    return block_sums_lanes::<T, ROW_BLOCK>(w, xs);
+}
+
+/// The block kernel of this target for two sequences:
+/// [`block_sums_pair`] on Arm, [`block_sums_pair_lanes`] elsewhere.
+#[inline(always)]
+fn row_block_pair<T: Real>(w: &[T], xs: &[T], ys: &[T]) -> ([T; ROW_BLOCK], [T; ROW_BLOCK]) {
+    #[cfg(target_arch = "arm")]
+    return block_sums_pair(w, xs, ys);
+    #[cfg(not(target_arch = "arm"))]
+    return block_sums_pair_lanes::<T, ROW_BLOCK>(w, xs, ys);
 }
 
 /// Runs a block loop compiled for the widest vector unit of this x86-64
@@ -756,7 +800,14 @@ mod dot_tests {
     fn row_sums_are_bit_identical_to_one_row_at_a_time() {
         use super::GlWeights;
         fn check<T: crate::real::Real + core::fmt::Debug>(cast: impl Fn(f64) -> T) {
-            for (m, n) in [(1, 9), (5, 40), (16, 61), (37, 150), (64, 64 + 3 * 16 + 5)] {
+            for (m, n) in [
+                (1, 9),
+                (5, 40),
+                (16, 61),
+                (37, 150),
+                (64, 40),
+                (64, 64 + 3 * 16 + 5),
+            ] {
                 let w = GlWeights::<T, 64>::new(cast(0.63), cast(0.5), m).unwrap();
                 let x: Vec<T> = (0..n)
                     .map(|k| cast((k as f64 * 0.7).cos() * 3.0 + 0.1))
