@@ -24,6 +24,14 @@
 //! `NA, NB, NC`, basis capacity `NF`, product capacity `NP ≥ n_b·m`); the
 //! runtime orders may be smaller. The scalar is `f32` or `f64` ([`Real`]).
 //!
+//! ## Features
+//! * `host-simd` (default) — on x86-64, the fractional-difference kernels
+//!   run with AVX2 when the CPU has it (run-time detection by `pulp`, which
+//!   holds the `unsafe` code; this crate forbids its own). The values are
+//!   bit for bit those of the plain build. No effect on other targets, so
+//!   firmware builds do not pull `pulp` in.
+//! * `defmt` — `defmt::Format` for the public error and report types.
+//!
 //! ## Example
 //! Identify a Hammerstein system simulated from eq. (4):
 //!
