@@ -351,24 +351,13 @@ fn block_sums<T: Real>(w: &[T], xs: &[T]) -> [T; BLOCK] {
 /// [`block_sums_lanes`] elsewhere).
 #[inline]
 fn single_sums<T: Real>(w: &[T], x: &[T], rows: Range<usize>, mut f: impl FnMut(usize, T)) {
-    let m = w.len();
-    let end = rows.end.min(x.len());
-    let mut l = rows.start;
-    let one = |l: usize| {
-        let taps = (l + 1).min(m);
-        dot_rev(&w[..taps], &x[l + 1 - taps..=l])
-    };
-    l = host_simd(SingleBlocks {
+    host_simd(SingleBlocks {
         w,
         x,
-        l,
-        end,
+        l: rows.start,
+        end: rows.end.min(x.len()),
         f: &mut f,
     });
-    while l < end {
-        f(l, one(l));
-        l += 1;
-    }
 }
 
 /// Tap sums of one weight set `w` (`m` taps) against two sequences, row by
@@ -382,34 +371,18 @@ fn pair_sums<T: Real>(
     rows: Range<usize>,
     mut f: impl FnMut(usize, T, T),
 ) {
-    let m = w.len();
-    let end = rows.end.min(x.len()).min(y.len());
-    let mut l = rows.start;
-    let one = |l: usize| {
-        let taps = (l + 1).min(m);
-        let lo = l + 1 - taps;
-        (
-            dot_rev(&w[..taps], &x[lo..=l]),
-            dot_rev(&w[..taps], &y[lo..=l]),
-        )
-    };
-    l = host_simd(PairBlocks {
+    host_simd(PairBlocks {
         w,
         x,
         y,
-        l,
-        end,
+        l: rows.start,
+        end: rows.end.min(x.len()).min(y.len()),
         f: &mut f,
     });
-    while l < end {
-        let (a, b) = one(l);
-        f(l, a, b);
-        l += 1;
-    }
 }
 
-/// The rows of [`single_sums`] from `l` that fill whole blocks; `run`
-/// returns the first row left over.
+/// The rows `l..end` of [`single_sums`]: in blocks where they fill one,
+/// one at a time otherwise; `run` returns `end`.
 struct SingleBlocks<'a, T, F> {
     w: &'a [T],
     x: &'a [T],
@@ -456,12 +429,16 @@ impl<T: Real, F: FnMut(usize, T)> SingleBlocks<'_, T, F> {
             }
             l += ROW_BLOCK;
         }
+        while l < end {
+            f(l, dot_rev(w, &x[l + 1 - m..=l]));
+            l += 1;
+        }
         l
     }
 }
 
-/// The rows of [`pair_sums`] from `l` that fill whole blocks; `run`
-/// returns the first row left over.
+/// The rows `l..end` of [`pair_sums`]: in blocks where they fill one,
+/// one at a time otherwise; `run` returns `end`.
 struct PairBlocks<'a, T, F> {
     w: &'a [T],
     x: &'a [T],
@@ -510,6 +487,11 @@ impl<T: Real, F: FnMut(usize, T, T)> PairBlocks<'_, T, F> {
                 f(l + k, a[k], b[k]);
             }
             l += ROW_BLOCK;
+        }
+        while l < end {
+            let (xs, ys) = (&x[l + 1 - m..=l], &y[l + 1 - m..=l]);
+            f(l, dot_rev(w, xs), dot_rev(w, ys));
+            l += 1;
         }
         l
     }
