@@ -305,6 +305,30 @@ impl<T: Real, const N: usize, const MEM: usize> OutputErrorRefinement<T, N, MEM>
         }
     }
 
+    /// Row `l` of the Jacobian of the simulated voltage `Û_t(l)` with
+    /// respect to `x = [ln R_i, ln R_ct, ln Q, α, U_oc, β]` (zero columns for
+    /// what the settings keep fixed), from the sensitivities.
+    #[inline]
+    fn jacobian_row(&self, s: &BatterySettings<T>, l: usize) -> [T; 6] {
+        let p = &self.p;
+        [
+            p.r_i * (self.i[l] + self.s_ri[l]),
+            p.r_ct * self.s_rct[l],
+            p.q * self.s_q[l],
+            if s.estimate_order {
+                self.s_a[l]
+            } else {
+                T::zero()
+            },
+            T::one() + self.s_uoc[l],
+            if s.ocv_slope {
+                self.s_beta[l] - self.c[l]
+            } else {
+                T::zero()
+            },
+        ]
+    }
+
     /// One Levenberg–Marquardt iteration over the window.
     ///
     /// # Errors
@@ -339,27 +363,12 @@ impl<T: Real, const N: usize, const MEM: usize> OutputErrorRefinement<T, N, MEM>
         self.fresh = true;
         self.sensitivities(s.ocv_slope);
 
-        // Normal equations in x = [ln R_i, ln R_ct, ln Q, α, U_oc].
+        // Normal equations in x = [ln R_i, ln R_ct, ln Q, α, U_oc, β].
         let p = self.p;
         let mut a = [[T::zero(); 6]; 6];
         let mut b = [T::zero(); 6];
         for l in warm..n {
-            let j = [
-                p.r_i * (self.i[l] + self.s_ri[l]),
-                p.r_ct * self.s_rct[l],
-                p.q * self.s_q[l],
-                if s.estimate_order {
-                    self.s_a[l]
-                } else {
-                    T::zero()
-                },
-                T::one() + self.s_uoc[l],
-                if s.ocv_slope {
-                    self.s_beta[l] - self.c[l]
-                } else {
-                    T::zero()
-                },
-            ];
+            let j = self.jacobian_row(s, l);
             let r = self.v[l] - (p.u_oc - self.beta * self.c[l] + p.r_i * self.i[l] + self.up[l]);
             for (r_, ja) in a.iter_mut().zip(j) {
                 for (x, jb) in r_.iter_mut().zip(j) {
@@ -482,4 +491,107 @@ fn simulate_window<T: Real, const MEM: usize>(
         cost = cost + r * r;
     }
     cost / T::lit(2.0)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The simulated terminal voltage of `p`, β over the loaded window.
+    fn predicted<const N: usize, const MEM: usize>(
+        oe: &OutputErrorRefinement<f64, N, MEM>,
+        p: &CellParameters<f64>,
+        beta: f64,
+    ) -> Vec<f64> {
+        let n = oe.n;
+        let mut w = oe.w.clone();
+        w.set_order(p.alpha).unwrap();
+        let data = WindowData {
+            i: &oe.i[..n],
+            v: &oe.v[..n],
+            c: &oe.c[..n],
+            warm: oe.warm,
+        };
+        let mut up = vec![0.0; n];
+        simulate_window(&w, &data, p, beta, &mut up);
+        (0..n)
+            .map(|l| p.u_oc - beta * oe.c[l] + p.r_i * oe.i[l] + up[l])
+            .collect()
+    }
+
+    /// The Jacobian from the sensitivity recursions equals central finite
+    /// differences of the simulation, column by column, on a slid window
+    /// (history from data, OCV slope fitted), and with a start from rest.
+    #[test]
+    fn jacobian_equals_finite_differences() {
+        const N: usize = 160;
+        const MEM: usize = 32;
+        for start in [Start::FromData, Start::AtRest] {
+            let mut s = BatterySettings::new(0.5, MEM);
+            s.start = start;
+            s.ocv_slope = true;
+            let mut win = SampleWindow::<f64, N>::new();
+            // A window that has slid (FromData) or not (AtRest).
+            let len = if start == Start::FromData {
+                N + 37
+            } else {
+                N - 20
+            };
+            for l in 0..len {
+                let x = l as f64;
+                let i = 3.0 * (0.11 * x).sin() + 2.0 * (0.037 * x).cos() - 0.5;
+                let v = 3.7 + 0.02 * i + 0.004 * (0.05 * x).sin() - 1e-5 * x;
+                win.push(i, v).unwrap();
+            }
+            let p = CellParameters {
+                r_i: 0.018,
+                r_ct: 0.013,
+                q: 430.0,
+                alpha: 0.71,
+                u_oc: 3.69,
+            };
+            let mut oe = OutputErrorRefinement::<f64, N, MEM>::new(&s, p).unwrap();
+            oe.beta = 2e-6;
+            oe.load(&s, &win).unwrap();
+            oe.w.set_order(p.alpha).unwrap();
+            let n = oe.n;
+            let data = WindowData {
+                i: &oe.i[..n],
+                v: &oe.v[..n],
+                c: &oe.c[..n],
+                warm: oe.warm,
+            };
+            simulate_window(&oe.w, &data, &p, oe.beta, &mut oe.up[..n]);
+            oe.sensitivities(true);
+            // Central differences in x = [ln R_i, ln R_ct, ln Q, α, U_oc, β].
+            let step = [1e-5, 1e-5, 1e-5, 1e-5, 1e-5, 1e-9];
+            for (k, &d) in step.iter().enumerate() {
+                let moved = |sign: f64| {
+                    let mut q = p;
+                    let mut beta = oe.beta;
+                    match k {
+                        0 => q.r_i *= (sign * d).exp(),
+                        1 => q.r_ct *= (sign * d).exp(),
+                        2 => q.q *= (sign * d).exp(),
+                        3 => q.alpha += sign * d,
+                        4 => q.u_oc += sign * d,
+                        _ => beta += sign * d,
+                    }
+                    predicted(&oe, &q, beta)
+                };
+                let (hi, lo) = (moved(1.0), moved(-1.0));
+                let fd: Vec<f64> = (0..n).map(|l| (hi[l] - lo[l]) / (2.0 * d)).collect();
+                let scale = fd[oe.warm..].iter().fold(0.0f64, |m, x| m.max(x.abs()));
+                assert!(scale > 0.0, "column {k} is zero");
+                for l in oe.warm..n {
+                    let j = oe.jacobian_row(&s, l)[k];
+                    assert!(
+                        (j - fd[l]).abs() <= 1e-6 * scale,
+                        "{start:?}: column {k}, row {l}: {j} vs {}",
+                        fd[l]
+                    );
+                }
+            }
+        }
+    }
 }
