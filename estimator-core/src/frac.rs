@@ -500,7 +500,7 @@ impl<T: Real, F: FnMut(usize, T, T)> PairBlocks<'_, T, F> {
 /// The block kernel of this target for one sequence: [`block_sums`] on
 /// Arm, [`block_sums_lanes`] elsewhere.
 #[inline(always)]
-fn row_block<T: Real>(w: &[T], xs: &[T]) -> [T; ROW_BLOCK] {
+pub(crate) fn row_block<T: Real>(w: &[T], xs: &[T]) -> [T; ROW_BLOCK] {
     #[cfg(target_arch = "arm")]
     return block_sums(w, xs);
     #[cfg(not(target_arch = "arm"))]
@@ -589,12 +589,12 @@ fn tap<T: Real>(s: &mut [T; BLOCK], w: T, x: [T; BLOCK]) {
 /// ([`block_sums`], [`block_sums_pair`]), 8 on hosts with vector units
 /// ([`block_sums_lanes`], [`block_sums_pair_lanes`]).
 #[cfg(target_arch = "arm")]
-const ROW_BLOCK: usize = BLOCK;
+pub(crate) const ROW_BLOCK: usize = BLOCK;
 /// Rows of a block of [`single_sums`] and [`pair_sums`]: 4 on Arm
 /// ([`block_sums`], [`block_sums_pair`]), 8 on hosts with vector units
 /// ([`block_sums_lanes`], [`block_sums_pair_lanes`]).
 #[cfg(not(target_arch = "arm"))]
-const ROW_BLOCK: usize = 8;
+pub(crate) const ROW_BLOCK: usize = 8;
 
 /// [`block_sums`] of one weight set against two sequences at once, for
 /// cores without vector units (the Cortex-M4F).

@@ -129,10 +129,12 @@ pub struct OutputErrorRefinement<T, const N: usize, const MEM: usize> {
     /// the newest sample.
     beta: T,
     trial: [T; N],
+    /// `E` of the trial simulation.
+    trial_e: [T; N],
     n: usize,
     warm: usize,
     stamp: Option<u64>,
-    /// `up` holds the simulation of `p` over the loaded window.
+    /// `up` (and `e`) hold the simulation of `p`, β over the loaded window.
     fresh: bool,
 }
 
@@ -165,6 +167,7 @@ impl<T: Real, const N: usize, const MEM: usize> OutputErrorRefinement<T, N, MEM>
             c: [T::ZERO; N],
             beta: T::ZERO,
             trial: [T::ZERO; N],
+            trial_e: [T::ZERO; N],
             n: 0,
             warm: 0,
             stamp: None,
@@ -258,18 +261,22 @@ impl<T: Real, const N: usize, const MEM: usize> OutputErrorRefinement<T, N, MEM>
         Ok(())
     }
 
+    /// The sensitivities of `U_p` to every parameter, for the simulation
+    /// held in `up` and `e`.
     fn sensitivities(&mut self, slope: bool) {
         let (n, warm) = (self.n, self.warm);
         let wts = self.w.weights();
-        let dw = self.w.weight_derivatives();
         let g = self.w.scale();
         let ln_h = self.w.h().ln();
         let p = self.p;
-        let a = p.tau() * g;
-        for l in warm..n {
-            self.e[l] = self.up[l] + history(wts, &self.up, l);
-        }
-        let (i, e, up) = (&self.i, &self.e, &self.up);
+        let tau = p.tau();
+        let a = tau * g;
+        // h^(−α)·Σ_j (∂w_j/∂α)·U_p(l − j) (the order sensitivity's drive),
+        // into the trial buffer, free until the step search.
+        let dup = &mut self.trial;
+        self.w
+            .for_each_weight_derivative(&self.up[..n], warm..n, |l, d| dup[l] = d);
+        let (i, e, dup) = (&self.i, &self.e, &self.trial);
         for x in [
             &mut self.s_rct,
             &mut self.s_q,
@@ -280,13 +287,31 @@ impl<T: Real, const N: usize, const MEM: usize> OutputErrorRefinement<T, N, MEM>
         ] {
             x[..warm].fill(T::zero());
         }
-        cpe_filter(wts, a, warm, &mut self.s_rct[..n], |l, _| {
-            i[l] - p.q * g * e[l]
-        });
-        cpe_filter(wts, a, warm, &mut self.s_q[..n], |l, _| -p.r_ct * g * e[l]);
-        cpe_filter(wts, a, warm, &mut self.s_a[..n], |l, _| {
-            a * ln_h * e[l] - a * history(dw, up, l)
-        });
+        let none = |_, _, _| {};
+        cpe_filter(
+            wts,
+            a,
+            warm,
+            &mut self.s_rct[..n],
+            |l| i[l] - p.q * g * e[l],
+            none,
+        );
+        cpe_filter(
+            wts,
+            a,
+            warm,
+            &mut self.s_q[..n],
+            |l| -p.r_ct * g * e[l],
+            none,
+        );
+        cpe_filter(
+            wts,
+            a,
+            warm,
+            &mut self.s_a[..n],
+            |l| a * ln_h * e[l] - tau * dup[l],
+            none,
+        );
         if warm > 0 {
             for ((sr, su), &il) in self.s_ri[..warm]
                 .iter_mut()
@@ -296,11 +321,11 @@ impl<T: Real, const N: usize, const MEM: usize> OutputErrorRefinement<T, N, MEM>
                 *sr = -il;
                 *su = -T::one();
             }
-            cpe_filter(wts, a, warm, &mut self.s_ri[..n], |_, _| T::zero());
-            cpe_filter(wts, a, warm, &mut self.s_uoc[..n], |_, _| T::zero());
+            cpe_filter(wts, a, warm, &mut self.s_ri[..n], |_| T::zero(), none);
+            cpe_filter(wts, a, warm, &mut self.s_uoc[..n], |_| T::zero(), none);
             if slope {
                 self.s_beta[..warm].copy_from_slice(&self.c[..warm]);
-                cpe_filter(wts, a, warm, &mut self.s_beta[..n], |_, _| T::zero());
+                cpe_filter(wts, a, warm, &mut self.s_beta[..n], |_| T::zero(), none);
             }
         }
     }
@@ -356,8 +381,22 @@ impl<T: Real, const N: usize, const MEM: usize> OutputErrorRefinement<T, N, MEM>
             c: &self.c[..n],
             warm,
         };
-        let cost0 = simulate_window(&self.w, &data, &self.p, self.beta, &mut self.up[..n]);
+        // The last iteration on this window left the simulation of the
+        // estimate in `up` (its accepted trial, or the kept estimate's).
+        let cost0 = if self.fresh {
+            window_cost(&data, &self.p, self.beta, &self.up[..n])
+        } else {
+            simulate_window(
+                &self.w,
+                &data,
+                &self.p,
+                self.beta,
+                &mut self.up[..n],
+                &mut self.e[..n],
+            )
+        };
         if !cost0.is_finite() {
+            self.fresh = false;
             return Err(Error::Diverged);
         }
         self.fresh = true;
@@ -422,9 +461,17 @@ impl<T: Real, const N: usize, const MEM: usize> OutputErrorRefinement<T, N, MEM>
                 c: &self.c[..n],
                 warm,
             };
-            let c = simulate_window(&self.w, &data, &trial, beta, &mut self.trial[..n]);
+            let c = simulate_window(
+                &self.w,
+                &data,
+                &trial,
+                beta,
+                &mut self.trial[..n],
+                &mut self.trial_e[..n],
+            );
             if c.is_finite() && c < cost0 {
                 core::mem::swap(&mut self.up, &mut self.trial);
+                core::mem::swap(&mut self.e, &mut self.trial_e);
                 let ch = [
                     (trial.r_i / p.r_i).ln().abs(),
                     (trial.r_ct / p.r_ct).ln().abs(),
@@ -471,23 +518,38 @@ struct WindowData<'a, T> {
 /// Simulates `p` over a window into `buf` (weights already at `p.alpha`),
 /// with the open-circuit voltage `U_oc − β·c(l)` (`c` the charge still to
 /// flow), the first `warm` samples of `U_p` taken from the data, and returns
-/// ½Σr² over the fitted samples `warm..`.
+/// ½Σr² over the fitted samples `warm..`. `e` receives
+/// `E(l) = Σ_{j≥0} w_j·U_p(l − j)` for the fitted samples.
 fn simulate_window<T: Real, const MEM: usize>(
     w: &GlWeights<T, MEM>,
     data: &WindowData<'_, T>,
     p: &CellParameters<T>,
     beta: T,
     buf: &mut [T],
+    e: &mut [T],
 ) -> T {
     let WindowData { i, v, c, warm } = *data;
     for l in 0..warm {
         buf[l] = v[l] - (p.u_oc - beta * c[l]) - p.r_i * i[l];
     }
     let a = p.tau() * w.scale();
-    cpe_filter(w.weights(), a, warm, buf, |l, _| p.r_ct * i[l]);
+    cpe_filter(
+        w.weights(),
+        a,
+        warm,
+        buf,
+        |l| p.r_ct * i[l],
+        |l, x, h| e[l] = x + h,
+    );
+    window_cost(data, p, beta, buf)
+}
+
+/// ½Σr² over the fitted samples of the simulation `up` of `p`, β.
+fn window_cost<T: Real>(data: &WindowData<'_, T>, p: &CellParameters<T>, beta: T, up: &[T]) -> T {
+    let WindowData { i, v, c, warm } = *data;
     let mut cost = T::zero();
-    for l in warm..buf.len() {
-        let r = v[l] - (p.u_oc - beta * c[l] + p.r_i * i[l] + buf[l]);
+    for l in warm..up.len() {
+        let r = v[l] - (p.u_oc - beta * c[l] + p.r_i * i[l] + up[l]);
         cost = cost + r * r;
     }
     cost / T::lit(2.0)
@@ -512,8 +574,8 @@ mod tests {
             c: &oe.c[..n],
             warm: oe.warm,
         };
-        let mut up = vec![0.0; n];
-        simulate_window(&w, &data, p, beta, &mut up);
+        let (mut up, mut e) = (vec![0.0; n], vec![0.0; n]);
+        simulate_window(&w, &data, p, beta, &mut up, &mut e);
         (0..n)
             .map(|l| p.u_oc - beta * oe.c[l] + p.r_i * oe.i[l] + up[l])
             .collect()
@@ -561,7 +623,7 @@ mod tests {
                 c: &oe.c[..n],
                 warm: oe.warm,
             };
-            simulate_window(&oe.w, &data, &p, oe.beta, &mut oe.up[..n]);
+            simulate_window(&oe.w, &data, &p, oe.beta, &mut oe.up[..n], &mut oe.e[..n]);
             oe.sensitivities(true);
             // Central differences in x = [ln R_i, ln R_ct, ln Q, α, U_oc, β].
             let step = [1e-5, 1e-5, 1e-5, 1e-5, 1e-5, 1e-9];
