@@ -20,6 +20,7 @@ pub struct SampleWindow<T, const N: usize> {
     y: Deque<T, N>,
     pushed: u64,
     rejected: u32,
+    version: u32,
 }
 
 impl<T: Real, const N: usize> Default for SampleWindow<T, N> {
@@ -36,6 +37,7 @@ impl<T: Real, const N: usize> SampleWindow<T, N> {
             y: Deque::new(),
             pushed: 0,
             rejected: 0,
+            version: 0,
         }
     }
 
@@ -57,6 +59,7 @@ impl<T: Real, const N: usize> SampleWindow<T, N> {
         let _ = self.u.push_back(u);
         let _ = self.y.push_back(y);
         self.pushed += 1;
+        self.version = self.version.wrapping_add(1);
         Ok(())
     }
 
@@ -84,17 +87,26 @@ impl<T: Real, const N: usize> SampleWindow<T, N> {
     pub fn rejected(&self) -> u32 {
         self.rejected
     }
+    /// A number that changes with every change of the contents (a push or
+    /// a [`clear`](Self::clear)), for caches keyed on the window: one push
+    /// adds exactly one, and a value repeats only after 2³² changes (a cache
+    /// that looks at every sample never sees that).
+    pub fn version(&self) -> u32 {
+        self.version
+    }
     /// True once the window has dropped a pair: the samples before the
     /// oldest one held are then unknown (not zero).
     pub fn has_slid(&self) -> bool {
         self.pushed > self.u.len() as u64
     }
-    /// Empties the window and resets the counters.
+    /// Empties the window and resets the counters (not the
+    /// [`version`](Self::version), which moves on).
     pub fn clear(&mut self) {
         self.u.clear();
         self.y.clear();
         self.pushed = 0;
         self.rejected = 0;
+        self.version = self.version.wrapping_add(1);
     }
 
     /// The held inputs, oldest first.

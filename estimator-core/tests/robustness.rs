@@ -57,6 +57,13 @@ fn window_slides_in_order() {
     assert_eq!(w.inputs().collect::<Vec<_>>(), [6.0, 7.0, 8.0, 9.0]);
     assert_eq!(w.outputs().collect::<Vec<_>>(), [-6.0, -7.0, -8.0, -9.0]);
     assert_eq!(w.pushed(), 10);
+    assert_eq!(w.version(), 10);
+    // A clear is a change of contents: the version moves on, so a cache
+    // keyed on it never takes the next push for "one more sample".
+    w.clear();
+    assert_eq!((w.len(), w.pushed(), w.version()), (0, 0, 11));
+    w.push(1.0, 2.0).unwrap();
+    assert_eq!((w.pushed(), w.version()), (1, 12));
 }
 
 #[test]

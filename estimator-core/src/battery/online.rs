@@ -284,15 +284,22 @@ impl<T: Real, const N: usize, const MEM: usize> CellEstimator<T, N, MEM> {
         if current.abs() > s.current_limit || voltage < s.voltage_min || voltage > s.voltage_max {
             return Some(Rejection::OutOfRange);
         }
-        if self.spikes_in_row < s.max_consecutive_spikes && self.rmse.is_finite() {
-            if let Some(pred) = self.predict(current) {
-                let limit = (s.spike_sigmas * self.rmse).max(s.spike_floor);
-                if (voltage - pred).abs() > limit {
-                    return Some(Rejection::Spike);
-                }
-            }
+        if self.spikes_in_row < s.max_consecutive_spikes && self.is_spike(s, current, voltage) {
+            return Some(Rejection::Spike);
         }
         None
+    }
+
+    /// True when `voltage` is further than `max(spike_sigmas·RMSE,
+    /// spike_floor)` from the model's prediction for `current`.
+    fn is_spike(&self, s: &OnlineSettings<T>, current: T, voltage: T) -> bool {
+        if !self.rmse.is_finite() {
+            return false;
+        }
+        self.predict(current).is_some_and(|pred| {
+            let limit = (s.spike_sigmas * self.rmse).max(s.spike_floor);
+            (voltage - pred).abs() > limit
+        })
     }
 
     /// Feeds one sample (current in A, positive when charging; terminal
@@ -303,6 +310,18 @@ impl<T: Real, const N: usize, const MEM: usize> CellEstimator<T, N, MEM> {
         let rejected = self.classify(s, current, voltage);
         let sample = match rejected {
             None => {
+                if self.spikes_in_row >= s.max_consecutive_spikes
+                    && self.is_spike(s, current, voltage)
+                {
+                    // A step believed after max_consecutive_spikes
+                    // rejections (a recalibrated sensor, a contactor): the
+                    // samples before it belong to another regime, which no
+                    // model of the window can fit across the step. The
+                    // window restarts here; the estimate is kept, but no
+                    // sample is judged by it until it has been refitted.
+                    self.window.clear();
+                    self.rmse = T::infinity();
+                }
                 self.spikes_in_row = 0;
                 Some((current, voltage))
             }

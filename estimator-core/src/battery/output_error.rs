@@ -133,7 +133,7 @@ pub struct OutputErrorRefinement<T, const N: usize, const MEM: usize> {
     trial_e: [T; N],
     n: usize,
     warm: usize,
-    stamp: Option<u64>,
+    stamp: Option<u32>,
     /// `up` (and `e`) hold the simulation of `p`, β over the loaded window.
     fresh: bool,
 }
@@ -237,7 +237,7 @@ impl<T: Real, const N: usize, const MEM: usize> OutputErrorRefinement<T, N, MEM>
             self.w.set(self.p.alpha, s.h, s.memory)?;
             self.stamp = None;
         }
-        let key = win.pushed();
+        let key = win.version();
         if self.stamp != Some(key) || self.n != win.len() {
             self.n = win.copy_into(&mut self.i, &mut self.v);
             self.warm = match s.start {

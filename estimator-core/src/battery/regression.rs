@@ -161,7 +161,7 @@ pub struct PaperRegressionGi<T, const N: usize, const MEM: usize> {
     trial_hv: [T; N],
     res: [T; N],
     n: usize,
-    stamp: Option<(u64, usize, T)>,
+    stamp: Option<(u32, usize, T)>,
 }
 
 impl<T: Real, const N: usize, const MEM: usize> PaperRegressionGi<T, N, MEM> {
@@ -288,7 +288,7 @@ impl<T: Real, const N: usize, const MEM: usize> PaperRegressionGi<T, N, MEM> {
     ///
     /// The regressors of a row depend only on the `M` samples up to it, all
     /// inside the window (rows start at `M − 1`). So when exactly one sample
-    /// was pushed since the last load and α is unchanged, the known rows are
+    /// was pushed since the last load (the window's version moved by one) and α is unchanged, the known rows are
     /// shifted by one (if the window slid) and only the newest row is
     /// computed: `O(N + M)` instead of `O(N·M)`, with bit-identical values.
     fn load(&mut self, s: &BatterySettings<T>, win: &SampleWindow<T, N>) -> Result<(), Error> {
@@ -296,16 +296,16 @@ impl<T: Real, const N: usize, const MEM: usize> PaperRegressionGi<T, N, MEM> {
             self.w.set(self.w.alpha(), s.h, s.memory)?;
             self.stamp = None;
         }
-        let key = (win.pushed(), win.len(), self.w.alpha());
+        let key = (win.version(), win.len(), self.w.alpha());
         if self.stamp == Some(key) {
             return Ok(());
         }
         let need = s.memory - 1 + MIN_ROWS;
         let n = win.len();
-        if let (Some((pushed, n0, alpha)), Some((i, v)), Some(c)) =
+        if let (Some((version, n0, alpha)), Some((i, v)), Some(c)) =
             (self.stamp, win.recent().next(), self.vref)
         {
-            let one_more = pushed + 1 == key.0 && alpha == key.2 && n >= need;
+            let one_more = version.wrapping_add(1) == key.0 && alpha == key.2 && n >= need;
             if one_more && (n == n0 || n == n0 + 1) && !Self::off_centre(c, v) {
                 if n == n0 {
                     for x in [&mut self.i, &mut self.v, &mut self.di, &mut self.hv] {
@@ -661,7 +661,7 @@ impl<T: Real, const N: usize, const MEM: usize> PaperRegressionGi<T, N, MEM> {
                             self.w.set_order(trial)?;
                             self.regressors();
                         }
-                        self.stamp = Some((win.pushed(), win.len(), trial));
+                        self.stamp = Some((win.version(), win.len(), trial));
                         cost = c;
                         out = OrderStep::Accepted { halvings };
                         break;
