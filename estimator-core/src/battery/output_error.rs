@@ -641,6 +641,50 @@ mod tests {
             .collect()
     }
 
+    /// Once an iteration finds no lower cost on a window, further iterations
+    /// on it change nothing and say converged; a new sample starts the
+    /// search again.
+    #[test]
+    fn a_converged_window_is_not_searched_again() {
+        const N: usize = 120;
+        let truth = CellParameters::<f64>::cell_18650();
+        let s = BatterySettings::new(1.0, 24);
+        let current: Vec<f64> = (0..N + 1)
+            .map(|l| 3.0 * (0.21 * l as f64).sin() + if (l / 15) % 2 == 0 { 2.0 } else { -2.0 })
+            .collect();
+        let (mut up, mut v) = (vec![0.0; N + 1], vec![0.0; N + 1]);
+        let mut w = GlWeights::<f64, 24>::new(truth.alpha, 1.0, 24).unwrap();
+        super::super::simulate::simulate(&truth, &mut w, &current, |_| truth.u_oc, &mut up, &mut v)
+            .unwrap();
+        let mut win = SampleWindow::<f64, N>::new();
+        for l in 0..N {
+            win.push(current[l], v[l]).unwrap();
+        }
+        let start = CellParameters {
+            r_ct: 0.02,
+            q: 400.0,
+            ..truth
+        };
+        let mut oe = OutputErrorRefinement::<f64, N, 24>::new(&s, start).unwrap();
+        let mut k = 0;
+        while oe.iterate(&s, &win).unwrap().accepted {
+            k += 1;
+            assert!(k < 100, "no minimum after 100 iterations");
+        }
+        let at_min = oe.cell();
+        assert!((at_min.r_ct / truth.r_ct - 1.0).abs() < 1e-6, "{at_min:?}");
+        for _ in 0..3 {
+            let step = oe.iterate(&s, &win).unwrap();
+            assert!(step.converged && !step.accepted && step.change == 0.0);
+            assert_eq!(oe.cell(), at_min);
+        }
+        // One more (noisy) sample: the window changed, the search runs.
+        win.push(current[N], v[N] + 0.01).unwrap();
+        let step = oe.iterate(&s, &win).unwrap();
+        assert!(step.accepted, "{step:?}");
+        assert_ne!(oe.cell(), at_min);
+    }
+
     /// The Jacobian from the sensitivity recursions equals central finite
     /// differences of the simulation, column by column, on a slid window
     /// (history from data, OCV slope fitted), and with a start from rest.
