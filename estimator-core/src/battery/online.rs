@@ -9,7 +9,10 @@
 //!    stays uniform (the fractional differences assume it) a substitute takes
 //!    its place: the measured current when it is plausible (else the last
 //!    one) and the model's voltage for it (or the last voltage). After `max_consecutive_spikes` rejected spikes in a row the
-//!    sample is believed (a real step, e.g. a contactor closing).
+//!    sample is believed (a real step, e.g. a contactor closing, a
+//!    recalibrated sensor): the window restarts from it, since no model
+//!    fits across the step, and spike checks pause until the model is
+//!    refitted.
 //! 2. **Window.** The sample enters the [`SampleWindow`].
 //! 3. **Excitation.** A window whose current barely varies (rest) carries no
 //!    information on the resistances: the estimate is held and the status is

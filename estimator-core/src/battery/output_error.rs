@@ -35,7 +35,16 @@
 //! still to flow to the newest sample, so `U_oc` is the value *now* and `β`
 //! is `dOCV/dq` (the OCV curve's slope over the cell's capacity). The 6×6 system is solved by nalgebra's Cholesky on the
 //! stack. One call of [`OutputErrorRefinement::iterate`] is one accepted
-//! (or finally rejected) LM step, `O(6·N·M)`.
+//! (or finally rejected) LM step, `O(8·N·M)` (the recursions run in blocks
+//! through the block kernel of [`crate::frac`]).
+//!
+//! An iteration does not simulate a trial whose step is below ε, or whose
+//! predicted decrease `dxᵀb − ½dxᵀA dx` is below 100 ε of the cost (in
+//! `f32` the cost does not resolve less); after an iteration that found no
+//! lower cost, later ones on the same window return at once. Trials whose
+//! relaxation time `τ^(1/α)` exceeds ten fitted windows are refused: such a
+//! branch is not identifiable from the window, and `R_ct` could otherwise
+//! run away along it.
 
 use super::simulate::{cpe_filter, history};
 use super::{current_std, BatterySettings, CellParameters, Start};
