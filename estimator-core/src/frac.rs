@@ -45,13 +45,18 @@ impl<T: Real, const MEM: usize> GlWeights<T, MEM> {
     /// [`FracError::BadSamplePeriod`] unless `h` is finite and positive,
     /// [`FracError::BadMemory`] unless `1 ≤ len ≤ MEM`.
     pub fn new(alpha: T, h: T, len: usize) -> Result<Self, FracError> {
+        // The weights of (α, h, len) = (0, 1, 1), so that `set` may keep them.
+        let mut w = [T::zero(); MEM];
+        if let Some(w0) = w.first_mut() {
+            *w0 = T::one();
+        }
         let mut me = Self {
             alpha: T::zero(),
             h: T::one(),
             len: 1,
             scale: T::one(),
             ln_h: T::zero(),
-            w: [T::zero(); MEM],
+            w,
             dw: [T::zero(); MEM],
         };
         me.set(alpha, h, len)?;
@@ -75,6 +80,10 @@ impl<T: Real, const MEM: usize> GlWeights<T, MEM> {
                 requested: len,
                 capacity: MEM,
             });
+        }
+        if alpha == self.alpha && h == self.h && len == self.len {
+            // Already these weights (a deterministic function of the three).
+            return Ok(());
         }
         self.alpha = alpha;
         self.h = h;
@@ -510,7 +519,11 @@ pub(crate) fn row_block<T: Real>(w: &[T], xs: &[T]) -> [T; ROW_BLOCK] {
 /// The block kernel of this target for two sequences:
 /// [`block_sums_pair`] on Arm, [`block_sums_pair_lanes`] elsewhere.
 #[inline(always)]
-fn row_block_pair<T: Real>(w: &[T], xs: &[T], ys: &[T]) -> ([T; ROW_BLOCK], [T; ROW_BLOCK]) {
+pub(crate) fn row_block_pair<T: Real>(
+    w: &[T],
+    xs: &[T],
+    ys: &[T],
+) -> ([T; ROW_BLOCK], [T; ROW_BLOCK]) {
     #[cfg(target_arch = "arm")]
     return block_sums_pair(w, xs, ys);
     #[cfg(not(target_arch = "arm"))]
