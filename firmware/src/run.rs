@@ -17,6 +17,8 @@ struct Cost {
     clocks: u64,
     /// The longest update.
     max: u64,
+    /// Of the updates, those that ran the output-error refinement.
+    refined: u32,
 }
 
 /// Builds the task and moves it into its static. Not inlined, so that the
@@ -79,6 +81,7 @@ fn main() -> ! {
             cost.iterations += u32::from(r.core.iterations);
             cost.clocks += dt;
             cost.max = cost.max.max(dt);
+            cost.refined += u32::from(task.cell().is_refining());
         }
         if let Some(f) = r.fault {
             defmt::warn!("period {=u32}: {}", period, f);
@@ -113,6 +116,15 @@ fn main() -> ! {
         <board::Board as BoardApi>::CLOCK_HZ,
         config::WINDOW,
         config::MEMORY
+    );
+    let work = task.cell().refinement_work();
+    defmt::println!(
+        "WORK updates={=u32} iterations={=u32} simulations={=u32} trials={=u32} linearizations={=u32}",
+        cost.refined,
+        work.iterations,
+        work.simulations,
+        work.trials,
+        work.linearizations
     );
     defmt::println!(
         "STACK high_water_bytes={=u32} init_bytes={=u32} task_bytes={=usize}",

@@ -214,9 +214,21 @@ pub struct OnlineBatteryArgs {
     /// Method.
     #[arg(long, value_enum, default_value = "refined")]
     pub method: BatteryMethod,
+    /// Arithmetic of the estimator: `f64`, or `f32` as the firmware runs it.
+    #[arg(long, value_enum, default_value = "f64")]
+    pub precision: Precision,
     /// Output CSV time_s,r_i,r_ct,q,alpha,u_oc,status.
     #[arg(long)]
     pub out: PathBuf,
+}
+
+/// Floating-point precision of the estimator.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Precision {
+    /// Single precision (the Cortex-M4F FPU).
+    F32,
+    /// Double precision.
+    F64,
 }
 
 /// `reproduce`.

@@ -1,11 +1,13 @@
 //! `online battery`: the sliding-window estimator, sample by sample, as the
 //! firmware runs it (f64 here).
 
-use crate::cli::{BatteryMethod, OnlineBatteryArgs};
+use crate::cli::{BatteryMethod, OnlineBatteryArgs, Precision};
 use crate::{io, progress};
 use anyhow::{anyhow, bail, Result};
 use estimator_core::battery::online::{CellEstimator, Method, OnlineSettings};
+use estimator_core::battery::output_error::RefinementWork;
 use estimator_core::battery::CellParameters;
+use estimator_core::Real;
 
 /// One row of the track.
 #[derive(Clone, Copy, Debug)]
@@ -18,12 +20,23 @@ pub struct TrackRow {
     pub status: &'static str,
 }
 
-fn run<const N: usize>(
-    s: &OnlineSettings<f64>,
+/// What a track run did.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct TrackSummary {
+    /// Samples offered.
+    pub samples: u64,
+    /// Samples rejected (and substituted).
+    pub rejected: u32,
+    /// What the output-error refinement computed.
+    pub work: RefinementWork,
+}
+
+fn run<T: Real, const N: usize>(
+    s: &OnlineSettings<T>,
     rec: &io::BatteryRecord,
     mut sink: impl FnMut(TrackRow) -> Result<()>,
-) -> Result<(u64, u32)> {
-    let mut est = Box::new(CellEstimator::<f64, N, N>::new(s).map_err(|e| anyhow!("{e}"))?);
+) -> Result<TrackSummary> {
+    let mut est = Box::new(CellEstimator::<T, N, N>::new(s).map_err(|e| anyhow!("{e}"))?);
     let pb = progress::bar(rec.current.len() as u64, "tracking");
     for (k, ((&t, &i), &v)) in rec
         .time
@@ -32,10 +45,16 @@ fn run<const N: usize>(
         .zip(&rec.voltage)
         .enumerate()
     {
-        let r = est.push(s, i, v);
+        let r = est.push(s, T::lit(i), T::lit(v));
         sink(TrackRow {
             t,
-            estimate: est.estimate(),
+            estimate: est.estimate().map(|p| CellParameters {
+                r_i: p.r_i.to_f64(),
+                r_ct: p.r_ct.to_f64(),
+                q: p.q.to_f64(),
+                alpha: p.alpha.to_f64(),
+                u_oc: p.u_oc.to_f64(),
+            }),
             status: r.status.as_str(),
         })?;
         if k % 256 == 0 {
@@ -44,37 +63,69 @@ fn run<const N: usize>(
     }
     pb.finish_and_clear();
     let c = est.counts();
-    Ok((c.samples, c.rejected()))
+    Ok(TrackSummary {
+        samples: c.samples,
+        rejected: c.rejected(),
+        work: est.refinement_work(),
+    })
 }
 
-/// Runs the online estimator over a record with window `window`, calling
-/// `sink` after every sample. Returns (samples, rejected).
+fn settings<T: Real>(h: f64, memory: usize, k: u16, method: BatteryMethod) -> OnlineSettings<T> {
+    let mut s = OnlineSettings::new(T::lit(h), memory, CellParameters::cell_18650());
+    s.iterations_per_sample = k;
+    s.method = match method {
+        BatteryMethod::Paper => Method::Paper,
+        BatteryMethod::Refined => Method::Refined,
+    };
+    s
+}
+
+/// Runs the online estimator over a record with window `window`, memory
+/// `memory`, `k` iterations per sample, in `precision`, calling `sink` after
+/// every sample.
 pub fn track(
     rec: &io::BatteryRecord,
     window: usize,
     memory: usize,
     k: u16,
     method: BatteryMethod,
+    precision: Precision,
     sink: impl FnMut(TrackRow) -> Result<()>,
-) -> Result<(u64, u32)> {
-    let mut s = OnlineSettings::new(rec.h, memory, CellParameters::cell_18650());
-    s.iterations_per_sample = k;
-    s.method = match method {
-        BatteryMethod::Paper => Method::Paper,
-        BatteryMethod::Refined => Method::Refined,
-    };
+) -> Result<TrackSummary> {
     if memory == 0 || memory + 8 > window {
         bail!(
             "--memory {memory}: must be in 1..={}",
             window.saturating_sub(8)
         );
     }
+    match precision {
+        Precision::F64 => sized(
+            &settings::<f64>(rec.h, memory, k, method),
+            window,
+            rec,
+            sink,
+        ),
+        Precision::F32 => sized(
+            &settings::<f32>(rec.h, memory, k, method),
+            window,
+            rec,
+            sink,
+        ),
+    }
+}
+
+fn sized<T: Real>(
+    s: &OnlineSettings<T>,
+    window: usize,
+    rec: &io::BatteryRecord,
+    sink: impl FnMut(TrackRow) -> Result<()>,
+) -> Result<TrackSummary> {
     match window {
-        64 => run::<64>(&s, rec, sink),
-        128 => run::<128>(&s, rec, sink),
-        256 => run::<256>(&s, rec, sink),
-        512 => run::<512>(&s, rec, sink),
-        1024 => run::<1024>(&s, rec, sink),
+        64 => run::<T, 64>(s, rec, sink),
+        128 => run::<T, 128>(s, rec, sink),
+        256 => run::<T, 256>(s, rec, sink),
+        512 => run::<T, 512>(s, rec, sink),
+        1024 => run::<T, 1024>(s, rec, sink),
         _ => bail!("--window {window}: must be one of 64, 128, 256, 512, 1024"),
     }
 }
@@ -88,8 +139,8 @@ pub(crate) fn battery(a: &OnlineBatteryArgs) -> Result<()> {
     let rec = io::read_battery(&a.input, None)?;
     let memory = a.memory.unwrap_or(a.window / 4);
     let f = |x: f64| format!("{x:.9e}");
-    let (samples, rejected) = {
-        let mut res = Ok((0, 0));
+    let summary = {
+        let mut res = Ok(TrackSummary::default());
         io::write_atomic(&a.out, |w| {
             writeln!(w, "time_s,r_i,r_ct,q,alpha,u_oc,status")?;
             res = track(
@@ -98,6 +149,7 @@ pub(crate) fn battery(a: &OnlineBatteryArgs) -> Result<()> {
                 memory,
                 a.iterations_per_sample,
                 a.method,
+                a.precision,
                 |r| {
                     match r.estimate {
                         Some(p) => writeln!(
@@ -121,10 +173,23 @@ pub(crate) fn battery(a: &OnlineBatteryArgs) -> Result<()> {
         res?
     };
     let secs = t0.elapsed().as_secs_f64();
+    let TrackSummary {
+        samples,
+        rejected,
+        work,
+    } = summary;
     eprintln!(
         "wrote {} ({samples} samples, {rejected} rejected, {:.0} samples/s)",
         a.out.display(),
         samples as f64 / secs.max(1e-9)
     );
+    if work.iterations > 0 {
+        // The refinement's cost drivers: each simulation and each
+        // sensitivity pass is O(L·M).
+        eprintln!(
+            "refinement: {} iterations, {} window simulations ({} trial steps), {} sensitivity passes",
+            work.iterations, work.simulations, work.trials, work.linearizations
+        );
+    }
     Ok(())
 }

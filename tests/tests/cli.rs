@@ -163,6 +163,55 @@ fn online_writes_a_track() {
     assert_eq!(rows.len(), 600);
     assert!(rows[0].ends_with(",filling"));
     assert!(rows[599].ends_with(",tracking"));
+    // The refinement's work is reported.
+    let err = String::from_utf8_lossy(&o.stderr);
+    let work = err
+        .lines()
+        .find(|l| l.starts_with("refinement: "))
+        .unwrap_or_else(|| panic!("no work line in {err}"));
+    assert!(work.contains(" window simulations ("), "{work}");
+
+    // In f32, as the firmware computes: the same track to f32 accuracy.
+    let out32 = tmp("track32.csv");
+    let o = run(&[
+        "online",
+        "battery",
+        "--input",
+        s(&csv),
+        "--window",
+        "128",
+        "--precision",
+        "f32",
+        "--out",
+        s(&out32),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let t32 = std::fs::read_to_string(&out32).unwrap();
+    let last = |t: &str| -> Vec<f64> {
+        let row = t.lines().last().unwrap();
+        row.split(',')
+            .skip(1)
+            .take(5)
+            .map(|x| x.parse().unwrap())
+            .collect()
+    };
+    let (a, b) = (last(&t), last(&t32));
+    assert_ne!(a, b, "f32 gave the f64 digits");
+    for (x, y) in a.iter().zip(&b) {
+        assert!((x - y).abs() <= 1e-2 * x.abs(), "{a:?} vs {b:?}");
+    }
+
+    let o = run(&[
+        "online",
+        "battery",
+        "--input",
+        s(&csv),
+        "--precision",
+        "f16",
+        "--out",
+        s(&out32),
+    ]);
+    assert_eq!(o.status.code(), Some(2));
 }
 
 /// Every malformed file gives exit code 1 and one line naming the file

@@ -348,6 +348,22 @@ fn bench_target(b: &BenchArgs) -> Result<()> {
         max_clocks as f64 * per_clock,
         per_iteration / flops as f64,
     );
+    if matches!(b.method, Method::Refined) {
+        let w = |k| int(&s, "WORK", k);
+        let refined = w("updates")?.max(1) as f64;
+        eprintln!(
+            "bench-target: {} updates ran the refinement: {} iterations, {} window simulations \
+             ({} trial steps), {} sensitivity passes; per update {:.2} simulations and {:.2} \
+             sensitivity passes",
+            w("updates")?,
+            w("iterations")?,
+            w("simulations")?,
+            w("trials")?,
+            w("linearizations")?,
+            w("simulations")? as f64 / refined,
+            w("linearizations")? as f64 / refined,
+        );
+    }
     println!(
         "{}",
         serde_json::json!({

@@ -24,7 +24,7 @@
 //!
 //! A failing iteration never touches the published estimate.
 
-use super::output_error::OutputErrorRefinement;
+use super::output_error::{OutputErrorRefinement, RefinementWork};
 use super::regression::PaperRegressionGi;
 use super::{BatterySettings, CellParameters, Start};
 use crate::error::Error;
@@ -258,6 +258,13 @@ impl<T: Real, const N: usize, const MEM: usize> CellEstimator<T, N, MEM> {
     /// The window.
     pub fn window(&self) -> &SampleWindow<T, N> {
         &self.window
+    }
+
+    /// What the output-error refinement has computed so far (zero while
+    /// the paper method runs): simulations, trial steps and sensitivity
+    /// passes, the counters behind its cost.
+    pub fn refinement_work(&self) -> RefinementWork {
+        self.oe.work()
     }
 
     /// True once the output-error refinement has taken over.

@@ -14,7 +14,7 @@
 
 use super::CellParameters;
 use crate::error::Error;
-use crate::frac::{row_block, GlWeights, ROW_BLOCK};
+use crate::frac::{row_block, row_block_pair, GlWeights, ROW_BLOCK};
 use crate::real::Real;
 
 /// `Σ_{j=1}^{min(l, M−1)} w_j·x(l − j)`: the history part of the unscaled
@@ -80,6 +80,53 @@ pub(crate) fn cpe_filter<T: Real>(
     }
 }
 
+/// [`cpe_filter`] of two sequences with the same weights and `a` at once
+/// (`drive(l)` gives both drives), for the sensitivities: each block loads
+/// a weight once for both ([`crate::frac`]'s pair kernel). Each sequence
+/// gets exactly the values [`cpe_filter`] gives it alone.
+#[inline]
+pub(crate) fn cpe_filter_pair<T: Real>(
+    w: &[T],
+    a: T,
+    warm: usize,
+    x: &mut [T],
+    y: &mut [T],
+    mut drive: impl FnMut(usize) -> (T, T),
+) {
+    let inv = T::one() / (T::one() + a);
+    let (m, n) = (w.len(), x.len().min(y.len()));
+    let mut l = warm;
+    let mut solve = |x: &mut [T], y: &mut [T], l: usize, hx: T, hy: T| {
+        let (dx, dy) = drive(l);
+        x[l] = (dx - a * hx) * inv;
+        y[l] = (dy - a * hy) * inv;
+    };
+    if m > ROW_BLOCK {
+        while l < n && l + 1 < m {
+            let (hx, hy) = (history(w, x, l), history(w, y, l));
+            solve(x, y, l, hx, hy);
+            l += 1;
+        }
+        while l + ROW_BLOCK <= n {
+            let (kx, ky) = row_block_pair(&w[ROW_BLOCK..], &x[l + 1 - m..l], &y[l + 1 - m..l]);
+            for (k, (mut hx, mut hy)) in kx.into_iter().zip(ky).enumerate() {
+                let r = l + k;
+                for j in (1..ROW_BLOCK).rev() {
+                    hx = hx + w[j] * x[r - j];
+                    hy = hy + w[j] * y[r - j];
+                }
+                solve(x, y, r, hx, hy);
+            }
+            l += ROW_BLOCK;
+        }
+    }
+    while l < n {
+        let (hx, hy) = (history(w, x, l), history(w, y, l));
+        solve(x, y, l, hx, hy);
+        l += 1;
+    }
+}
+
 /// Simulates the terminal voltage of a cell with parameters `p` for the
 /// current record `current` (A, positive when charging), from rest.
 ///
@@ -133,7 +180,7 @@ pub fn simulate<T: Real, const MEM: usize>(
 
 #[cfg(test)]
 mod tests {
-    use super::{cpe_filter, history};
+    use super::{cpe_filter, cpe_filter_pair, history};
 
     /// The blocked recursion equals the plain one row by row (up to
     /// rounding: its sums run in another order), for memories below, at and
@@ -181,6 +228,16 @@ mod tests {
                         "m {m}, row {l}"
                     );
                 }
+                // The pair recursion gives each sequence exactly its single
+                // recursion's values.
+                let drive2 = |l: usize| (0.7 * l as f64).cos() - 0.2;
+                let history1: Vec<f64> = (0..n).map(|l| (0.2 * l as f64).sin()).collect();
+                let mut y1 = history1.clone();
+                cpe_filter(&w, a, warm, &mut y1, drive2, |_, _, _| {});
+                let (mut px, mut py) = (history0.clone(), history1.clone());
+                cpe_filter_pair(&w, a, warm, &mut px, &mut py, |l| (drive(l), drive2(l)));
+                assert_eq!(px, x, "m {m} n {n} warm {warm}");
+                assert_eq!(py, y1, "m {m} n {n} warm {warm}");
             }
         }
     }
