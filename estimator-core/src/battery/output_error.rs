@@ -920,6 +920,7 @@ mod tests {
         };
         let mut oe = OutputErrorRefinement::<f64, N, 24>::new(&s, start).unwrap();
         let (mut stops, mut go_ons) = (0, 0);
+        let (mut worst_offset, mut worst_change) = (0.0f64, 0.0f64);
         for l in N..N + 40 {
             win.push(current[l], v[l]).unwrap();
             let mut accepted_before = false;
@@ -944,6 +945,10 @@ mod tests {
                         offset < 1e-3,
                         "sample {l}: relative offset {offset:e} ({e:?})"
                     );
+                    worst_offset = worst_offset.max(offset);
+                    if e.accepted {
+                        worst_change = worst_change.max(e.change);
+                    }
                 }
                 accepted_before = step.accepted;
                 if step.converged {
@@ -951,6 +956,12 @@ mod tests {
                 }
             }
         }
+        // Quoted in docs/performance.md (run with --nocapture).
+        std::println!(
+            "{stops} chord stops, {go_ons} go-ons; exact step from a stop at most \
+             {worst_change:.2e} (epsilon {:e}), relative offset at most {worst_offset:.2e}",
+            s.epsilon
+        );
         assert!(stops >= 10, "only {stops} stops without sensitivities");
         assert!(go_ons >= 1, "the last Jacobian never said go on");
     }
