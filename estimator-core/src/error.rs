@@ -74,6 +74,17 @@ pub enum Error {
     /// The iteration produced a non-finite value; the last good estimate was
     /// restored.
     Diverged,
+    /// An OCV table is malformed.
+    Ocv(crate::battery::ocv::OcvError),
+    /// The start state of charge was to be read from a rested voltage, but
+    /// the record does not start at rest (the first current exceeds `C/100`).
+    NotAtRest,
+}
+
+impl From<crate::battery::ocv::OcvError> for Error {
+    fn from(e: crate::battery::ocv::OcvError) -> Self {
+        Error::Ocv(e)
+    }
 }
 
 impl From<FracError> for Error {
@@ -118,9 +129,16 @@ impl core::fmt::Display for Error {
             }
             Error::NotExcited => write!(f, "window carries no excitation"),
             Error::Diverged => write!(f, "iteration diverged; last good estimate kept"),
+            Error::Ocv(e) => e.fmt(f),
+            Error::NotAtRest => write!(
+                f,
+                "the record does not start at rest (first current above C/100), so its start \
+                 state of charge cannot be read from the OCV table; give it"
+            ),
         }
     }
 }
 
 impl core::error::Error for FracError {}
 impl core::error::Error for Error {}
+impl core::error::Error for crate::battery::ocv::OcvError {}

@@ -18,12 +18,16 @@
 //! * [`output_error`] — ours: a Levenberg–Marquardt output-error refinement
 //!   that fits the simulated voltage to the measured one
 //!   ([`output_error::OutputErrorRefinement`]).
+//! * [`ocv`] — the OCV curve `OCV(SOC)` (a piecewise-linear table), coulomb
+//!   counting, and the overpotential `U_t − OCV(SOC)` the estimators fit
+//!   when the curve is known (`U_oc` becomes a small offset `ΔU`).
 //! * [`profile`] — test current profiles (pulse, HPPC, drive) and an OCV
 //!   curve.
 //! * [`online`] — the sliding-window cell estimator a BMS runs per cell:
 //!   sample validation, spike and NaN rejection, the "not excited" hold,
 //!   either method ([`online::CellEstimator`]).
 
+pub mod ocv;
 pub mod online;
 pub mod output_error;
 pub mod profile;

@@ -13,7 +13,13 @@
 //!    recalibrated sensor): the window restarts from it, since no model
 //!    fits across the step, and spike checks pause until the model is
 //!    refitted.
-//! 2. **Window.** The sample enters the [`SampleWindow`].
+//! 2. **Window.** The sample enters the [`SampleWindow`]. With an OCV curve
+//!    ([`OnlineSettings::with_ocv`]) the state of charge is counted first
+//!    and the window holds the overpotential `U_t − OCV(SOC)`: the model's
+//!    `U_oc` is then the small offset `ΔU` ([`super::ocv`]). The start SOC
+//!    is [`CellEstimator::set_state_of_charge`]'s, or else read from the
+//!    first sample's voltage through the inverse curve (the cell should be
+//!    at rest then).
 //! 3. **Excitation.** A window whose current barely varies (rest) carries no
 //!    information on the resistances: the estimate is held and the status is
 //!    [`Status::NotExcited`].
@@ -21,9 +27,22 @@
 //!    [`Method`] runs. The refined method first runs the paper's 2S-OP-GI
 //!    until its estimate is physical (or a budget is spent), then refines
 //!    it by output error and keeps refining as the window slides.
+//! 5. **Plausibility.** An estimate is published only when it is physical
+//!    and identifiable from the window: positive, finite resistances and
+//!    `Q`, α in `(0, 1]` and not at the search's lower bound (nor at a
+//!    user-set upper bound below 1; α = 1 is a plain RC branch), a
+//!    relaxation time `τ^(1/α)` within [`OnlineSettings::max_relaxation_windows`]
+//!    fitted windows, and an open-circuit voltage inside the plausible
+//!    voltage range (with a curve: an offset `|ΔU|` at most
+//!    [`OnlineSettings::max_ocv_offset`]). Otherwise the last good estimate
+//!    is held with a status that says why ([`Status::Unphysical`],
+//!    [`Status::AtBound`], [`Status::SlowRelaxation`],
+//!    [`Status::OcvImplausible`]), and the refinement restarts from that
+//!    estimate. No runaway is ever published.
 //!
 //! A failing iteration never touches the published estimate.
 
+use super::ocv::OcvModel;
 use super::output_error::{OutputErrorRefinement, RefinementWork};
 use super::regression::PaperRegressionGi;
 use super::{BatterySettings, CellParameters, Start};
@@ -42,10 +61,12 @@ pub enum Method {
     Refined,
 }
 
-/// Settings of the online estimator (one value for all cells of a pack).
+/// Settings of the online estimator (one value for all cells of a pack),
+/// with room for an OCV curve of `P` points (`P = 0`: no curve, a constant
+/// `U_oc` as in §6.2).
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct OnlineSettings<T> {
+pub struct OnlineSettings<T, const P: usize = 0> {
     /// The estimators' settings (use [`Start::FromData`] for a sliding
     /// window).
     pub battery: BatterySettings<T>,
@@ -74,14 +95,22 @@ pub struct OnlineSettings<T> {
     pub spike_floor: T,
     /// After this many consecutive spikes the sample is believed.
     pub max_consecutive_spikes: u8,
+    /// The cell's OCV curve and capacity (`None`: constant `U_oc`).
+    pub ocv: Option<OcvModel<T, P>>,
+    /// With a curve, the largest plausible OCV offset `|ΔU|` (V).
+    pub max_ocv_offset: T,
+    /// The longest relaxation time `τ^(1/α)` a published estimate may have,
+    /// in fitted windows (`(L − M + 1)·h`).
+    pub max_relaxation_windows: T,
 }
 
 impl<T: Real> OnlineSettings<T> {
     /// Defaults for a Li-ion cell sampled every `h` seconds with memory
     /// `memory`: refined method, one iteration per sample, start from data,
-    /// OCV slope fitted,
+    /// no OCV curve (OCV slope fitted),
     /// `|I| ≤ 500 A`, `U_t ∈ [1.5, 5] V`, spikes beyond `max(8·RMSE, 50 mV)`,
-    /// 3 consecutive spikes believed.
+    /// 3 consecutive spikes believed; published relaxation times up to one
+    /// fitted window, OCV offsets up to 0.15 V.
     pub fn new(h: T, memory: usize, initial: CellParameters<T>) -> Self {
         let mut battery = BatterySettings::new(h, memory);
         battery.start = Start::FromData;
@@ -99,7 +128,78 @@ impl<T: Real> OnlineSettings<T> {
             spike_sigmas: T::lit(8.0),
             spike_floor: T::lit(0.05),
             max_consecutive_spikes: 3,
+            ocv: None,
+            max_ocv_offset: T::lit(0.15),
+            max_relaxation_windows: T::one(),
         }
+    }
+}
+
+impl<T: Real, const P: usize> OnlineSettings<T, P> {
+    /// The same settings with the cell's OCV curve and capacity: the
+    /// estimator counts the state of charge and fits the overpotential
+    /// `U_t − OCV(SOC)`, so the OCV slope is no longer fitted.
+    pub fn with_ocv<const Q: usize>(self, ocv: OcvModel<T, Q>) -> OnlineSettings<T, Q> {
+        let mut battery = self.battery;
+        battery.ocv_slope = false;
+        OnlineSettings {
+            battery,
+            method: self.method,
+            iterations_per_sample: self.iterations_per_sample,
+            paper_budget: self.paper_budget,
+            alpha0: self.alpha0,
+            initial: self.initial,
+            current_limit: self.current_limit,
+            voltage_min: self.voltage_min,
+            voltage_max: self.voltage_max,
+            spike_sigmas: self.spike_sigmas,
+            spike_floor: self.spike_floor,
+            max_consecutive_spikes: self.max_consecutive_spikes,
+            ocv: Some(ocv),
+            max_ocv_offset: self.max_ocv_offset,
+            max_relaxation_windows: self.max_relaxation_windows,
+        }
+    }
+
+    /// The refinement's fallback start in the window's coordinates: with a
+    /// curve, [`initial`](Self::initial) with `U_oc` replaced by `ΔU = 0`.
+    pub fn initial_in_window(&self) -> CellParameters<T> {
+        match self.ocv {
+            Some(_) => CellParameters {
+                u_oc: T::zero(),
+                ..self.initial
+            },
+            None => self.initial,
+        }
+    }
+
+    /// Why `p` (in the estimator's coordinates: `u_oc` is `ΔU` with a
+    /// curve) may not be published from a window of `rows` fitted samples,
+    /// or `None` when it may.
+    pub fn implausible(&self, p: &CellParameters<T>, rows: usize) -> Option<Status> {
+        let b = &self.battery;
+        let pos = |x: T| x.is_finite() && x > T::zero();
+        if !(pos(p.r_i) && pos(p.r_ct) && pos(p.q) && pos(p.alpha) && p.alpha <= T::one()) {
+            return Some(Status::Unphysical);
+        }
+        let ocv_ok = match self.ocv {
+            Some(_) => p.u_oc.abs() <= self.max_ocv_offset,
+            None => p.u_oc >= self.voltage_min && p.u_oc <= self.voltage_max,
+        };
+        if !ocv_ok {
+            return Some(Status::OcvImplausible);
+        }
+        let tol = T::lit(1e-3);
+        if p.alpha <= b.alpha_min + tol || (b.alpha_max < T::one() && p.alpha >= b.alpha_max - tol)
+        {
+            return Some(Status::AtBound);
+        }
+        let relax = p.tau().powf(T::one() / p.alpha);
+        let longest = self.max_relaxation_windows * T::lit(rows as f64) * b.h;
+        if relax.is_nan() || relax > longest {
+            return Some(Status::SlowRelaxation);
+        }
+        None
     }
 }
 
@@ -117,6 +217,20 @@ pub enum Status {
     NotExcited,
     /// The iteration failed (non-finite values): estimate held.
     Held,
+    /// The window's estimate is not physical (a resistance or `Q` not
+    /// positive, α outside `(0, 1]`): the last good estimate is held.
+    Unphysical,
+    /// The window's estimate has α at the search's bound: not identified;
+    /// the last good estimate is held.
+    AtBound,
+    /// The window's estimate relaxes slower than the window can see
+    /// (`τ^(1/α)` beyond [`OnlineSettings::max_relaxation_windows`]): the
+    /// branch would be imitating a drift; the last good estimate is held.
+    SlowRelaxation,
+    /// The window's open-circuit voltage is outside the plausible voltage
+    /// range (with a curve: `|ΔU|` above [`OnlineSettings::max_ocv_offset`]):
+    /// the last good estimate is held.
+    OcvImplausible,
 }
 
 impl Status {
@@ -128,7 +242,34 @@ impl Status {
             Status::Tracking => "tracking",
             Status::NotExcited => "not_excited",
             Status::Held => "held",
+            Status::Unphysical => "unphysical",
+            Status::AtBound => "at_bound",
+            Status::SlowRelaxation => "slow_relaxation",
+            Status::OcvImplausible => "ocv_implausible",
         }
+    }
+
+    /// Every status, in the order of the enum (for documentation and
+    /// tests).
+    pub const ALL: [Status; 9] = [
+        Status::Filling,
+        Status::Starting,
+        Status::Tracking,
+        Status::NotExcited,
+        Status::Held,
+        Status::Unphysical,
+        Status::AtBound,
+        Status::SlowRelaxation,
+        Status::OcvImplausible,
+    ];
+
+    /// True when the estimate was held because the window's estimate was
+    /// not plausible.
+    pub fn is_implausible(&self) -> bool {
+        matches!(
+            self,
+            Status::Unphysical | Status::AtBound | Status::SlowRelaxation | Status::OcvImplausible
+        )
     }
 }
 
@@ -199,7 +340,13 @@ pub struct CellEstimator<T, const N: usize, const MEM: usize> {
     gi: PaperRegressionGi<T, N, MEM>,
     oe: OutputErrorRefinement<T, N, MEM>,
     refining: bool,
+    /// The last good estimate, in the window's coordinates (`u_oc` is `ΔU`
+    /// with an OCV curve).
     estimate: Option<CellParameters<T>>,
+    /// State of charge after the last sample (with an OCV curve, once known).
+    soc: Option<T>,
+    /// `OCV(SOC)` after the last sample (with a curve; `None` without).
+    ocv_now: Option<T>,
     /// Weights at the estimate's order, for the one-step prediction.
     pw: GlWeights<T, MEM>,
     rmse: T,
@@ -214,7 +361,7 @@ impl<T: Real, const N: usize, const MEM: usize> CellEstimator<T, N, MEM> {
     /// # Errors
     /// Settings errors ([`BatterySettings::check`], a bad `alpha0` or
     /// `initial`, non-finite limits).
-    pub fn new(s: &OnlineSettings<T>) -> Result<Self, Error> {
+    pub fn new<const P: usize>(s: &OnlineSettings<T, P>) -> Result<Self, Error> {
         let limits_ok = s.current_limit > T::zero()
             && s.current_limit.is_finite()
             && s.voltage_min.is_finite()
@@ -222,16 +369,23 @@ impl<T: Real, const N: usize, const MEM: usize> CellEstimator<T, N, MEM> {
             && s.voltage_min < s.voltage_max
             && s.spike_sigmas > T::zero()
             && s.spike_floor > T::zero()
-            && s.spike_floor.is_finite();
+            && s.spike_floor.is_finite()
+            && s.max_ocv_offset > T::zero()
+            && s.max_relaxation_windows > T::zero();
         if !limits_ok {
             return Err(Error::BadSetting);
+        }
+        if let Some(m) = &s.ocv {
+            m.check()?;
         }
         Ok(Self {
             window: SampleWindow::new(),
             gi: PaperRegressionGi::new(&s.battery, s.alpha0)?,
-            oe: OutputErrorRefinement::new(&s.battery, s.initial)?,
+            oe: OutputErrorRefinement::new(&s.battery, s.initial_in_window())?,
             refining: false,
             estimate: None,
+            soc: None,
+            ocv_now: None,
             pw: GlWeights::new(s.initial.alpha, s.battery.h, s.battery.memory)?,
             rmse: T::infinity(),
             status: Status::Filling,
@@ -240,9 +394,34 @@ impl<T: Real, const N: usize, const MEM: usize> CellEstimator<T, N, MEM> {
         })
     }
 
-    /// The last good estimate (`None` until the first one).
+    /// The last good estimate (`None` until the first one). With an OCV
+    /// curve its `u_oc` is the open-circuit voltage now, `OCV(SOC) + ΔU`.
     pub fn estimate(&self) -> Option<CellParameters<T>> {
-        self.estimate
+        self.estimate.map(|p| CellParameters {
+            u_oc: p.u_oc + self.ocv_now.unwrap_or(T::zero()),
+            ..p
+        })
+    }
+
+    /// The OCV offset `ΔU` (V) of the last good estimate (with an OCV
+    /// curve).
+    pub fn ocv_offset(&self) -> Option<T> {
+        self.ocv_now.and(self.estimate).map(|p| p.u_oc)
+    }
+
+    /// The coulomb-counted state of charge after the last sample (with an
+    /// OCV curve, once known).
+    pub fn state_of_charge(&self) -> Option<T> {
+        self.soc
+    }
+
+    /// Sets the state of charge now (before the next sample), e.g. from the
+    /// BMS's own SOC estimate or a rested voltage. Without a call the first
+    /// sample's voltage is read through the inverse OCV curve.
+    pub fn set_state_of_charge(&mut self, soc: T) {
+        if soc.is_finite() {
+            self.soc = Some(soc);
+        }
     }
 
     /// Health after the last sample.
@@ -272,10 +451,21 @@ impl<T: Real, const N: usize, const MEM: usize> CellEstimator<T, N, MEM> {
         self.refining
     }
 
-    /// One-step prediction of the terminal voltage at current `current` from
-    /// the estimate, with the polarization history reconstructed from the
-    /// window (`U_p = U_t − U_oc − R_i·I`). O(M).
-    pub fn predict(&self, current: T) -> Option<T> {
+    /// One-step prediction of the terminal voltage for the next sample at
+    /// current `current` from the estimate, with the polarization history
+    /// reconstructed from the window (`U_p = U_t − U_oc − R_i·I`) and, with
+    /// an OCV curve, the OCV at the state of charge after that sample. O(M).
+    pub fn predict<const P: usize>(&self, s: &OnlineSettings<T, P>, current: T) -> Option<T> {
+        let y = self.predict_window(current)?;
+        Some(match (&s.ocv, self.soc) {
+            (Some(m), Some(z)) => y + m.table.ocv(m.soc_after(z, current, s.battery.h)),
+            _ => y,
+        })
+    }
+
+    /// [`predict`](Self::predict) in the window's coordinates (the
+    /// overpotential with an OCV curve).
+    fn predict_window(&self, current: T) -> Option<T> {
         let p = self.estimate?;
         let wts = self.pw.weights();
         let mut hist = T::zero();
@@ -287,42 +477,75 @@ impl<T: Real, const N: usize, const MEM: usize> CellEstimator<T, N, MEM> {
         Some(p.u_oc + p.r_i * current + up)
     }
 
-    fn classify(&self, s: &OnlineSettings<T>, current: T, voltage: T) -> Option<Rejection> {
+    /// The state of charge after a sample of `current` (with a curve and a
+    /// known SOC).
+    fn soc_after<const P: usize>(&self, s: &OnlineSettings<T, P>, current: T) -> Option<T> {
+        let m = s.ocv.as_ref()?;
+        Some(m.soc_after(self.soc?, current, s.battery.h))
+    }
+
+    /// A terminal voltage in the window's coordinates, for a sample of
+    /// `current`: the overpotential `U_t − OCV(SOC)` with a curve.
+    fn to_window<const P: usize>(&self, s: &OnlineSettings<T, P>, current: T, voltage: T) -> T {
+        match (&s.ocv, self.soc_after(s, current)) {
+            (Some(m), Some(z)) => m.overpotential(z, voltage),
+            _ => voltage,
+        }
+    }
+
+    fn classify<const P: usize>(
+        &self,
+        s: &OnlineSettings<T, P>,
+        current: T,
+        voltage: T,
+    ) -> Option<Rejection> {
         if !(current.is_finite() && voltage.is_finite()) {
             return Some(Rejection::NonFinite);
         }
         if current.abs() > s.current_limit || voltage < s.voltage_min || voltage > s.voltage_max {
             return Some(Rejection::OutOfRange);
         }
-        if self.spikes_in_row < s.max_consecutive_spikes && self.is_spike(s, current, voltage) {
+        let y = self.to_window(s, current, voltage);
+        if self.spikes_in_row < s.max_consecutive_spikes && self.is_spike(s, current, y) {
             return Some(Rejection::Spike);
         }
         None
     }
 
-    /// True when `voltage` is further than `max(spike_sigmas·RMSE,
-    /// spike_floor)` from the model's prediction for `current`.
-    fn is_spike(&self, s: &OnlineSettings<T>, current: T, voltage: T) -> bool {
+    /// True when `y` (in the window's coordinates) is further than
+    /// `max(spike_sigmas·RMSE, spike_floor)` from the model's prediction
+    /// for `current`.
+    fn is_spike<const P: usize>(&self, s: &OnlineSettings<T, P>, current: T, y: T) -> bool {
         if !self.rmse.is_finite() {
             return false;
         }
-        self.predict(current).is_some_and(|pred| {
+        self.predict_window(current).is_some_and(|pred| {
             let limit = (s.spike_sigmas * self.rmse).max(s.spike_floor);
-            (voltage - pred).abs() > limit
+            (y - pred).abs() > limit
         })
     }
 
     /// Feeds one sample (current in A, positive when charging; terminal
     /// voltage in V) and runs the iterations for it. Never panics; never
     /// loses a sample (a rejected one is counted and substituted).
-    pub fn push(&mut self, s: &OnlineSettings<T>, current: T, voltage: T) -> SampleReport<T> {
+    pub fn push<const P: usize>(
+        &mut self,
+        s: &OnlineSettings<T, P>,
+        current: T,
+        voltage: T,
+    ) -> SampleReport<T> {
         self.counts.samples += 1;
         let rejected = self.classify(s, current, voltage);
+        if let (Some(m), None, None) = (&s.ocv, self.soc, rejected) {
+            // The first good sample with a curve and no SOC given: the cell
+            // is taken to be at rest, its voltage the OCV after this sample.
+            let after = m.table.soc_from_ocv(voltage);
+            self.soc = Some(after - (m.soc_after(after, current, s.battery.h) - after));
+        }
         let sample = match rejected {
             None => {
-                if self.spikes_in_row >= s.max_consecutive_spikes
-                    && self.is_spike(s, current, voltage)
-                {
+                let y = self.to_window(s, current, voltage);
+                if self.spikes_in_row >= s.max_consecutive_spikes && self.is_spike(s, current, y) {
                     // A step believed after max_consecutive_spikes
                     // rejections (a recalibrated sensor, a contactor): the
                     // samples before it belong to another regime, which no
@@ -333,7 +556,7 @@ impl<T: Real, const N: usize, const MEM: usize> CellEstimator<T, N, MEM> {
                     self.rmse = T::infinity();
                 }
                 self.spikes_in_row = 0;
-                Some((current, voltage))
+                Some((current, y))
             }
             Some(why) => {
                 match why {
@@ -351,13 +574,19 @@ impl<T: Real, const N: usize, const MEM: usize> CellEstimator<T, N, MEM> {
                 let plausible = current.is_finite() && current.abs() <= s.current_limit;
                 self.window.recent().next().map(|(last_i, u)| {
                     let i = if plausible { current } else { last_i };
-                    (i, self.predict(i).unwrap_or(u))
+                    (i, self.predict_window(i).unwrap_or(u))
                 })
             }
         };
         if let Some((i, u)) = sample {
             // Cannot fail: both values are finite here.
             let _ = self.window.push(i, u);
+            if let Some(m) = &s.ocv {
+                // The charge of the sample as it entered the window (the
+                // substitute's current for a rejected one).
+                self.soc = self.soc_after(s, i);
+                self.ocv_now = self.soc.map(|z| m.table.ocv(z));
+            }
         }
         let mut report = SampleReport {
             status: self.status,
@@ -371,7 +600,7 @@ impl<T: Real, const N: usize, const MEM: usize> CellEstimator<T, N, MEM> {
         report
     }
 
-    fn run(&mut self, s: &OnlineSettings<T>, report: &mut SampleReport<T>) {
+    fn run<const P: usize>(&mut self, s: &OnlineSettings<T, P>, report: &mut SampleReport<T>) {
         let b = &s.battery;
         let need = b.memory - 1 + super::regression::MIN_ROWS;
         if self.window.len() < need {
@@ -409,39 +638,66 @@ impl<T: Real, const N: usize, const MEM: usize> CellEstimator<T, N, MEM> {
         }
     }
 
-    fn publish(&mut self, p: CellParameters<T>, rmse: T) {
+    /// Publishes `p` when it is plausible from a window of `rows` fitted
+    /// samples; otherwise says why it is held.
+    fn publish<const P: usize>(
+        &mut self,
+        s: &OnlineSettings<T, P>,
+        p: CellParameters<T>,
+        rmse: T,
+        rows: usize,
+    ) -> Result<(), Status> {
+        if let Some(why) = s.implausible(&p, rows) {
+            return Err(why);
+        }
         if self.pw.set_order(p.alpha).is_ok() {
             self.estimate = Some(p);
             self.rmse = rmse;
+            Ok(())
+        } else {
+            Err(Status::Held)
         }
     }
 
-    fn step_paper(&mut self, s: &OnlineSettings<T>) -> Result<Status, Error> {
+    fn step_paper<const P: usize>(&mut self, s: &OnlineSettings<T, P>) -> Result<Status, Error> {
         let it = self.gi.iterate(&s.battery, &self.window)?;
         let rows = T::lit(it.rows.max(1) as f64);
         let cell = self.gi.cell();
+        let mut status = Status::Starting;
         if let Some(p) = cell {
-            self.publish(p, (T::lit(2.0) * it.cost / rows).sqrt());
+            status = match self.publish(s, p, (T::lit(2.0) * it.cost / rows).sqrt(), it.rows) {
+                Ok(()) => Status::Tracking,
+                Err(why) => why,
+            };
         }
         if s.method == Method::Refined
             && (it.k >= s.paper_budget || (cell.is_some() && it.converged))
         {
-            let start = cell
+            let start = self
+                .estimate
                 .filter(|p| p.alpha >= s.battery.alpha_min && p.alpha <= s.battery.alpha_max)
-                .unwrap_or(s.initial);
+                .unwrap_or(s.initial_in_window());
             self.oe.set_cell(&s.battery, start)?;
             self.refining = true;
         }
-        Ok(if cell.is_some() {
-            Status::Tracking
-        } else {
-            Status::Starting
-        })
+        Ok(status)
     }
 
-    fn step_refined(&mut self, s: &OnlineSettings<T>) -> Result<Status, Error> {
+    fn step_refined<const P: usize>(&mut self, s: &OnlineSettings<T, P>) -> Result<Status, Error> {
         let st = self.oe.iterate(&s.battery, &self.window)?;
-        self.publish(self.oe.cell(), st.rmse);
-        Ok(Status::Tracking)
+        match self.publish(s, self.oe.cell(), st.rmse, st.rows) {
+            Ok(()) => Ok(Status::Tracking),
+            Err(why) => {
+                // Not plausible: held, and the refinement starts again from
+                // the last good estimate (or the settings' start), so that
+                // it does not wander further from where the window's
+                // information is.
+                let back = self.estimate.unwrap_or(s.initial_in_window());
+                if self.oe.set_cell(&s.battery, back).is_err() {
+                    let _ = self.oe.set_cell(&s.battery, s.initial_in_window());
+                }
+                Ok(why)
+            }
+        }
     }
 }
