@@ -32,7 +32,7 @@ enum Command {
 enum SimulateCmd {
     /// Eq. (4) with the paper's Example 1 values; writes `u,y`.
     Hammerstein(SimHammersteinArgs),
-    /// The fractional battery model of §6.2; writes `time_s,current_a,voltage_v`.
+    /// The fractional battery model of §6.2; writes `time_s,current_a,voltage_v,soc`.
     Battery(SimBatteryArgs),
 }
 
@@ -96,12 +96,19 @@ pub struct SimBatteryArgs {
     /// Sample period (s).
     #[arg(long, default_value_t = 1.0)]
     pub h: f64,
-    /// Open-circuit voltage: constant (the preset's U_oc) or nmc (an NMC OCV(SOC) curve following the charge).
-    #[arg(long, value_parser = ["constant", "nmc"], default_value = "constant")]
+    /// Open-circuit voltage: `constant` (the preset's U_oc), `nmc` (an NMC
+    /// OCV(SOC) curve following the charge) or an OCV table FILE.csv with
+    /// header `soc,ocv_v`.
+    #[arg(long, default_value = "constant")]
     pub ocv: String,
-    /// Initial state of charge for --ocv nmc.
+    /// State of charge before the first sample (the `soc` column counts
+    /// from it).
     #[arg(long, default_value_t = 0.9)]
     pub soc0: f64,
+    /// Capacity (A·h) for the state of charge (default: the preset's,
+    /// 2.5 for cell, 100 for paper).
+    #[arg(long)]
+    pub capacity_ah: Option<f64>,
     /// Output CSV.
     #[arg(long)]
     pub out: PathBuf,
@@ -185,12 +192,18 @@ pub struct IdBatteryArgs {
     #[arg(long)]
     pub refine_memory: Option<usize>,
     /// Fit an OCV slope dU_oc/dq (the state of charge drifting through the
-    /// record), as the firmware does.
+    /// record; without --ocv).
     #[arg(long)]
     pub ocv_slope: bool,
+    #[command(flatten)]
+    pub cell: OcvArgs,
     /// Write the estimates as JSON.
     #[arg(long)]
     pub json: Option<PathBuf>,
+    /// Write `time_s,voltage_v,model_v`: the identified model's free-run
+    /// simulation from the current alone (OCV, ΔU and all) beside the data.
+    #[arg(long)]
+    pub fit_out: Option<PathBuf>,
     /// Write Figures 8–11 for this file (SVG) into this directory.
     #[arg(long)]
     pub plot: Option<PathBuf>,
@@ -217,9 +230,40 @@ pub struct OnlineBatteryArgs {
     /// Arithmetic of the estimator: `f64`, or `f32` as the firmware runs it.
     #[arg(long, value_enum, default_value = "f64")]
     pub precision: Precision,
-    /// Output CSV time_s,r_i,r_ct,q,alpha,u_oc,status.
-    #[arg(long)]
+    #[command(flatten)]
+    pub cell: OcvArgs,
+    /// Output CSV `time_s,r_i,r_ct,q,alpha,u_oc,status,soc,ocv_offset_v`
+    /// (u_oc: the open-circuit voltage now, OCV(SOC) + ΔU with --ocv; soc
+    /// and ocv_offset_v empty without --ocv). The status after each sample:
+    /// filling (the window is not full enough yet), starting (2S-OP-GI runs,
+    /// no physical estimate yet), tracking (updated from this window),
+    /// not_excited (the current barely varies: held), held (an iteration
+    /// failed: held), unphysical (the window's estimate has a non-positive
+    /// resistance or Q, or α outside (0, 1]: held), at_bound (α at the
+    /// search's bound: held), slow_relaxation (the branch relaxes slower
+    /// than the window can see, τ^(1/α) beyond the fitted window: held),
+    /// ocv_implausible (U_oc outside the plausible voltage range, or |ΔU|
+    /// above 0.15 V with --ocv: held). "Held" keeps the last good estimate.
+    #[arg(long, verbatim_doc_comment)]
     pub out: PathBuf,
+}
+
+/// The cell's open-circuit voltage curve and state of charge.
+#[derive(clap::Args, Debug, Clone, Default)]
+pub struct OcvArgs {
+    /// OCV table CSV with header `soc,ocv_v` (soc in [0, 1], both columns
+    /// increasing): the model fits U_t − OCV(SOC) with the SOC counted from
+    /// the current, and its U_oc becomes a small offset ΔU.
+    #[arg(long)]
+    pub ocv: Option<PathBuf>,
+    /// Capacity (A·h) for coulomb counting (needed with --ocv).
+    #[arg(long)]
+    pub capacity_ah: Option<f64>,
+    /// State of charge at the start of the record, before the first row's
+    /// charge (default: read from the first rows' voltage through the
+    /// inverse OCV; the record must then start at rest).
+    #[arg(long)]
+    pub soc0: Option<f64>,
 }
 
 /// Floating-point precision of the estimator.

@@ -231,8 +231,18 @@ pub struct BatteryJson {
     pub q: f64,
     /// α.
     pub alpha: f64,
-    /// U_oc (V).
+    /// U_oc (V). With an OCV curve: the model's open-circuit voltage at the
+    /// end of the record, `OCV(soc_end) + ΔU`.
     pub u_oc: f64,
+    /// With an OCV curve: the offset ΔU (V) the model adds to `OCV(SOC)`
+    /// (null without a curve).
+    pub ocv_offset_v: Option<f64>,
+    /// With an OCV curve: SOC at the start of the record, before the first
+    /// row's charge (null without a curve).
+    pub soc0: Option<f64>,
+    /// With an OCV curve: SOC after the last row,
+    /// `soc0 + h·Σ I/(3600·C)` (null without a curve).
+    pub soc_end: Option<f64>,
     /// RMSE of the identified model's simulated voltage against the file (V).
     pub rmse_v: f64,
     /// Iterations (2S-OP-GI + refinement).
@@ -466,6 +476,9 @@ fn battery_run_sized<const N: usize, const MEM: usize>(
             q: cell.q,
             alpha: cell.alpha,
             u_oc: cell.u_oc,
+            ocv_offset_v: None,
+            soc0: None,
+            soc_end: None,
             rmse_v,
             iterations: iters,
             converged,
@@ -477,6 +490,48 @@ fn battery_run_sized<const N: usize, const MEM: usize>(
     })
 }
 
+/// [`battery_run_with`] on a record with or without the cell's OCV curve:
+/// with one, the estimators fit the overpotential `U_t − OCV(SOC)` (the
+/// fitted `U_oc` is the offset ΔU) and the result is mapped back to
+/// terminal voltages (`u_oc` at the end of the record, the model voltage
+/// with the OCV along the record).
+#[allow(clippy::too_many_arguments)]
+pub fn battery_identify(
+    path: &Path,
+    rec: &io::BatteryRecord,
+    cell_ocv: Option<&crate::ocv::CellOcv>,
+    method: BatteryMethod,
+    memory: Option<usize>,
+    iterations: u32,
+    print_table: bool,
+    refine: Refine,
+) -> Result<BatteryResult> {
+    let Some(c) = cell_ocv else {
+        return battery_run_with(path, rec, method, memory, iterations, print_table, refine);
+    };
+    if refine.ocv_slope {
+        bail!("--ocv-slope goes without --ocv (the OCV curve carries the drift)");
+    }
+    let (y, soc_end) = c.overpotential_record(rec);
+    let mut r = battery_run_with(path, &y, method, memory, iterations, print_table, refine)?;
+    let offset = r.cell.u_oc;
+    for ((m, &z), (v, yv)) in r
+        .model_voltage
+        .iter_mut()
+        .zip(&c.soc_track(rec.h, &rec.current))
+        .zip(rec.voltage.iter().zip(&y.voltage))
+    {
+        // The overpotential model plus the OCV it was taken from.
+        *m += v - yv;
+        debug_assert!((v - yv - c.model.table.ocv(z)).abs() < 1e-9);
+    }
+    r.json.u_oc = c.model.table.ocv(soc_end) + offset;
+    r.json.ocv_offset_v = Some(offset);
+    r.json.soc0 = Some(c.soc0);
+    r.json.soc_end = Some(soc_end);
+    Ok(r)
+}
+
 // Not inlined into `cli::run`: the estimators are built on the stack before
 // boxing, and an inlined frame of every command would be probed (page
 // faults over megabytes) even for the command that does not run.
@@ -485,13 +540,15 @@ pub(crate) fn battery(a: &IdBatteryArgs) -> Result<()> {
     let rec = io::read_battery(&a.input, Some(MAX_ROWS))?;
     note_truncation(&a.input, rec.current.len());
     let _ = a.algorithm; // op and kt coincide for the battery regression
+    let cell_ocv = crate::ocv::resolve(&a.cell, &a.input, &rec)?;
     let refine = Refine {
         memory: a.refine_memory,
         ocv_slope: a.ocv_slope,
     };
-    let r = battery_run_with(
+    let r = battery_identify(
         &a.input,
         &rec,
+        cell_ocv.as_ref(),
         a.method,
         a.memory,
         a.iterations,
@@ -503,6 +560,24 @@ pub(crate) fn battery(a: &IdBatteryArgs) -> Result<()> {
         "{}: R_i = {:.6} Ω, R_ct = {:.6} Ω, Q = {:.3}, alpha = {:.4}, U_oc = {:.5} V, rmse = {:.3e} V ({} iterations, converged: {})",
         j.method, j.r_i, j.r_ct, j.q, j.alpha, j.u_oc, j.rmse_v, j.iterations, j.converged
     );
+    if let (Some(d), Some(z0), Some(z1)) = (j.ocv_offset_v, j.soc0, j.soc_end) {
+        println!(
+            "OCV curve: offset ΔU = {:.2} mV, SOC {z0:.4} → {z1:.4}",
+            d * 1e3
+        );
+    }
+    if let Some(p) = &a.fit_out {
+        io::write_csv(
+            p,
+            &["time_s", "voltage_v", "model_v"],
+            rec.time
+                .iter()
+                .zip(&rec.voltage)
+                .zip(&r.model_voltage)
+                .map(|((t, v), m)| [format!("{t}"), format!("{v:.9}"), format!("{m:.9}")]),
+        )?;
+        eprintln!("wrote {}", p.display());
+    }
     if let Some(p) = &a.json {
         io::write_json(p, j)?;
         eprintln!("wrote {}", p.display());

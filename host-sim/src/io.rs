@@ -182,3 +182,27 @@ pub fn write_json<T: serde::Serialize>(path: &Path, value: &T) -> Result<()> {
         Ok(())
     })
 }
+
+/// Largest number of points of an OCV table file.
+pub const OCV_POINTS: usize = 512;
+
+/// The host's OCV table (room for [`OCV_POINTS`] points).
+pub type HostOcvTable = estimator_core::battery::ocv::OcvTable<f64, OCV_POINTS>;
+
+/// Reads an OCV table `soc,ocv_v` (soc in [0, 1], both increasing
+/// strictly), with one-line errors that name the file and the row.
+pub fn read_ocv(path: &Path) -> Result<HostOcvTable> {
+    let c = read_columns(path, &["soc", "ocv_v"], Some(OCV_POINTS + 1))?;
+    let (soc, ocv) = (&c.data[0], &c.data[1]);
+    HostOcvTable::new(soc, ocv).map_err(|e| {
+        use estimator_core::battery::ocv::OcvError;
+        match e {
+            OcvError::NonFinite { index }
+            | OcvError::SocOutOfRange { index }
+            | OcvError::NotIncreasing { index } => {
+                anyhow!("{}: row {}: {e}", path.display(), index + 2)
+            }
+            _ => anyhow!("{}: {e}", path.display()),
+        }
+    })
+}

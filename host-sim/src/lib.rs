@@ -9,6 +9,7 @@
 pub mod cli;
 pub mod identify;
 pub mod io;
+pub mod ocv;
 pub mod online;
 pub mod plot;
 pub mod presets;

@@ -2,8 +2,11 @@
 //! firmware runs it (f64 here).
 
 use crate::cli::{BatteryMethod, OnlineBatteryArgs, Precision};
+use crate::io::OCV_POINTS;
+use crate::ocv::CellOcv;
 use crate::{io, progress};
 use anyhow::{anyhow, bail, Result};
+use estimator_core::battery::ocv::OcvModel;
 use estimator_core::battery::online::{CellEstimator, Method, OnlineSettings};
 use estimator_core::battery::output_error::RefinementWork;
 use estimator_core::battery::CellParameters;
@@ -18,6 +21,10 @@ pub struct TrackRow {
     pub estimate: Option<CellParameters<f64>>,
     /// Status name.
     pub status: &'static str,
+    /// State of charge after this sample (with an OCV curve).
+    pub soc: Option<f64>,
+    /// The OCV offset ΔU of the estimate (with an OCV curve).
+    pub ocv_offset: Option<f64>,
 }
 
 /// What a track run did.
@@ -32,11 +39,15 @@ pub struct TrackSummary {
 }
 
 fn run<T: Real, const N: usize>(
-    s: &OnlineSettings<T>,
+    s: &OnlineSettings<T, OCV_POINTS>,
+    soc0: Option<f64>,
     rec: &io::BatteryRecord,
     mut sink: impl FnMut(TrackRow) -> Result<()>,
 ) -> Result<TrackSummary> {
     let mut est = Box::new(CellEstimator::<T, N, N>::new(s).map_err(|e| anyhow!("{e}"))?);
+    if let Some(z) = soc0 {
+        est.set_state_of_charge(T::lit(z));
+    }
     let pb = progress::bar(rec.current.len() as u64, "tracking");
     for (k, ((&t, &i), &v)) in rec
         .time
@@ -56,6 +67,8 @@ fn run<T: Real, const N: usize>(
                 u_oc: p.u_oc.to_f64(),
             }),
             status: r.status.as_str(),
+            soc: est.state_of_charge().map(|z| z.to_f64()),
+            ocv_offset: est.ocv_offset().map(|d| d.to_f64()),
         })?;
         if k % 256 == 0 {
             pb.set_position(k as u64);
@@ -70,19 +83,40 @@ fn run<T: Real, const N: usize>(
     })
 }
 
-fn settings<T: Real>(h: f64, memory: usize, k: u16, method: BatteryMethod) -> OnlineSettings<T> {
+fn settings<T: Real>(
+    h: f64,
+    memory: usize,
+    k: u16,
+    method: BatteryMethod,
+    cell: Option<&CellOcv>,
+) -> Result<OnlineSettings<T, OCV_POINTS>> {
     let mut s = OnlineSettings::new(T::lit(h), memory, CellParameters::cell_18650());
     s.iterations_per_sample = k;
     s.method = match method {
         BatteryMethod::Paper => Method::Paper,
         BatteryMethod::Refined => Method::Refined,
     };
-    s
+    let curve = match cell {
+        None => None,
+        Some(c) => {
+            let table = c
+                .model
+                .table
+                .cast::<T>()
+                .map_err(|e| anyhow!("--ocv: in this precision: {e}"))?;
+            Some(
+                OcvModel::new(table, T::lit(c.model.capacity_ah))
+                    .map_err(|e| anyhow!("--capacity-ah: {e}"))?,
+            )
+        }
+    };
+    Ok(s.with_curve(curve))
 }
 
 /// Runs the online estimator over a record with window `window`, memory
-/// `memory`, `k` iterations per sample, in `precision`, calling `sink` after
-/// every sample.
+/// `memory`, `k` iterations per sample, in `precision`, with the cell's OCV
+/// curve when given, calling `sink` after every sample.
+#[allow(clippy::too_many_arguments)]
 pub fn track(
     rec: &io::BatteryRecord,
     window: usize,
@@ -90,6 +124,7 @@ pub fn track(
     k: u16,
     method: BatteryMethod,
     precision: Precision,
+    cell: Option<&CellOcv>,
     sink: impl FnMut(TrackRow) -> Result<()>,
 ) -> Result<TrackSummary> {
     if memory == 0 || memory + 8 > window {
@@ -98,15 +133,18 @@ pub fn track(
             window.saturating_sub(8)
         );
     }
+    let soc0 = cell.map(|c| c.soc0);
     match precision {
         Precision::F64 => sized(
-            &settings::<f64>(rec.h, memory, k, method),
+            &settings::<f64>(rec.h, memory, k, method, cell)?,
+            soc0,
             window,
             rec,
             sink,
         ),
         Precision::F32 => sized(
-            &settings::<f32>(rec.h, memory, k, method),
+            &settings::<f32>(rec.h, memory, k, method, cell)?,
+            soc0,
             window,
             rec,
             sink,
@@ -115,17 +153,18 @@ pub fn track(
 }
 
 fn sized<T: Real>(
-    s: &OnlineSettings<T>,
+    s: &OnlineSettings<T, OCV_POINTS>,
+    soc0: Option<f64>,
     window: usize,
     rec: &io::BatteryRecord,
     sink: impl FnMut(TrackRow) -> Result<()>,
 ) -> Result<TrackSummary> {
     match window {
-        64 => run::<T, 64>(s, rec, sink),
-        128 => run::<T, 128>(s, rec, sink),
-        256 => run::<T, 256>(s, rec, sink),
-        512 => run::<T, 512>(s, rec, sink),
-        1024 => run::<T, 1024>(s, rec, sink),
+        64 => run::<T, 64>(s, soc0, rec, sink),
+        128 => run::<T, 128>(s, soc0, rec, sink),
+        256 => run::<T, 256>(s, soc0, rec, sink),
+        512 => run::<T, 512>(s, soc0, rec, sink),
+        1024 => run::<T, 1024>(s, soc0, rec, sink),
         _ => bail!("--window {window}: must be one of 64, 128, 256, 512, 1024"),
     }
 }
@@ -137,12 +176,14 @@ fn sized<T: Real>(
 pub(crate) fn battery(a: &OnlineBatteryArgs) -> Result<()> {
     let t0 = std::time::Instant::now();
     let rec = io::read_battery(&a.input, None)?;
+    let cell = crate::ocv::resolve(&a.cell, &a.input, &rec)?;
     let memory = a.memory.unwrap_or(a.window / 4);
     let f = |x: f64| format!("{x:.9e}");
+    let g = |x: Option<f64>| x.map(|x| format!("{x:.9e}")).unwrap_or_default();
     let summary = {
         let mut res = Ok(TrackSummary::default());
         io::write_atomic(&a.out, |w| {
-            writeln!(w, "time_s,r_i,r_ct,q,alpha,u_oc,status")?;
+            writeln!(w, "time_s,r_i,r_ct,q,alpha,u_oc,status,soc,ocv_offset_v")?;
             res = track(
                 &rec,
                 a.window,
@@ -150,20 +191,23 @@ pub(crate) fn battery(a: &OnlineBatteryArgs) -> Result<()> {
                 a.iterations_per_sample,
                 a.method,
                 a.precision,
+                cell.as_ref(),
                 |r| {
                     match r.estimate {
                         Some(p) => writeln!(
                             w,
-                            "{},{},{},{},{},{},{}",
+                            "{},{},{},{},{},{},{},{},{}",
                             r.t,
                             f(p.r_i),
                             f(p.r_ct),
                             f(p.q),
                             f(p.alpha),
                             f(p.u_oc),
-                            r.status
+                            r.status,
+                            g(r.soc),
+                            g(r.ocv_offset)
                         )?,
-                        None => writeln!(w, "{},,,,,,{}", r.t, r.status)?,
+                        None => writeln!(w, "{},,,,,,{},{},", r.t, r.status, g(r.soc))?,
                     }
                     Ok(())
                 },

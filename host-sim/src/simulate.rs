@@ -84,6 +84,31 @@ pub struct BatteryData {
     pub voltage: Vec<f64>,
     /// Open-circuit voltage (V).
     pub ocv: Vec<f64>,
+    /// State of charge after each sample (constant without a curve).
+    pub soc: Vec<f64>,
+}
+
+/// The open-circuit voltage a simulated cell follows.
+#[derive(Clone, Copy, Debug)]
+pub enum OcvCurve<'a> {
+    /// The preset's constant `U_oc`.
+    Constant,
+    /// The NMC-like curve [`ocv_nmc`] from `soc0` for a cell of `capacity_ah`.
+    Nmc {
+        /// SOC before the first sample.
+        soc0: f64,
+        /// Capacity (A·h).
+        capacity_ah: f64,
+    },
+    /// A table (`--ocv FILE.csv`).
+    Table {
+        /// The curve.
+        table: &'a io::HostOcvTable,
+        /// SOC before the first sample.
+        soc0: f64,
+        /// Capacity (A·h).
+        capacity_ah: f64,
+    },
 }
 
 /// Simulates a cell from rest with memory `min(len, SIM_MEMORY)`.
@@ -96,7 +121,7 @@ pub fn battery_data(
     len: usize,
     seed: u64,
     h: f64,
-    ocv_curve: Option<(f64, f64)>,
+    ocv_curve: OcvCurve<'_>,
 ) -> Result<BatteryData> {
     if !(sigma.is_finite() && sigma >= 0.0) {
         bail!("--sigma {sigma}: must be finite and ≥ 0");
@@ -107,18 +132,33 @@ pub fn battery_data(
     let current: Vec<f64> = (0..len)
         .map(|l| profile.current(l as f64 * h, amplitude))
         .collect();
-    let ocv: Vec<f64> = match ocv_curve {
-        None => vec![cell.u_oc; len],
-        Some((soc0, cap_ah)) => {
-            let mut soc = soc0;
-            current
-                .iter()
-                .map(|&i| {
-                    let v = ocv_nmc(soc);
-                    soc += i * h / (cap_ah * 3600.0);
-                    v
-                })
-                .collect()
+    // SOC after each sample's charge (the voltage is read at the end of
+    // the sample's interval): SOC(l) = soc0 + h·Σ_{k≤l} I(k)/(3600·C).
+    let counted = |soc0: f64, cap_ah: f64| -> Vec<f64> {
+        let mut soc = soc0;
+        current
+            .iter()
+            .map(|&i| {
+                soc += i * h / (cap_ah * 3600.0);
+                soc
+            })
+            .collect()
+    };
+    let (soc, ocv): (Vec<f64>, Vec<f64>) = match ocv_curve {
+        OcvCurve::Constant => (vec![f64::NAN; len], vec![cell.u_oc; len]),
+        OcvCurve::Nmc { soc0, capacity_ah } => {
+            let soc = counted(soc0, capacity_ah);
+            let ocv = soc.iter().map(|&z| ocv_nmc(z)).collect();
+            (soc, ocv)
+        }
+        OcvCurve::Table {
+            table,
+            soc0,
+            capacity_ah,
+        } => {
+            let soc = counted(soc0, capacity_ah);
+            let ocv = soc.iter().map(|&z| table.ocv(z)).collect();
+            (soc, ocv)
         }
     };
     let memory = len.clamp(1, SIM_MEMORY);
@@ -140,6 +180,7 @@ pub fn battery_data(
         clean,
         voltage,
         ocv,
+        soc,
     })
 }
 
@@ -154,10 +195,29 @@ pub(crate) fn battery(a: &SimBatteryArgs) -> Result<()> {
         bail!("--length must be at least 1");
     }
     let sigma = a.sigma.unwrap_or(preset.sigma);
-    let curve = (a.ocv == "nmc").then_some((a.soc0, preset.capacity_ah));
     if !(0.0..=1.0).contains(&a.soc0) {
         bail!("--soc0 {}: must be in [0, 1]", a.soc0);
     }
+    let capacity_ah = a.capacity_ah.unwrap_or(preset.capacity_ah);
+    if !(capacity_ah.is_finite() && capacity_ah > 0.0) {
+        bail!("--capacity-ah {capacity_ah}: must be finite and positive");
+    }
+    let table;
+    let curve = match a.ocv.as_str() {
+        "constant" => OcvCurve::Constant,
+        "nmc" => OcvCurve::Nmc {
+            soc0: a.soc0,
+            capacity_ah,
+        },
+        file => {
+            table = io::read_ocv(std::path::Path::new(file))?;
+            OcvCurve::Table {
+                table: &table,
+                soc0: a.soc0,
+                capacity_ah,
+            }
+        }
+    };
     let t0 = std::time::Instant::now();
     let d = battery_data(
         &preset.cell,
@@ -169,18 +229,34 @@ pub(crate) fn battery(a: &SimBatteryArgs) -> Result<()> {
         a.h,
         curve,
     )?;
+    // Without a curve the SOC column is still counted, for the record.
+    let soc = match curve {
+        OcvCurve::Constant => {
+            let mut z = a.soc0;
+            d.current
+                .iter()
+                .map(|&i| {
+                    z += i * a.h / (capacity_ah * 3600.0);
+                    z
+                })
+                .collect()
+        }
+        _ => d.soc.clone(),
+    };
     io::write_csv(
         &a.out,
-        &["time_s", "current_a", "voltage_v"],
+        &["time_s", "current_a", "voltage_v", "soc"],
         d.current
             .iter()
             .zip(&d.voltage)
+            .zip(&soc)
             .enumerate()
-            .map(|(l, (i, v))| {
+            .map(|(l, ((i, v), z))| {
                 [
                     format!("{}", l as f64 * a.h),
                     format!("{i}"),
                     format!("{v:.9}"),
+                    format!("{z:.9}"),
                 ]
             }),
     )?;

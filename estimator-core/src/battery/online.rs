@@ -140,8 +140,18 @@ impl<T: Real, const P: usize> OnlineSettings<T, P> {
     /// estimator counts the state of charge and fits the overpotential
     /// `U_t − OCV(SOC)`, so the OCV slope is no longer fitted.
     pub fn with_ocv<const Q: usize>(self, ocv: OcvModel<T, Q>) -> OnlineSettings<T, Q> {
+        self.with_curve(Some(ocv))
+    }
+
+    /// [`with_ocv`](Self::with_ocv) for a curve that may be absent: `None`
+    /// gives the same settings without a curve, in the type that has room
+    /// for `Q` points (one settings type whether or not a file names a
+    /// curve).
+    pub fn with_curve<const Q: usize>(self, ocv: Option<OcvModel<T, Q>>) -> OnlineSettings<T, Q> {
         let mut battery = self.battery;
-        battery.ocv_slope = false;
+        if ocv.is_some() {
+            battery.ocv_slope = false;
+        }
         OnlineSettings {
             battery,
             method: self.method,
@@ -155,7 +165,7 @@ impl<T: Real, const P: usize> OnlineSettings<T, P> {
             spike_sigmas: self.spike_sigmas,
             spike_floor: self.spike_floor,
             max_consecutive_spikes: self.max_consecutive_spikes,
-            ocv: Some(ocv),
+            ocv,
             max_ocv_offset: self.max_ocv_offset,
             max_relaxation_windows: self.max_relaxation_windows,
         }

@@ -138,7 +138,7 @@ fn table7(dir: &Path, seeds: u64, md: &mut String) -> Result<()> {
             len,
             seed,
             1.0,
-            None,
+            simulate::OcvCurve::Constant,
         )?;
         let rec = record(&d, 1.0);
         let r = battery_run(
@@ -286,7 +286,7 @@ fn cell_side_by_side(seeds: u64, md: &mut String) -> Result<()> {
                 len,
                 seed,
                 1.0,
-                None,
+                simulate::OcvCurve::Constant,
             )?;
             let rec = record(&d, 1.0);
             let r = battery_run(Path::new("cell preset"), &rec, method, Some(256), 50, false)?;
@@ -343,7 +343,10 @@ fn tracking(dir: &Path, md: &mut String) -> Result<()> {
         len,
         1,
         1.0,
-        Some((0.9, preset.capacity_ah)),
+        simulate::OcvCurve::Nmc {
+            soc0: 0.9,
+            capacity_ah: preset.capacity_ah,
+        },
     )?;
     let rec = record(&d, 1.0);
     let mut rows = Vec::new();
@@ -354,6 +357,7 @@ fn tracking(dir: &Path, md: &mut String) -> Result<()> {
         1,
         BatteryMethod::Refined,
         Precision::F64,
+        None,
         |r| {
             rows.push(r);
             Ok(())
