@@ -9,6 +9,10 @@
 //!   missing: a dropped sample), then current, voltage and temperature as
 //!   little-endian `f32`. A gap in the time column becomes dropped samples;
 //!   an empty cell becomes NaN.
+//! * Reads the cell's OCV table (`FRACBMS_OCV`, a `soc,ocv_v` CSV) and
+//!   capacity (`FRACBMS_CAPACITY_AH`), checks the table in `f32` with the
+//!   core's own [`OcvTable`](estimator_core::battery::ocv::OcvTable), and
+//!   writes it into `config.rs` as two `static` arrays (flash).
 //! * For `target_os = "none"` only: puts `memory.x` (which includes
 //!   `fracbms-board.x`) and the board's map as `fracbms-board.x` on the link
 //!   path and passes `-Tlink.x` and `-Tdefmt.x`.
@@ -120,6 +124,41 @@ fn replay(path: &Path) -> (f64, Vec<(u32, f32, f32, f32)>) {
     (h, out)
 }
 
+/// Reads and checks the OCV table `path` in `f32`; returns its columns.
+fn ocv_table(path: &Path) -> (Vec<f32>, Vec<f32>) {
+    let mut rd = csv::Reader::from_path(path)
+        .unwrap_or_else(|e| fail(format!("{}: cannot read ({e})", path.display())));
+    let headers = rd
+        .headers()
+        .unwrap_or_else(|e| fail(format!("{}: no header ({e})", path.display())))
+        .clone();
+    let find = |name: &str| headers.iter().position(|h| h.trim() == name);
+    let (Some(cz), Some(cv)) = (find("soc"), find("ocv_v")) else {
+        fail(format!(
+            "{}: the header must have soc,ocv_v",
+            path.display()
+        ))
+    };
+    let (mut soc, mut ocv) = (Vec::new(), Vec::new());
+    for (k, rec) in rd.records().enumerate() {
+        let row = k + 2;
+        let rec = rec.unwrap_or_else(|e| fail(format!("{}: row {row}: {e}", path.display())));
+        soc.push(cell(path, row, "soc", rec.get(cz).unwrap_or("")));
+        ocv.push(cell(path, row, "ocv_v", rec.get(cv).unwrap_or("")));
+    }
+    use estimator_core::battery::ocv::{OcvError, OcvTable};
+    if let Err(e) = OcvTable::<f32, 4096>::new(&soc, &ocv) {
+        let at = match e {
+            OcvError::NonFinite { index }
+            | OcvError::SocOutOfRange { index }
+            | OcvError::NotIncreasing { index } => format!("row {}: ", index + 2),
+            _ => String::new(),
+        };
+        fail(format!("{}: {at}{e} (in f32)", path.display()))
+    }
+    (soc, ocv)
+}
+
 fn main() {
     let manifest = PathBuf::from(env::var("CARGO_MANIFEST_DIR").expect("cargo sets this"));
     let out = PathBuf::from(env::var("OUT_DIR").expect("cargo sets this"));
@@ -173,6 +212,26 @@ fn main() {
         },
     };
 
+    let ocv_path = var("FRACBMS_OCV", "");
+    let capacity = var("FRACBMS_CAPACITY_AH", "");
+    let (ocv_soc, ocv_v, capacity_ah) = match (ocv_path.is_empty(), capacity.is_empty()) {
+        (true, true) => (Vec::new(), Vec::new(), f32::NAN),
+        (false, false) => {
+            let p = PathBuf::from(&ocv_path);
+            println!("cargo:rerun-if-changed={}", p.display());
+            let c = match capacity.parse::<f32>() {
+                Ok(c) if c.is_finite() && c > 0.0 => c,
+                _ => fail(format!(
+                    "FRACBMS_CAPACITY_AH={capacity}: must be a positive number of A·h"
+                )),
+            };
+            let (z, v) = ocv_table(&p);
+            (z, v, c)
+        }
+        (false, true) => fail("FRACBMS_OCV needs FRACBMS_CAPACITY_AH (A·h)".into()),
+        (true, false) => fail("FRACBMS_CAPACITY_AH goes with FRACBMS_OCV=FILE.csv".into()),
+    };
+
     let mut cfg = String::new();
     let _ = writeln!(
         cfg,
@@ -205,6 +264,31 @@ fn main() {
          /// Sample periods in the replay record (dropped rows included).\n\
          pub const REPLAY_LEN: usize = {};\n",
         records.len()
+    );
+    let list = |x: &[f32]| {
+        x.iter()
+            .map(|v| format!("{v:?}"))
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    let _ = writeln!(
+        cfg,
+        "/// Points of the cell's OCV table (`FRACBMS_OCV`; 0: none, constant U_oc).\n\
+         pub const OCV_POINTS: usize = {n};\n\
+         /// The OCV table's state-of-charge column (flash).\n\
+         pub static OCV_SOC: [f32; {n}] = [{}];\n\
+         /// The OCV table's voltage column (V, flash).\n\
+         pub static OCV_V: [f32; {n}] = [{}];\n\
+         /// The cell's capacity (A·h, `FRACBMS_CAPACITY_AH`; NaN without a table).\n\
+         pub const CAPACITY_AH: f32 = {};",
+        list(&ocv_soc),
+        list(&ocv_v),
+        if capacity_ah.is_nan() {
+            "f32::NAN".to_owned()
+        } else {
+            format!("{capacity_ah:?}")
+        },
+        n = ocv_soc.len()
     );
     fs::write(out.join("config.rs"), cfg).expect("write config.rs");
     let mut bin = Vec::with_capacity(16 * records.len());

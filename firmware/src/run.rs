@@ -66,6 +66,14 @@ fn main() -> ! {
         config::ITERATIONS_PER_SAMPLE,
         config::SAMPLE_PERIOD_S
     );
+    if config::OCV_POINTS > 0 {
+        defmt::println!(
+            "OCV table points={=usize} flash_bytes={=usize} capacity_ah={=f32}",
+            config::OCV_POINTS,
+            core::mem::size_of_val(&config::OCV_SOC) + core::mem::size_of_val(&config::OCV_V),
+            config::CAPACITY_AH
+        );
+    }
     let (mut period, mut overruns) = (0u32, 0u32);
     let mut cost = Cost::default();
     loop {
@@ -146,6 +154,9 @@ fn main() -> ! {
                 "RESULT r_i={=f32} r_ct={=f32} q={=f32} alpha={=f32} u_oc={=f32} samples={=u64} rejected={=u32}",
                 e.r_i, e.r_ct, e.q, e.alpha, e.u_oc, counts.samples, counts.rejected()
             );
+            if let (Some(z), Some(d)) = (task.cell().state_of_charge(), task.cell().ocv_offset()) {
+                defmt::println!("SOC soc={=f32} ocv_offset_v={=f32}", z, d);
+            }
             if !e.is_physical() {
                 defmt::error!("check failed: the final estimate is not physical");
             }

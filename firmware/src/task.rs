@@ -18,6 +18,7 @@
 //! apart from state ([`EstimatorTask`]).
 
 use crate::sampler::{Sample, SampleError};
+use estimator_core::battery::ocv::{OcvModel, OcvTable};
 use estimator_core::battery::online::{
     CellEstimator, Method, OnlineSettings, SampleCounts, SampleReport,
 };
@@ -27,8 +28,9 @@ use estimator_core::Error;
 /// Settings of the task (one value for every cell of a pack).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct TaskSettings {
-    /// The core's settings (method, iterations per sample, ranges, spikes).
-    pub online: OnlineSettings<f32>,
+    /// The core's settings (method, iterations per sample, ranges, spikes,
+    /// the build-time OCV table).
+    pub online: OnlineSettings<f32, { crate::config::OCV_POINTS }>,
     /// A voltage bit-identical over this many consecutive samples while
     /// the current moves is a stuck channel.
     pub stuck_after: u8,
@@ -46,20 +48,32 @@ impl TaskSettings {
     ///
     /// The estimator starts [`Start::AtRest`]: a BMS powers up with its
     /// cells at rest, so until the window first slides the polarization
-    /// starts from zero; afterwards the core takes it from the data. The OCV
-    /// slope (state of charge drift inside the window) is fitted.
+    /// starts from zero; afterwards the core takes it from the data. With
+    /// the build-time OCV table (`FRACBMS_OCV`, [`crate::config::OCV_SOC`])
+    /// the core counts the state of charge from the first sample's rested
+    /// voltage and fits `U_t − OCV(SOC)`; without one the OCV slope (state
+    /// of charge drift inside the window) is fitted.
     pub fn new(h: f32, memory: usize, method: Method, iterations: u16) -> Self {
         let mut online = OnlineSettings::new(h, memory, CellParameters::cell_18650());
         online.battery.start = Start::AtRest;
         online.method = method;
         online.iterations_per_sample = iterations;
         Self {
-            online,
+            online: online.with_curve(configured_ocv()),
             stuck_after: 4,
             stuck_current_span: 0.5,
             temperature_range: (-40.0, 85.0),
         }
     }
+}
+
+/// The build-time OCV table and capacity, if any (build.rs checked the
+/// same `f32` values with the same code, so this is `Some` whenever a table
+/// was given).
+pub fn configured_ocv() -> Option<OcvModel<f32, { crate::config::OCV_POINTS }>> {
+    use crate::config::{CAPACITY_AH, OCV_SOC, OCV_V};
+    let table = OcvTable::new(&OCV_SOC, &OCV_V).ok()?;
+    OcvModel::new(table, CAPACITY_AH).ok()
 }
 
 /// A fault the task found in one sample period.

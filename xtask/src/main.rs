@@ -101,6 +101,13 @@ struct QemuArgs {
     /// time, so the firmware's timer counts instructions).
     #[arg(long)]
     icount: bool,
+    /// The cell's OCV table `soc,ocv_v` (built into the image): the
+    /// estimator counts the state of charge and fits U_t − OCV(SOC).
+    #[arg(long)]
+    ocv: Option<PathBuf>,
+    /// The cell's capacity (A·h), with --ocv.
+    #[arg(long)]
+    capacity_ah: Option<f64>,
     /// Build the cost-measurement image (no physical-estimate check).
     #[arg(skip)]
     bench: bool,
@@ -147,6 +154,18 @@ fn build(a: &QemuArgs) -> Result<PathBuf> {
         .input
         .canonicalize()
         .with_context(|| format!("{}: cannot open", a.input.display()))?;
+    let ocv = match &a.ocv {
+        Some(p) => Some(
+            p.canonicalize()
+                .with_context(|| format!("{}: cannot open", p.display()))?,
+        ),
+        None => None,
+    };
+    match (&a.ocv, a.capacity_ah) {
+        (Some(_), None) => bail!("--ocv needs --capacity-ah (the cell's capacity in A·h)"),
+        (None, Some(_)) => bail!("--capacity-ah goes with --ocv FILE.csv"),
+        _ => {}
+    }
     let build = Command::new(std::env::var("CARGO").unwrap_or_else(|_| "cargo".into()))
         .current_dir(root())
         .args([
@@ -164,6 +183,11 @@ fn build(a: &QemuArgs) -> Result<PathBuf> {
         .env("FRACBMS_ITERATIONS", a.iterations.to_string())
         .env("FRACBMS_INJECT", &a.inject)
         .env("FRACBMS_BENCH", if a.bench { "1" } else { "0" })
+        .env("FRACBMS_OCV", ocv.as_deref().unwrap_or(Path::new("")))
+        .env(
+            "FRACBMS_CAPACITY_AH",
+            a.capacity_ah.map(|c| c.to_string()).unwrap_or_default(),
+        )
         .env(
             "FRACBMS_METHOD",
             match a.method {
@@ -293,6 +317,11 @@ fn qemu(a: &QemuArgs) -> Result<()> {
     for key in ["r_i", "r_ct", "q", "alpha", "u_oc", "samples", "rejected"] {
         out.insert(key.into(), number(&s, "RESULT", key)?);
     }
+    if a.ocv.is_some() {
+        for key in ["soc", "ocv_offset_v"] {
+            out.insert(key.into(), number(&s, "SOC", key)?);
+        }
+    }
     println!("{}", serde_json::Value::Object(out));
     Ok(())
 }
@@ -318,6 +347,8 @@ fn bench_target(b: &BenchArgs) -> Result<()> {
         timeout: b.timeout,
         inject: "none".into(),
         icount: true,
+        ocv: None,
+        capacity_ah: None,
         bench: true,
     };
     let elf = build(&a)?;
