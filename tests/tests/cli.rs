@@ -43,7 +43,7 @@ fn battery_round_trip_recovers_the_cell() {
     ]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let head = std::fs::read_to_string(&csv).unwrap();
-    assert!(head.starts_with("time_s,current_a,voltage_v\n"));
+    assert!(head.starts_with("time_s,current_a,voltage_v,soc\n"));
     let o = run(&[
         "identify",
         "battery",
@@ -156,11 +156,14 @@ fn online_writes_a_track() {
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let t = std::fs::read_to_string(&out).unwrap();
     let mut lines = t.lines();
-    assert_eq!(lines.next(), Some("time_s,r_i,r_ct,q,alpha,u_oc,status"));
+    assert_eq!(
+        lines.next(),
+        Some("time_s,r_i,r_ct,q,alpha,u_oc,status,soc,ocv_offset_v")
+    );
     let rows: Vec<&str> = lines.collect();
     assert_eq!(rows.len(), 600);
-    assert!(rows[0].ends_with(",filling"));
-    assert!(rows[599].ends_with(",tracking"));
+    assert!(rows[0].ends_with(",filling,,"));
+    assert!(rows[599].ends_with(",tracking,,"));
     // The refinement's work is reported.
     let err = String::from_utf8_lossy(&o.stderr);
     let work = err
@@ -340,5 +343,231 @@ fn hammerstein_round_trip_recovers_the_system() {
         near(&v("c"), &[0.3, -0.2], 0.15, "c");
         let alpha = j["alpha"].as_f64().unwrap();
         assert!((alpha - 0.6).abs() <= 0.05, "{algorithm} α = {alpha}");
+    }
+}
+
+/// The NMC curve of `simulate battery --ocv nmc`, every 2 % of SOC, as a
+/// `soc,ocv_v` table.
+fn nmc_table(path: &Path) {
+    let mut t = String::from("soc,ocv_v\n");
+    for k in 0..=50 {
+        let z = k as f64 / 50.0;
+        let v = estimator_core::battery::profile::ocv_nmc::<f64>(z);
+        t.push_str(&format!("{z},{v:.6}\n"));
+    }
+    std::fs::write(path, t).unwrap();
+}
+
+/// `--ocv`, `--capacity-ah`, `--soc0`: a drive record through a table
+/// curve is identified to 2 % with the curve (the JSON keys of the
+/// contract, the SOC counted as the simulator counted it), a record that
+/// does not start at rest asks for `--soc0`, the online track has its soc
+/// column and only documented statuses, and `--fit-out` writes the model.
+#[test]
+fn ocv_curve_and_state_of_charge() {
+    let table = tmp("nmc-ocv.csv");
+    nmc_table(&table);
+    let csv = tmp("drive-ocv.csv");
+    let o = run(&[
+        "simulate",
+        "battery",
+        "--preset",
+        "cell",
+        "--profile",
+        "drive",
+        "--ocv",
+        s(&table),
+        "--soc0",
+        "0.9",
+        "--length",
+        "2500",
+        "--seed",
+        "5",
+        "--out",
+        s(&csv),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let rec = std::fs::read_to_string(&csv).unwrap();
+    let last_soc: f64 = rec
+        .lines()
+        .last()
+        .unwrap()
+        .rsplit(',')
+        .next()
+        .unwrap()
+        .parse()
+        .unwrap();
+    assert!(last_soc < 0.6, "the drive profile discharges: {last_soc}");
+
+    // Not at rest at the first row: one line, exit 1, asks for --soc0.
+    let json = tmp("drive-ocv.json");
+    let id = |extra: &[&str]| {
+        let mut a = vec![
+            "identify",
+            "battery",
+            "--input",
+            s(&csv),
+            "--ocv",
+            s(&table),
+        ];
+        a.extend_from_slice(extra);
+        run(&a)
+    };
+    let o = id(&["--capacity-ah", "2.5", "--json", s(&json)]);
+    assert_eq!(o.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(
+        err.contains("does not start at rest") && err.contains("--soc0"),
+        "{err}"
+    );
+    // --ocv without --capacity-ah.
+    let o = id(&["--soc0", "0.9"]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("--capacity-ah"));
+
+    let fit = tmp("drive-ocv-fit.csv");
+    let o = id(&[
+        "--capacity-ah",
+        "2.5",
+        "--soc0",
+        "0.9",
+        "--json",
+        s(&json),
+        "--fit-out",
+        s(&fit),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let j: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let g = |k: &str| j[k].as_f64().unwrap_or_else(|| panic!("key {k}"));
+    assert!((g("r_i") / 0.020 - 1.0).abs() < 0.02, "{j}");
+    assert!((g("r_ct") / 0.015 - 1.0).abs() < 0.02, "{j}");
+    assert!((g("alpha") - 0.75).abs() < 0.02, "{j}");
+    assert!(g("ocv_offset_v").abs() < 1e-3, "{j}");
+    assert_eq!(g("soc0"), 0.9);
+    assert!((g("soc_end") - last_soc).abs() < 1e-6, "{j}");
+    assert!(g("rmse_v") < 1.2e-3, "{j}");
+    // The model's free run beside the data: the noise level.
+    let f = std::fs::read_to_string(&fit).unwrap();
+    let mut lines = f.lines();
+    assert_eq!(lines.next(), Some("time_s,voltage_v,model_v"));
+    let (mut sq, mut n) = (0.0, 0.0);
+    for l in lines {
+        let x: Vec<f64> = l.split(',').map(|x| x.parse().unwrap()).collect();
+        sq += (x[1] - x[2]).powi(2);
+        n += 1.0;
+    }
+    assert_eq!(n, 2500.0);
+    assert!((sq / n).sqrt() < 1.2e-3);
+    // Without the curve the keys are null.
+    let o = run(&[
+        "identify",
+        "battery",
+        "--input",
+        s(&csv),
+        "--json",
+        s(&json),
+    ]);
+    assert!(o.status.success());
+    let j: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    assert!(j["ocv_offset_v"].is_null() && j["soc0"].is_null() && j["soc_end"].is_null());
+
+    // Online: the soc column, documented statuses only.
+    let out = tmp("drive-ocv-track.csv");
+    let o = run(&[
+        "online",
+        "battery",
+        "--input",
+        s(&csv),
+        "--window",
+        "256",
+        "--ocv",
+        s(&table),
+        "--capacity-ah",
+        "2.5",
+        "--soc0",
+        "0.9",
+        "--out",
+        s(&out),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let help = run(&["online", "battery", "--help"]);
+    let help = String::from_utf8_lossy(&help.stdout).to_string();
+    for st in estimator_core::battery::online::Status::ALL {
+        assert!(
+            help.contains(st.as_str()),
+            "--help does not document {}",
+            st.as_str()
+        );
+    }
+    let t = std::fs::read_to_string(&out).unwrap();
+    let mut lines = t.lines();
+    assert_eq!(
+        lines.next(),
+        Some("time_s,r_i,r_ct,q,alpha,u_oc,status,soc,ocv_offset_v")
+    );
+    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+    assert_eq!(rows.len(), 2500);
+    let soc_end: f64 = rows[2499][7].parse().unwrap();
+    assert!((soc_end - last_soc).abs() < 1e-9);
+    let last_rct: f64 = rows[2499][2].parse().unwrap();
+    assert!((last_rct / 0.015 - 1.0).abs() < 0.15, "{last_rct}");
+    for r in &rows {
+        assert!(
+            estimator_core::battery::online::Status::ALL
+                .iter()
+                .any(|st| st.as_str() == r[6]),
+            "undocumented status {}",
+            r[6]
+        );
+    }
+}
+
+/// A malformed OCV table is one line naming the file and the row.
+#[test]
+fn bad_ocv_tables_give_one_line_errors() {
+    let csv = tmp("ocvbad-rec.csv");
+    assert!(run(&[
+        "simulate",
+        "battery",
+        "--preset",
+        "cell",
+        "--length",
+        "300",
+        "--out",
+        s(&csv)
+    ])
+    .status
+    .success());
+    for (body, needle) in [
+        ("soc,ocv_v\n0,3.0\n0.5,3.5\n0.4,3.6\n", "row 4"),
+        ("soc,ocv_v\n0,3.0\n0.5,3.5\n1.0,3.5\n", "row 4"),
+        ("soc,ocv_v\n0,3.0\n1.5,3.5\n", "row 3"),
+        ("soc,volts\n0,3.0\n1,3.5\n", "missing column `ocv_v`"),
+        ("soc,ocv_v\n0,3.0\n", "at least 2"),
+    ] {
+        let t = tmp("ocvbad.csv");
+        std::fs::write(&t, body).unwrap();
+        let o = run(&[
+            "identify",
+            "battery",
+            "--input",
+            s(&csv),
+            "--ocv",
+            s(&t),
+            "--capacity-ah",
+            "2.5",
+            "--soc0",
+            "0.5",
+        ]);
+        assert_eq!(o.status.code(), Some(1), "{body}");
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(err.lines().count(), 1, "{err}");
+        assert!(
+            err.contains("ocvbad.csv") && err.contains(needle),
+            "{body}: {err}"
+        );
     }
 }
