@@ -230,6 +230,12 @@ pub struct OnlineBatteryArgs {
     /// Arithmetic of the estimator: `f64`, or `f32` as the firmware runs it.
     #[arg(long, value_enum, default_value = "f64")]
     pub precision: Precision,
+    /// Where the model starts in the window: `from-data` (the polarization
+    /// of the first M − 1 samples from the data: a cell that is never at
+    /// rest) or `at-rest` (from rest until the window first slides, as the
+    /// firmware starts after power-up).
+    #[arg(long, value_enum, default_value = "from-data")]
+    pub start: StartArg,
     #[command(flatten)]
     pub cell: OcvArgs,
     /// Output CSV `time_s,r_i,r_ct,q,alpha,u_oc,status,soc,ocv_offset_v`
@@ -264,6 +270,15 @@ pub struct OcvArgs {
     /// inverse OCV; the record must then start at rest).
     #[arg(long)]
     pub soc0: Option<f64>,
+}
+
+/// Where the output-error model starts in the window.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum StartArg {
+    /// The polarization of the first M − 1 samples from the data.
+    FromData,
+    /// From rest until the window first slides.
+    AtRest,
 }
 
 /// Floating-point precision of the estimator.

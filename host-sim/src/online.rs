@@ -1,7 +1,7 @@
 //! `online battery`: the sliding-window estimator, sample by sample, as the
 //! firmware runs it (f64 here).
 
-use crate::cli::{BatteryMethod, OnlineBatteryArgs, Precision};
+use crate::cli::{BatteryMethod, OnlineBatteryArgs, Precision, StartArg};
 use crate::io::OCV_POINTS;
 use crate::ocv::CellOcv;
 use crate::{io, progress};
@@ -9,7 +9,7 @@ use anyhow::{anyhow, bail, Result};
 use estimator_core::battery::ocv::OcvModel;
 use estimator_core::battery::online::{CellEstimator, Method, OnlineSettings};
 use estimator_core::battery::output_error::RefinementWork;
-use estimator_core::battery::CellParameters;
+use estimator_core::battery::{CellParameters, Start};
 use estimator_core::Real;
 
 /// One row of the track.
@@ -88,9 +88,14 @@ fn settings<T: Real>(
     memory: usize,
     k: u16,
     method: BatteryMethod,
+    start: StartArg,
     cell: Option<&CellOcv>,
 ) -> Result<OnlineSettings<T, OCV_POINTS>> {
     let mut s = OnlineSettings::new(T::lit(h), memory, CellParameters::cell_18650());
+    s.battery.start = match start {
+        StartArg::FromData => Start::FromData,
+        StartArg::AtRest => Start::AtRest,
+    };
     s.iterations_per_sample = k;
     s.method = match method {
         BatteryMethod::Paper => Method::Paper,
@@ -124,6 +129,7 @@ pub fn track(
     k: u16,
     method: BatteryMethod,
     precision: Precision,
+    start: StartArg,
     cell: Option<&CellOcv>,
     sink: impl FnMut(TrackRow) -> Result<()>,
 ) -> Result<TrackSummary> {
@@ -136,14 +142,14 @@ pub fn track(
     let soc0 = cell.map(|c| c.soc0);
     match precision {
         Precision::F64 => sized(
-            &settings::<f64>(rec.h, memory, k, method, cell)?,
+            &settings::<f64>(rec.h, memory, k, method, start, cell)?,
             soc0,
             window,
             rec,
             sink,
         ),
         Precision::F32 => sized(
-            &settings::<f32>(rec.h, memory, k, method, cell)?,
+            &settings::<f32>(rec.h, memory, k, method, start, cell)?,
             soc0,
             window,
             rec,
@@ -191,6 +197,7 @@ pub(crate) fn battery(a: &OnlineBatteryArgs) -> Result<()> {
                 a.iterations_per_sample,
                 a.method,
                 a.precision,
+                a.start,
                 cell.as_ref(),
                 |r| {
                     match r.estimate {

@@ -17,9 +17,11 @@
 //!    ([`OnlineSettings::with_ocv`]) the state of charge is counted first
 //!    and the window holds the overpotential `U_t − OCV(SOC)`: the model's
 //!    `U_oc` is then the small offset `ΔU` ([`super::ocv`]). The start SOC
-//!    is [`CellEstimator::set_state_of_charge`]'s, or else read from the
-//!    first sample's voltage through the inverse curve (the cell should be
-//!    at rest then).
+//!    is [`CellEstimator::set_state_of_charge`]'s, or else read through the
+//!    inverse curve from the mean voltage of the leading rested samples
+//!    (current at most `C/100`, up to 10; a cell that is not at rest at the
+//!    first sample starts from that sample's voltage, and the offset `ΔU`
+//!    absorbs the error).
 //! 3. **Excitation.** A window whose current barely varies (rest) carries no
 //!    information on the resistances: the estimate is held and the status is
 //!    [`Status::NotExcited`].
@@ -50,6 +52,10 @@ use crate::error::Error;
 use crate::frac::GlWeights;
 use crate::real::Real;
 use crate::window::SampleWindow;
+
+/// Leading rested samples (current at most `C/100`) whose mean voltage
+/// gives the start state of charge when none is set.
+const REST_SAMPLES: u8 = 10;
 
 /// Which identification method runs.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -357,6 +363,9 @@ pub struct CellEstimator<T, const N: usize, const MEM: usize> {
     soc: Option<T>,
     /// `OCV(SOC)` after the last sample (with a curve; `None` without).
     ocv_now: Option<T>,
+    /// While the start SOC is read from the leading rested samples: their
+    /// number, voltage sum and the start SOC they gave.
+    rest_start: Option<(u8, T, T)>,
     /// Weights at the estimate's order, for the one-step prediction.
     pw: GlWeights<T, MEM>,
     rmse: T,
@@ -396,6 +405,7 @@ impl<T: Real, const N: usize, const MEM: usize> CellEstimator<T, N, MEM> {
             estimate: None,
             soc: None,
             ocv_now: None,
+            rest_start: None,
             pw: GlWeights::new(s.initial.alpha, s.battery.h, s.battery.memory)?,
             rmse: T::infinity(),
             status: Status::Filling,
@@ -431,6 +441,7 @@ impl<T: Real, const N: usize, const MEM: usize> CellEstimator<T, N, MEM> {
     pub fn set_state_of_charge(&mut self, soc: T) {
         if soc.is_finite() {
             self.soc = Some(soc);
+            self.rest_start = None;
         }
     }
 
@@ -546,11 +557,27 @@ impl<T: Real, const N: usize, const MEM: usize> CellEstimator<T, N, MEM> {
     ) -> SampleReport<T> {
         self.counts.samples += 1;
         let rejected = self.classify(s, current, voltage);
-        if let (Some(m), None, None) = (&s.ocv, self.soc, rejected) {
-            // The first good sample with a curve and no SOC given: the cell
-            // is taken to be at rest, its voltage the OCV after this sample.
-            let after = m.table.soc_from_ocv(voltage);
-            self.soc = Some(after - (m.soc_after(after, current, s.battery.h) - after));
+        if let (Some(m), None) = (&s.ocv, rejected) {
+            let rest = current.abs() <= m.capacity_ah / T::lit(100.0);
+            match (self.soc, self.rest_start) {
+                (None, _) => {
+                    // The first good sample with a curve and no SOC given:
+                    // the cell is taken to be at rest, its voltage the OCV.
+                    let soc0 = m.table.soc_from_ocv(voltage);
+                    self.soc = Some(soc0);
+                    self.rest_start = rest.then_some((1, voltage, soc0));
+                }
+                (Some(z), Some((n, sum, soc0))) if rest && n < REST_SAMPLES => {
+                    // Still at rest: the start SOC from the mean of the
+                    // rested voltages so far (as `OcvModel::soc_at_rest`
+                    // reads a record), the charge since kept.
+                    let sum = sum + voltage;
+                    let better = m.table.soc_from_ocv(sum / T::lit(f64::from(n + 1)));
+                    self.soc = Some(z + (better - soc0));
+                    self.rest_start = Some((n + 1, sum, better));
+                }
+                _ => self.rest_start = None,
+            }
         }
         let sample = match rejected {
             None => {

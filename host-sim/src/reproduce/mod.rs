@@ -357,6 +357,7 @@ fn tracking(dir: &Path, md: &mut String) -> Result<()> {
         1,
         BatteryMethod::Refined,
         Precision::F64,
+        crate::cli::StartArg::FromData,
         None,
         |r| {
             rows.push(r);
