@@ -27,6 +27,10 @@ Usage::
         --ocv data/pybamm/chen2020-ocv.csv --capacity-ah 5.1532 [--json out.json]
 
 Without ``--ocv`` the OCV is a constant (fitted as dU). Needs numpy and scipy.
+
+``python3 bench/reference_fit.py --all data/pybamm`` fits every record of
+that folder (``meta.json`` gives the capacities) with its OCV table and
+without it, and writes ``reference.json`` there (about 5 minutes).
 """
 
 import argparse
@@ -147,19 +151,54 @@ def fit_rc(i, y, h, pairs):
     return out
 
 
+def fit_all(folder):
+    """Every record of a folder made by bench/pybamm_data.py, with and
+    without its OCV table, into ``reference.json``."""
+    from pathlib import Path
+
+    folder = Path(folder)
+    meta = json.load(open(folder / "meta.json"))
+    out = {}
+    for name in sorted(meta["records"]):
+        cell = name.split("-")[0]
+        cap = meta["ocv"][cell]["capacity_ah"]
+        rec = str(folder / f"{name}.csv")
+        print(f"== {name} (OCV table, C = {cap:.4f} A h)")
+        out[name] = fit_record(rec, str(folder / f"{cell}-ocv.csv"), cap)
+        print(f"== {name} (no table)")
+        out[f"{name}-no-table"] = fit_record(rec, None, None)
+    with open(folder / "reference.json", "w") as f:
+        json.dump(out, f, indent=2)
+        f.write("\n")
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("record")
+    ap.add_argument("record", nargs="?")
     ap.add_argument("--ocv")
     ap.add_argument("--capacity-ah", type=float)
     ap.add_argument("--json")
+    ap.add_argument("--all", help="fit every record of this folder into its reference.json")
     a = ap.parse_args()
-    t, i, v = read_csv(a.record, ["time_s", "current_a", "voltage_v"])
+    if a.all:
+        fit_all(a.all)
+        return
+    if not a.record:
+        ap.error("a record, or --all FOLDER")
+    out = fit_record(a.record, a.ocv, a.capacity_ah)
+    if a.json:
+        with open(a.json, "w") as f:
+            json.dump(out, f, indent=2)
+            f.write("\n")
+
+
+def fit_record(record, ocv_path, capacity_ah):
+    t, i, v = read_csv(record, ["time_s", "current_a", "voltage_v"])
     h = float(t[1] - t[0])
-    out = {"record": a.record, "rows": len(t)}
-    if a.ocv:
-        soc_pts, ocv_pts = read_csv(a.ocv, ["soc", "ocv_v"])
-        c = a.capacity_ah
+    out = {"record": record, "rows": len(t)}
+    if ocv_path:
+        soc_pts, ocv_pts = read_csv(ocv_path, ["soc", "ocv_v"])
+        c = capacity_ah
         rest = np.abs(i[:10]) <= c / 100.0
         n_rest = int(np.argmin(rest)) if not rest.all() else 10
         if n_rest == 0:
@@ -181,10 +220,7 @@ def main():
         print(f"{k:4s} RMSE {1e3 * m['rmse_v']:.3f} mV  {extra}")
     print(f"CPE starts: best from {out['cpe']['winning_start']}; local minima (mV): "
           f"{[round(1e3 * x, 3) for x in out['cpe']['local_minima_rmse_v']][:8]}")
-    if a.json:
-        with open(a.json, "w") as f:
-            json.dump(out, f, indent=2)
-            f.write("\n")
+    return out
 
 
 if __name__ == "__main__":

@@ -218,6 +218,7 @@ fn f32_refinement_agrees_with_f64() {
         start: s64.start,
         ocv_slope: false,
         min_current_std: 1e-3,
+        prior: None,
     };
     let mut w64 = SampleWindow::<f64, 256>::new();
     let mut w32 = SampleWindow::<f32, 256>::new();

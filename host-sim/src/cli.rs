@@ -236,6 +236,25 @@ pub struct OnlineBatteryArgs {
     /// firmware starts after power-up).
     #[arg(long, value_enum, default_value = "from-data")]
     pub start: StartArg,
+    /// A prior on R_i, R_ct, Q and α: the JSON of `identify battery` (e.g.
+    /// of a characterization record of the same cell). The window's fit
+    /// is then maximum a posteriori: the data where they are informative,
+    /// the prior where a window is too short to tell (the refinement starts
+    /// at the prior, without the paper method's start-up).
+    #[arg(long)]
+    pub prior: Option<PathBuf>,
+    /// The prior's spread on R_i, R_ct and Q: a factor at one sigma.
+    #[arg(long, default_value_t = 2.0)]
+    pub prior_factor: f64,
+    /// The prior's spread on α at one sigma.
+    #[arg(long, default_value_t = 0.1)]
+    pub prior_alpha_sigma: f64,
+    /// The residual level (mV) at which the window's data are weighed
+    /// against the prior (not the noise: model error correlated over the
+    /// window makes it worth fewer independent samples; see
+    /// docs/real-cells.md).
+    #[arg(long, default_value_t = 100.0)]
+    pub prior_noise_mv: f64,
     #[command(flatten)]
     pub cell: OcvArgs,
     /// Output CSV `time_s,r_i,r_ct,q,alpha,u_oc,status,soc,ocv_offset_v`

@@ -9,7 +9,7 @@ use anyhow::{anyhow, bail, Result};
 use estimator_core::battery::ocv::OcvModel;
 use estimator_core::battery::online::{CellEstimator, Method, OnlineSettings};
 use estimator_core::battery::output_error::RefinementWork;
-use estimator_core::battery::{CellParameters, Start};
+use estimator_core::battery::{CellParameters, Prior, Start};
 use estimator_core::Real;
 
 /// One row of the track.
@@ -89,6 +89,7 @@ fn settings<T: Real>(
     k: u16,
     method: BatteryMethod,
     start: StartArg,
+    prior: Option<&Prior<f64>>,
     cell: Option<&CellOcv>,
 ) -> Result<OnlineSettings<T, OCV_POINTS>> {
     let mut s = OnlineSettings::new(T::lit(h), memory, CellParameters::cell_18650());
@@ -96,6 +97,12 @@ fn settings<T: Real>(
         StartArg::FromData => Start::FromData,
         StartArg::AtRest => Start::AtRest,
     };
+    s.battery.prior = prior.map(|p| Prior {
+        center: p.center.cast(),
+        log_sigma: T::lit(p.log_sigma),
+        alpha_sigma: T::lit(p.alpha_sigma),
+        noise_v: T::lit(p.noise_v),
+    });
     s.iterations_per_sample = k;
     s.method = match method {
         BatteryMethod::Paper => Method::Paper,
@@ -130,6 +137,7 @@ pub fn track(
     method: BatteryMethod,
     precision: Precision,
     start: StartArg,
+    prior: Option<&Prior<f64>>,
     cell: Option<&CellOcv>,
     sink: impl FnMut(TrackRow) -> Result<()>,
 ) -> Result<TrackSummary> {
@@ -142,14 +150,14 @@ pub fn track(
     let soc0 = cell.map(|c| c.soc0);
     match precision {
         Precision::F64 => sized(
-            &settings::<f64>(rec.h, memory, k, method, start, cell)?,
+            &settings::<f64>(rec.h, memory, k, method, start, prior, cell)?,
             soc0,
             window,
             rec,
             sink,
         ),
         Precision::F32 => sized(
-            &settings::<f32>(rec.h, memory, k, method, start, cell)?,
+            &settings::<f32>(rec.h, memory, k, method, start, prior, cell)?,
             soc0,
             window,
             rec,
@@ -183,6 +191,10 @@ pub(crate) fn battery(a: &OnlineBatteryArgs) -> Result<()> {
     let t0 = std::time::Instant::now();
     let rec = io::read_battery(&a.input, None)?;
     let cell = crate::ocv::resolve(&a.cell, &a.input, &rec)?;
+    let prior = match &a.prior {
+        Some(p) => Some(read_prior(p, a)?),
+        None => None,
+    };
     let memory = a.memory.unwrap_or(a.window / 4);
     let f = |x: f64| format!("{x:.9e}");
     let g = |x: Option<f64>| x.map(|x| format!("{x:.9e}")).unwrap_or_default();
@@ -198,6 +210,7 @@ pub(crate) fn battery(a: &OnlineBatteryArgs) -> Result<()> {
                 a.method,
                 a.precision,
                 a.start,
+                prior.as_ref(),
                 cell.as_ref(),
                 |r| {
                     match r.estimate {
@@ -243,4 +256,44 @@ pub(crate) fn battery(a: &OnlineBatteryArgs) -> Result<()> {
         );
     }
     Ok(())
+}
+
+/// Reads `--prior FIT.json` (the JSON of `identify battery`) with the
+/// spreads of the other `--prior-*` flags.
+fn read_prior(path: &std::path::Path, a: &OnlineBatteryArgs) -> Result<Prior<f64>> {
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| anyhow!("{}: cannot read ({e})", path.display()))?;
+    let j: serde_json::Value =
+        serde_json::from_str(&text).map_err(|e| anyhow!("{}: not JSON ({e})", path.display()))?;
+    let get = |k: &str| {
+        j[k].as_f64().ok_or_else(|| {
+            anyhow!(
+                "{}: no number `{k}` (expected the JSON of identify battery)",
+                path.display()
+            )
+        })
+    };
+    let center = CellParameters {
+        r_i: get("r_i")?,
+        r_ct: get("r_ct")?,
+        q: get("q")?,
+        alpha: get("alpha")?,
+        u_oc: get("u_oc")?,
+    };
+    if !(a.prior_factor.is_finite() && a.prior_factor > 1.0) {
+        bail!("--prior-factor {}: must be above 1", a.prior_factor);
+    }
+    let p = Prior {
+        center,
+        log_sigma: a.prior_factor.ln(),
+        alpha_sigma: a.prior_alpha_sigma,
+        noise_v: a.prior_noise_mv * 1e-3,
+    };
+    if !p.is_valid() {
+        bail!(
+            "{}: the prior is not physical, or a --prior-* spread is not positive",
+            path.display()
+        );
+    }
+    Ok(p)
 }

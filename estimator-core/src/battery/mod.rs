@@ -152,6 +152,92 @@ pub struct BatterySettings<T> {
     /// A window whose current has a standard deviation below this (A) is
     /// "not excited": the estimate is held.
     pub min_current_std: T,
+    /// A prior on the cell's parameters for the output-error refinement
+    /// (`None`: the window's data alone).
+    pub prior: Option<Prior<T>>,
+}
+
+/// A Gaussian prior on the cell's parameters (maximum a posteriori over a
+/// window): what the BMS knows before the window, e.g. the whole-record fit
+/// of a characterization test or the datasheet.
+///
+/// The refinement then minimizes
+/// `½Σ r² + ½·σ_v²·Σ_k ((x_k − c_k)/σ_k)²` over
+/// `x = [ln R_i, ln R_ct, ln Q, α]`: the window's data where they carry
+/// information, the prior where they do not (a window far shorter than the
+/// cell's slowest relaxation cannot tell a long constant-phase tail from a
+/// drift, and without a prior its fit wanders there).
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Prior<T> {
+    /// The prior's centre (its `u_oc` is not used).
+    pub center: CellParameters<T>,
+    /// Standard deviation of `ln R_i`, `ln R_ct` and `ln Q` (`ln 2`: a
+    /// factor 2 at one sigma).
+    pub log_sigma: T,
+    /// Standard deviation of α.
+    pub alpha_sigma: T,
+    /// The residual level σ_v (V) at which the window's data are weighed
+    /// against the prior. Not the measurement noise: a real cell's model
+    /// error is correlated over the whole window, which is then worth far
+    /// fewer independent samples than it holds, and σ_v says how many
+    /// (`σ_v²/σ_noise²` samples count as one).
+    pub noise_v: T,
+}
+
+impl<T: Real> Prior<T> {
+    /// A prior at `center`, a factor 2 on the resistances and `Q` and 0.1
+    /// on α at one sigma, the data weighed at σ_v = 0.1 V: on the PyBaMM
+    /// DFN records (docs/real-cells.md) the value that keeps every
+    /// published `R_ct` of a 256-sample window within a factor 2 of the
+    /// whole-record fit with a prior from another record of the same cell
+    /// (50 mV does not).
+    pub fn new(center: CellParameters<T>) -> Self {
+        Self {
+            center,
+            log_sigma: T::lit(core::f64::consts::LN_2),
+            alpha_sigma: T::lit(0.1),
+            noise_v: T::lit(0.1),
+        }
+    }
+
+    /// True when every value is finite and positive where it must be.
+    pub fn is_valid(&self) -> bool {
+        let c = &self.center;
+        let pos = |x: T| x.is_finite() && x > T::zero();
+        pos(c.r_i)
+            && pos(c.r_ct)
+            && pos(c.q)
+            && c.alpha.is_finite()
+            && pos(self.log_sigma)
+            && pos(self.alpha_sigma)
+            && pos(self.noise_v)
+    }
+
+    /// Weights `σ_v²/σ_k²` and centres of `[ln R_i, ln R_ct, ln Q, α]`.
+    pub(crate) fn terms(&self) -> ([T; 4], [T; 4]) {
+        let wl = (self.noise_v / self.log_sigma).powi(2);
+        let wa = (self.noise_v / self.alpha_sigma).powi(2);
+        let c = &self.center;
+        (
+            [wl, wl, wl, wa],
+            [c.r_i.ln(), c.r_ct.ln(), c.q.ln(), c.alpha],
+        )
+    }
+
+    /// `½·Σ w_k (x_k − c_k)²` at `p` (over the estimated columns).
+    pub(crate) fn cost(&self, p: &CellParameters<T>, estimate_order: bool) -> T {
+        let (w, c) = self.terms();
+        let x = [p.r_i.ln(), p.r_ct.ln(), p.q.ln(), p.alpha];
+        let mut sum = T::zero();
+        for k in 0..4 {
+            if k == 3 && !estimate_order {
+                continue;
+            }
+            sum = sum + w[k] * (x[k] - c[k]) * (x[k] - c[k]);
+        }
+        sum / T::lit(2.0)
+    }
 }
 
 /// Where the output-error simulation of a window starts.
@@ -187,6 +273,7 @@ impl<T: Real> BatterySettings<T> {
             start: Start::AtRest,
             ocv_slope: false,
             min_current_std: T::lit(1e-3),
+            prior: None,
         }
     }
 
@@ -204,6 +291,9 @@ impl<T: Real> BatterySettings<T> {
             self.epsilon,
             self.max_order_step,
         )?;
+        if self.prior.is_some_and(|p| !p.is_valid()) {
+            return Err(crate::Error::BadSetting);
+        }
         if self.min_current_std.is_finite() && self.min_current_std >= T::zero() {
             Ok(())
         } else {

@@ -180,12 +180,20 @@ impl<T: Real, const P: usize> OnlineSettings<T, P> {
     /// The refinement's fallback start in the window's coordinates: with a
     /// curve, [`initial`](Self::initial) with `U_oc` replaced by `ΔU = 0`.
     pub fn initial_in_window(&self) -> CellParameters<T> {
+        // With a prior, its centre is the better start.
+        let start = match &self.battery.prior {
+            Some(pr) => CellParameters {
+                u_oc: self.initial.u_oc,
+                ..pr.center
+            },
+            None => self.initial,
+        };
         match self.ocv {
             Some(_) => CellParameters {
                 u_oc: T::zero(),
-                ..self.initial
+                ..start
             },
-            None => self.initial,
+            None => start,
         }
     }
 
@@ -401,7 +409,9 @@ impl<T: Real, const N: usize, const MEM: usize> CellEstimator<T, N, MEM> {
             window: SampleWindow::new(),
             gi: PaperRegressionGi::new(&s.battery, s.alpha0)?,
             oe: OutputErrorRefinement::new(&s.battery, s.initial_in_window())?,
-            refining: false,
+            // With a prior the refinement starts at its centre: the paper
+            // method's start-up is not needed.
+            refining: s.method == Method::Refined && s.battery.prior.is_some(),
             estimate: None,
             soc: None,
             ocv_now: None,

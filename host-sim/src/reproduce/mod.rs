@@ -359,6 +359,7 @@ fn tracking(dir: &Path, md: &mut String) -> Result<()> {
         Precision::F64,
         crate::cli::StartArg::FromData,
         None,
+        None,
         |r| {
             rows.push(r);
             Ok(())
