@@ -13,6 +13,7 @@
 //!   capacity (`FRACBMS_CAPACITY_AH`), checks the table in `f32` with the
 //!   core's own [`OcvTable`](estimator_core::battery::ocv::OcvTable), and
 //!   writes it into `config.rs` as two `static` arrays (flash).
+//! * Reads the prior's centre (`FRACBMS_PRIOR=r_i,r_ct,q,alpha`).
 //! * For `target_os = "none"` only: puts `memory.x` (which includes
 //!   `fracbms-board.x`) and the board's map as `fracbms-board.x` on the link
 //!   path and passes `-Tlink.x` and `-Tdefmt.x`.
@@ -232,6 +233,32 @@ fn main() {
         (true, false) => fail("FRACBMS_CAPACITY_AH goes with FRACBMS_OCV=FILE.csv".into()),
     };
 
+    // The prior (FRACBMS_PRIOR="r_i,r_ct,q,alpha", e.g. from the JSON of
+    // `host-sim identify battery` through `cargo xtask qemu --prior`).
+    let prior_s = var("FRACBMS_PRIOR", "");
+    let prior = if prior_s.trim().is_empty() {
+        "None".to_owned()
+    } else {
+        let v: Vec<f32> = prior_s
+            .split(',')
+            .map(|x| x.trim().parse::<f32>())
+            .collect::<Result<_, _>>()
+            .unwrap_or_else(|_| fail(format!("FRACBMS_PRIOR={prior_s}: expected r_i,r_ct,q,alpha")));
+        let ok = v.len() == 4
+            && v.iter().all(|x| x.is_finite())
+            && v[0] > 0.0
+            && v[1] > 0.0
+            && v[2] > 0.0
+            && v[3] > 0.0
+            && v[3] <= 1.0;
+        if !ok {
+            fail(format!(
+                "FRACBMS_PRIOR={prior_s}: expected four numbers r_i,r_ct,q,alpha (positive, alpha in (0, 1])"
+            ));
+        }
+        format!("Some([{:?}, {:?}, {:?}, {:?}])", v[0], v[1], v[2], v[3])
+    };
+
     let mut cfg = String::new();
     let _ = writeln!(
         cfg,
@@ -280,7 +307,9 @@ fn main() {
          /// The OCV table's voltage column (V, flash).\n\
          pub static OCV_V: [f32; {n}] = [{}];\n\
          /// The cell's capacity (A·h, `FRACBMS_CAPACITY_AH`; NaN without a table).\n\
-         pub const CAPACITY_AH: f32 = {};",
+         pub const CAPACITY_AH: f32 = {};\n\
+         /// The prior's centre `[R_i, R_ct, Q, α]` (`FRACBMS_PRIOR`; `None`: no prior).\n\
+         pub const PRIOR: Option<[f32; 4]> = {prior};",
         list(&ocv_soc),
         list(&ocv_v),
         if capacity_ah.is_nan() {

@@ -66,7 +66,7 @@ fn main() -> ! {
         config::ITERATIONS_PER_SAMPLE,
         config::SAMPLE_PERIOD_S
     );
-    if config::OCV_POINTS > 0 {
+    if !config::OCV_SOC.is_empty() {
         defmt::println!(
             "OCV table points={=usize} flash_bytes={=usize} capacity_ah={=f32}",
             config::OCV_POINTS,

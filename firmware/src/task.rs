@@ -22,7 +22,7 @@ use estimator_core::battery::ocv::{OcvModel, OcvTable};
 use estimator_core::battery::online::{
     CellEstimator, Method, OnlineSettings, SampleCounts, SampleReport,
 };
-use estimator_core::battery::{CellParameters, Start};
+use estimator_core::battery::{CellParameters, Prior, Start};
 use estimator_core::Error;
 
 /// Settings of the task (one value for every cell of a pack).
@@ -52,12 +52,23 @@ impl TaskSettings {
     /// the build-time OCV table (`FRACBMS_OCV`, [`crate::config::OCV_SOC`])
     /// the core counts the state of charge from the first sample's rested
     /// voltage and fits `U_t − OCV(SOC)`; without one the OCV slope (state
-    /// of charge drift inside the window) is fitted.
+    /// of charge drift inside the window) is fitted. With a build-time
+    /// prior (`FRACBMS_PRIOR`) the window fit is maximum a posteriori
+    /// ([`Prior::new`]'s spreads).
     pub fn new(h: f32, memory: usize, method: Method, iterations: u16) -> Self {
         let mut online = OnlineSettings::new(h, memory, CellParameters::cell_18650());
         online.battery.start = Start::AtRest;
         online.method = method;
         online.iterations_per_sample = iterations;
+        if let Some([r_i, r_ct, q, alpha]) = crate::config::PRIOR {
+            online.battery.prior = Some(Prior::new(CellParameters {
+                r_i,
+                r_ct,
+                q,
+                alpha,
+                u_oc: online.initial.u_oc,
+            }));
+        }
         Self {
             online: online.with_curve(configured_ocv()),
             stuck_after: 4,

@@ -108,6 +108,10 @@ struct QemuArgs {
     /// The cell's capacity (A·h), with --ocv.
     #[arg(long)]
     capacity_ah: Option<f64>,
+    /// A prior on R_i, R_ct, Q and α: the JSON of `host-sim identify
+    /// battery` (built into the image).
+    #[arg(long)]
+    prior: Option<PathBuf>,
     /// Build the cost-measurement image (no physical-estimate check).
     #[arg(skip)]
     bench: bool,
@@ -161,6 +165,25 @@ fn build(a: &QemuArgs) -> Result<PathBuf> {
         ),
         None => None,
     };
+    let prior = match &a.prior {
+        None => String::new(),
+        Some(p) => {
+            let text = std::fs::read_to_string(p)
+                .with_context(|| format!("{}: cannot open", p.display()))?;
+            let j: serde_json::Value = serde_json::from_str(&text)
+                .with_context(|| format!("{}: not JSON", p.display()))?;
+            let mut v = Vec::new();
+            for k in ["r_i", "r_ct", "q", "alpha"] {
+                v.push(j[k].as_f64().with_context(|| {
+                    format!(
+                        "{}: no number `{k}` (expected the JSON of host-sim identify battery)",
+                        p.display()
+                    )
+                })?);
+            }
+            v.iter().map(|x| format!("{x:e}")).collect::<Vec<_>>().join(",")
+        }
+    };
     match (&a.ocv, a.capacity_ah) {
         (Some(_), None) => bail!("--ocv needs --capacity-ah (the cell's capacity in A·h)"),
         (None, Some(_)) => bail!("--capacity-ah goes with --ocv FILE.csv"),
@@ -184,6 +207,7 @@ fn build(a: &QemuArgs) -> Result<PathBuf> {
         .env("FRACBMS_INJECT", &a.inject)
         .env("FRACBMS_BENCH", if a.bench { "1" } else { "0" })
         .env("FRACBMS_OCV", ocv.as_deref().unwrap_or(Path::new("")))
+        .env("FRACBMS_PRIOR", &prior)
         .env(
             "FRACBMS_CAPACITY_AH",
             a.capacity_ah.map(|c| c.to_string()).unwrap_or_default(),
@@ -349,6 +373,7 @@ fn bench_target(b: &BenchArgs) -> Result<()> {
         icount: true,
         ocv: None,
         capacity_ah: None,
+        prior: None,
         bench: true,
     };
     let elf = build(&a)?;
