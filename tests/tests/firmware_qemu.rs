@@ -275,3 +275,76 @@ fn qemu_firmware_with_an_ocv_table_agrees_with_host_sim() {
     );
     assert_agree(&fw, &host);
 }
+
+/// The product's configuration on a whole DFN drive cycle (Chen2020, 3000
+/// s, data/pybamm): window 256, memory 64, the OCV table and a prior from
+/// the HPPC record of the same cell (`identify battery --json`). The
+/// firmware (f32, QEMU) ends where `host-sim online battery` (f64, same
+/// settings) ends, within the stated tolerance, and on the same SOC.
+#[test]
+fn qemu_firmware_with_table_and_prior_tracks_a_dfn_drive_cycle() {
+    let ocv = root().join("data/pybamm/chen2020-ocv.csv");
+    let hppc = root().join("data/pybamm/chen2020-hppc.csv");
+    let drive = root().join("data/pybamm/chen2020-drive.csv");
+    let cap = "5.153198";
+    let prior = tmp("chen2020-hppc-fit.json");
+    let s = |p: &Path| p.to_str().unwrap().to_owned();
+    host_sim(&[
+        "identify",
+        "battery",
+        "--input",
+        &s(&hppc),
+        "--ocv",
+        &s(&ocv),
+        "--capacity-ah",
+        cap,
+        "--json",
+        &s(&prior),
+    ]);
+    let track = tmp("chen2020-drive-track.csv");
+    host_sim(&[
+        "online",
+        "battery",
+        "--input",
+        &s(&drive),
+        "--window",
+        "256",
+        "--memory",
+        "64",
+        "--start",
+        "at-rest",
+        "--ocv",
+        &s(&ocv),
+        "--capacity-ah",
+        cap,
+        "--prior",
+        &s(&prior),
+        "--out",
+        &s(&track),
+    ]);
+    let t = std::fs::read_to_string(&track).unwrap();
+    let last: Vec<&str> = t.lines().last().unwrap().split(',').collect();
+    let num = |k: usize| -> f64 { last[k].parse().unwrap() };
+    let host = serde_json::json!({
+        "r_i": num(1), "r_ct": num(2), "q": num(3), "alpha": num(4), "u_oc": num(5),
+        "soc": num(7),
+    });
+    let fw = firmware(
+        &drive,
+        &[
+            "--ocv",
+            &s(&ocv),
+            "--capacity-ah",
+            cap,
+            "--prior",
+            &s(&prior),
+        ],
+    );
+    eprintln!("firmware {fw}\nhost-sim {host}");
+    assert_eq!(fw["samples"].as_u64(), Some(3000), "{fw}");
+    assert!(
+        (f(&fw, "soc") - f(&host, "soc")).abs() < 1e-4,
+        "{fw} {host}"
+    );
+    assert_agree(&fw, &host);
+}
