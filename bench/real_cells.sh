@@ -36,4 +36,4 @@ for cell in chen2020 prada2013; do
       --out "$out/$r-none-prior.csv" 2>/dev/null
   done
 done
-python3 bench/real_cells_summary.py "$out"
+"${PYTHON:-python3}" bench/real_cells_summary.py "$out"
