@@ -243,7 +243,11 @@ fn main() {
             .split(',')
             .map(|x| x.trim().parse::<f32>())
             .collect::<Result<_, _>>()
-            .unwrap_or_else(|_| fail(format!("FRACBMS_PRIOR={prior_s}: expected r_i,r_ct,q,alpha")));
+            .unwrap_or_else(|_| {
+                fail(format!(
+                    "FRACBMS_PRIOR={prior_s}: expected r_i,r_ct,q,alpha"
+                ))
+            });
         let ok = v.len() == 4
             && v.iter().all(|x| x.is_finite())
             && v[0] > 0.0

@@ -265,7 +265,8 @@ pub struct OnlineBatteryArgs {
     /// not_excited (the current barely varies: held), held (an iteration
     /// failed: held), unphysical (the window's estimate has a non-positive
     /// resistance or Q, or α outside (0, 1]: held), at_bound (α at the
-    /// search's bound: held), slow_relaxation (the branch relaxes slower
+    /// search's bound, or R_ct so small that its branch swing R_ct·σ_I is
+    /// below the fit's RMSE: held), slow_relaxation (the branch relaxes slower
     /// than the window can see, τ^(1/α) beyond the fitted window: held),
     /// ocv_implausible (U_oc outside the plausible voltage range, or |ΔU|
     /// above 0.15 V with --ocv: held). "Held" keeps the last good estimate.

@@ -181,7 +181,10 @@ fn build(a: &QemuArgs) -> Result<PathBuf> {
                     )
                 })?);
             }
-            v.iter().map(|x| format!("{x:e}")).collect::<Vec<_>>().join(",")
+            v.iter()
+                .map(|x| format!("{x:e}"))
+                .collect::<Vec<_>>()
+                .join(",")
         }
     };
     match (&a.ocv, a.capacity_ah) {

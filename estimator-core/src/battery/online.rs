@@ -32,7 +32,8 @@
 //! 5. **Plausibility.** An estimate is published only when it is physical
 //!    and identifiable from the window: positive, finite resistances and
 //!    `Q`, α in `(0, 1]` and not at the search's lower bound (nor at a
-//!    user-set upper bound below 1; α = 1 is a plain RC branch), a
+//!    user-set upper bound below 1; α = 1 is a plain RC branch), `R_ct`
+//!    not at its bound 0 (a branch swing `R_ct·σ_I` above the fit's RMSE), a
 //!    relaxation time `τ^(1/α)` within [`OnlineSettings::max_relaxation_windows`]
 //!    fitted windows, and an open-circuit voltage inside the plausible
 //!    voltage range (with a curve: an offset `|ΔU|` at most
@@ -198,9 +199,16 @@ impl<T: Real, const P: usize> OnlineSettings<T, P> {
     }
 
     /// Why `p` (in the estimator's coordinates: `u_oc` is `ΔU` with a
-    /// curve) may not be published from a window of `rows` fitted samples,
-    /// or `None` when it may.
-    pub fn implausible(&self, p: &CellParameters<T>, rows: usize) -> Option<Status> {
+    /// curve) may not be published from a window of `rows` fitted samples
+    /// whose current has standard deviation `current_std` (A), fitted to
+    /// `rmse` (V), or `None` when it may.
+    pub fn implausible(
+        &self,
+        p: &CellParameters<T>,
+        rows: usize,
+        current_std: T,
+        rmse: T,
+    ) -> Option<Status> {
         let b = &self.battery;
         let pos = |x: T| x.is_finite() && x > T::zero();
         if !(pos(p.r_i) && pos(p.r_ct) && pos(p.q) && pos(p.alpha) && p.alpha <= T::one()) {
@@ -216,6 +224,11 @@ impl<T: Real, const P: usize> OnlineSettings<T, P> {
         let tol = T::lit(1e-3);
         if p.alpha <= b.alpha_min + tol || (b.alpha_max < T::one() && p.alpha >= b.alpha_max - tol)
         {
+            return Some(Status::AtBound);
+        }
+        // R_ct at its lower bound, 0: a branch whose voltage swing is below
+        // the fit's residual is not seen by the window (nor are its Q, α).
+        if !(p.r_ct * current_std >= rmse) {
             return Some(Status::AtBound);
         }
         let relax = p.tau().powf(T::one() / p.alpha);
@@ -244,8 +257,10 @@ pub enum Status {
     /// The window's estimate is not physical (a resistance or `Q` not
     /// positive, α outside `(0, 1]`): the last good estimate is held.
     Unphysical,
-    /// The window's estimate has α at the search's bound: not identified;
-    /// the last good estimate is held.
+    /// The window's estimate has a parameter at its bound: α at the
+    /// search's bound, or `R_ct` so small (towards 0) that the branch's
+    /// swing `R_ct·σ_I` is below the fit's RMSE. Not identified; the last
+    /// good estimate is held.
     AtBound,
     /// The window's estimate relaxes slower than the window can see
     /// (`τ^(1/α)` beyond [`OnlineSettings::max_relaxation_windows`]): the
@@ -374,6 +389,8 @@ pub struct CellEstimator<T, const N: usize, const MEM: usize> {
     /// While the start SOC is read from the leading rested samples: their
     /// number, voltage sum and the start SOC they gave.
     rest_start: Option<(u8, T, T)>,
+    /// Standard deviation of the current over the window's fitted part (A).
+    current_std: T,
     /// Weights at the estimate's order, for the one-step prediction.
     pw: GlWeights<T, MEM>,
     rmse: T,
@@ -416,6 +433,7 @@ impl<T: Real, const N: usize, const MEM: usize> CellEstimator<T, N, MEM> {
             soc: None,
             ocv_now: None,
             rest_start: None,
+            current_std: T::zero(),
             pw: GlWeights::new(s.initial.alpha, s.battery.h, s.battery.memory)?,
             rmse: T::infinity(),
             status: Status::Filling,
@@ -664,6 +682,7 @@ impl<T: Real, const N: usize, const MEM: usize> CellEstimator<T, N, MEM> {
             report.status = Status::NotExcited;
             return;
         }
+        self.current_std = var.sqrt();
         for _ in 0..s.iterations_per_sample {
             let ok = if self.refining {
                 self.step_refined(s)
@@ -694,7 +713,7 @@ impl<T: Real, const N: usize, const MEM: usize> CellEstimator<T, N, MEM> {
         rmse: T,
         rows: usize,
     ) -> Result<(), Status> {
-        if let Some(why) = s.implausible(&p, rows) {
+        if let Some(why) = s.implausible(&p, rows, self.current_std, rmse) {
             return Err(why);
         }
         if self.pw.set_order(p.alpha).is_ok() {
