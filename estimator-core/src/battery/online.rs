@@ -228,7 +228,8 @@ impl<T: Real, const P: usize> OnlineSettings<T, P> {
         }
         // R_ct at its lower bound, 0: a branch whose voltage swing is below
         // the fit's residual is not seen by the window (nor are its Q, α).
-        if !(p.r_ct * current_std >= rmse) {
+        let swing = p.r_ct * current_std;
+        if swing.is_nan() || rmse.is_nan() || swing < rmse {
             return Some(Status::AtBound);
         }
         let relax = p.tau().powf(T::one() / p.alpha);
