@@ -55,14 +55,20 @@ fn cell(path: &Path, row: usize, col: &str, s: &str) -> f32 {
     })
 }
 
-/// Reads the replay CSV; returns (h, records).
-fn replay(path: &Path) -> (f64, Vec<(u32, f32, f32, f32)>) {
+/// Opens a CSV file and reads its header (one error line on failure).
+fn open_csv(path: &Path) -> (csv::Reader<fs::File>, csv::StringRecord) {
     let mut rd = csv::Reader::from_path(path)
         .unwrap_or_else(|e| fail(format!("{}: cannot read ({e})", path.display())));
     let headers = rd
         .headers()
         .unwrap_or_else(|e| fail(format!("{}: no header ({e})", path.display())))
         .clone();
+    (rd, headers)
+}
+
+/// Reads the replay CSV; returns (h, records).
+fn replay(path: &Path) -> (f64, Vec<(u32, f32, f32, f32)>) {
+    let (mut rd, headers) = open_csv(path);
     let find = |name: &str| headers.iter().position(|h| h.trim() == name);
     let (Some(ct), Some(ci), Some(cv)) = (find("time_s"), find("current_a"), find("voltage_v"))
     else {
@@ -127,12 +133,7 @@ fn replay(path: &Path) -> (f64, Vec<(u32, f32, f32, f32)>) {
 
 /// Reads and checks the OCV table `path` in `f32`; returns its columns.
 fn ocv_table(path: &Path) -> (Vec<f32>, Vec<f32>) {
-    let mut rd = csv::Reader::from_path(path)
-        .unwrap_or_else(|e| fail(format!("{}: cannot read ({e})", path.display())));
-    let headers = rd
-        .headers()
-        .unwrap_or_else(|e| fail(format!("{}: no header ({e})", path.display())))
-        .clone();
+    let (mut rd, headers) = open_csv(path);
     let find = |name: &str| headers.iter().position(|h| h.trim() == name);
     let (Some(cz), Some(cv)) = (find("soc"), find("ocv_v")) else {
         fail(format!(

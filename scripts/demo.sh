@@ -15,5 +15,15 @@ $hs identify battery --input "$out/cell.csv" --method refined --json "$out/refin
 echo "   truth: R_i = 0.020000 Ω, R_ct = 0.015000 Ω, Q = 533.333, alpha = 0.7500, U_oc = 3.70000 V"
 $hs simulate battery --preset cell --profile drive --ocv nmc --length 3000 --out "$out/drive.csv"
 $hs online battery --input "$out/drive.csv" --window 256 --out "$out/track.csv"
+echo "== a real cell: PyBaMM DFN drive cycle of an LG M50 (data/pybamm), with its OCV table =="
+cell=(--ocv data/pybamm/chen2020-ocv.csv --capacity-ah 5.153198)
+$hs identify battery --input data/pybamm/chen2020-hppc.csv "${cell[@]}" --json "$out/lgm50-hppc.json" | tail -2
+$hs identify battery --input data/pybamm/chen2020-drive.csv "${cell[@]}" --json "$out/lgm50-drive.json" \
+    --fit-out "$out/lgm50-drive-fit.csv" | tail -2
+echo "== tracked over a 256-sample window, with the HPPC fit as prior =="
+$hs online battery --input data/pybamm/chen2020-drive.csv --window 256 "${cell[@]}" \
+    --prior "$out/lgm50-hppc.json" --out "$out/lgm50-track.csv"
+tail -1 "$out/lgm50-track.csv"
 echo
-echo "Results in $out/: paper.json, refined.json, figures/*.svg (Figures 8–11), track.csv (online estimates)."
+echo "Results in $out/: paper.json, refined.json, figures/*.svg (Figures 8–11), track.csv (online estimates),"
+echo "lgm50-*.json, lgm50-drive-fit.csv and lgm50-track.csv (the DFN cell; docs/real-cells.md)."

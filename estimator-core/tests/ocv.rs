@@ -64,6 +64,19 @@ struct Errors {
     soc: Vec<f64>,
 }
 
+impl Errors {
+    /// 95th percentiles of the R_i, R_ct and α errors, and the largest
+    /// R_ct error.
+    fn summary(&self) -> [f64; 4] {
+        [
+            percentile(self.r_i.clone(), 0.95),
+            percentile(self.r_ct.clone(), 0.95),
+            percentile(self.alpha.clone(), 0.95),
+            percentile(self.r_ct.clone(), 1.0),
+        ]
+    }
+}
+
 /// Runs the estimator (window 256, memory 64) over the record and collects
 /// the errors of every published estimate after `warm` samples.
 fn track<const P: usize>(
@@ -109,12 +122,7 @@ fn sliding_window_with_the_ocv_table_tracks_a_discharging_cell() {
     let s = OnlineSettings::new(1.0, 64, truth)
         .with_ocv(OcvModel::new(nmc_table(), CAPACITY_AH).unwrap());
     let (e, st) = track(&s, &i, &v, &soc, 512);
-    let (ri, rct, a) = (
-        percentile(e.r_i.clone(), 0.95),
-        percentile(e.r_ct.clone(), 0.95),
-        percentile(e.alpha.clone(), 0.95),
-    );
-    let rct_max = percentile(e.r_ct.clone(), 1.0);
+    let [ri, rct, a, rct_max] = e.summary();
     let soc_max = percentile(e.soc.clone(), 1.0);
     let held = st[512..].iter().filter(|s| **s != Status::Tracking).count();
     println!(
@@ -137,12 +145,7 @@ fn without_a_table_no_runaway_is_published() {
     let truth = CellParameters::<f64>::cell_18650();
     let s = OnlineSettings::new(1.0, 64, truth);
     let (e, st) = track(&s, &i, &v, &soc, 512);
-    let (ri, rct, a) = (
-        percentile(e.r_i.clone(), 0.95),
-        percentile(e.r_ct.clone(), 0.95),
-        percentile(e.alpha.clone(), 0.95),
-    );
-    let rct_max = percentile(e.r_ct.clone(), 1.0);
+    let [ri, rct, a, rct_max] = e.summary();
     let held = st[512..].iter().filter(|s| s.is_implausible()).count();
     println!(
         "without table: p95 R_i {ri:.4} R_ct {rct:.4} alpha {a:.4}; max R_ct {rct_max:.4}; \

@@ -21,6 +21,10 @@ fn s(p: &Path) -> &str {
     p.to_str().unwrap()
 }
 
+fn read_json(p: &Path) -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(p).unwrap()).unwrap()
+}
+
 #[test]
 fn battery_round_trip_recovers_the_cell() {
     let csv = tmp("cell.csv");
@@ -53,8 +57,7 @@ fn battery_round_trip_recovers_the_cell() {
         s(&json),
     ]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let j: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let j = read_json(&json);
     let g = |k: &str| j[k].as_f64().unwrap_or_else(|| panic!("key {k}"));
     assert!((g("r_i") / 0.020 - 1.0).abs() < 0.02);
     assert!((g("r_ct") / 0.015 - 1.0).abs() < 0.02);
@@ -438,8 +441,7 @@ fn ocv_curve_and_state_of_charge() {
         s(&fit),
     ]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let j: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let j = read_json(&json);
     let g = |k: &str| j[k].as_f64().unwrap_or_else(|| panic!("key {k}"));
     assert!((g("r_i") / 0.020 - 1.0).abs() < 0.02, "{j}");
     assert!((g("r_ct") / 0.015 - 1.0).abs() < 0.02, "{j}");
@@ -470,8 +472,7 @@ fn ocv_curve_and_state_of_charge() {
         s(&json),
     ]);
     assert!(o.status.success());
-    let j: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let j = read_json(&json);
     assert!(j["ocv_offset_v"].is_null() && j["soc0"].is_null() && j["soc_end"].is_null());
 
     // Online: the soc column, documented statuses only.

@@ -208,6 +208,19 @@ fn qemu_xtask_rejects_a_malformed_record() {
     assert!(err.contains("row 3, column current_a"), "{err}");
 }
 
+/// The last row of an `online battery` track (with an OCV curve) as the
+/// firmware's JSON keys; it must be a tracked estimate.
+fn last_estimate(track: &Path) -> serde_json::Value {
+    let t = std::fs::read_to_string(track).unwrap();
+    let last: Vec<&str> = t.lines().last().unwrap().split(',').collect();
+    assert_eq!(last[6], "tracking", "{last:?}");
+    let num = |k: usize| -> f64 { last[k].parse().unwrap() };
+    serde_json::json!({
+        "r_i": num(1), "r_ct": num(2), "q": num(3), "alpha": num(4), "u_oc": num(5),
+        "soc": num(7),
+    })
+}
+
 /// With the cell's OCV table built in (`--ocv`, `--capacity-ah`): the first
 /// 1000 s of the PyBaMM DFN HPPC record of an LG M50 cell (Chen2020, from
 /// rest at SOC 0.9, data/pybamm). The firmware reads the start SOC from the
@@ -245,14 +258,7 @@ fn qemu_firmware_with_an_ocv_table_agrees_with_host_sim() {
         "--out",
         track.to_str().unwrap(),
     ]);
-    let t = std::fs::read_to_string(&track).unwrap();
-    let last: Vec<&str> = t.lines().last().unwrap().split(',').collect();
-    assert_eq!(last[6], "tracking", "{last:?}");
-    let num = |k: usize| -> f64 { last[k].parse().unwrap() };
-    let host = serde_json::json!({
-        "r_i": num(1), "r_ct": num(2), "q": num(3), "alpha": num(4), "u_oc": num(5),
-        "soc": num(7),
-    });
+    let host = last_estimate(&track);
     let fw = firmware(
         &csv,
         &[
@@ -322,13 +328,7 @@ fn qemu_firmware_with_table_and_prior_tracks_a_dfn_drive_cycle() {
         "--out",
         &s(&track),
     ]);
-    let t = std::fs::read_to_string(&track).unwrap();
-    let last: Vec<&str> = t.lines().last().unwrap().split(',').collect();
-    let num = |k: usize| -> f64 { last[k].parse().unwrap() };
-    let host = serde_json::json!({
-        "r_i": num(1), "r_ct": num(2), "q": num(3), "alpha": num(4), "u_oc": num(5),
-        "soc": num(7),
-    });
+    let host = last_estimate(&track);
     let fw = firmware(
         &drive,
         &[
