@@ -326,13 +326,7 @@ fn footprint_of_an_f32_estimator() {
     println!("size_of: battery 2S-OP-GI {paper} B, refinement {oe} B, cell estimator {cell} B");
     // 9 window-length arrays and the weights for 2S-OP-GI.
     assert!(paper <= (9 * 256 + 2 * 64) * 4 + 128, "{paper}");
-    // 26 600 B before the OCV curve; +104 B for it (the coulomb-counted
-    // SOC, the OCV now and the rested-start average: 24 B) and for the
-    // prior that the refinement's two caches of the settings now carry
-    // (the stalled settings and the last linearization: 2 × 40 B). The
-    // pack estimator replaces this layout (per-cell state apart from the
-    // shared working area).
-    assert!(cell <= 26 * 1024 + 128, "{cell}");
+    assert!(cell < 26 * 1024, "{cell}");
 }
 
 proptest! {

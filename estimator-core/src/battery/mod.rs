@@ -301,6 +301,54 @@ impl<T: Real> BatterySettings<T> {
         }
     }
 
+    /// A 64-bit FNV-1a hash of every setting (bit patterns of the reals):
+    /// the key under which the refinement remembers that a window is
+    /// searched out, in 8 bytes instead of a copy of the settings.
+    pub fn fingerprint(&self) -> u64 {
+        let mut h = 0xcbf2_9ce4_8422_2325u64;
+        let mut eat = |x: u64| {
+            for byte in x.to_le_bytes() {
+                h = (h ^ u64::from(byte)).wrapping_mul(0x0100_0000_01b3);
+            }
+        };
+        for x in [
+            self.h,
+            self.alpha_min,
+            self.alpha_max,
+            self.epsilon,
+            self.max_order_step,
+            self.min_current_std,
+        ] {
+            eat(x.to_f64().to_bits());
+        }
+        eat(self.memory as u64);
+        eat(u64::from(self.max_halvings));
+        eat(u64::from(self.estimate_order) | u64::from(self.ocv_slope) << 1);
+        eat(match self.start {
+            Start::AtRest => 0,
+            Start::FromData => 1,
+        });
+        match &self.prior {
+            None => eat(0),
+            Some(p) => {
+                let c = &p.center;
+                for x in [
+                    c.r_i,
+                    c.r_ct,
+                    c.q,
+                    c.alpha,
+                    c.u_oc,
+                    p.log_sigma,
+                    p.alpha_sigma,
+                    p.noise_v,
+                ] {
+                    eat(x.to_f64().to_bits());
+                }
+            }
+        }
+        h
+    }
+
     pub(crate) fn clamp_alpha(&self, a: T) -> T {
         a.max(self.alpha_min).min(self.alpha_max)
     }

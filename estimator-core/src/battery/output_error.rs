@@ -174,9 +174,10 @@ pub struct OutputErrorRefinement<T, const N: usize, const MEM: usize> {
     stamp: Option<u32>,
     /// `up` (and `e`) hold the simulation of `p`, β over the loaded window.
     fresh: bool,
-    /// The settings of the last iteration when it found no lower cost on
-    /// the loaded window from the current estimate (`fresh` then holds).
-    stalled: Option<BatterySettings<T>>,
+    /// The settings (their [`BatterySettings::fingerprint`]) of the last
+    /// iteration when it found no lower cost on the loaded window from the
+    /// current estimate (`fresh` then holds).
+    stalled: Option<u64>,
     /// The linearization of the last iteration when it accepted a step on
     /// the loaded window (the sensitivities still hold it).
     linear: Option<Linearization<T>>,
@@ -191,7 +192,6 @@ struct Linearization<T> {
     a: [T; 21],
     estimate_order: bool,
     ocv_slope: bool,
-    prior: Option<super::Prior<T>>,
 }
 
 impl<T: Real> Linearization<T> {
@@ -209,16 +209,12 @@ impl<T: Real> Linearization<T> {
             a: up,
             estimate_order: s.estimate_order,
             ocv_slope: s.ocv_slope,
-            prior: s.prior,
         }
     }
 
-    /// True when `s` gives the Jacobian the same columns and the normal
-    /// matrix the same prior weights.
+    /// True when `s` gives the Jacobian the same columns.
     fn fits(&self, s: &BatterySettings<T>) -> bool {
-        self.estimate_order == s.estimate_order
-            && self.ocv_slope == s.ocv_slope
-            && self.prior == s.prior
+        self.estimate_order == s.estimate_order && self.ocv_slope == s.ocv_slope
     }
 
     /// The full symmetric `J₀ᵀJ₀`.
@@ -634,7 +630,7 @@ impl<T: Real, const N: usize, const MEM: usize> OutputErrorRefinement<T, N, MEM>
         }
         self.fresh = true;
         let rows = n - warm;
-        if self.stalled == Some(*s) {
+        if self.stalled == Some(s.fingerprint()) {
             // The last iteration, from this estimate on this window with
             // these settings, found no lower cost with any damping (and
             // reset λ): this one would repeat it exactly.
@@ -658,13 +654,12 @@ impl<T: Real, const N: usize, const MEM: usize> OutputErrorRefinement<T, N, MEM>
                     *bb = *bb + ja * r;
                 }
             }
-            add_prior_gradient(s, &self.p, &mut b);
-            // J₀ᵀJ₀ was stored with the prior's weights on its diagonal.
-            let a = last.normal_matrix();
+            let mut a = last.normal_matrix();
+            add_prior(s, &self.p, &mut a, &mut b);
             if let Proposal::Negligible = self.propose(s, &a, &b, cost0, longest) {
                 self.linear = None;
                 self.lambda = T::lit(LAMBDA0);
-                self.stalled = Some(*s);
+                self.stalled = Some(s.fingerprint());
                 return Ok(self.stop(cost0, data0, rows));
             }
         }
@@ -689,14 +684,10 @@ impl<T: Real, const N: usize, const MEM: usize> OutputErrorRefinement<T, N, MEM>
             }
         }
         mirror_upper(&mut a);
-        if let Some(pr) = &s.prior {
-            let (w, _) = pr.terms();
-            let cols = if s.estimate_order { 4 } else { 3 };
-            for (k, wk) in w.iter().enumerate().take(cols) {
-                a[k][k] = a[k][k] + *wk;
-            }
-        }
-        add_prior_gradient(s, &p, &mut b);
+        // The data's J₀ᵀJ₀ is what a chord step reuses; the prior is added
+        // there again from the settings of that iteration.
+        let data_a = a;
+        add_prior(s, &p, &mut a, &mut b);
         let mut step = RefinementStep {
             k: self.k,
             cost: cost0,
@@ -749,13 +740,13 @@ impl<T: Real, const N: usize, const MEM: usize> OutputErrorRefinement<T, N, MEM>
             }
             self.lambda = self.lambda * T::lit(10.0);
         }
-        self.linear = step.accepted.then(|| Linearization::new(s, p, &a));
+        self.linear = step.accepted.then(|| Linearization::new(s, p, &data_a));
         if !step.accepted {
             // Back to the order of the kept estimate; λ is reset so that a
             // later window starts with a fresh trust region.
             self.w.set_order(p.alpha)?;
             self.lambda = T::lit(LAMBDA0);
-            self.stalled = Some(*s);
+            self.stalled = Some(s.fingerprint());
         }
         self.k += 1;
         self.work.iterations = self.work.iterations.wrapping_add(1);
@@ -766,14 +757,21 @@ impl<T: Real, const N: usize, const MEM: usize> OutputErrorRefinement<T, N, MEM>
     }
 }
 
-/// Adds the prior's part `w_k·(c_k − x_k)` of `Jᵀr` at `p` (nothing without a
-/// prior).
-fn add_prior_gradient<T: Real>(s: &BatterySettings<T>, p: &CellParameters<T>, b: &mut [T; 6]) {
+/// Adds the prior's part to the normal equations at `p`: its weights `w_k`
+/// to the diagonal of `JᵀJ` and `w_k·(c_k − x_k)` to `Jᵀr` (nothing without
+/// a prior).
+fn add_prior<T: Real>(
+    s: &BatterySettings<T>,
+    p: &CellParameters<T>,
+    a: &mut [[T; 6]; 6],
+    b: &mut [T; 6],
+) {
     if let Some(pr) = &s.prior {
         let (w, c) = pr.terms();
         let x = [p.r_i.ln(), p.r_ct.ln(), p.q.ln(), p.alpha];
         let cols = if s.estimate_order { 4 } else { 3 };
         for k in 0..cols {
+            a[k][k] = a[k][k] + w[k];
             b[k] = b[k] + w[k] * (c[k] - x[k]);
         }
     }
