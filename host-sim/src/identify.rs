@@ -515,15 +515,13 @@ pub fn battery_identify(
     let (y, soc_end) = c.overpotential_record(rec);
     let mut r = battery_run_with(path, &y, method, memory, iterations, print_table, refine)?;
     let offset = r.cell.u_oc;
-    for ((m, &z), (v, yv)) in r
+    for (m, (v, yv)) in r
         .model_voltage
         .iter_mut()
-        .zip(&c.soc_track(rec.h, &rec.current))
         .zip(rec.voltage.iter().zip(&y.voltage))
     {
         // The overpotential model plus the OCV it was taken from.
         *m += v - yv;
-        debug_assert!((v - yv - c.model.table.ocv(z)).abs() < 1e-9);
     }
     r.json.u_oc = c.model.table.ocv(soc_end) + offset;
     r.json.ocv_offset_v = Some(offset);

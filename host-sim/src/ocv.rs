@@ -19,18 +19,6 @@ pub struct CellOcv {
 }
 
 impl CellOcv {
-    /// The SOC after each row, `soc0 + h·Σ_{k≤l} I(k)/(3600·C)`.
-    pub fn soc_track(&self, h: f64, current: &[f64]) -> Vec<f64> {
-        let mut z = self.soc0;
-        current
-            .iter()
-            .map(|&i| {
-                z = self.model.soc_after(z, i, h);
-                z
-            })
-            .collect()
-    }
-
     /// The record with its voltage replaced by the overpotential
     /// `U_t − OCV(SOC)`, and the SOC after its last row.
     pub fn overpotential_record(&self, rec: &BatteryRecord) -> (BatteryRecord, f64) {

@@ -610,6 +610,8 @@ impl<T: Real, const N: usize, const MEM: usize> CellEstimator<T, N, MEM> {
         }
         let sample = match rejected {
             None => {
+                // Not the `y` that `classify` judged: at a rested start the
+                // SOC was just refined from this very sample.
                 let y = self.to_window(s, current, voltage);
                 if self.spikes_in_row >= s.max_consecutive_spikes && self.is_spike(s, current, y) {
                     // A step believed after max_consecutive_spikes
