@@ -83,86 +83,97 @@ fn run<T: Real, const N: usize>(
     })
 }
 
-fn settings<T: Real>(
-    h: f64,
-    memory: usize,
-    k: u16,
-    method: BatteryMethod,
-    start: StartArg,
-    prior: Option<&Prior<f64>>,
-    cell: Option<&CellOcv>,
-) -> Result<OnlineSettings<T, OCV_POINTS>> {
-    let mut s = OnlineSettings::new(T::lit(h), memory, CellParameters::cell_18650());
-    s.battery.start = match start {
-        StartArg::FromData => Start::FromData,
-        StartArg::AtRest => Start::AtRest,
-    };
-    s.battery.prior = prior.map(|p| Prior {
-        center: p.center.cast(),
-        log_sigma: T::lit(p.log_sigma),
-        alpha_sigma: T::lit(p.alpha_sigma),
-        noise_v: T::lit(p.noise_v),
-    });
-    s.iterations_per_sample = k;
-    s.method = match method {
-        BatteryMethod::Paper => Method::Paper,
-        BatteryMethod::Refined => Method::Refined,
-    };
-    let curve = match cell {
-        None => None,
-        Some(c) => {
-            let table = c
-                .model
-                .table
-                .cast::<T>()
-                .map_err(|e| anyhow!("--ocv: in this precision: {e}"))?;
-            Some(
-                OcvModel::new(table, T::lit(c.model.capacity_ah))
-                    .map_err(|e| anyhow!("--capacity-ah: {e}"))?,
-            )
-        }
-    };
-    Ok(s.with_curve(curve))
+/// How `track` runs the online estimator: the firmware's settings, as the
+/// `online battery` flags give them.
+#[derive(Clone, Copy, Debug)]
+pub struct TrackOptions<'a> {
+    /// Window length L (64, 128, 256, 512 or 1024).
+    pub window: usize,
+    /// Short memory M of the fractional differences, 1..=L−8.
+    pub memory: usize,
+    /// Refinement iterations per sample.
+    pub iterations_per_sample: u16,
+    /// The paper's 2S-OP-GI or the output-error refinement.
+    pub method: BatteryMethod,
+    /// f64 or f32 arithmetic.
+    pub precision: Precision,
+    /// Where the first window's simulation starts.
+    pub start: StartArg,
+    /// A prior from a characterization fit (MAP window fits).
+    pub prior: Option<&'a Prior<f64>>,
+    /// The cell's OCV curve, capacity and start SOC.
+    pub cell: Option<&'a CellOcv>,
 }
 
-/// Runs the online estimator over a record with window `window`, memory
-/// `memory`, `k` iterations per sample, in `precision`, with the cell's OCV
-/// curve when given, calling `sink` after every sample.
-#[allow(clippy::too_many_arguments)]
+impl TrackOptions<'_> {
+    /// Window `window`, memory `memory`, one refinement iteration per
+    /// sample in f64, started from the data, no prior, no OCV curve.
+    pub fn new(window: usize, memory: usize) -> Self {
+        TrackOptions {
+            window,
+            memory,
+            iterations_per_sample: 1,
+            method: BatteryMethod::Refined,
+            precision: Precision::F64,
+            start: StartArg::FromData,
+            prior: None,
+            cell: None,
+        }
+    }
+
+    fn settings<T: Real>(&self, h: f64) -> Result<OnlineSettings<T, OCV_POINTS>> {
+        let mut s = OnlineSettings::new(T::lit(h), self.memory, CellParameters::cell_18650());
+        s.battery.start = match self.start {
+            StartArg::FromData => Start::FromData,
+            StartArg::AtRest => Start::AtRest,
+        };
+        s.battery.prior = self.prior.map(|p| Prior {
+            center: p.center.cast(),
+            log_sigma: T::lit(p.log_sigma),
+            alpha_sigma: T::lit(p.alpha_sigma),
+            noise_v: T::lit(p.noise_v),
+        });
+        s.iterations_per_sample = self.iterations_per_sample;
+        s.method = match self.method {
+            BatteryMethod::Paper => Method::Paper,
+            BatteryMethod::Refined => Method::Refined,
+        };
+        let curve = match self.cell {
+            None => None,
+            Some(c) => {
+                let table = c
+                    .model
+                    .table
+                    .cast::<T>()
+                    .map_err(|e| anyhow!("--ocv: in this precision: {e}"))?;
+                Some(
+                    OcvModel::new(table, T::lit(c.model.capacity_ah))
+                        .map_err(|e| anyhow!("--capacity-ah: {e}"))?,
+                )
+            }
+        };
+        Ok(s.with_curve(curve))
+    }
+}
+
+/// Runs the online estimator over a record as `o` says, calling `sink`
+/// after every sample.
 pub fn track(
     rec: &io::BatteryRecord,
-    window: usize,
-    memory: usize,
-    k: u16,
-    method: BatteryMethod,
-    precision: Precision,
-    start: StartArg,
-    prior: Option<&Prior<f64>>,
-    cell: Option<&CellOcv>,
+    o: &TrackOptions,
     sink: impl FnMut(TrackRow) -> Result<()>,
 ) -> Result<TrackSummary> {
+    let (window, memory) = (o.window, o.memory);
     if memory == 0 || memory + 8 > window {
         bail!(
             "--memory {memory}: must be in 1..={}",
             window.saturating_sub(8)
         );
     }
-    let soc0 = cell.map(|c| c.soc0);
-    match precision {
-        Precision::F64 => sized(
-            &settings::<f64>(rec.h, memory, k, method, start, prior, cell)?,
-            soc0,
-            window,
-            rec,
-            sink,
-        ),
-        Precision::F32 => sized(
-            &settings::<f32>(rec.h, memory, k, method, start, prior, cell)?,
-            soc0,
-            window,
-            rec,
-            sink,
-        ),
+    let soc0 = o.cell.map(|c| c.soc0);
+    match o.precision {
+        Precision::F64 => sized(&o.settings::<f64>(rec.h)?, soc0, window, rec, sink),
+        Precision::F32 => sized(&o.settings::<f32>(rec.h)?, soc0, window, rec, sink),
     }
 }
 
@@ -202,36 +213,35 @@ pub(crate) fn battery(a: &OnlineBatteryArgs) -> Result<()> {
         let mut res = Ok(TrackSummary::default());
         io::write_atomic(&a.out, |w| {
             writeln!(w, "time_s,r_i,r_ct,q,alpha,u_oc,status,soc,ocv_offset_v")?;
-            res = track(
-                &rec,
-                a.window,
+            let o = TrackOptions {
+                window: a.window,
                 memory,
-                a.iterations_per_sample,
-                a.method,
-                a.precision,
-                a.start,
-                prior.as_ref(),
-                cell.as_ref(),
-                |r| {
-                    match r.estimate {
-                        Some(p) => writeln!(
-                            w,
-                            "{},{},{},{},{},{},{},{},{}",
-                            r.t,
-                            f(p.r_i),
-                            f(p.r_ct),
-                            f(p.q),
-                            f(p.alpha),
-                            f(p.u_oc),
-                            r.status,
-                            g(r.soc),
-                            g(r.ocv_offset)
-                        )?,
-                        None => writeln!(w, "{},,,,,,{},{},", r.t, r.status, g(r.soc))?,
-                    }
-                    Ok(())
-                },
-            );
+                iterations_per_sample: a.iterations_per_sample,
+                method: a.method,
+                precision: a.precision,
+                start: a.start,
+                prior: prior.as_ref(),
+                cell: cell.as_ref(),
+            };
+            res = track(&rec, &o, |r| {
+                match r.estimate {
+                    Some(p) => writeln!(
+                        w,
+                        "{},{},{},{},{},{},{},{},{}",
+                        r.t,
+                        f(p.r_i),
+                        f(p.r_ct),
+                        f(p.q),
+                        f(p.alpha),
+                        f(p.u_oc),
+                        r.status,
+                        g(r.soc),
+                        g(r.ocv_offset)
+                    )?,
+                    None => writeln!(w, "{},,,,,,{},{},", r.t, r.status, g(r.soc))?,
+                }
+                Ok(())
+            });
             res.as_ref().map(|_| ()).map_err(|e| anyhow!("{e:#}"))
         })?;
         res?

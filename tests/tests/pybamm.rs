@@ -4,7 +4,7 @@
 
 use estimator_core::battery::ocv::OcvModel;
 use estimator_core::battery::Prior;
-use host_sim::cli::{BatteryMethod, Precision, StartArg};
+use host_sim::cli::BatteryMethod;
 use host_sim::identify::{battery_identify, BatteryResult, Refine};
 use host_sim::io;
 use host_sim::ocv::CellOcv;
@@ -119,14 +119,11 @@ fn sliding_window() {
             let mut rows = Vec::new();
             online::track(
                 &rec,
-                256,
-                64,
-                1,
-                BatteryMethod::Refined,
-                Precision::F64,
-                StartArg::FromData,
-                Some(&prior),
-                with_table.then_some(&c),
+                &online::TrackOptions {
+                    prior: Some(&prior),
+                    cell: with_table.then_some(&c),
+                    ..online::TrackOptions::new(256, 64)
+                },
                 |r| {
                     rows.push(r);
                     Ok(())

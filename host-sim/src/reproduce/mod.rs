@@ -6,7 +6,7 @@
 
 pub mod example1;
 
-use crate::cli::{BatteryMethod, Precision, ReproduceArgs, ReproducePart};
+use crate::cli::{BatteryMethod, ReproduceArgs, ReproducePart};
 use crate::identify::battery_run;
 use crate::io::BatteryRecord;
 use crate::plot::{self, Panel, Series};
@@ -350,21 +350,10 @@ fn tracking(dir: &Path, md: &mut String) -> Result<()> {
     )?;
     let rec = record(&d, 1.0);
     let mut rows = Vec::new();
-    online::track(
-        &rec,
-        256,
-        64,
-        1,
-        BatteryMethod::Refined,
-        Precision::F64,
-        crate::cli::StartArg::FromData,
-        None,
-        None,
-        |r| {
-            rows.push(r);
-            Ok(())
-        },
-    )?;
+    online::track(&rec, &online::TrackOptions::new(256, 64), |r| {
+        rows.push(r);
+        Ok(())
+    })?;
     let mut errs: [Vec<f64>; 4] = Default::default();
     for (l, r) in rows.iter().enumerate().skip(1000) {
         if let Some(p) = r.estimate {
