@@ -14,12 +14,35 @@ same conventions:
   U_p(l-j)``, ``a = R_ct Q h^-alpha``, ``w_0 = 1``,
   ``w_j = w_{j-1} (1 - (alpha + 1)/j)``;
 * integer-order Thevenin models with one and two RC pairs (exact
-  zero-order-hold discretisation) for comparison.
+  zero-order-hold discretisation) for comparison;
+* Butler-Volmer variants, nonlinear in the current (``asinh`` is
+  ``np.arcsinh``):
+
+  - ``cpe_bv``: ``y = dU + R_i I + a asinh(I/i0) + U_p`` with the CPE branch
+    above (a static charge-transfer overpotential on the output);
+  - ``cpe_bv_branch``: ``y = dU + R_i I + U_p`` with the branch driven by
+    ``R_ct i0 asinh(I(l)/i0)`` in place of ``R_ct I(l)`` (a Hammerstein
+    form; the linear branch when ``|I| << i0``);
+  - ``cpe_bv_both``: both, ``y = dU + R_i I + a asinh(I/i0) + U_p`` with the
+    branch driven by ``R_ct i0b asinh(I/i0b)``;
+  - ``rc1_bv``: the one-RC Thevenin model plus ``a asinh(I/i0)``.
+
+  Their CPE branch is the same recursion, evaluated as the convolution of
+  the drive with the branch's impulse response, the power series of
+  ``1/(1 + a (1 - z)^alpha)`` (Newton iteration with FFT products; equal
+  to the recursion to about 1e-13 relative).
 
 Each model is fitted by ``scipy.optimize.least_squares`` (resistances and Q
 in logarithms) from a grid of starts (for the constant-phase model: alpha in
 {0.3, 0.5, 0.7, 0.9, 1.0} x relaxation time tau^(1/alpha) in {3, 30, 300} s
-x R_ct/R_i in {0.5, 2}); the best free-run RMSE is the reference.
+x R_ct/R_i in {0.5, 2}); the best free-run RMSE is the reference. The
+Butler-Volmer variants fit a and i0 in logarithms too (i0 within
+[1e-4, 1e4] A; i0 at the top means the term is linear), from their linear
+model's best fit (cpe_bv, rc1_bv: i0 in {0.1, 0.3, 1, 3} x the RMS current,
+the static term taking half of R_i, a = i0 R_i / 2; cpe_bv_branch: i0 in
+{0.3, 1, 3, 10} x the RMS current) and from three starts of the linear
+model's grid with i0 the RMS current; cpe_bv_both from the cpe_bv and
+cpe_bv_branch fits.
 
 Usage::
 
@@ -30,7 +53,7 @@ Without ``--ocv`` the OCV is a constant (fitted as dU). Needs numpy and scipy.
 
 ``python3 bench/reference_fit.py --all data/pybamm`` fits every record of
 that folder (``meta.json`` gives the capacities) with its OCV table and
-without it, and writes ``reference.json`` there (about 5 minutes).
+without it, and writes ``reference.json`` there (about 20 minutes).
 """
 
 import argparse
@@ -40,6 +63,7 @@ import time
 
 import numpy as np
 from scipy.optimize import least_squares
+from scipy.signal import fftconvolve
 
 
 def read_csv(path, names):
@@ -151,6 +175,223 @@ def fit_rc(i, y, h, pairs):
     return out
 
 
+def cpe_impulse(h, r_ct, q, alpha, n):
+    """The first n samples of U_p for a unit drive at l = 0 (R_ct I(0) = 1):
+    the power series of 1/(1 + a (1 - z)^alpha), a = R_ct Q h^-alpha, by
+    Newton's iteration g <- g (2 - d g) with FFT products."""
+    d = r_ct * q * h ** (-alpha) * gl_weights(alpha, n)
+    d[0] += 1.0
+    g = np.array([1.0 / d[0]])
+    m = 1
+    while m < n:
+        m = min(2 * m, n)
+        e = -fftconvolve(d[:m], g)[:m]
+        e[0] += 2.0
+        g = fftconvolve(g, e)[:m]
+    return g
+
+
+def cpe_branch(drive, h, r_ct, q, alpha):
+    """U_p of R_ct || CPE(Q, alpha) from rest, full memory, driven by
+    R_ct * drive(l) (drive = I: cpe_polarization, as a convolution)."""
+    n = len(drive)
+    return r_ct * fftconvolve(cpe_impulse(h, r_ct, q, alpha, n), drive)[:n]
+
+
+def bv(i, a, i0):
+    """The Butler-Volmer overpotential a asinh(I / i0) (symmetric, alpha_a =
+    alpha_c = 1/2); a I / i0 when |I| << i0."""
+    return a * np.arcsinh(i / i0)
+
+
+# Bounds of ln i0 (A): i0 in [1e-4, 1e4].
+LN_I0 = (math.log(1e-4), math.log(1e4))
+
+
+def multistart(resid, starts, lo, hi, x_scale, max_nfev=200):
+    """least_squares from each (label, x0) of starts, x0 moved 1e-3 inside
+    finite bounds; the best (rmse, p, label) and all the minima's RMSEs."""
+    lo, hi = np.array(lo, float), np.array(hi, float)
+    best = None
+    minima = []
+    for label, x0 in starts:
+        x0 = np.clip(np.array(x0, float), lo + 1e-3, hi - 1e-3)
+        try:
+            res = least_squares(resid, x0, bounds=(lo, hi), x_scale=x_scale, max_nfev=max_nfev)
+        except (ValueError, FloatingPointError):
+            continue
+        rmse = math.sqrt(np.mean(res.fun**2))
+        minima.append(rmse)
+        if best is None or rmse < best[0]:
+            best = (rmse, res.x, label)
+    return best, sorted(set(round(m, 7) for m in minima))
+
+
+def grid_starts(i, y, picks):
+    """A few (alpha, relaxation s, R_ct/R_i) starts of fit_cpe's grid as
+    (label, R_i, R_ct, Q, alpha, dU)."""
+    r_tot = max(abs(np.polyfit(i, y, 1)[0]), 1e-4)
+    out = []
+    for alpha, relax, ratio in picks:
+        r_i = r_tot / (1.0 + ratio)
+        r_ct = r_tot - r_i
+        label = {"alpha": alpha, "relaxation_s": relax, "r_ct_over_r_i": ratio}
+        out.append((label, r_i, r_ct, relax**alpha / r_ct, alpha, float(np.mean(y - r_tot * i))))
+    return out
+
+
+CPE_PICKS = [(1.0, 300.0, 0.5), (0.7, 3.0, 0.5), (0.5, 30.0, 2.0)]
+CPE_LO = [-20, -20, -20, 0.05, -np.inf]  # ln R_i, ln R_ct, ln Q, alpha, dU
+CPE_HI = [5, 5, 30, 1.0, np.inf]
+
+
+def fit_cpe_bv(i, y, h, cpe):
+    """cpe_bv: y = dU + R_i I + a asinh(I/i0) + U_p; p = ln R_i, ln a, ln i0,
+    ln R_ct, ln Q, alpha, dU; starts from the linear fit cpe."""
+    def model(p):
+        r_i, a, i0, r_ct, q = (math.exp(x) for x in p[:5])
+        return p[6] + r_i * i + bv(i, a, i0) + cpe_branch(i, h, r_ct, q, p[5])
+
+    i_rms = float(np.sqrt(np.mean(i**2)))
+    ln = math.log
+    starts = []
+    for k in [0.1, 0.3, 1.0, 3.0]:
+        i0 = k * i_rms
+        r_i = cpe["r_i"] / 2.0
+        starts.append(({"from": "cpe", "i0_over_i_rms": k},
+                       [ln(r_i), ln(i0 * r_i), ln(i0), ln(cpe["r_ct"]), ln(cpe["q"]), cpe["alpha"], cpe["ocv_offset_v"]]))
+    for label, r_i, r_ct, q, alpha, du in grid_starts(i, y, CPE_PICKS):
+        starts.append((dict(label, i0_over_i_rms=1.0),
+                       [ln(r_i / 2.0), ln(i_rms * r_i / 2.0), ln(i_rms), ln(r_ct), ln(q), alpha, du]))
+    lo = CPE_LO[:1] + [-20, LN_I0[0]] + CPE_LO[1:]
+    hi = CPE_HI[:1] + [5, LN_I0[1]] + CPE_HI[1:]
+    best, minima = multistart(lambda p: model(p) - y, starts, lo, hi, [1, 1, 1, 1, 1, 0.1, 0.01])
+    rmse, p, start = best
+    return {
+        "rmse_v": rmse,
+        "r_i": math.exp(p[0]),
+        "r_ct": math.exp(p[3]),
+        "q": math.exp(p[4]),
+        "alpha": p[5],
+        "ocv_offset_v": p[6],
+        "bv_a_v": math.exp(p[1]),
+        "bv_i0_a": math.exp(p[2]),
+        "winning_start": start,
+        "local_minima_rmse_v": minima,
+    }
+
+
+def fit_cpe_bv_branch(i, y, h, cpe):
+    """cpe_bv_branch: y = dU + R_i I + U_p, the branch driven by
+    R_ct i0 asinh(I/i0); p = ln R_i, ln i0, ln R_ct, ln Q, alpha, dU; starts
+    from the linear fit cpe."""
+    def model(p):
+        r_i, i0, r_ct, q = (math.exp(x) for x in p[:4])
+        return p[5] + r_i * i + cpe_branch(bv(i, i0, i0), h, r_ct, q, p[4])
+
+    i_rms = float(np.sqrt(np.mean(i**2)))
+    ln = math.log
+    starts = []
+    for k in [0.3, 1.0, 3.0, 10.0]:
+        starts.append(({"from": "cpe", "i0_over_i_rms": k},
+                       [ln(cpe["r_i"]), ln(k * i_rms), ln(cpe["r_ct"]), ln(cpe["q"]), cpe["alpha"], cpe["ocv_offset_v"]]))
+    for label, r_i, r_ct, q, alpha, du in grid_starts(i, y, CPE_PICKS):
+        starts.append((dict(label, i0_over_i_rms=1.0), [ln(r_i), ln(i_rms), ln(r_ct), ln(q), alpha, du]))
+    lo = CPE_LO[:1] + [LN_I0[0]] + CPE_LO[1:]
+    hi = CPE_HI[:1] + [LN_I0[1]] + CPE_HI[1:]
+    best, minima = multistart(lambda p: model(p) - y, starts, lo, hi, [1, 1, 1, 1, 0.1, 0.01])
+    rmse, p, start = best
+    return {
+        "rmse_v": rmse,
+        "r_i": math.exp(p[0]),
+        "r_ct": math.exp(p[2]),
+        "q": math.exp(p[3]),
+        "alpha": p[4],
+        "ocv_offset_v": p[5],
+        "bv_i0_a": math.exp(p[1]),
+        "winning_start": start,
+        "local_minima_rmse_v": minima,
+    }
+
+
+def fit_cpe_bv_both(i, y, h, cpe_bv, branch):
+    """cpe_bv_both: y = dU + R_i I + a asinh(I/i0) + U_p, the branch driven by
+    R_ct i0b asinh(I/i0b); p = ln R_i, ln a, ln i0, ln R_ct, ln Q, alpha, dU,
+    ln i0b; starts from the fits cpe_bv and cpe_bv_branch."""
+    def model(p):
+        r_i, a, i0, r_ct, q = (math.exp(x) for x in p[:5])
+        i0b = math.exp(p[7])
+        return p[6] + r_i * i + bv(i, a, i0) + cpe_branch(bv(i, i0b, i0b), h, r_ct, q, p[5])
+
+    i_rms = float(np.sqrt(np.mean(i**2)))
+    ln = math.log
+    starts = []
+    m = cpe_bv
+    for k in [1.0, 10.0]:
+        starts.append(({"from": "cpe_bv", "i0b_over_i_rms": k},
+                       [ln(m["r_i"]), ln(m["bv_a_v"]), ln(m["bv_i0_a"]), ln(m["r_ct"]), ln(m["q"]), m["alpha"],
+                        m["ocv_offset_v"], ln(k * i_rms)]))
+    m = branch
+    for k in [0.3, 1.0]:
+        i0, r_i = k * i_rms, m["r_i"] / 2.0
+        starts.append(({"from": "cpe_bv_branch", "i0_over_i_rms": k},
+                       [ln(r_i), ln(i0 * r_i), ln(i0), ln(m["r_ct"]), ln(m["q"]), m["alpha"], m["ocv_offset_v"],
+                        ln(m["bv_i0_a"])]))
+    lo = CPE_LO[:1] + [-20, LN_I0[0]] + CPE_LO[1:] + [LN_I0[0]]
+    hi = CPE_HI[:1] + [5, LN_I0[1]] + CPE_HI[1:] + [LN_I0[1]]
+    best, minima = multistart(lambda p: model(p) - y, starts, lo, hi, [1, 1, 1, 1, 1, 0.1, 0.01, 1])
+    rmse, p, start = best
+    return {
+        "rmse_v": rmse,
+        "r_i": math.exp(p[0]),
+        "r_ct": math.exp(p[3]),
+        "q": math.exp(p[4]),
+        "alpha": p[5],
+        "ocv_offset_v": p[6],
+        "bv_a_v": math.exp(p[1]),
+        "bv_i0_a": math.exp(p[2]),
+        "bv_branch_i0_a": math.exp(p[7]),
+        "winning_start": start,
+        "local_minima_rmse_v": minima,
+    }
+
+
+def fit_rc1_bv(i, y, h, rc1):
+    """rc1_bv: the one-RC model plus a asinh(I/i0); p = dU, ln R_i, ln R_1,
+    ln tau_1, ln a, ln i0; starts from the linear fit rc1 and fit_rc's taus."""
+    def model(p):
+        r_i, r_1, tau, a, i0 = (math.exp(x) for x in p[1:])
+        return p[0] + r_i * i + rc_polarization(i, h, r_1, tau) + bv(i, a, i0)
+
+    i_rms = float(np.sqrt(np.mean(i**2)))
+    ln = math.log
+    starts = []
+    for k in [0.1, 0.3, 1.0, 3.0]:
+        i0, r_i = k * i_rms, rc1["r_i"] / 2.0
+        starts.append(({"from": "rc1", "i0_over_i_rms": k},
+                       [rc1["ocv_offset_v"], ln(r_i), ln(rc1["r_1"]), ln(rc1["tau_1_s"]), ln(i0 * r_i), ln(i0)]))
+    r_tot = max(abs(np.polyfit(i, y, 1)[0]), 1e-4)
+    for tau in [3.0, 30.0, 300.0]:
+        starts.append(({"tau_1_s": tau, "i0_over_i_rms": 1.0},
+                       [float(np.mean(y - r_tot * i)), ln(r_tot / 4), ln(r_tot / 2), ln(tau), ln(i_rms * r_tot / 4),
+                        ln(i_rms)]))
+    lo = [-np.inf] * 4 + [-20, LN_I0[0]]
+    hi = [np.inf] * 4 + [5, LN_I0[1]]
+    best, minima = multistart(lambda p: model(p) - y, starts, lo, hi, 1.0, max_nfev=300)
+    rmse, p, start = best
+    return {
+        "rmse_v": rmse,
+        "ocv_offset_v": p[0],
+        "r_i": math.exp(p[1]),
+        "r_1": math.exp(p[2]),
+        "tau_1_s": math.exp(p[3]),
+        "bv_a_v": math.exp(p[4]),
+        "bv_i0_a": math.exp(p[5]),
+        "winning_start": start,
+        "local_minima_rmse_v": minima,
+    }
+
+
 def fit_all(folder):
     """Every record of a folder made by bench/pybamm_data.py, with and
     without its OCV table, into ``reference.json``."""
@@ -213,13 +454,24 @@ def fit_record(record, ocv_path, capacity_ah):
     out["cpe"] = fit_cpe(i, y, h)
     out["rc1"] = fit_rc(i, y, h, 1)
     out["rc2"] = fit_rc(i, y, h, 2)
+    took = {"linear": time.time() - t0}
+    t1 = time.time()
+    out["cpe_bv"] = fit_cpe_bv(i, y, h, out["cpe"])
+    out["cpe_bv_branch"] = fit_cpe_bv_branch(i, y, h, out["cpe"])
+    out["cpe_bv_both"] = fit_cpe_bv_both(i, y, h, out["cpe_bv"], out["cpe_bv_branch"])
+    out["rc1_bv"] = fit_rc1_bv(i, y, h, out["rc1"])
+    took["bv"] = time.time() - t1
     out["seconds"] = round(time.time() - t0, 1)
-    for k in ["cpe", "rc1", "rc2"]:
+    models = ["cpe", "rc1", "rc2", "cpe_bv", "cpe_bv_branch", "cpe_bv_both", "rc1_bv"]
+    for k in models:
         m = out[k]
         extra = ", ".join(f"{n} {x:.6g}" for n, x in m.items() if n not in ("rmse_v", "local_minima_rmse_v", "winning_start"))
-        print(f"{k:4s} RMSE {1e3 * m['rmse_v']:.3f} mV  {extra}")
-    print(f"CPE starts: best from {out['cpe']['winning_start']}; local minima (mV): "
-          f"{[round(1e3 * x, 3) for x in out['cpe']['local_minima_rmse_v']][:8]}")
+        print(f"{k:13s} RMSE {1e3 * m['rmse_v']:.3f} mV  {extra}")
+    for k in [k for k in models if "winning_start" in out[k]]:
+        minima = out[k].get("local_minima_rmse_v", [])
+        print(f"{k} starts: best from {out[k]['winning_start']}; local minima (mV): "
+              f"{[round(1e3 * x, 3) for x in minima][:8]}")
+    print(f"seconds: linear models {took['linear']:.1f}, Butler-Volmer variants {took['bv']:.1f}")
     return out
 
 
