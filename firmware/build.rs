@@ -13,7 +13,8 @@
 //!   capacity (`FRACBMS_CAPACITY_AH`), checks the table in `f32` with the
 //!   core's own [`OcvTable`](estimator_core::battery::ocv::OcvTable), and
 //!   writes it into `config.rs` as two `static` arrays (flash).
-//! * Reads the prior's centre (`FRACBMS_PRIOR=r_i,r_ct,q,alpha`).
+//! * Reads the prior's centre (`FRACBMS_PRIOR=r_i,r_ct,q,alpha[,bv_a,bv_i0]`)
+//!   and the cell model (`FRACBMS_MODEL=linear|butler-volmer`).
 //! * For `target_os = "none"` only: puts `memory.x` (which includes
 //!   `fracbms-board.x`) and the board's map as `fracbms-board.x` on the link
 //!   path and passes `-Tlink.x` and `-Tdefmt.x`.
@@ -234,8 +235,9 @@ fn main() {
         (true, false) => fail("FRACBMS_CAPACITY_AH goes with FRACBMS_OCV=FILE.csv".into()),
     };
 
-    // The prior (FRACBMS_PRIOR="r_i,r_ct,q,alpha", e.g. from the JSON of
-    // `host-sim identify battery` through `cargo xtask qemu --prior`).
+    // The prior (FRACBMS_PRIOR="r_i,r_ct,q,alpha[,bv_a,bv_i0]", e.g. from
+    // the JSON of `host-sim identify battery` through `cargo xtask qemu
+    // --prior`).
     let prior_s = var("FRACBMS_PRIOR", "");
     let prior = if prior_s.trim().is_empty() {
         "None".to_owned()
@@ -246,22 +248,39 @@ fn main() {
             .collect::<Result<_, _>>()
             .unwrap_or_else(|_| {
                 fail(format!(
-                    "FRACBMS_PRIOR={prior_s}: expected r_i,r_ct,q,alpha"
+                    "FRACBMS_PRIOR={prior_s}: expected r_i,r_ct,q,alpha[,bv_a,bv_i0]"
                 ))
             });
-        let ok = v.len() == 4
+        let mut v = v;
+        if v.len() == 4 {
+            // A linear prior: no Butler–Volmer term.
+            v.extend([0.0, 1.0]);
+        }
+        let ok = v.len() == 6
             && v.iter().all(|x| x.is_finite())
             && v[0] > 0.0
             && v[1] > 0.0
             && v[2] > 0.0
             && v[3] > 0.0
-            && v[3] <= 1.0;
+            && v[3] <= 1.0
+            && v[4] >= 0.0
+            && v[5] > 0.0;
         if !ok {
             fail(format!(
-                "FRACBMS_PRIOR={prior_s}: expected four numbers r_i,r_ct,q,alpha (positive, alpha in (0, 1])"
+                "FRACBMS_PRIOR={prior_s}: expected four numbers r_i,r_ct,q,alpha (positive, alpha in (0, 1]) or six with bv_a ≥ 0, bv_i0 > 0"
             ));
         }
-        format!("Some([{:?}, {:?}, {:?}, {:?}])", v[0], v[1], v[2], v[3])
+        format!(
+            "Some([{:?}, {:?}, {:?}, {:?}, {:?}, {:?}])",
+            v[0], v[1], v[2], v[3], v[4], v[5]
+        )
+    };
+    let model = match var("FRACBMS_MODEL", "linear").as_str() {
+        "linear" => "Linear",
+        "butler-volmer" => "ButlerVolmer",
+        m => fail(format!(
+            "FRACBMS_MODEL={m}: must be linear or butler-volmer"
+        )),
     };
 
     let mut cfg = String::new();
@@ -313,8 +332,11 @@ fn main() {
          pub static OCV_V: [f32; {n}] = [{}];\n\
          /// The cell's capacity (A·h, `FRACBMS_CAPACITY_AH`; NaN without a table).\n\
          pub const CAPACITY_AH: f32 = {};\n\
-         /// The prior's centre `[R_i, R_ct, Q, α]` (`FRACBMS_PRIOR`; `None`: no prior).\n\
-         pub const PRIOR: Option<[f32; 4]> = {prior};",
+         /// The prior's centre `[R_i, R_ct, Q, α, a, i₀]` (`FRACBMS_PRIOR`; `None`: no\n\
+         /// prior; `a = 0` for a linear one).\n\
+         pub const PRIOR: Option<[f32; 6]> = {prior};\n\
+         /// The cell model the window fits (`FRACBMS_MODEL`).\n\
+         pub const MODEL: estimator_core::battery::CellModel = estimator_core::battery::CellModel::{model};",
         list(&ocv_soc),
         list(&ocv_v),
         if capacity_ah.is_nan() {

@@ -65,7 +65,7 @@ proptest! {
         r_i in 1e-4f64..0.1, r_ct in 1e-4f64..0.1, q in 10.0f64..5000.0,
         alpha in 0.1f64..1.0, u_oc in 2.5f64..4.5, h in 0.05f64..2.0, mem in 2usize..512,
     ) {
-        let p = CellParameters { r_i, r_ct, q, alpha, u_oc };
+        let p = CellParameters { r_i, r_ct, q, alpha, u_oc, bv_a: 0.0, bv_i0: 1.0 };
         let th = theta_from_cell::<f64, 512>(&p, h, mem).unwrap();
         let back = cell_from_theta::<f64, 512>(&th, alpha, h, mem).unwrap();
         prop_assert!(rel(back.r_i, r_i) < 1e-9);
@@ -219,6 +219,7 @@ fn f32_refinement_agrees_with_f64() {
         ocv_slope: false,
         min_current_std: 1e-3,
         prior: None,
+        model: estimator_core::battery::CellModel::Linear,
     };
     let mut w64 = SampleWindow::<f64, 256>::new();
     let mut w32 = SampleWindow::<f32, 256>::new();

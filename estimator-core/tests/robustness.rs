@@ -326,7 +326,12 @@ fn footprint_of_an_f32_estimator() {
     println!("size_of: battery 2S-OP-GI {paper} B, refinement {oe} B, cell estimator {cell} B");
     // 9 window-length arrays and the weights for 2S-OP-GI.
     assert!(paper <= (9 * 256 + 2 * 64) * 4 + 128, "{paper}");
-    assert!(cell < 26 * 1024, "{cell}");
+    // 26 616 B for the linear model; the Butler–Volmer term adds two
+    // window-length arrays (the free responses of its two columns, 2 048 B)
+    // and its two parameters to every copy of the parameters and its
+    // columns to the cached normal matrix (88 B): 28 752 B. The pack
+    // estimator moves the working arrays out of the per-cell state.
+    assert!(cell < 26 * 1024 + 2 * 256 * 4 + 128, "{cell}");
 }
 
 proptest! {

@@ -157,6 +157,9 @@ fn main() -> ! {
             if let (Some(z), Some(d)) = (task.cell().state_of_charge(), task.cell().ocv_offset()) {
                 defmt::println!("SOC soc={=f32} ocv_offset_v={=f32}", z, d);
             }
+            if e.is_butler_volmer() {
+                defmt::println!("BV bv_a_v={=f32} bv_i0_a={=f32}", e.bv_a, e.bv_i0);
+            }
             if !e.is_physical() {
                 defmt::error!("check failed: the final estimate is not physical");
             }

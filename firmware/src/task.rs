@@ -54,19 +54,23 @@ impl TaskSettings {
     /// voltage and fits `U_t − OCV(SOC)`; without one the OCV slope (state
     /// of charge drift inside the window) is fitted. With a build-time
     /// prior (`FRACBMS_PRIOR`) the window fit is maximum a posteriori
-    /// ([`Prior::new`]'s spreads).
+    /// ([`Prior::new`]'s spreads). The cell model is `FRACBMS_MODEL`'s
+    /// (linear, or with the Butler–Volmer term).
     pub fn new(h: f32, memory: usize, method: Method, iterations: u16) -> Self {
         let mut online = OnlineSettings::new(h, memory, CellParameters::cell_18650());
         online.battery.start = Start::AtRest;
         online.method = method;
         online.iterations_per_sample = iterations;
-        if let Some([r_i, r_ct, q, alpha]) = crate::config::PRIOR {
+        online.battery.model = crate::config::MODEL;
+        if let Some([r_i, r_ct, q, alpha, bv_a, bv_i0]) = crate::config::PRIOR {
             online.battery.prior = Some(Prior::new(CellParameters {
                 r_i,
                 r_ct,
                 q,
                 alpha,
                 u_oc: online.initial.u_oc,
+                bv_a,
+                bv_i0,
             }));
         }
         Self {

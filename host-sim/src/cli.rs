@@ -109,6 +109,21 @@ pub struct SimBatteryArgs {
     /// 2.5 for cell, 100 for paper).
     #[arg(long)]
     pub capacity_ah: Option<f64>,
+    /// Current amplitude A of the profile (A; default: the preset's, 6 for
+    /// cell, 150 for paper).
+    #[arg(long)]
+    pub amplitude: Option<f64>,
+    /// A constant current added to the profile (A; negative: a mean
+    /// discharge that moves the state of charge).
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
+    pub mean_current: f64,
+    /// Butler–Volmer coefficient a (V) of the overpotential a·asinh(I/i₀)
+    /// (default 0: the linear model).
+    #[arg(long, default_value_t = 0.0)]
+    pub bv_a: f64,
+    /// Butler–Volmer exchange current i₀ (A; needed with --bv-a).
+    #[arg(long)]
+    pub bv_i0: Option<f64>,
     /// Output CSV.
     #[arg(long)]
     pub out: PathBuf,
@@ -121,6 +136,21 @@ pub enum Algorithm {
     Op,
     /// KT-2S-GI (key term separation).
     Kt,
+}
+
+/// The cell model of the battery fit (`--model`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, ValueEnum)]
+pub enum ModelArg {
+    /// The paper's linear model, R_i + R_ct‖CPE.
+    #[default]
+    Linear,
+    /// With the Butler–Volmer overpotential a·asinh(I/i₀) in front of it.
+    ButlerVolmer,
+    /// `identify`: the nonlinear model only when the data identify it
+    /// (current beyond i₀, a's interval away from 0, a lower BIC), else the
+    /// linear one. `online`: the model of the `--prior` fit, linear without
+    /// one.
+    Auto,
 }
 
 /// Battery method.
@@ -195,6 +225,13 @@ pub struct IdBatteryArgs {
     /// record; without --ocv).
     #[arg(long)]
     pub ocv_slope: bool,
+    /// Cell model: `linear` (R_i + R_ct‖CPE), `butler-volmer` (plus
+    /// a·asinh(I/i₀), started from the linear fit) or `auto` (the nonlinear
+    /// model only when the data identify it: current beyond i₀, a's 95 %
+    /// interval away from 0, those of R_i, R_ct, Q and i₀ within a factor
+    /// e, and a lower BIC; the JSON's `model_choice` says why).
+    #[arg(long, value_enum, default_value = "auto")]
+    pub model: ModelArg,
     #[command(flatten)]
     pub cell: OcvArgs,
     /// Write the estimates as JSON.
@@ -255,11 +292,19 @@ pub struct OnlineBatteryArgs {
     /// docs/real-cells.md).
     #[arg(long, default_value_t = 100.0)]
     pub prior_noise_mv: f64,
+    /// Cell model: `linear`, `butler-volmer` (plus a·asinh(I/i₀); a linear
+    /// start is given the term with i₀ at the window's RMS current) or
+    /// `auto` (the model of the `--prior` fit; linear without a prior).
+    #[arg(long, value_enum, default_value = "auto")]
+    pub model: ModelArg,
     #[command(flatten)]
     pub cell: OcvArgs,
-    /// Output CSV `time_s,r_i,r_ct,q,alpha,u_oc,status,soc,ocv_offset_v`
-    /// (u_oc: the open-circuit voltage now, OCV(SOC) + ΔU with --ocv; soc
-    /// and ocv_offset_v empty without --ocv). The status after each sample:
+    /// Output CSV `time_s,r_i,r_ct,q,alpha,u_oc,status,soc,ocv_offset_v,
+    /// bv_a_v,bv_i0_a,predicted_v` (u_oc: the open-circuit voltage now,
+    /// OCV(SOC) + ΔU with --ocv; soc and ocv_offset_v empty without --ocv;
+    /// bv_a_v and bv_i0_a empty for the linear model; predicted_v: the
+    /// one-step prediction of this row's voltage from the estimate before
+    /// it, empty before the first estimate). The status after each sample:
     /// filling (the window is not full enough yet), starting (2S-OP-GI runs,
     /// no physical estimate yet), tracking (updated from this window),
     /// not_excited (the current barely varies: held), held (an iteration

@@ -1,12 +1,14 @@
 //! `identify hammerstein` and `identify battery`.
 
-use crate::cli::{parse_basis, Algorithm, BatteryMethod, IdBatteryArgs, IdHammersteinArgs};
+use crate::cli::{
+    parse_basis, Algorithm, BatteryMethod, IdBatteryArgs, IdHammersteinArgs, ModelArg,
+};
 use crate::{io, plot};
 use anyhow::{anyhow, bail, Context, Result};
-use estimator_core::battery::output_error::OutputErrorRefinement;
+use estimator_core::battery::output_error::{OutputErrorRefinement, COLUMN_NAMES};
 use estimator_core::battery::regression::PaperRegressionGi;
 use estimator_core::battery::simulate::simulate;
-use estimator_core::battery::{BatterySettings, CellParameters};
+use estimator_core::battery::{BatterySettings, CellModel, CellParameters};
 use estimator_core::frac::GlWeights;
 use estimator_core::gi::key_term::KeyTermGi;
 use estimator_core::gi::over_param::OverParamGi;
@@ -243,6 +245,16 @@ pub struct BatteryJson {
     /// With an OCV curve: SOC after the last row,
     /// `soc0 + h·Σ I/(3600·C)` (null without a curve).
     pub soc_end: Option<f64>,
+    /// `"linear"` or `"butler-volmer"`: the model of these estimates.
+    pub model: &'static str,
+    /// Butler–Volmer coefficient a (V) of a·asinh(I/i₀) (null for the
+    /// linear model).
+    pub bv_a_v: Option<f64>,
+    /// Butler–Volmer exchange current i₀ (A) (null for the linear model).
+    pub bv_i0_a: Option<f64>,
+    /// With `--model auto` or `butler-volmer`: both fits and why the model
+    /// was chosen (null for `--model linear`).
+    pub model_choice: Option<ModelChoice>,
     /// RMSE of the identified model's simulated voltage against the file (V).
     pub rmse_v: f64,
     /// Iterations (2S-OP-GI + refinement).
@@ -252,6 +264,53 @@ pub struct BatteryJson {
     /// Per-iteration cost of 2S-OP-GI.
     pub history: Vec<HistoryEntry>,
 }
+
+/// Both fits of `--model auto` (or `butler-volmer`) and the choice.
+#[derive(Serialize, Debug, Clone)]
+pub struct ModelChoice {
+    /// The `--model` asked for.
+    pub requested: &'static str,
+    /// The model of the published estimates.
+    pub chosen: &'static str,
+    /// Why, in one sentence.
+    pub reason: String,
+    /// Free-run RMSE of the linear fit (V).
+    pub rmse_linear_v: f64,
+    /// Free-run RMSE of the Butler–Volmer fit (V).
+    pub rmse_butler_volmer_v: f64,
+    /// BIC `n·ln(RSS/n) + k·ln n` of the linear fit.
+    pub bic_linear: f64,
+    /// BIC of the Butler–Volmer fit.
+    pub bic_butler_volmer: f64,
+    /// a (V) of the Butler–Volmer fit.
+    pub bv_a_v: f64,
+    /// i₀ (A) of the Butler–Volmer fit.
+    pub bv_i0_a: f64,
+    /// Lower end of a's 95 % interval, `a·exp(−1.96·se(ln a))` (V); null
+    /// when the information matrix is singular.
+    pub bv_a_low_v: Option<f64>,
+    /// Upper end of a's 95 % interval (V).
+    pub bv_a_high_v: Option<f64>,
+    /// The standard error of `ln a` from the Gauss–Newton information with
+    /// white residuals (a lower bound for correlated model error).
+    pub bv_a_log_se: Option<f64>,
+    /// `max|I| / i₀`: above 1 the record reaches the nonlinear part of the
+    /// term.
+    pub max_current_over_i0: f64,
+    /// Standard errors of the Butler–Volmer fit's coordinates (`ln_r_i`,
+    /// `ln_r_ct`, `ln_q`, `alpha`, `u_oc`, `ln_bv_a`, `ln_bv_i0`, …; white
+    /// residuals assumed), null where not identified.
+    pub butler_volmer_standard_errors: std::collections::BTreeMap<&'static str, Option<f64>>,
+}
+
+/// The Butler–Volmer fit is published under `--model auto` only when the
+/// record's largest current is at least this many `i₀`: below, the term is
+/// a resistance `a/i₀` and `a`, `i₀` are not told apart.
+pub const AUTO_MIN_CURRENT_OVER_I0: f64 = 1.0;
+/// …when the 95 % intervals (`±1.96` standard errors) of `ln a` and of the
+/// other logarithmic parameters of the fit are narrower than `±1` (a factor
+/// e; so `a`'s interval is away from 0)…
+pub const AUTO_Z: f64 = 1.96;
 
 /// What `identify battery` computed, for the plots and the report.
 pub struct BatteryResult {
@@ -302,6 +361,8 @@ fn rough_start(current: &[f64], voltage: &[f64]) -> CellParameters<f64> {
         q: 5.0 / (r / 2.0),
         alpha: 0.7,
         u_oc: mv - r * mi,
+        bv_a: 0.0,
+        bv_i0: 1.0,
     }
 }
 
@@ -333,6 +394,8 @@ pub struct Refine {
     pub memory: Option<usize>,
     /// Fit the OCV slope.
     pub ocv_slope: bool,
+    /// The cell model (default linear: the paper's).
+    pub model: ModelArg,
 }
 
 /// [`battery_run`] with refinement options.
@@ -422,6 +485,10 @@ fn battery_run_sized<const N: usize, const MEM: usize>(
         }
     }
     let mut iters = history.len() as u32;
+    let mut choice = None;
+    if method == BatteryMethod::Paper && refine.model == ModelArg::ButlerVolmer {
+        bail!("--model butler-volmer needs --method refined (the paper's regression is linear)");
+    }
     let (cell, rmse_v) = match method {
         BatteryMethod::Paper => {
             let cell = gi.cell().ok_or_else(|| {
@@ -447,20 +514,19 @@ fn battery_run_sized<const N: usize, const MEM: usize>(
                 .cell()
                 .filter(|c| c.alpha >= so.alpha_min && c.alpha <= so.alpha_max)
                 .unwrap_or_else(|| rough_start(&rec.current, &rec.voltage));
-            let mut oe =
-                Box::new(OutputErrorRefinement::<f64, N, MEM>::new(&so, start).map_err(ctx)?);
-            converged = false;
-            let mut rm = f64::NAN;
-            for _ in 0..200 {
-                let st = oe.iterate(&so, &win).map_err(ctx)?;
-                iters += 1;
-                rm = st.rmse;
-                if st.converged {
-                    converged = true;
-                    break;
-                }
+            let lin = refine_fit::<N, MEM>(&so, start, &win).map_err(ctx)?;
+            iters += lin.iterations;
+            if refine.model == ModelArg::Linear {
+                converged = lin.converged;
+                (lin.cell, Some(lin.rmse))
+            } else {
+                let (fit, why) =
+                    choose_model(&so, &lin, &win, &rec.current, refine.model).map_err(ctx)?;
+                iters += fit.iterations;
+                converged = fit.converged;
+                choice = Some(why);
+                (fit.cell, Some(fit.rmse))
             }
-            (oe.cell(), Some(rm))
         }
     };
     let model = model_voltage(&cell, rec.h, &rec.current)?;
@@ -479,6 +545,14 @@ fn battery_run_sized<const N: usize, const MEM: usize>(
             ocv_offset_v: None,
             soc0: None,
             soc_end: None,
+            model: if cell.is_butler_volmer() {
+                CellModel::ButlerVolmer.as_str()
+            } else {
+                CellModel::Linear.as_str()
+            },
+            bv_a_v: cell.is_butler_volmer().then_some(cell.bv_a),
+            bv_i0_a: cell.is_butler_volmer().then_some(cell.bv_i0),
+            model_choice: choice,
             rmse_v,
             iterations: iters,
             converged,
@@ -488,6 +562,173 @@ fn battery_run_sized<const N: usize, const MEM: usize>(
         paper_track: track,
         model_voltage: model,
     })
+}
+
+/// A converged whole-record output-error fit.
+struct Fit<const N: usize, const MEM: usize> {
+    oe: Box<OutputErrorRefinement<f64, N, MEM>>,
+    cell: CellParameters<f64>,
+    rmse: f64,
+    iterations: u32,
+    converged: bool,
+}
+
+/// Refines `start` over the window until converged (at most 200
+/// iterations).
+fn refine_fit<const N: usize, const MEM: usize>(
+    s: &BatterySettings<f64>,
+    start: CellParameters<f64>,
+    win: &SampleWindow<f64, N>,
+) -> std::result::Result<Fit<N, MEM>, estimator_core::Error> {
+    let mut oe = Box::new(OutputErrorRefinement::<f64, N, MEM>::new(s, start)?);
+    let (mut rmse, mut iterations, mut converged) = (f64::NAN, 0, false);
+    for _ in 0..200 {
+        let st = oe.iterate(s, win)?;
+        iterations += 1;
+        rmse = st.rmse;
+        if st.converged {
+            converged = true;
+            break;
+        }
+    }
+    Ok(Fit {
+        cell: oe.cell(),
+        oe,
+        rmse,
+        iterations,
+        converged,
+    })
+}
+
+/// The Butler–Volmer fit from the linear one `lin` (the best of starts
+/// with i₀ at 0.1, 0.3 and 1 times the largest current), and the model
+/// `requested` (`butler-volmer` or `auto`) publishes, with the reason.
+fn choose_model<const N: usize, const MEM: usize>(
+    s: &BatterySettings<f64>,
+    lin: &Fit<N, MEM>,
+    win: &SampleWindow<f64, N>,
+    current: &[f64],
+    requested: ModelArg,
+) -> std::result::Result<(Fit<N, MEM>, ModelChoice), estimator_core::Error> {
+    let sb = BatterySettings {
+        model: CellModel::ButlerVolmer,
+        ..*s
+    };
+    let i_max = current.iter().fold(0.0f64, |m, i| m.max(i.abs())).max(1e-6);
+    let mut best: Option<Fit<N, MEM>> = None;
+    let mut iterations = 0;
+    for f in [0.1, 0.3, 1.0] {
+        let start = lin.cell.with_butler_volmer(f * i_max);
+        // A start that does not run (e.g. not excited) is skipped; the
+        // linear fit ran on the same window, so one of them does.
+        let Ok(fit) = refine_fit::<N, MEM>(&sb, start, win) else {
+            continue;
+        };
+        iterations += fit.iterations;
+        if best.as_ref().is_none_or(|b| fit.rmse < b.rmse) {
+            best = Some(fit);
+        }
+    }
+    let mut bv = best.ok_or(estimator_core::Error::Diverged)?;
+    bv.iterations = iterations;
+    let info_bv = bv.oe.information(&sb, win)?;
+    let mut lin_oe = lin.oe.clone();
+    let info_lin = lin_oe.information(s, win)?;
+    let ses = info_bv.standard_errors();
+    let se = ses[6];
+    let p = bv.cell;
+    let ratio = i_max / p.bv_i0;
+    let mut choice = ModelChoice {
+        requested: match requested {
+            ModelArg::Auto => "auto",
+            _ => CellModel::ButlerVolmer.as_str(),
+        },
+        chosen: CellModel::ButlerVolmer.as_str(),
+        reason: String::new(),
+        rmse_linear_v: lin.rmse,
+        rmse_butler_volmer_v: bv.rmse,
+        bic_linear: info_lin.bic(),
+        bic_butler_volmer: info_bv.bic(),
+        bv_a_v: p.bv_a,
+        bv_i0_a: p.bv_i0,
+        bv_a_low_v: se.map(|e| p.bv_a * (-AUTO_Z * e).exp()),
+        bv_a_high_v: se.map(|e| p.bv_a * (AUTO_Z * e).exp()),
+        bv_a_log_se: se,
+        max_current_over_i0: ratio,
+        butler_volmer_standard_errors: COLUMN_NAMES
+            .iter()
+            .zip(ses)
+            .zip(info_bv.fitted)
+            .filter(|(_, fitted)| *fitted)
+            .map(|((&name, e), _)| (name, e))
+            .collect(),
+    };
+    if requested == ModelArg::ButlerVolmer {
+        choice.reason = "asked for (--model butler-volmer)".into();
+        return Ok((bv, choice));
+    }
+    let mut against = Vec::new();
+    // (NaN counts against it.)
+    if ratio.is_nan() || ratio < AUTO_MIN_CURRENT_OVER_I0 {
+        against.push(format!(
+            "the largest current is {ratio:.2} i₀ (below {AUTO_MIN_CURRENT_OVER_I0} i₀ the term is a resistance)"
+        ));
+    }
+    // In ln a, the 95 % interval a·exp(±1.96·se) excludes 0 always; it is
+    // away from 0 when the linear interval a ± 1.96·a·se is. The same for
+    // every positive parameter of the fit: a Butler–Volmer term that
+    // leaves R_i (or another) unidentified (e.g. R_i → 0 on a record of a
+    // few current levels, where a·asinh(I/i₀) takes over the ohmic drop)
+    // is not what the data identify.
+    match se {
+        Some(e) if AUTO_Z * e < 1.0 => {}
+        Some(e) => against.push(format!(
+            "a's 95 % interval reaches 0 (a = {:.2} mV ± {:.0} %)",
+            p.bv_a * 1e3,
+            100.0 * AUTO_Z * e
+        )),
+        None => against.push("a is not identified (singular information)".into()),
+    }
+    let loose: Vec<&str> = [(0, "R_i"), (1, "R_ct"), (2, "Q"), (7, "i₀")]
+        .into_iter()
+        .filter(|&(k, _)| se.is_some() && !ses[k].is_some_and(|e| AUTO_Z * e < 1.0))
+        .map(|(_, name)| name)
+        .collect();
+    if !loose.is_empty() {
+        against.push(format!(
+            "with it, {} not identified (95 % interval wider than a factor e)",
+            loose.join(", ")
+        ));
+    }
+    let bic_lower = info_bv.bic() < info_lin.bic();
+    if !bic_lower {
+        against.push(format!(
+            "its BIC {:.1} is not below the linear {:.1}",
+            info_bv.bic(),
+            info_lin.bic()
+        ));
+    }
+    if against.is_empty() {
+        choice.reason = format!(
+            "the data identify it: current to {ratio:.1} i₀, a = {:.2} mV ± {:.0} % (95 %), BIC {:.1} below the linear {:.1}",
+            p.bv_a * 1e3,
+            100.0 * AUTO_Z * se.unwrap_or(f64::NAN),
+            info_bv.bic(),
+            info_lin.bic()
+        );
+        Ok((bv, choice))
+    } else {
+        choice.chosen = CellModel::Linear.as_str();
+        choice.reason = format!("linear: {}", against.join("; "));
+        let lin = Fit {
+            oe: lin_oe,
+            cell: lin.cell,
+            rmse: lin.rmse,
+            iterations: bv.iterations,
+            converged: lin.converged,
+        };
+        Ok((lin, choice))
+    }
 }
 
 /// [`battery_run_with`] on a record with or without the cell's OCV curve:
@@ -542,6 +783,11 @@ pub(crate) fn battery(a: &IdBatteryArgs) -> Result<()> {
     let refine = Refine {
         memory: a.refine_memory,
         ocv_slope: a.ocv_slope,
+        model: match (a.model, a.method) {
+            // The paper's regression is linear: auto has nothing to choose.
+            (ModelArg::Auto, BatteryMethod::Paper) => ModelArg::Linear,
+            (m, _) => m,
+        },
     };
     let r = battery_identify(
         &a.input,
@@ -558,6 +804,12 @@ pub(crate) fn battery(a: &IdBatteryArgs) -> Result<()> {
         "{}: R_i = {:.6} Ω, R_ct = {:.6} Ω, Q = {:.3}, alpha = {:.4}, U_oc = {:.5} V, rmse = {:.3e} V ({} iterations, converged: {})",
         j.method, j.r_i, j.r_ct, j.q, j.alpha, j.u_oc, j.rmse_v, j.iterations, j.converged
     );
+    if let (Some(x), Some(i0)) = (j.bv_a_v, j.bv_i0_a) {
+        println!("Butler–Volmer: a = {:.3} mV, i0 = {i0:.4} A", x * 1e3);
+    }
+    if let Some(c) = &j.model_choice {
+        println!("model: {} ({})", c.chosen, c.reason);
+    }
     if let (Some(d), Some(z0), Some(z1)) = (j.ocv_offset_v, j.soc0, j.soc_end) {
         println!(
             "OCV curve: offset ΔU = {:.2} mV, SOC {z0:.4} → {z1:.4}",

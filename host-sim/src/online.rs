@@ -1,7 +1,7 @@
 //! `online battery`: the sliding-window estimator, sample by sample, as the
 //! firmware runs it (f64 here).
 
-use crate::cli::{BatteryMethod, OnlineBatteryArgs, Precision, StartArg};
+use crate::cli::{BatteryMethod, ModelArg, OnlineBatteryArgs, Precision, StartArg};
 use crate::io::OCV_POINTS;
 use crate::ocv::CellOcv;
 use crate::{io, progress};
@@ -9,7 +9,7 @@ use anyhow::{anyhow, bail, Result};
 use estimator_core::battery::ocv::OcvModel;
 use estimator_core::battery::online::{CellEstimator, Method, OnlineSettings};
 use estimator_core::battery::output_error::RefinementWork;
-use estimator_core::battery::{CellParameters, Prior, Start};
+use estimator_core::battery::{CellModel, CellParameters, Prior, Start};
 use estimator_core::Real;
 
 /// One row of the track.
@@ -25,6 +25,9 @@ pub struct TrackRow {
     pub soc: Option<f64>,
     /// The OCV offset ΔU of the estimate (with an OCV curve).
     pub ocv_offset: Option<f64>,
+    /// The one-step prediction of this sample's voltage (V) from the
+    /// estimate before it (none before the first estimate).
+    pub predicted: Option<f64>,
 }
 
 /// What a track run did.
@@ -56,16 +59,12 @@ fn run<T: Real, const N: usize>(
         .zip(&rec.voltage)
         .enumerate()
     {
+        let predicted = est.predict(s, T::lit(i)).map(|y| y.to_f64());
         let r = est.push(s, T::lit(i), T::lit(v));
         sink(TrackRow {
             t,
-            estimate: est.estimate().map(|p| CellParameters {
-                r_i: p.r_i.to_f64(),
-                r_ct: p.r_ct.to_f64(),
-                q: p.q.to_f64(),
-                alpha: p.alpha.to_f64(),
-                u_oc: p.u_oc.to_f64(),
-            }),
+            estimate: est.estimate().map(|p| p.cast()),
+            predicted,
             status: r.status.as_str(),
             soc: est.state_of_charge().map(|z| z.to_f64()),
             ocv_offset: est.ocv_offset().map(|d| d.to_f64()),
@@ -103,6 +102,8 @@ pub struct TrackOptions<'a> {
     pub prior: Option<&'a Prior<f64>>,
     /// The cell's OCV curve, capacity and start SOC.
     pub cell: Option<&'a CellOcv>,
+    /// The cell model (`auto`: the prior's, linear without one).
+    pub model: ModelArg,
 }
 
 impl TrackOptions<'_> {
@@ -118,6 +119,20 @@ impl TrackOptions<'_> {
             start: StartArg::FromData,
             prior: None,
             cell: None,
+            model: ModelArg::Linear,
+        }
+    }
+
+    /// The model the window fits: `auto` is the prior's (Butler–Volmer when
+    /// its centre has the term), linear without a prior.
+    pub fn cell_model(&self) -> CellModel {
+        match self.model {
+            ModelArg::Linear => CellModel::Linear,
+            ModelArg::ButlerVolmer => CellModel::ButlerVolmer,
+            ModelArg::Auto => match self.prior {
+                Some(p) if p.center.is_butler_volmer() => CellModel::ButlerVolmer,
+                _ => CellModel::Linear,
+            },
         }
     }
 
@@ -133,6 +148,7 @@ impl TrackOptions<'_> {
             alpha_sigma: T::lit(p.alpha_sigma),
             noise_v: T::lit(p.noise_v),
         });
+        s.battery.model = self.cell_model();
         s.iterations_per_sample = self.iterations_per_sample;
         s.method = match self.method {
             BatteryMethod::Paper => Method::Paper,
@@ -209,25 +225,30 @@ pub(crate) fn battery(a: &OnlineBatteryArgs) -> Result<()> {
     let memory = a.memory.unwrap_or(a.window / 4);
     let f = |x: f64| format!("{x:.9e}");
     let g = |x: Option<f64>| x.map(|x| format!("{x:.9e}")).unwrap_or_default();
+    let o = TrackOptions {
+        window: a.window,
+        memory,
+        iterations_per_sample: a.iterations_per_sample,
+        method: a.method,
+        precision: a.precision,
+        start: a.start,
+        prior: prior.as_ref(),
+        cell: cell.as_ref(),
+        model: a.model,
+    };
     let summary = {
         let mut res = Ok(TrackSummary::default());
         io::write_atomic(&a.out, |w| {
-            writeln!(w, "time_s,r_i,r_ct,q,alpha,u_oc,status,soc,ocv_offset_v")?;
-            let o = TrackOptions {
-                window: a.window,
-                memory,
-                iterations_per_sample: a.iterations_per_sample,
-                method: a.method,
-                precision: a.precision,
-                start: a.start,
-                prior: prior.as_ref(),
-                cell: cell.as_ref(),
-            };
+            writeln!(
+                w,
+                "time_s,r_i,r_ct,q,alpha,u_oc,status,soc,ocv_offset_v,bv_a_v,bv_i0_a,predicted_v"
+            )?;
             res = track(&rec, &o, |r| {
+                let bv = r.estimate.filter(|p| p.is_butler_volmer());
                 match r.estimate {
                     Some(p) => writeln!(
                         w,
-                        "{},{},{},{},{},{},{},{},{}",
+                        "{},{},{},{},{},{},{},{},{},{},{},{}",
                         r.t,
                         f(p.r_i),
                         f(p.r_ct),
@@ -236,9 +257,19 @@ pub(crate) fn battery(a: &OnlineBatteryArgs) -> Result<()> {
                         f(p.u_oc),
                         r.status,
                         g(r.soc),
-                        g(r.ocv_offset)
+                        g(r.ocv_offset),
+                        g(bv.map(|p| p.bv_a)),
+                        g(bv.map(|p| p.bv_i0)),
+                        g(r.predicted)
                     )?,
-                    None => writeln!(w, "{},,,,,,{},{},", r.t, r.status, g(r.soc))?,
+                    None => writeln!(
+                        w,
+                        "{},,,,,,{},{},,,,{}",
+                        r.t,
+                        r.status,
+                        g(r.soc),
+                        g(r.predicted)
+                    )?,
                 }
                 Ok(())
             });
@@ -253,9 +284,10 @@ pub(crate) fn battery(a: &OnlineBatteryArgs) -> Result<()> {
         work,
     } = summary;
     eprintln!(
-        "wrote {} ({samples} samples, {rejected} rejected, {:.0} samples/s)",
+        "wrote {} ({samples} samples, {rejected} rejected, {:.0} samples/s, model {})",
         a.out.display(),
-        samples as f64 / secs.max(1e-9)
+        samples as f64 / secs.max(1e-9),
+        o.cell_model().as_str()
     );
     if work.iterations > 0 {
         // The refinement's cost drivers: each simulation and each
@@ -283,12 +315,20 @@ fn read_prior(path: &std::path::Path, a: &OnlineBatteryArgs) -> Result<Prior<f64
             )
         })
     };
+    // A linear fit has null (or, from before the Butler–Volmer model, no)
+    // bv_a_v and bv_i0_a.
+    let (bv_a, bv_i0) = match (j["bv_a_v"].as_f64(), j["bv_i0_a"].as_f64()) {
+        (Some(x), Some(i0)) => (x, i0),
+        _ => (0.0, 1.0),
+    };
     let center = CellParameters {
         r_i: get("r_i")?,
         r_ct: get("r_ct")?,
         q: get("q")?,
         alpha: get("alpha")?,
         u_oc: get("u_oc")?,
+        bv_a,
+        bv_i0,
     };
     if !(a.prior_factor.is_finite() && a.prior_factor > 1.0) {
         bail!("--prior-factor {}: must be above 1", a.prior_factor);

@@ -111,12 +111,32 @@ pub enum OcvCurve<'a> {
     },
 }
 
+/// A test current: a profile at an amplitude, plus a constant.
+#[derive(Clone, Copy, Debug)]
+pub struct Current {
+    /// The profile.
+    pub profile: estimator_core::battery::profile::Profile,
+    /// Its amplitude (A).
+    pub amplitude: f64,
+    /// A constant added to it (A; negative: a mean discharge).
+    pub mean: f64,
+}
+
+impl Current {
+    /// The profile at `amplitude`, nothing added.
+    pub fn new(profile: estimator_core::battery::profile::Profile, amplitude: f64) -> Self {
+        Self {
+            profile,
+            amplitude,
+            mean: 0.0,
+        }
+    }
+}
+
 /// Simulates a cell from rest with memory `min(len, SIM_MEMORY)`.
-#[allow(clippy::too_many_arguments)]
 pub fn battery_data(
     cell: &CellParameters<f64>,
-    profile: estimator_core::battery::profile::Profile,
-    amplitude: f64,
+    drive: Current,
     sigma: f64,
     len: usize,
     seed: u64,
@@ -129,8 +149,11 @@ pub fn battery_data(
     if !(h.is_finite() && h > 0.0) {
         bail!("--h {h}: must be finite and positive");
     }
+    if !cell.is_physical() {
+        bail!("the cell is not physical (a resistance, Q, i₀ not positive, or a < 0)");
+    }
     let current: Vec<f64> = (0..len)
-        .map(|l| profile.current(l as f64 * h, amplitude))
+        .map(|l| drive.profile.current(l as f64 * h, drive.amplitude) + drive.mean)
         .collect();
     // SOC after each sample's charge (the voltage is read at the end of
     // the sample's interval): SOC(l) = soc0 + h·Σ_{k≤l} I(k)/(3600·C).
@@ -218,11 +241,33 @@ pub(crate) fn battery(a: &SimBatteryArgs) -> Result<()> {
             }
         }
     };
+    let amplitude = a.amplitude.unwrap_or(preset.amplitude);
+    if !(amplitude.is_finite() && amplitude >= 0.0) {
+        bail!("--amplitude {amplitude}: must be finite and ≥ 0");
+    }
+    if !a.mean_current.is_finite() {
+        bail!("--mean-current {}: must be finite", a.mean_current);
+    }
+    let cell = match (a.bv_a, a.bv_i0) {
+        (x, _) if !(x.is_finite() && x >= 0.0) => bail!("--bv-a {x}: must be finite and ≥ 0 (V)"),
+        (x, None) if x > 0.0 => bail!("--bv-a needs --bv-i0 (the exchange current, A)"),
+        (_, Some(i0)) if !(i0.is_finite() && i0 > 0.0) => {
+            bail!("--bv-i0 {i0}: must be finite and positive (A)")
+        }
+        (x, i0) => CellParameters {
+            bv_a: x,
+            bv_i0: i0.unwrap_or(preset.cell.bv_i0),
+            ..preset.cell
+        },
+    };
     let t0 = std::time::Instant::now();
     let d = battery_data(
-        &preset.cell,
-        profile,
-        preset.amplitude,
+        &cell,
+        Current {
+            profile,
+            amplitude,
+            mean: a.mean_current,
+        },
         sigma,
         a.length,
         a.seed,

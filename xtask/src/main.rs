@@ -108,10 +108,14 @@ struct QemuArgs {
     /// The cell's capacity (A·h), with --ocv.
     #[arg(long)]
     capacity_ah: Option<f64>,
-    /// A prior on R_i, R_ct, Q and α: the JSON of `host-sim identify
-    /// battery` (built into the image).
+    /// A prior on R_i, R_ct, Q and α (and a, i₀ of a Butler–Volmer fit):
+    /// the JSON of `host-sim identify battery` (built into the image).
     #[arg(long)]
     prior: Option<PathBuf>,
+    /// The cell model built into the image: `linear` or `butler-volmer`
+    /// (R_i + a·asinh(I/i₀) + R_ct‖CPE).
+    #[arg(long, value_parser = ["linear", "butler-volmer"], default_value = "linear")]
+    model: String,
     /// Build the cost-measurement image (no physical-estimate check).
     #[arg(skip)]
     bench: bool,
@@ -139,6 +143,9 @@ struct BenchArgs {
     /// Seconds before QEMU is stopped.
     #[arg(long, default_value_t = 1800)]
     timeout: u32,
+    /// The cell model: `linear` or `butler-volmer`.
+    #[arg(long, value_parser = ["linear", "butler-volmer"], default_value = "linear")]
+    model: String,
 }
 
 fn root() -> PathBuf {
@@ -181,6 +188,10 @@ fn build(a: &QemuArgs) -> Result<PathBuf> {
                     )
                 })?);
             }
+            // A Butler–Volmer fit adds a and i₀ (null for a linear one).
+            if let (Some(x), Some(i0)) = (j["bv_a_v"].as_f64(), j["bv_i0_a"].as_f64()) {
+                v.extend([x, i0]);
+            }
             v.iter()
                 .map(|x| format!("{x:e}"))
                 .collect::<Vec<_>>()
@@ -211,6 +222,7 @@ fn build(a: &QemuArgs) -> Result<PathBuf> {
         .env("FRACBMS_BENCH", if a.bench { "1" } else { "0" })
         .env("FRACBMS_OCV", ocv.as_deref().unwrap_or(Path::new("")))
         .env("FRACBMS_PRIOR", &prior)
+        .env("FRACBMS_MODEL", &a.model)
         .env(
             "FRACBMS_CAPACITY_AH",
             a.capacity_ah.map(|c| c.to_string()).unwrap_or_default(),
@@ -349,6 +361,15 @@ fn qemu(a: &QemuArgs) -> Result<()> {
             out.insert(key.into(), number(&s, "SOC", key)?);
         }
     }
+    out.insert("model".into(), a.model.clone().into());
+    for key in ["bv_a_v", "bv_i0_a"] {
+        let v = if s.contains_key("BV") {
+            number(&s, "BV", key)?
+        } else {
+            serde_json::Value::Null
+        };
+        out.insert(key.into(), v);
+    }
     println!("{}", serde_json::Value::Object(out));
     Ok(())
 }
@@ -377,6 +398,7 @@ fn bench_target(b: &BenchArgs) -> Result<()> {
         ocv: None,
         capacity_ah: None,
         prior: None,
+        model: b.model.clone(),
         bench: true,
     };
     let elf = build(&a)?;

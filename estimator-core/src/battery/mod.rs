@@ -1,7 +1,8 @@
 //! The fractional-order battery model of §6.2 (after Tian et al.).
 //!
 //! ```text
-//! U_t(l) = U_oc + R_i·I(l) + U_p(l),     τ·Δ^α U_p(l) + U_p(l) = R_ct·I(l),   τ = R_ct·Q
+//! U_t(l) = U_oc + R_i·I(l) + a·asinh(I(l)/i₀) + U_p(l),
+//! τ·Δ^α U_p(l) + U_p(l) = R_ct·I(l),   τ = R_ct·Q
 //! ```
 //!
 //! `U_t` is the terminal voltage (V), `I` the current (A, **positive when
@@ -9,6 +10,16 @@
 //! `R_ct ∥ CPE(Q, α)` carries the polarization voltage `U_p`. With a real
 //! sample period `h` (s) the time constant `τ` is in `s^α` and `Q` in
 //! `F·s^(α−1)`.
+//!
+//! The term `a·asinh(I/i₀)` is the Butler–Volmer charge-transfer
+//! overpotential (symmetric transfer, `a = 2RT/F` over the number of
+//! electrons in the ideal case, `i₀` the exchange current): a static
+//! nonlinearity of the current in front of the linear dynamics, the block
+//! structure the paper identifies, applied to the cell. The paper's model
+//! is its special case `a = 0` ([`CellModel::Linear`]); every simulation
+//! and estimator here runs both through one code path. For `|I| ≪ i₀` the
+//! term is the resistance `a/i₀`; only a current beyond `i₀` tells `a` and
+//! `i₀` apart from `R_i` ([`CellModel`]).
 //!
 //! * [`simulate`] — the model driven by a current record (the host-sim
 //!   presets and the tests use it; a BMS uses it for prediction).
@@ -50,6 +61,12 @@ pub struct CellParameters<T> {
     pub alpha: T,
     /// Open-circuit voltage `U_oc` (V).
     pub u_oc: T,
+    /// Butler–Volmer coefficient `a` (V) of the charge-transfer
+    /// overpotential `a·asinh(I/i₀)`; 0 in the linear model.
+    pub bv_a: T,
+    /// Butler–Volmer exchange current `i₀` (A), positive (without effect
+    /// while `bv_a` is 0).
+    pub bv_i0: T,
 }
 
 impl<T: Real> CellParameters<T> {
@@ -62,6 +79,8 @@ impl<T: Real> CellParameters<T> {
             q: T::lit(320.0),
             alpha: T::lit(0.7),
             u_oc: T::lit(4.0),
+            bv_a: T::zero(),
+            bv_i0: T::one(),
         }
     }
 
@@ -74,12 +93,68 @@ impl<T: Real> CellParameters<T> {
             q: T::lit(8.0 / 0.015),
             alpha: T::lit(0.75),
             u_oc: T::lit(3.7),
+            bv_a: T::zero(),
+            bv_i0: T::one(),
         }
     }
 
     /// `τ = R_ct·Q` (`s^α`).
     pub fn tau(&self) -> T {
         self.r_ct * self.q
+    }
+
+    /// The Butler–Volmer overpotential `a·asinh(I/i₀)` (V) at `current`
+    /// (A); exactly 0 in the linear model (`bv_a = 0`), without an `asinh`.
+    #[inline]
+    pub fn kinetic_voltage(&self, current: T) -> T {
+        if self.bv_a == T::zero() {
+            T::zero()
+        } else {
+            self.bv_a * (current / self.bv_i0).asinh()
+        }
+    }
+
+    /// The part of the terminal voltage that follows the current at once:
+    /// `R_i·I + a·asinh(I/i₀)` (V).
+    #[inline]
+    pub fn static_voltage(&self, current: T) -> T {
+        self.r_i * current + self.kinetic_voltage(current)
+    }
+
+    /// True when the Butler–Volmer term is present (`bv_a > 0`).
+    pub fn is_butler_volmer(&self) -> bool {
+        self.bv_a > T::zero()
+    }
+
+    /// The Butler–Volmer start from a linear cell: half of `R_i` becomes
+    /// the kinetic term with exchange current `i0`, `a = i₀·R_i/2`, so the
+    /// two models agree for currents well below `i0` (the start the
+    /// nonlinear fit takes from the linear fit). A cell that already has
+    /// the term is returned unchanged.
+    pub fn with_butler_volmer(&self, i0: T) -> Self {
+        if self.is_butler_volmer() {
+            return *self;
+        }
+        let half = self.r_i / T::lit(2.0);
+        Self {
+            r_i: half,
+            bv_a: i0 * half,
+            bv_i0: i0,
+            ..*self
+        }
+    }
+
+    /// The same cell with the Butler–Volmer term removed (`bv_a = 0`) and
+    /// its small-current resistance `a/i₀` added to `R_i`.
+    pub fn linearized(&self) -> Self {
+        if !self.is_butler_volmer() {
+            return *self;
+        }
+        Self {
+            r_i: self.r_i + self.bv_a / self.bv_i0,
+            bv_a: T::zero(),
+            ..*self
+        }
     }
 
     /// True when every value is finite, the resistances and `Q` are
@@ -93,6 +168,9 @@ impl<T: Real> CellParameters<T> {
             && self.alpha > T::zero()
             && self.alpha < T::lit(2.0)
             && self.u_oc.is_finite()
+            && self.bv_a.is_finite()
+            && self.bv_a >= T::zero()
+            && pos(self.bv_i0)
     }
 
     /// The paper's error measure of Table 7,
@@ -117,6 +195,8 @@ impl<T: Real> CellParameters<T> {
             q: U::lit(self.q.to_f64()),
             alpha: U::lit(self.alpha.to_f64()),
             u_oc: U::lit(self.u_oc.to_f64()),
+            bv_a: U::lit(self.bv_a.to_f64()),
+            bv_i0: U::lit(self.bv_i0.to_f64()),
         }
     }
 }
@@ -155,6 +235,36 @@ pub struct BatterySettings<T> {
     /// A prior on the cell's parameters for the output-error refinement
     /// (`None`: the window's data alone).
     pub prior: Option<Prior<T>>,
+    /// Which cell model the output-error refinement fits.
+    pub model: CellModel,
+}
+
+/// The cell model the output-error refinement fits.
+///
+/// One code path: the linear model is the Butler–Volmer model with its
+/// kinetic parameters not fitted (held at the start's values, `a = 0` for a
+/// linear start).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum CellModel {
+    /// The paper's model: `U_t = U_oc + R_i·I + U_p`.
+    Linear,
+    /// With the Butler–Volmer overpotential: `U_t = U_oc + R_i·I +
+    /// a·asinh(I/i₀) + U_p`, `a` and `i₀` fitted (in logarithms). A linear
+    /// start is first given the term ([`CellParameters::with_butler_volmer`],
+    /// `i₀` the RMS current of the fitted window).
+    ButlerVolmer,
+}
+
+impl CellModel {
+    /// `"linear"` or `"butler-volmer"` (the host's `--model` values and
+    /// JSON `model`).
+    pub fn as_str(&self) -> &'static str {
+        match self {
+            CellModel::Linear => "linear",
+            CellModel::ButlerVolmer => "butler-volmer",
+        }
+    }
 }
 
 /// A Gaussian prior on the cell's parameters (maximum a posteriori over a
@@ -163,7 +273,9 @@ pub struct BatterySettings<T> {
 ///
 /// The refinement then minimizes
 /// `½Σ r² + ½·σ_v²·Σ_k ((x_k − c_k)/σ_k)²` over
-/// `x = [ln R_i, ln R_ct, ln Q, α]`: the window's data where they carry
+/// `x = [ln R_i, ln R_ct, ln Q, α]` (and, fitting the Butler–Volmer model
+/// with a centre that has the term, `ln a` and `ln i₀` with the spread of
+/// the logarithms): the window's data where they carry
 /// information, the prior where they do not (a window far shorter than the
 /// cell's slowest relaxation cannot tell a long constant-phase tail from a
 /// drift, and without a prior its fit wanders there).
@@ -209,32 +321,64 @@ impl<T: Real> Prior<T> {
             && pos(c.r_ct)
             && pos(c.q)
             && c.alpha.is_finite()
+            && c.bv_a.is_finite()
+            && c.bv_a >= T::zero()
+            && pos(c.bv_i0)
             && pos(self.log_sigma)
             && pos(self.alpha_sigma)
             && pos(self.noise_v)
     }
 
-    /// Weights `σ_v²/σ_k²` and centres of `[ln R_i, ln R_ct, ln Q, α]`.
-    pub(crate) fn terms(&self) -> ([T; 4], [T; 4]) {
+    /// Weights `σ_v²/σ_k²` and centres of the prior's coordinates
+    /// `[ln R_i, ln R_ct, ln Q, α, ln a, ln i₀]` (the last two are
+    /// meaningless for a centre without the Butler–Volmer term).
+    pub(crate) fn terms(&self) -> ([T; 6], [T; 6]) {
         let wl = (self.noise_v / self.log_sigma).powi(2);
         let wa = (self.noise_v / self.alpha_sigma).powi(2);
         let c = &self.center;
         (
-            [wl, wl, wl, wa],
-            [c.r_i.ln(), c.r_ct.ln(), c.q.ln(), c.alpha],
+            [wl, wl, wl, wa, wl, wl],
+            [
+                c.r_i.ln(),
+                c.r_ct.ln(),
+                c.q.ln(),
+                c.alpha,
+                c.bv_a.ln(),
+                c.bv_i0.ln(),
+            ],
         )
     }
 
-    /// `½·Σ w_k (x_k − c_k)²` at `p` (over the estimated columns).
-    pub(crate) fn cost(&self, p: &CellParameters<T>, estimate_order: bool) -> T {
+    /// Which of the prior's coordinates act under settings `s`: α when the
+    /// order is estimated, `ln a` and `ln i₀` when the Butler–Volmer model
+    /// is fitted and the centre has the term.
+    pub(crate) fn active(&self, s: &BatterySettings<T>) -> [bool; 6] {
+        let kinetic = s.model == CellModel::ButlerVolmer && self.center.is_butler_volmer();
+        [true, true, true, s.estimate_order, kinetic, kinetic]
+    }
+
+    /// The prior's coordinates at `p`.
+    pub(crate) fn coordinates(p: &CellParameters<T>) -> [T; 6] {
+        [
+            p.r_i.ln(),
+            p.r_ct.ln(),
+            p.q.ln(),
+            p.alpha,
+            p.bv_a.ln(),
+            p.bv_i0.ln(),
+        ]
+    }
+
+    /// `½·Σ w_k (x_k − c_k)²` at `p` (over the coordinates active under
+    /// `s`).
+    pub(crate) fn cost(&self, p: &CellParameters<T>, s: &BatterySettings<T>) -> T {
         let (w, c) = self.terms();
-        let x = [p.r_i.ln(), p.r_ct.ln(), p.q.ln(), p.alpha];
+        let x = Self::coordinates(p);
         let mut sum = T::zero();
-        for k in 0..4 {
-            if k == 3 && !estimate_order {
-                continue;
+        for (k, on) in self.active(s).into_iter().enumerate() {
+            if on {
+                sum = sum + w[k] * (x[k] - c[k]) * (x[k] - c[k]);
             }
-            sum = sum + w[k] * (x[k] - c[k]) * (x[k] - c[k]);
         }
         sum / T::lit(2.0)
     }
@@ -274,6 +418,7 @@ impl<T: Real> BatterySettings<T> {
             ocv_slope: false,
             min_current_std: T::lit(1e-3),
             prior: None,
+            model: CellModel::Linear,
         }
     }
 
@@ -328,6 +473,10 @@ impl<T: Real> BatterySettings<T> {
             Start::AtRest => 0,
             Start::FromData => 1,
         });
+        eat(match self.model {
+            CellModel::Linear => 0,
+            CellModel::ButlerVolmer => 1,
+        });
         match &self.prior {
             None => eat(0),
             Some(p) => {
@@ -338,6 +487,8 @@ impl<T: Real> BatterySettings<T> {
                     c.q,
                     c.alpha,
                     c.u_oc,
+                    c.bv_a,
+                    c.bv_i0,
                     p.log_sigma,
                     p.alpha_sigma,
                     p.noise_v,

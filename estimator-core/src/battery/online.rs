@@ -214,6 +214,9 @@ impl<T: Real, const P: usize> OnlineSettings<T, P> {
         if !(pos(p.r_i) && pos(p.r_ct) && pos(p.q) && pos(p.alpha) && p.alpha <= T::one()) {
             return Some(Status::Unphysical);
         }
+        if !(p.bv_a.is_finite() && p.bv_a >= T::zero() && pos(p.bv_i0)) {
+            return Some(Status::Unphysical);
+        }
         let ocv_ok = match self.ocv {
             Some(_) => p.u_oc.abs() <= self.max_ocv_offset,
             None => p.u_oc >= self.voltage_min && p.u_oc <= self.voltage_max,
@@ -503,7 +506,7 @@ impl<T: Real, const N: usize, const MEM: usize> CellEstimator<T, N, MEM> {
 
     /// One-step prediction of the terminal voltage for the next sample at
     /// current `current` from the estimate, with the polarization history
-    /// reconstructed from the window (`U_p = U_t − U_oc − R_i·I`) and, with
+    /// reconstructed from the window (`U_p = U_t − U_oc − R_i·I − η(I)`) and, with
     /// an OCV curve, the OCV at the state of charge after that sample. O(M).
     pub fn predict<const P: usize>(&self, s: &OnlineSettings<T, P>, current: T) -> Option<T> {
         let y = self.predict_window(current)?;
@@ -520,11 +523,11 @@ impl<T: Real, const N: usize, const MEM: usize> CellEstimator<T, N, MEM> {
         let wts = self.pw.weights();
         let mut hist = T::zero();
         for (&wj, (i, u)) in wts.iter().skip(1).zip(self.window.recent()) {
-            hist = hist + wj * (u - p.u_oc - p.r_i * i);
+            hist = hist + wj * ((u - p.u_oc) - p.static_voltage(i));
         }
         let a = p.tau() * self.pw.scale();
         let up = (p.r_ct * current - a * hist) / (T::one() + a);
-        Some(p.u_oc + p.r_i * current + up)
+        Some(p.u_oc + p.static_voltage(current) + up)
     }
 
     /// The state of charge after a sample of `current` (with a curve and a

@@ -1,6 +1,7 @@
 //! Output-error refinement (beyond the paper): fit the *simulated* terminal
 //! voltage to the measured one over `x = [ln R_i, ln R_ct, ln Q, α, U_oc]` by
-//! Levenberg–Marquardt (and, over a sliding window, the OCV slope β).
+//! Levenberg–Marquardt (and, over a sliding window, the OCV slope β; with
+//! [`CellModel::ButlerVolmer`], the kinetic term's `ln a` and `ln i₀`).
 //!
 //! Why: the paper's regression ([`super::regression`]) carries the measured,
 //! noisy voltage history inside its regressor (`−H[U_t]`), an
@@ -9,8 +10,14 @@
 //!
 //! ```text
 //! (1 + a)·U_p(l) = R_ct·I(l) − a·Σ_{j≥1} w_j·U_p(l−j),   a = R_ct·Q·h^(−α)
-//! Û_t(l) = U_oc + R_i·I(l) + U_p(l),       minimize ½ Σ (U_t(l) − Û_t(l))²
+//! Û_t(l) = U_oc + R_i·I(l) + η(I(l)) + U_p(l),   minimize ½ Σ (U_t(l) − Û_t(l))²
 //! ```
+//!
+//! with the Butler–Volmer overpotential `η(I) = a·asinh(I/i₀)` (0 in the
+//! linear model). `η` is static, so its columns of the Jacobian are its own
+//! derivatives `∂η/∂ln a = η` and `∂η/∂ln i₀ = −a·u/√(1+u²)`, `u = I/i₀`
+//! (plus, with a history from data, the recursion's free response to their
+//! negatives, as for `R_i`).
 //!
 //! The sensitivities `S = ∂U_p/∂p` follow the same recursion with other
 //! drives (`E(l) = U_p(l) + Σ_{j≥1} w_j U_p(l−j)`, `g = h^(−α)`):
@@ -23,8 +30,8 @@
 //!
 //! With [`Start::FromData`] the first `M − 1` samples of the window supply
 //! the history, `U_p = U_t − U_oc − R_i·I`; that history depends on `R_i` and
-//! `U_oc`, whose sensitivities are then the recursion's free responses to
-//! `−I` and `−1`. Resistances and `Q` are searched in logarithms (positive
+//! `U_oc` (and `η`), whose sensitivities are then the recursion's free
+//! responses to `−I` and `−1` (and `−∂η`). Resistances and `Q` are searched in logarithms (positive
 //! by construction, scale-free steps); the damping is Marquardt's
 //! `λ·diag(JᵀJ)`.
 //!
@@ -33,8 +40,9 @@
 //! integrator) mimic the drift. With [`BatterySettings::ocv_slope`] the model
 //! carries `U_oc(l) = U_oc − β·c(l)`, `c(l) = h·Σ_{k>l} I(k)` the charge
 //! still to flow to the newest sample, so `U_oc` is the value *now* and `β`
-//! is `dOCV/dq` (the OCV curve's slope over the cell's capacity). The 6×6 system is solved by nalgebra's Cholesky on the
-//! stack. One call of [`OutputErrorRefinement::iterate`] is one accepted
+//! is `dOCV/dq` (the OCV curve's slope over the cell's capacity). The 8×8
+//! system (the columns a setting keeps fixed are zero, with a tiny diagonal)
+//! is solved by nalgebra's Cholesky on the stack. One call of [`OutputErrorRefinement::iterate`] is one accepted
 //! (or finally rejected) LM step, `O(8·N·M)` (the recursions run in blocks
 //! through the block kernels of [`crate::frac`], the six sensitivities two
 //! at a time).
@@ -57,7 +65,7 @@
 //! run away along it.
 
 use super::simulate::{cpe_filter, cpe_filter_pair, history};
-use super::{current_std, BatterySettings, CellParameters, Start};
+use super::{current_std, BatterySettings, CellModel, CellParameters, Prior, Start};
 use crate::error::Error;
 use crate::frac::GlWeights;
 use crate::real::Real;
@@ -69,6 +77,17 @@ pub const MIN_ROWS: usize = 8;
 pub const MAX_TRIES: u8 = 10;
 /// Largest step of a logarithmic parameter in one iteration (a factor e).
 const MAX_LOG_STEP: f64 = 1.0;
+/// Columns of the Jacobian: `x = [ln R_i, ln R_ct, ln Q, α, U_oc, β, ln a,
+/// ln i₀]`.
+pub const COLUMNS: usize = 8;
+/// The names of the columns of `x`, in order (for reports).
+pub const COLUMN_NAMES: [&str; COLUMNS] = [
+    "ln_r_i", "ln_r_ct", "ln_q", "alpha", "u_oc", "beta", "ln_bv_a", "ln_bv_i0",
+];
+/// Entries of the packed upper triangle of a `COLUMNS × COLUMNS` matrix.
+const PACKED: usize = COLUMNS * (COLUMNS + 1) / 2;
+/// A square matrix over `x`.
+type Square<T> = [[T; COLUMNS]; COLUMNS];
 
 /// What one refinement iteration did.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -108,12 +127,13 @@ pub struct RefinementWork {
     pub simulations: u32,
     /// Of those, the trial steps.
     pub trials: u32,
-    /// Sensitivity passes (the Jacobian: six recursions and one tap sum).
+    /// Sensitivity passes (the Jacobian: six recursions, eight with the
+    /// Butler–Volmer model from data, and one tap sum).
     pub linearizations: u32,
 }
 
 /// The output-error Levenberg–Marquardt refinement for a window of capacity
-/// `N` and memory capacity `MEM`; about `11·N` scalars of state.
+/// `N` and memory capacity `MEM`; about `13·N` scalars of state.
 ///
 /// ```
 /// use estimator_core::battery::{
@@ -134,7 +154,7 @@ pub struct RefinementWork {
 ///     window.push(i, u).unwrap();
 /// }
 /// let s = BatterySettings::new(1.0, N);
-/// let start = CellParameters { r_i: 0.01, r_ct: 0.03, q: 200.0, alpha: 0.6, u_oc: 3.6 };
+/// let start = CellParameters { r_i: 0.01, r_ct: 0.03, q: 200.0, alpha: 0.6, u_oc: 3.6, ..truth };
 /// let mut oe = OutputErrorRefinement::<f64, N, N>::new(&s, start).unwrap();
 /// for _ in 0..50 {
 ///     if oe.iterate(&s, &window).unwrap().converged {
@@ -161,6 +181,10 @@ pub struct OutputErrorRefinement<T, const N: usize, const MEM: usize> {
     s_ri: [T; N],
     s_uoc: [T; N],
     s_beta: [T; N],
+    /// Free responses of `U_p` to the history's `−∂η/∂ln a` and
+    /// `−∂η/∂ln i₀` (zero from rest and in the linear model).
+    s_bva: [T; N],
+    s_bvi0: [T; N],
     /// Charge still to flow from sample l to the newest one, `h·Σ_{k>l} I(k)` (A·s).
     c: [T; N],
     /// OCV slope dU_oc/dq inside the window (V/(A·s)); U_oc is the value at
@@ -189,14 +213,15 @@ pub struct OutputErrorRefinement<T, const N: usize, const MEM: usize> {
 #[derive(Clone, Copy, Debug)]
 struct Linearization<T> {
     p: CellParameters<T>,
-    a: [T; 21],
+    a: [T; PACKED],
     estimate_order: bool,
     ocv_slope: bool,
+    model: CellModel,
 }
 
 impl<T: Real> Linearization<T> {
-    fn new(s: &BatterySettings<T>, p: CellParameters<T>, a: &[[T; 6]; 6]) -> Self {
-        let mut up = [T::zero(); 21];
+    fn new(s: &BatterySettings<T>, p: CellParameters<T>, a: &Square<T>) -> Self {
+        let mut up = [T::zero(); PACKED];
         let mut k = 0;
         for (r, row) in a.iter().enumerate() {
             for &x in &row[r..] {
@@ -209,17 +234,20 @@ impl<T: Real> Linearization<T> {
             a: up,
             estimate_order: s.estimate_order,
             ocv_slope: s.ocv_slope,
+            model: s.model,
         }
     }
 
     /// True when `s` gives the Jacobian the same columns.
     fn fits(&self, s: &BatterySettings<T>) -> bool {
-        self.estimate_order == s.estimate_order && self.ocv_slope == s.ocv_slope
+        self.estimate_order == s.estimate_order
+            && self.ocv_slope == s.ocv_slope
+            && self.model == s.model
     }
 
     /// The full symmetric `J₀ᵀJ₀`.
-    fn normal_matrix(&self) -> [[T; 6]; 6] {
-        let mut a = [[T::zero(); 6]; 6];
+    fn normal_matrix(&self) -> Square<T> {
+        let mut a = [[T::zero(); COLUMNS]; COLUMNS];
         let mut packed = self.a.iter();
         for (r, row) in a.iter_mut().enumerate() {
             for (x, &y) in row[r..].iter_mut().zip(&mut packed) {
@@ -281,6 +309,8 @@ impl<T: Real, const N: usize, const MEM: usize> OutputErrorRefinement<T, N, MEM>
             s_ri: [T::ZERO; N],
             s_uoc: [T::ZERO; N],
             s_beta: [T::ZERO; N],
+            s_bva: [T::ZERO; N],
+            s_bvi0: [T::ZERO; N],
             c: [T::ZERO; N],
             beta: T::ZERO,
             trial: [T::ZERO; N],
@@ -356,7 +386,7 @@ impl<T: Real, const N: usize, const MEM: usize> OutputErrorRefinement<T, N, MEM>
         let h = history(self.w.weights(), &self.up[..self.n], self.n);
         let a = self.p.tau() * self.w.scale();
         let up = (self.p.r_ct * current - a * h) / (T::one() + a);
-        Some(self.p.u_oc + self.p.r_i * current + up)
+        Some(self.p.u_oc + self.p.static_voltage(current) + up)
     }
 
     fn load(&mut self, s: &BatterySettings<T>, win: &SampleWindow<T, N>) -> Result<(), Error> {
@@ -390,7 +420,7 @@ impl<T: Real, const N: usize, const MEM: usize> OutputErrorRefinement<T, N, MEM>
 
     /// The sensitivities of `U_p` to every parameter, for the simulation
     /// held in `up` and `e`.
-    fn sensitivities(&mut self, slope: bool) {
+    fn sensitivities(&mut self, slope: bool, kinetic: bool) {
         let (n, warm) = (self.n, self.warm);
         let wts = self.w.weights();
         let g = self.w.scale();
@@ -411,6 +441,8 @@ impl<T: Real, const N: usize, const MEM: usize> OutputErrorRefinement<T, N, MEM>
             &mut self.s_ri,
             &mut self.s_uoc,
             &mut self.s_beta,
+            &mut self.s_bva,
+            &mut self.s_bvi0,
         ] {
             x[..warm].fill(T::zero());
         }
@@ -438,7 +470,33 @@ impl<T: Real, const N: usize, const MEM: usize> OutputErrorRefinement<T, N, MEM>
             self.s_ri[..n].fill(T::zero());
             self.s_uoc[..n].fill(T::zero());
             self.s_beta[..n].fill(T::zero());
+            self.s_bva[..n].fill(T::zero());
+            self.s_bvi0[..n].fill(T::zero());
             return;
+        }
+        if kinetic {
+            // The history U_p = U_t − U_oc − R_i·I − η(I) moves with η's
+            // parameters: the free responses to −∂η.
+            for ((sa, si), &il) in self.s_bva[..warm]
+                .iter_mut()
+                .zip(&mut self.s_bvi0[..warm])
+                .zip(&i[..warm])
+            {
+                let (da, di) = kinetic_derivatives(&p, il);
+                *sa = -da;
+                *si = -di;
+            }
+            cpe_filter_pair(
+                wts,
+                a,
+                warm,
+                &mut self.s_bva[..n],
+                &mut self.s_bvi0[..n],
+                |_| (T::zero(), T::zero()),
+            );
+        } else {
+            self.s_bva[..n].fill(T::zero());
+            self.s_bvi0[..n].fill(T::zero());
         }
         for ((sr, su), &il) in self.s_ri[..warm]
             .iter_mut()
@@ -474,10 +532,23 @@ impl<T: Real, const N: usize, const MEM: usize> OutputErrorRefinement<T, N, MEM>
     }
 
     /// Row `l` of the Jacobian of the simulated voltage `Û_t(l)` with
-    /// respect to `x = [ln R_i, ln R_ct, ln Q, α, U_oc, β]` (zero columns for
-    /// what the settings keep fixed), from the sensitivities taken at `p`.
+    /// respect to `x = [ln R_i, ln R_ct, ln Q, α, U_oc, β, ln a, ln i₀]`
+    /// (zero columns for what the settings keep fixed), from the
+    /// sensitivities taken at `p`.
     #[inline]
-    fn jacobian_row(&self, s: &BatterySettings<T>, p: &CellParameters<T>, l: usize) -> [T; 6] {
+    fn jacobian_row(
+        &self,
+        s: &BatterySettings<T>,
+        p: &CellParameters<T>,
+        l: usize,
+    ) -> [T; COLUMNS] {
+        let (da, di) = match s.model {
+            CellModel::ButlerVolmer => {
+                let (da, di) = kinetic_derivatives(p, self.i[l]);
+                (da + self.s_bva[l], di + self.s_bvi0[l])
+            }
+            CellModel::Linear => (T::zero(), T::zero()),
+        };
         [
             p.r_i * (self.i[l] + self.s_ri[l]),
             p.r_ct * self.s_rct[l],
@@ -493,6 +564,8 @@ impl<T: Real, const N: usize, const MEM: usize> OutputErrorRefinement<T, N, MEM>
             } else {
                 T::zero()
             },
+            da,
+            di,
         ]
     }
 
@@ -500,8 +573,8 @@ impl<T: Real, const N: usize, const MEM: usize> OutputErrorRefinement<T, N, MEM>
     fn propose(
         &self,
         s: &BatterySettings<T>,
-        a: &[[T; 6]; 6],
-        b: &[T; 6],
+        a: &Square<T>,
+        b: &[T; COLUMNS],
         cost0: T,
         longest: T,
     ) -> Proposal<T> {
@@ -521,6 +594,8 @@ impl<T: Real, const N: usize, const MEM: usize> OutputErrorRefinement<T, N, MEM>
             q: p.q * clamp(dx[2]).exp(),
             alpha: s.clamp_alpha(p.alpha + dx[3]),
             u_oc: p.u_oc + dx[4],
+            bv_a: p.bv_a * clamp(dx[6]).exp(),
+            bv_i0: p.bv_i0 * clamp(dx[7]).exp(),
         };
         let beta = self.beta + dx[5];
         let relax = trial.tau().powf(T::one() / trial.alpha);
@@ -536,12 +611,18 @@ impl<T: Real, const N: usize, const MEM: usize> OutputErrorRefinement<T, N, MEM>
             (trial.alpha - p.alpha).abs(),
             (trial.u_oc - p.u_oc).abs() / scale,
             (beta - self.beta).abs() * self.c[self.warm].abs() / scale,
+            if p.is_butler_volmer() {
+                (trial.bv_a / p.bv_a).ln().abs()
+            } else {
+                T::zero()
+            },
+            (trial.bv_i0 / p.bv_i0).ln().abs(),
         ];
         let change = ch.iter().fold(T::zero(), |m, &x| m.max(x));
         // The decrease the linear model predicts, dxᵀb − ½dxᵀA dx.
         let mut pred = T::zero();
-        for k in 0..6 {
-            let adx = (0..6).fold(T::zero(), |acc, q| acc + a[k][q] * dx[q]);
+        for k in 0..COLUMNS {
+            let adx = (0..COLUMNS).fold(T::zero(), |acc, q| acc + a[k][q] * dx[q]);
             pred = pred + dx[k] * (b[k] - adx / T::lit(2.0));
         }
         let resolution = T::lit(COST_RESOLUTION) * T::epsilon();
@@ -597,6 +678,13 @@ impl<T: Real, const N: usize, const MEM: usize> OutputErrorRefinement<T, N, MEM>
         if self.w.alpha() != self.p.alpha {
             self.w.set_order(self.p.alpha)?;
         }
+        if s.model == CellModel::ButlerVolmer && !self.p.is_butler_volmer() {
+            // A linear start (the paper method's estimate): the kinetic
+            // term with i₀ at the window's RMS current.
+            let rms = rms(&self.i[warm..n]).max(T::lit(1e-3));
+            self.p = self.p.with_butler_volmer(rms);
+            self.fresh = false;
+        }
         let data = WindowData {
             i: &self.i[..n],
             v: &self.v[..n],
@@ -605,8 +693,7 @@ impl<T: Real, const N: usize, const MEM: usize> OutputErrorRefinement<T, N, MEM>
         };
         // The last iteration on this window left the simulation of the
         // estimate in `up` (its accepted trial, or the kept estimate's).
-        let prior_cost =
-            |p: &CellParameters<T>| s.prior.map_or(T::zero(), |pr| pr.cost(p, s.estimate_order));
+        let prior_cost = |p: &CellParameters<T>| s.prior.map_or(T::zero(), |pr| pr.cost(p, s));
         let data0 = if self.fresh {
             window_cost(&data, &self.p, self.beta, &self.up[..n])
         } else {
@@ -644,7 +731,7 @@ impl<T: Real, const N: usize, const MEM: usize> OutputErrorRefinement<T, N, MEM>
             // (J₀ᵀJ₀ + λD)⁻¹J₀ᵀr; when even that is negligible, this is a
             // minimum (to the cost's resolution) and the O(N·M) pass is
             // not needed. Anything else falls through to the exact step.
-            let mut b = [T::zero(); 6];
+            let mut b = [T::zero(); COLUMNS];
             for l in warm..n {
                 let j = self.jacobian_row(s, &last.p, l);
                 let r = residual(
@@ -663,27 +750,9 @@ impl<T: Real, const N: usize, const MEM: usize> OutputErrorRefinement<T, N, MEM>
                 return Ok(self.stop(cost0, data0, rows));
             }
         }
-        self.sensitivities(s.ocv_slope);
-        self.work.linearizations = self.work.linearizations.wrapping_add(1);
-
-        // Normal equations in x = [ln R_i, ln R_ct, ln Q, α, U_oc, β].
         let p = self.p;
-        let mut a = [[T::zero(); 6]; 6];
-        let mut b = [T::zero(); 6];
-        for l in warm..n {
-            let j = self.jacobian_row(s, &p, l);
-            let r = residual(self.v[l], &p, self.beta, self.c[l], self.i[l], self.up[l]);
-            // The upper triangle; the lower one is filled below.
-            for (k, (r_, ja)) in a.iter_mut().zip(j).enumerate() {
-                for (x, &jb) in r_[k..].iter_mut().zip(&j[k..]) {
-                    *x = *x + ja * jb;
-                }
-            }
-            for (bb, ja) in b.iter_mut().zip(j) {
-                *bb = *bb + ja * r;
-            }
-        }
-        mirror_upper(&mut a);
+        let (mut a, mut b) = self.normal_equations(s);
+        self.work.linearizations = self.work.linearizations.wrapping_add(1);
         // The data's J₀ᵀJ₀ is what a chord step reuses; the prior is added
         // there again from the settings of that iteration.
         let data_a = a;
@@ -755,7 +824,174 @@ impl<T: Real, const N: usize, const MEM: usize> OutputErrorRefinement<T, N, MEM>
         step.converged = !step.accepted || step.change <= s.epsilon;
         Ok(step)
     }
+
+    /// New sensitivities at the estimate (whose simulation `up` holds) and
+    /// the data's normal equations `JᵀJ`, `Jᵀr` in `x`.
+    fn normal_equations(&mut self, s: &BatterySettings<T>) -> (Square<T>, [T; COLUMNS]) {
+        let (n, warm) = (self.n, self.warm);
+        self.sensitivities(s.ocv_slope, s.model == CellModel::ButlerVolmer);
+        let p = self.p;
+        let mut a = [[T::zero(); COLUMNS]; COLUMNS];
+        let mut b = [T::zero(); COLUMNS];
+        for l in warm..n {
+            let j = self.jacobian_row(s, &p, l);
+            let r = residual(self.v[l], &p, self.beta, self.c[l], self.i[l], self.up[l]);
+            // The upper triangle; the lower one is filled below.
+            for (k, (r_, ja)) in a.iter_mut().zip(j).enumerate() {
+                for (x, &jb) in r_[k..].iter_mut().zip(&j[k..]) {
+                    *x = *x + ja * jb;
+                }
+            }
+            for (bb, ja) in b.iter_mut().zip(j) {
+                *bb = *bb + ja * r;
+            }
+        }
+        mirror_upper(&mut a);
+        (a, b)
+    }
+
+    /// The Gauss–Newton information of the window at the estimate (for
+    /// standard errors and model choice): the data's `JᵀJ` over `x`, its
+    /// cost and rows, and which columns `s` fits. One sensitivity pass,
+    /// `O(N·M)`; the estimate does not change.
+    ///
+    /// # Errors
+    /// As [`iterate`](Self::iterate).
+    pub fn information(
+        &mut self,
+        s: &BatterySettings<T>,
+        win: &SampleWindow<T, N>,
+    ) -> Result<FitInformation<T>, Error> {
+        s.check::<MEM>()?;
+        self.load(s, win)?;
+        let (n, warm) = (self.n, self.warm);
+        if self.w.alpha() != self.p.alpha {
+            self.w.set_order(self.p.alpha)?;
+        }
+        let data = WindowData {
+            i: &self.i[..n],
+            v: &self.v[..n],
+            c: &self.c[..n],
+            warm,
+        };
+        let cost = if self.fresh {
+            window_cost(&data, &self.p, self.beta, &self.up[..n])
+        } else {
+            self.stalled = None;
+            simulate_window(
+                &self.w,
+                &data,
+                &self.p,
+                self.beta,
+                &mut self.up[..n],
+                &mut self.e[..n],
+            )
+        };
+        if !cost.is_finite() {
+            self.fresh = false;
+            return Err(Error::Diverged);
+        }
+        self.fresh = true;
+        // The sensitivities are now those of the estimate, not of the last
+        // accepted step's start: no chord step from them.
+        self.linear = None;
+        let (jtj, _) = self.normal_equations(s);
+        self.work.linearizations = self.work.linearizations.wrapping_add(1);
+        let kinetic = s.model == CellModel::ButlerVolmer && self.p.is_butler_volmer();
+        Ok(FitInformation {
+            jtj,
+            cost,
+            rows: n - warm,
+            fitted: [
+                true,
+                true,
+                true,
+                s.estimate_order,
+                true,
+                s.ocv_slope,
+                kinetic,
+                kinetic,
+            ],
+        })
+    }
 }
+
+/// The Gauss–Newton information of a converged fit
+/// ([`OutputErrorRefinement::information`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FitInformation<T> {
+    /// The data's `JᵀJ` over `x` ([`COLUMN_NAMES`]).
+    pub jtj: Square<T>,
+    /// `½Σr²` of the data (no prior).
+    pub cost: T,
+    /// Fitted samples.
+    pub rows: usize,
+    /// Which columns the fit estimates.
+    pub fitted: [bool; COLUMNS],
+}
+
+impl<T: Real> FitInformation<T> {
+    /// Number of fitted parameters.
+    pub fn parameters(&self) -> usize {
+        self.fitted.iter().filter(|&&f| f).count()
+    }
+
+    /// The residual variance `2·cost/(rows − parameters)` (V²).
+    pub fn residual_variance(&self) -> T {
+        let dof = self.rows.saturating_sub(self.parameters()).max(1);
+        T::lit(2.0) * self.cost / T::lit(dof as f64)
+    }
+
+    /// Bayesian information criterion `rows·ln(RSS/rows) + k·ln(rows)`.
+    pub fn bic(&self) -> T {
+        let rows = T::lit(self.rows.max(1) as f64);
+        let rss = T::lit(2.0) * self.cost;
+        rows * (rss / rows).ln() + T::lit(self.parameters() as f64) * rows.ln()
+    }
+
+    /// Standard errors of the fitted coordinates of `x` (`None` for the
+    /// columns not fitted, or all when `JᵀJ` is singular): the square roots
+    /// of the diagonal of `σ²·(JᵀJ)⁻¹` over the fitted columns.
+    pub fn standard_errors(&self) -> [Option<T>; COLUMNS] {
+        // The columns not fitted become identity rows and columns.
+        let mut m = self.jtj;
+        for (r, row) in m.iter_mut().enumerate() {
+            for (c, x) in row.iter_mut().enumerate() {
+                if !(self.fitted[r] && self.fitted[c]) {
+                    *x = if r == c { T::one() } else { T::zero() };
+                }
+            }
+        }
+        let var = self.residual_variance();
+        let mut out = [None; COLUMNS];
+        for k in (0..COLUMNS).filter(|&k| self.fitted[k]) {
+            let mut e = [T::zero(); COLUMNS];
+            e[k] = T::one();
+            match T::solve_spd(&m, &e) {
+                Some(x) if x[k] > T::zero() => out[k] = Some((var * x[k]).sqrt()),
+                _ => return [None; COLUMNS],
+            }
+        }
+        out
+    }
+}
+
+/// `(∂η/∂ln a, ∂η/∂ln i₀)` of `η = a·asinh(I/i₀)` at `current`:
+/// `(η, −a·u/√(1+u²))`, `u = I/i₀`.
+#[inline]
+fn kinetic_derivatives<T: Real>(p: &CellParameters<T>, current: T) -> (T, T) {
+    let u = current / p.bv_i0;
+    (p.bv_a * u.asinh(), -p.bv_a * u / (T::one() + u * u).sqrt())
+}
+
+/// Root mean square of a slice (0 for an empty one).
+fn rms<T: Real>(x: &[T]) -> T {
+    let sum = x.iter().fold(T::zero(), |acc, &v| acc + v * v);
+    (sum / T::lit(x.len().max(1) as f64)).sqrt()
+}
+
+/// The column of `x` of each of the prior's coordinates.
+const PRIOR_COLUMNS: [usize; 6] = [0, 1, 2, 3, 6, 7];
 
 /// Adds the prior's part to the normal equations at `p`: its weights `w_k`
 /// to the diagonal of `JᵀJ` and `w_k·(c_k − x_k)` to `Jᵀr` (nothing without
@@ -763,23 +999,25 @@ impl<T: Real, const N: usize, const MEM: usize> OutputErrorRefinement<T, N, MEM>
 fn add_prior<T: Real>(
     s: &BatterySettings<T>,
     p: &CellParameters<T>,
-    a: &mut [[T; 6]; 6],
-    b: &mut [T; 6],
+    a: &mut Square<T>,
+    b: &mut [T; COLUMNS],
 ) {
     if let Some(pr) = &s.prior {
         let (w, c) = pr.terms();
-        let x = [p.r_i.ln(), p.r_ct.ln(), p.q.ln(), p.alpha];
-        let cols = if s.estimate_order { 4 } else { 3 };
-        for k in 0..cols {
-            a[k][k] = a[k][k] + w[k];
-            b[k] = b[k] + w[k] * (c[k] - x[k]);
+        let x = Prior::coordinates(p);
+        for (k, on) in pr.active(s).into_iter().enumerate() {
+            if on {
+                let col = PRIOR_COLUMNS[k];
+                a[col][col] = a[col][col] + w[k];
+                b[col] = b[col] + w[k] * (c[k] - x[k]);
+            }
         }
     }
 }
 
 /// Copies the upper triangle of a symmetric matrix into the lower one.
-fn mirror_upper<T: Copy>(a: &mut [[T; 6]; 6]) {
-    for (r, c) in (1..6).flat_map(|r| (0..r).map(move |c| (r, c))) {
+fn mirror_upper<T: Copy>(a: &mut Square<T>) {
+    for (r, c) in (1..COLUMNS).flat_map(|r| (0..r).map(move |c| (r, c))) {
         a[r][c] = a[c][r];
     }
 }
@@ -828,7 +1066,8 @@ fn simulate_window<T: Real, const MEM: usize>(
     window_cost(data, p, beta, buf)
 }
 
-/// The voltage residual `U_t − (U_oc − β·c + R_i·I + U_p)` of one sample.
+/// The voltage residual `U_t − (U_oc − β·c + R_i·I + η(I) + U_p)` of one
+/// sample.
 /// `U_t − U_oc` comes first: the two are close (exact by Sterbenz's lemma
 /// within a factor 2), so the rounding is that of the small remaining terms,
 /// not of the 3–4 V terminal voltage. In `f32` this is the difference
@@ -836,7 +1075,7 @@ fn simulate_window<T: Real, const MEM: usize>(
 /// (ulp(3.7 V) ≈ 2.4e−7 V against millivolt residuals) hides it.
 #[inline]
 fn residual<T: Real>(v: T, p: &CellParameters<T>, beta: T, c: T, i: T, up: T) -> T {
-    (v - p.u_oc) + beta * c - p.r_i * i - up
+    (v - p.u_oc) + beta * c - p.static_voltage(i) - up
 }
 
 /// ½Σr² over the fitted samples of the simulation `up` of `p`, β.
@@ -872,7 +1111,7 @@ mod tests {
         let (mut up, mut e) = (vec![0.0; n], vec![0.0; n]);
         simulate_window(&w, &data, p, beta, &mut up, &mut e);
         (0..n)
-            .map(|l| p.u_oc - beta * oe.c[l] + p.r_i * oe.i[l] + up[l])
+            .map(|l| p.u_oc - beta * oe.c[l] + p.static_voltage(oe.i[l]) + up[l])
             .collect()
     }
 
@@ -1078,7 +1317,7 @@ mod tests {
                     .map(|l| (v[l] - pred[l]).powi(2))
                     .sum::<f64>()
                     / 2.0;
-                data + s.prior.unwrap().cost(p, true)
+                data + s.prior.unwrap().cost(p, &s)
             };
             let grad = |oe: &OutputErrorRefinement<f64, N, 24>, p: CellParameters<f64>| {
                 let d = 1e-6;
@@ -1140,15 +1379,22 @@ mod tests {
 
     /// The Jacobian from the sensitivity recursions equals central finite
     /// differences of the simulation, column by column, on a slid window
-    /// (history from data, OCV slope fitted), and with a start from rest.
+    /// (history from data, OCV slope fitted), and with a start from rest;
+    /// for the linear model and with the Butler–Volmer term (whose columns
+    /// are zero in the linear model).
     #[test]
     fn jacobian_equals_finite_differences() {
         const N: usize = 160;
         const MEM: usize = 32;
-        for start in [Start::FromData, Start::AtRest] {
+        let models = [CellModel::Linear, CellModel::ButlerVolmer];
+        for (start, model) in [Start::FromData, Start::AtRest]
+            .into_iter()
+            .flat_map(|st| models.map(|m| (st, m)))
+        {
             let mut s = BatterySettings::new(0.5, MEM);
             s.start = start;
             s.ocv_slope = true;
+            s.model = model;
             let mut win = SampleWindow::<f64, N>::new();
             // A window that has slid (FromData) or not (AtRest).
             let len = if start == Start::FromData {
@@ -1168,6 +1414,12 @@ mod tests {
                 q: 430.0,
                 alpha: 0.71,
                 u_oc: 3.69,
+                bv_a: if model == CellModel::ButlerVolmer {
+                    0.021
+                } else {
+                    0.0
+                },
+                bv_i0: 1.3,
             };
             let mut oe = OutputErrorRefinement::<f64, N, MEM>::new(&s, p).unwrap();
             oe.beta = 2e-6;
@@ -1181,10 +1433,17 @@ mod tests {
                 warm: oe.warm,
             };
             simulate_window(&oe.w, &data, &p, oe.beta, &mut oe.up[..n], &mut oe.e[..n]);
-            oe.sensitivities(true);
-            // Central differences in x = [ln R_i, ln R_ct, ln Q, α, U_oc, β].
-            let step = [1e-5, 1e-5, 1e-5, 1e-5, 1e-5, 1e-9];
+            oe.sensitivities(true, s.model == CellModel::ButlerVolmer);
+            // Central differences in x = [ln R_i, ln R_ct, ln Q, α, U_oc, β,
+            // ln a, ln i₀].
+            let step = [1e-5, 1e-5, 1e-5, 1e-5, 1e-5, 1e-9, 1e-5, 1e-5];
             for (k, &d) in step.iter().enumerate() {
+                if k >= 6 && model == CellModel::Linear {
+                    for l in oe.warm..n {
+                        assert_eq!(oe.jacobian_row(&s, &oe.p, l)[k], 0.0);
+                    }
+                    continue;
+                }
                 let moved = |sign: f64| {
                     let mut q = p;
                     let mut beta = oe.beta;
@@ -1194,7 +1453,9 @@ mod tests {
                         2 => q.q *= (sign * d).exp(),
                         3 => q.alpha += sign * d,
                         4 => q.u_oc += sign * d,
-                        _ => beta += sign * d,
+                        5 => beta += sign * d,
+                        6 => q.bv_a *= (sign * d).exp(),
+                        _ => q.bv_i0 *= (sign * d).exp(),
                     }
                     predicted(&oe, &q, beta)
                 };
@@ -1206,7 +1467,7 @@ mod tests {
                     let j = oe.jacobian_row(&s, &oe.p, l)[k];
                     assert!(
                         (j - f).abs() <= 1e-6 * scale,
-                        "{start:?}: column {k}, row {l}: {j} vs {f}"
+                        "{start:?} {model:?}: column {k}, row {l}: {j} vs {f}"
                     );
                 }
             }

@@ -109,6 +109,9 @@ fn cell_from_theta_with<T: Real, const MEM: usize>(
         q: tau / r_ct,
         alpha: w.alpha(),
         u_oc: t4 * (T::one() + tau * g) / (T::one() + tau * g * s_m),
+        // The paper's regression is the linear model's.
+        bv_a: T::zero(),
+        bv_i0: T::one(),
     };
     p.is_physical().then_some(p)
 }

@@ -5,7 +5,7 @@
 //!
 //! ```text
 //! (1 + a)·U_p(l) = R_ct·I(l) − a·Σ_{j=1}^{min(l, M−1)} w_j(α)·U_p(l − j)
-//! U_t(l)         = U_oc(l) + R_i·I(l) + U_p(l)
+//! U_t(l)         = U_oc(l) + R_i·I(l) + a·asinh(I(l)/i₀) + U_p(l)
 //! ```
 //!
 //! started from rest (`U_p = 0` before the first sample). It costs `O(M)`
@@ -173,7 +173,7 @@ pub fn simulate<T: Real, const MEM: usize>(
     let up = &mut up[..n];
     cpe_filter(w.weights(), a, 0, up, |l| p.r_ct * current[l], |_, _, _| {});
     for l in 0..n {
-        voltage[l] = ocv(l) + p.r_i * current[l] + up[l];
+        voltage[l] = ocv(l) + p.static_voltage(current[l]) + up[l];
     }
     Ok(())
 }

@@ -132,8 +132,7 @@ fn table7(dir: &Path, seeds: u64, md: &mut String) -> Result<()> {
     for seed in 1..=seeds {
         let d = simulate::battery_data(
             &truth,
-            Profile::Pulse,
-            preset.amplitude,
+            simulate::Current::new(Profile::Pulse, preset.amplitude),
             0.1,
             len,
             seed,
@@ -280,8 +279,7 @@ fn cell_side_by_side(seeds: u64, md: &mut String) -> Result<()> {
         for seed in 1..=seeds {
             let d = simulate::battery_data(
                 &truth,
-                Profile::Pulse,
-                preset.amplitude,
+                simulate::Current::new(Profile::Pulse, preset.amplitude),
                 0.001,
                 len,
                 seed,
@@ -337,8 +335,7 @@ fn tracking(dir: &Path, md: &mut String) -> Result<()> {
     let len = 3000;
     let d = simulate::battery_data(
         &truth,
-        Profile::Drive,
-        preset.amplitude,
+        simulate::Current::new(Profile::Drive, preset.amplitude),
         0.001,
         len,
         1,
