@@ -84,6 +84,8 @@ pub const COLUMNS: usize = 8;
 pub const COLUMN_NAMES: [&str; COLUMNS] = [
     "ln_r_i", "ln_r_ct", "ln_q", "alpha", "u_oc", "beta", "ln_bv_a", "ln_bv_i0",
 ];
+/// The columns of the linear model (its kinetic columns are zero).
+const LINEAR_COLUMNS: usize = 6;
 /// Entries of the packed upper triangle of a `COLUMNS × COLUMNS` matrix.
 const PACKED: usize = COLUMNS * (COLUMNS + 1) / 2;
 /// A square matrix over `x`.
@@ -470,8 +472,11 @@ impl<T: Real, const N: usize, const MEM: usize> OutputErrorRefinement<T, N, MEM>
             self.s_ri[..n].fill(T::zero());
             self.s_uoc[..n].fill(T::zero());
             self.s_beta[..n].fill(T::zero());
-            self.s_bva[..n].fill(T::zero());
-            self.s_bvi0[..n].fill(T::zero());
+            if kinetic {
+                // (Read by the Butler–Volmer model's columns only.)
+                self.s_bva[..n].fill(T::zero());
+                self.s_bvi0[..n].fill(T::zero());
+            }
             return;
         }
         if kinetic {
@@ -494,9 +499,6 @@ impl<T: Real, const N: usize, const MEM: usize> OutputErrorRefinement<T, N, MEM>
                 &mut self.s_bvi0[..n],
                 |_| (T::zero(), T::zero()),
             );
-        } else {
-            self.s_bva[..n].fill(T::zero());
-            self.s_bvi0[..n].fill(T::zero());
         }
         for ((sr, su), &il) in self.s_ri[..warm]
             .iter_mut()
@@ -543,10 +545,7 @@ impl<T: Real, const N: usize, const MEM: usize> OutputErrorRefinement<T, N, MEM>
         l: usize,
     ) -> [T; COLUMNS] {
         let (da, di) = match s.model {
-            CellModel::ButlerVolmer => {
-                let (da, di) = kinetic_derivatives(p, self.i[l]);
-                (da + self.s_bva[l], di + self.s_bvi0[l])
-            }
+            CellModel::ButlerVolmer => self.kinetic_columns(p, l),
             CellModel::Linear => (T::zero(), T::zero()),
         };
         [
@@ -569,6 +568,16 @@ impl<T: Real, const N: usize, const MEM: usize> OutputErrorRefinement<T, N, MEM>
         ]
     }
 
+    /// The Butler–Volmer columns of row `l` of the Jacobian. Kept out of
+    /// line: inlined, its `asinh` and square root make the compiler outline
+    /// the whole row instead, and the linear model's rows then cost 10 %
+    /// more on the Cortex-M4 (docs/butler-volmer.md).
+    #[inline(never)]
+    fn kinetic_columns(&self, p: &CellParameters<T>, l: usize) -> (T, T) {
+        let (da, di) = kinetic_derivatives(p, self.i[l]);
+        (da + self.s_bva[l], di + self.s_bvi0[l])
+    }
+
     /// The damped step `(A + λ·diag A)⁻¹ b` from the estimate, judged.
     fn propose(
         &self,
@@ -583,7 +592,7 @@ impl<T: Real, const N: usize, const MEM: usize> OutputErrorRefinement<T, N, MEM>
         for (k, row) in m.iter_mut().enumerate() {
             row[k] = a[k][k] * (T::one() + self.lambda) + T::min_positive_value().sqrt();
         }
-        let Some(dx) = T::solve_spd(&m, b) else {
+        let Some(dx) = solve_fitted(&m, b, s.model == CellModel::ButlerVolmer) else {
             return Proposal::Singular;
         };
         let max_log = T::lit(MAX_LOG_STEP);
@@ -828,13 +837,24 @@ impl<T: Real, const N: usize, const MEM: usize> OutputErrorRefinement<T, N, MEM>
     /// New sensitivities at the estimate (whose simulation `up` holds) and
     /// the data's normal equations `JᵀJ`, `Jᵀr` in `x`.
     fn normal_equations(&mut self, s: &BatterySettings<T>) -> (Square<T>, [T; COLUMNS]) {
-        let (n, warm) = (self.n, self.warm);
         self.sensitivities(s.ocv_slope, s.model == CellModel::ButlerVolmer);
+        // The linear model's kinetic columns are zero: not accumulated.
+        // (A constant width: the compiler keeps the sums in registers.)
+        match s.model {
+            CellModel::Linear => self.accumulate::<LINEAR_COLUMNS>(s),
+            CellModel::ButlerVolmer => self.accumulate::<COLUMNS>(s),
+        }
+    }
+
+    /// `JᵀJ` and `Jᵀr` over the first `C` columns of `x` (the rest zero),
+    /// from the sensitivities.
+    fn accumulate<const C: usize>(&self, s: &BatterySettings<T>) -> (Square<T>, [T; COLUMNS]) {
         let p = self.p;
-        let mut a = [[T::zero(); COLUMNS]; COLUMNS];
-        let mut b = [T::zero(); COLUMNS];
-        for l in warm..n {
-            let j = self.jacobian_row(s, &p, l);
+        let mut a = [[T::zero(); C]; C];
+        let mut b = [T::zero(); C];
+        for l in self.warm..self.n {
+            let full = self.jacobian_row(s, &p, l);
+            let j: [T; C] = core::array::from_fn(|k| full[k]);
             let r = residual(self.v[l], &p, self.beta, self.c[l], self.i[l], self.up[l]);
             // The upper triangle; the lower one is filled below.
             for (k, (r_, ja)) in a.iter_mut().zip(j).enumerate() {
@@ -846,8 +866,14 @@ impl<T: Real, const N: usize, const MEM: usize> OutputErrorRefinement<T, N, MEM>
                 *bb = *bb + ja * r;
             }
         }
-        mirror_upper(&mut a);
-        (a, b)
+        let mut wide = [[T::zero(); COLUMNS]; COLUMNS];
+        let mut wb = [T::zero(); COLUMNS];
+        for (row, src) in wide.iter_mut().zip(&a) {
+            row[..C].copy_from_slice(src);
+        }
+        wb[..C].copy_from_slice(&b);
+        mirror_upper(&mut wide);
+        (wide, wb)
     }
 
     /// The Gauss–Newton information of the window at the estimate (for
@@ -976,6 +1002,26 @@ impl<T: Real> FitInformation<T> {
     }
 }
 
+/// Solves the damped normal equations `m·x = b` over the fitted columns:
+/// all with the Butler–Volmer term, the first [`LINEAR_COLUMNS`] in the
+/// linear model (the rest of `x` is then 0, as the full system with its
+/// zero columns and tiny diagonal gives, at a third less work).
+fn solve_fitted<T: Real>(m: &Square<T>, b: &[T; COLUMNS], kinetic: bool) -> Option<[T; COLUMNS]> {
+    if kinetic {
+        return T::solve_spd(m, b);
+    }
+    let mut m6 = [[T::zero(); LINEAR_COLUMNS]; LINEAR_COLUMNS];
+    let mut b6 = [T::zero(); LINEAR_COLUMNS];
+    for ((row6, row), (b6k, &bk)) in m6.iter_mut().zip(m).zip(b6.iter_mut().zip(b)) {
+        row6.copy_from_slice(&row[..LINEAR_COLUMNS]);
+        *b6k = bk;
+    }
+    let x6 = T::solve_spd(&m6, &b6)?;
+    let mut x = [T::zero(); COLUMNS];
+    x[..LINEAR_COLUMNS].copy_from_slice(&x6);
+    Some(x)
+}
+
 /// `(∂η/∂ln a, ∂η/∂ln i₀)` of `η = a·asinh(I/i₀)` at `current`:
 /// `(η, −a·u/√(1+u²))`, `u = I/i₀`.
 #[inline]
@@ -1079,6 +1125,7 @@ fn residual<T: Real>(v: T, p: &CellParameters<T>, beta: T, c: T, i: T, up: T) ->
 }
 
 /// ½Σr² over the fitted samples of the simulation `up` of `p`, β.
+#[inline]
 fn window_cost<T: Real>(data: &WindowData<'_, T>, p: &CellParameters<T>, beta: T, up: &[T]) -> T {
     let WindowData { i, v, c, warm } = *data;
     let mut cost = T::zero();
