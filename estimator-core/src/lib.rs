@@ -17,8 +17,10 @@
 //! * [`battery`] — the fractional-order battery model of §6.2: simulation,
 //!   the paper's regression with 2S-OP-GI, our output-error refinement (with
 //!   an optional prior), the OCV curve and coulomb-counted state of charge
-//!   ([`battery::ocv`]), and the sliding-window cell estimator a BMS runs per
-//!   cell, with its plausibility guard.
+//!   ([`battery::ocv`]), the Butler–Volmer overpotential `a·asinh(I/i₀)`
+//!   ([`battery::CellModel`]; the linear model is its case `a = 0`), and the
+//!   sliding-window cell estimator a BMS runs per cell, with its
+//!   plausibility guard.
 //! * [`flops`] — the flop counts of the paper's Tables 1–2.
 //! * [`error`] — the typed errors; nothing in this crate panics on bad data.
 //!
