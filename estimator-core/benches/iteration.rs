@@ -103,9 +103,9 @@ macro_rules! sizes {
                 let bs = BatterySettings::<$t>::new(1.0, m);
                 let mut g = c.benchmark_group(format!("battery_paper/{}", $tn));
                 let mut gi = Box::new(PaperRegressionGi::<$t, L, L>::new(&bs, 0.5).unwrap());
-                let _ = gi.iterate(&bs, &bw);
+                let _ = gi.iterate(&bs, &*bw);
                 g.bench_with_input(BenchmarkId::new(format!("L{L}"), m), &m, |b, _| {
-                    b.iter(|| black_box(gi.iterate(&bs, &bw)))
+                    b.iter(|| black_box(gi.iterate(&bs, &*bw)))
                 });
                 g.finish();
                 let mut bs = bs;
@@ -113,13 +113,13 @@ macro_rules! sizes {
                 let start = CellParameters::<$t>::cell_18650();
                 let mut g = c.benchmark_group(format!("battery_refined/{}", $tn));
                 let mut oe = Box::new(OutputErrorRefinement::<$t, L, L>::new(&bs, start).unwrap());
-                let _ = oe.iterate(&bs, &bw);
+                let _ = oe.iterate(&bs, &*bw);
                 // From the same start each time: repeated iterations on one
                 // window would reach its minimum and then stop at once.
                 g.bench_with_input(BenchmarkId::new(format!("L{L}"), m), &m, |b, _| {
                     b.iter(|| {
                         let _ = oe.set_cell(&bs, start);
-                        black_box(oe.iterate(&bs, &bw))
+                        black_box(oe.iterate(&bs, &*bw))
                     })
                 });
                 g.finish();

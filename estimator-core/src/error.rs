@@ -79,6 +79,14 @@ pub enum Error {
     /// The start state of charge was to be read from a rested voltage, but
     /// the record does not start at rest (the first current exceeds `C/100`).
     NotAtRest,
+    /// A pack was given a number of cells (or cell voltages) other than the
+    /// one it has (or more than its compile-time capacity).
+    CellCount {
+        /// Cells (voltages) given.
+        given: usize,
+        /// Cells the pack has (or can have).
+        expected: usize,
+    },
 }
 
 impl From<crate::battery::ocv::OcvError> for Error {
@@ -135,6 +143,9 @@ impl core::fmt::Display for Error {
                 "the record does not start at rest (first current above C/100), so its start \
                  state of charge cannot be read from the OCV table; give it"
             ),
+            Error::CellCount { given, expected } => {
+                write!(f, "{given} cells (voltages) given, the pack has {expected}")
+            }
         }
     }
 }

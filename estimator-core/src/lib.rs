@@ -20,7 +20,10 @@
 //!   ([`battery::ocv`]), the Butler–Volmer overpotential `a·asinh(I/i₀)`
 //!   ([`battery::CellModel`]; the linear model is its case `a = 0`), and the
 //!   sliding-window cell estimator a BMS runs per cell, with its
-//!   plausibility guard.
+//!   plausibility guard ([`battery::online`]), and the pack estimator that
+//!   runs it for every series cell: the current kept once, per-cell state
+//!   under 2 KiB, one shared working area, a per-period schedule and the
+//!   flag of a cell that stands out ([`battery::pack`]).
 //! * [`flops`] — the flop counts of the paper's Tables 1–2.
 //! * [`error`] — the typed errors; nothing in this crate panics on bad data.
 //!

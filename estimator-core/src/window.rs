@@ -4,11 +4,57 @@
 //! NaN or infinite sample is rejected (and counted) before it can reach the
 //! window, so a window only ever holds finite data and no good sample is
 //! lost because of a bad one.
+//!
+//! The estimators read a window through [`Window`], so that a pack of cells
+//! can keep the current once for all cells and each cell's voltages apart
+//! ([`crate::battery::pack`]); [`SampleWindow`] is the window of one
+//! system that owns both.
 
 use heapless::Deque;
 
 use crate::error::Error;
 use crate::real::Real;
+
+/// What an estimator reads from a sliding window of `(input, output)`
+/// pairs. Implemented by [`SampleWindow`] and by a pack's per-cell view.
+pub trait Window<T: Real> {
+    /// Number of pairs held.
+    fn len(&self) -> usize;
+    /// True when no pair is held.
+    fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+    /// A number that changes with every change of the contents: one push
+    /// adds exactly one (caches keyed on the window rely on it).
+    fn version(&self) -> u32;
+    /// True once the window has dropped a pair (the samples before the
+    /// oldest one held are then unknown, not zero).
+    fn has_slid(&self) -> bool;
+    /// The held pairs, newest first.
+    fn recent(&self) -> impl Iterator<Item = (T, T)> + '_;
+    /// Copies the held pairs, oldest first, into `u` and `y`; returns how
+    /// many were copied (the window length, or less if the slices are
+    /// shorter).
+    fn copy_into(&self, u: &mut [T], y: &mut [T]) -> usize;
+}
+
+impl<T: Real, const N: usize> Window<T> for SampleWindow<T, N> {
+    fn len(&self) -> usize {
+        SampleWindow::len(self)
+    }
+    fn version(&self) -> u32 {
+        SampleWindow::version(self)
+    }
+    fn has_slid(&self) -> bool {
+        SampleWindow::has_slid(self)
+    }
+    fn recent(&self) -> impl Iterator<Item = (T, T)> + '_ {
+        SampleWindow::recent(self)
+    }
+    fn copy_into(&self, u: &mut [T], y: &mut [T]) -> usize {
+        SampleWindow::copy_into(self, u, y)
+    }
+}
 
 /// A ring buffer of `(input, output)` sample pairs with capacity `N`.
 ///

@@ -118,7 +118,7 @@ fn regression_is_exact_on_noise_free_truncated_memory_data() {
         s.estimate_order = false;
         let mut gi = PaperRegressionGi::<f64, 400, 64>::new(&s, 0.5).unwrap();
         gi.set_cell(&s, &p).unwrap();
-        let it = gi.iterate(&s, &win).unwrap();
+        let it = gi.iterate(&s, &*win).unwrap();
         assert_eq!(it.rows, 400 - 63);
         assert!(it.cost < 1e-20, "cost {}", it.cost);
         let back = gi.cell().unwrap();
@@ -137,7 +137,7 @@ fn paper_method_never_increases_the_cost() {
     let mut last = f64::INFINITY;
     let mut accepted = 0;
     for _ in 0..200 {
-        let it = gi.iterate(&s, &win).unwrap();
+        let it = gi.iterate(&s, &*win).unwrap();
         assert!(it.cost <= last * (1.0 + 1e-12), "{} > {}", it.cost, last);
         last = it.cost;
         accepted += matches!(it.order_step, OrderStep::Accepted { .. }) as u32;
@@ -152,14 +152,14 @@ fn refine<const N: usize>(i: &[f64], v: &[f64], gi_iters: u32) -> (CellParameter
     let sg = BatterySettings::new(1.0, 128);
     let mut gi = Box::new(PaperRegressionGi::<f64, N, N>::new(&sg, 0.5).unwrap());
     for _ in 0..gi_iters {
-        gi.iterate(&sg, &win).unwrap();
+        gi.iterate(&sg, &*win).unwrap();
     }
     let start = gi.cell().expect("2S-OP-GI gives a physical start");
     let so = BatterySettings::new(1.0, N);
     let mut oe = Box::new(OutputErrorRefinement::<f64, N, N>::new(&so, start).unwrap());
     let mut rmse = f64::NAN;
     for _ in 0..100 {
-        let st = oe.iterate(&so, &win).unwrap();
+        let st = oe.iterate(&so, &*win).unwrap();
         rmse = st.rmse;
         if st.converged {
             break;

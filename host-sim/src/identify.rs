@@ -459,7 +459,7 @@ fn battery_run_sized<const N: usize, const MEM: usize>(
         );
     }
     for _ in 0..iterations {
-        let it = gi.iterate(&sg, &win).map_err(ctx)?;
+        let it = gi.iterate(&sg, &*win).map_err(ctx)?;
         history.push(HistoryEntry {
             k: it.k,
             alpha: it.alpha,

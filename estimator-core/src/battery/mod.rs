@@ -37,10 +37,14 @@
 //! * [`online`] — the sliding-window cell estimator a BMS runs per cell:
 //!   sample validation, spike and NaN rejection, the "not excited" hold,
 //!   either method ([`online::CellEstimator`]).
+//! * [`pack`] — every series cell of a pack: the shared current history and
+//!   working area, per-cell state, the update schedule and the health flag
+//!   ([`pack::PackEstimator`]; a `CellEstimator` is its one-cell case).
 
 pub mod ocv;
 pub mod online;
 pub mod output_error;
+pub mod pack;
 pub mod profile;
 pub mod regression;
 pub mod simulate;

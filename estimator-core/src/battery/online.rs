@@ -13,7 +13,8 @@
 //!    recalibrated sensor): the window restarts from it, since no model
 //!    fits across the step, and spike checks pause until the model is
 //!    refitted.
-//! 2. **Window.** The sample enters the [`SampleWindow`]. With an OCV curve
+//! 2. **Window.** The sample enters the cell's window ([`CellWindow`]: the
+//!    pack's current history with the cell's voltages). With an OCV curve
 //!    ([`OnlineSettings::with_ocv`]) the state of charge is counted first
 //!    and the window holds the overpotential `U_t − OCV(SOC)`: the model's
 //!    `U_oc` is then the small offset `ΔU` ([`super::ocv`]). The start SOC
@@ -46,13 +47,14 @@
 //! A failing iteration never touches the published estimate.
 
 use super::ocv::OcvModel;
-use super::output_error::{OutputErrorRefinement, RefinementWork};
-use super::regression::PaperRegressionGi;
+use super::output_error::{OutputErrorRefinement, RefinementState, RefinementWork};
+use super::pack::PackEstimator;
+use super::regression::{PaperRegressionGi, PaperRegressionState};
 use super::{BatterySettings, CellParameters, Start};
 use crate::error::Error;
 use crate::frac::GlWeights;
 use crate::real::Real;
-use crate::window::SampleWindow;
+use crate::window::Window;
 
 /// Leading rested samples (current at most `C/100`) whose mean voltage
 /// gives the start state of charge when none is set.
@@ -365,6 +367,9 @@ impl SampleCounts {
 
 /// One cell's online estimator: window capacity `N`, memory capacity `MEM`.
 ///
+/// It is the one-cell case of [`PackEstimator`]: the same per-cell state,
+/// working area and code, with the cell updated at every sample.
+///
 /// ```
 /// use estimator_core::battery::online::{CellEstimator, OnlineSettings, Status};
 /// use estimator_core::battery::CellParameters;
@@ -379,9 +384,256 @@ impl SampleCounts {
 /// ```
 #[derive(Clone, Debug)]
 pub struct CellEstimator<T, const N: usize, const MEM: usize> {
-    window: SampleWindow<T, N>,
-    gi: PaperRegressionGi<T, N, MEM>,
-    oe: OutputErrorRefinement<T, N, MEM>,
+    pack: PackEstimator<T, N, MEM, 1>,
+}
+
+impl<T: Real, const N: usize, const MEM: usize> CellEstimator<T, N, MEM> {
+    /// A new estimator with an empty window.
+    ///
+    /// # Errors
+    /// Settings errors ([`BatterySettings::check`], a bad `alpha0` or
+    /// `initial`, non-finite limits).
+    pub fn new<const P: usize>(s: &OnlineSettings<T, P>) -> Result<Self, Error> {
+        Ok(Self {
+            pack: PackEstimator::with_cells(s, 1)?,
+        })
+    }
+
+    fn state(&self) -> &CellState<T, N> {
+        &self.pack.cells[0]
+    }
+
+    /// The last good estimate (`None` until the first one). With an OCV
+    /// curve its `u_oc` is the open-circuit voltage now, `OCV(SOC) + ΔU`.
+    pub fn estimate(&self) -> Option<CellParameters<T>> {
+        self.state().estimate()
+    }
+
+    /// The OCV offset `ΔU` (V) of the last good estimate (with an OCV
+    /// curve).
+    pub fn ocv_offset(&self) -> Option<T> {
+        self.state().ocv_offset()
+    }
+
+    /// The coulomb-counted state of charge after the last sample (with an
+    /// OCV curve, once known).
+    pub fn state_of_charge(&self) -> Option<T> {
+        self.state().soc
+    }
+
+    /// Sets the state of charge now (before the next sample), e.g. from the
+    /// BMS's own SOC estimate or a rested voltage. Without a call the first
+    /// sample's voltage is read through the inverse OCV curve.
+    pub fn set_state_of_charge(&mut self, soc: T) {
+        self.pack.cells[0].set_state_of_charge(soc);
+    }
+
+    /// Health after the last sample.
+    pub fn status(&self) -> Status {
+        self.state().status
+    }
+
+    /// Sample counters.
+    pub fn counts(&self) -> SampleCounts {
+        self.state().counts
+    }
+
+    /// The window: the current history with this cell's voltages.
+    pub fn window(&self) -> CellWindow<'_, T, N> {
+        self.pack.window(0)
+    }
+
+    /// What the output-error refinement has computed so far (zero while
+    /// the paper method runs): simulations, trial steps and sensitivity
+    /// passes, the counters behind its cost.
+    pub fn refinement_work(&self) -> RefinementWork {
+        self.state().oe.work()
+    }
+
+    /// True once the output-error refinement has taken over.
+    pub fn is_refining(&self) -> bool {
+        self.state().refining
+    }
+
+    /// One-step prediction of the terminal voltage for the next sample at
+    /// current `current` from the estimate, with the polarization history
+    /// reconstructed from the window (`U_p = U_t − U_oc − R_i·I − η(I)`) and, with
+    /// an OCV curve, the OCV at the state of charge after that sample. O(M).
+    pub fn predict<const P: usize>(&self, s: &OnlineSettings<T, P>, current: T) -> Option<T> {
+        let mut w =
+            GlWeights::<T, MEM>::new(s.initial.alpha, s.battery.h, s.battery.memory).ok()?;
+        self.state().predict(s, &self.pack.history, &mut w, current)
+    }
+
+    /// Feeds one sample (current in A, positive when charging; terminal
+    /// voltage in V) and runs the iterations for it. Never panics; never
+    /// loses a sample (a rejected one is counted and substituted).
+    pub fn push<const P: usize>(
+        &mut self,
+        s: &OnlineSettings<T, P>,
+        current: T,
+        voltage: T,
+    ) -> SampleReport<T> {
+        let mut report = None;
+        // One cell, one voltage: the count cannot mismatch.
+        let _ = self
+            .pack
+            .push_with(s, 1, current, &[voltage], |_, r| report = Some(r));
+        report.unwrap_or(SampleReport {
+            status: self.status(),
+            rejected: None,
+            iterations: 0,
+            rmse: T::infinity(),
+        })
+    }
+}
+
+/// The current history a pack keeps once for all its cells: the last `N`
+/// currents (A), in a ring aligned with every cell's voltages.
+#[derive(Clone, Debug)]
+pub struct CurrentHistory<T, const N: usize> {
+    i: [T; N],
+    /// Where the next current goes.
+    head: usize,
+    /// Currents held (at most `N`).
+    count: usize,
+}
+
+impl<T: Real, const N: usize> CurrentHistory<T, N> {
+    /// An empty history.
+    pub fn new() -> Self {
+        Self {
+            i: [T::ZERO; N],
+            head: 0,
+            count: 0,
+        }
+    }
+
+    /// The newest current, if any.
+    pub fn newest(&self) -> Option<T> {
+        (self.count > 0).then(|| self.i[(self.head + N - 1) % N])
+    }
+
+    /// Currents held.
+    pub fn len(&self) -> usize {
+        self.count
+    }
+
+    /// True when no current is held.
+    pub fn is_empty(&self) -> bool {
+        self.count == 0
+    }
+
+    /// The ring slot the next current (and every cell's next voltage) goes
+    /// to.
+    fn slot(&self) -> usize {
+        self.head
+    }
+
+    fn push(&mut self, current: T) {
+        self.i[self.head] = current;
+        self.head = (self.head + 1) % N;
+        self.count = (self.count + 1).min(N);
+    }
+}
+
+impl<T: Real, const N: usize> Default for CurrentHistory<T, N> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+/// One cell's window: the pack's current history with the cell's own
+/// voltages (the last [`len`](Window::len) samples of the ring, which may be
+/// fewer than the pack's after the cell's window restarted).
+#[derive(Clone, Copy, Debug)]
+pub struct CellWindow<'a, T, const N: usize> {
+    history: &'a CurrentHistory<T, N>,
+    cell: &'a CellState<T, N>,
+}
+
+impl<'a, T: Real, const N: usize> CellWindow<'a, T, N> {
+    pub(super) fn new(history: &'a CurrentHistory<T, N>, cell: &'a CellState<T, N>) -> Self {
+        Self { history, cell }
+    }
+
+    /// Samples held.
+    pub fn len(&self) -> usize {
+        usize::from(self.cell.len)
+    }
+
+    /// True when no sample is held.
+    pub fn is_empty(&self) -> bool {
+        self.cell.len == 0
+    }
+
+    /// The held pairs `(I, U)`, newest first ([`Window::recent`] for the
+    /// view's whole lifetime).
+    pub fn newest_first(self) -> impl Iterator<Item = (T, T)> + 'a {
+        let head = self.history.head;
+        let (i, u) = (&self.history.i, &self.cell.u);
+        let currents = i[..head].iter().rev().chain(i[head..].iter().rev());
+        let voltages = u[..head].iter().rev().chain(u[head..].iter().rev());
+        currents
+            .zip(voltages)
+            .take(usize::from(self.cell.len))
+            .map(|(&i, &u)| (i, u))
+    }
+
+    /// Samples accepted into this window since its last restart (substitutes
+    /// of rejected samples included).
+    pub fn pushed(&self) -> u64 {
+        self.cell.pushed
+    }
+}
+
+impl<T: Real, const N: usize> Window<T> for CellWindow<'_, T, N> {
+    fn len(&self) -> usize {
+        usize::from(self.cell.len)
+    }
+    fn version(&self) -> u32 {
+        self.cell.version
+    }
+    fn has_slid(&self) -> bool {
+        self.cell.pushed > u64::from(self.cell.len)
+    }
+    fn recent(&self) -> impl Iterator<Item = (T, T)> + '_ {
+        self.newest_first()
+    }
+    fn copy_into(&self, u: &mut [T], y: &mut [T]) -> usize {
+        let len = usize::from(self.cell.len).min(u.len()).min(y.len());
+        let head = self.history.head;
+        let (si, sv) = (&self.history.i, &self.cell.u);
+        // The oldest `len` of the held samples are the ones copied when
+        // the slices are short (as `SampleWindow::copy_into`).
+        let held = usize::from(self.cell.len);
+        let start = (head + N - held) % N;
+        for k in 0..len {
+            let j = (start + k) % N;
+            u[k] = si[j];
+            y[k] = sv[j];
+        }
+        len
+    }
+}
+
+/// What one cell carries between samples: its voltages (aligned with the
+/// pack's [`CurrentHistory`]), its estimate, state of charge, counters and
+/// the iteration state of its estimators. Everything an iteration needs
+/// beyond this is in the shared [`WorkingArea`].
+#[derive(Clone, Debug)]
+pub struct CellState<T, const N: usize> {
+    /// Voltages in the window's coordinates (the overpotential with an OCV
+    /// curve), in the pack's ring.
+    u: [T; N],
+    /// Samples of the ring that belong to this cell's window.
+    len: u16,
+    /// Samples pushed since the window's last restart.
+    pushed: u64,
+    /// Changes with every change of the window (see [`Window::version`]).
+    version: u32,
+    gi: PaperRegressionState<T>,
+    oe: RefinementState<T>,
     refining: bool,
     /// The last good estimate, in the window's coordinates (`u_oc` is `ΔU`
     /// with an OCV curve).
@@ -395,41 +647,66 @@ pub struct CellEstimator<T, const N: usize, const MEM: usize> {
     rest_start: Option<(u8, T, T)>,
     /// Standard deviation of the current over the window's fitted part (A).
     current_std: T,
-    /// Weights at the estimate's order, for the one-step prediction.
-    pw: GlWeights<T, MEM>,
     rmse: T,
     status: Status,
     counts: SampleCounts,
     spikes_in_row: u8,
+    /// Whether the last sample was rejected, and why.
+    last_rejection: Option<Rejection>,
 }
 
-impl<T: Real, const N: usize, const MEM: usize> CellEstimator<T, N, MEM> {
-    /// A new estimator with an empty window.
-    ///
-    /// # Errors
-    /// Settings errors ([`BatterySettings::check`], a bad `alpha0` or
-    /// `initial`, non-finite limits).
-    pub fn new<const P: usize>(s: &OnlineSettings<T, P>) -> Result<Self, Error> {
-        let limits_ok = s.current_limit > T::zero()
-            && s.current_limit.is_finite()
-            && s.voltage_min.is_finite()
-            && s.voltage_max.is_finite()
-            && s.voltage_min < s.voltage_max
-            && s.spike_sigmas > T::zero()
-            && s.spike_floor > T::zero()
-            && s.spike_floor.is_finite()
-            && s.max_ocv_offset > T::zero()
-            && s.max_relaxation_windows > T::zero();
-        if !limits_ok {
-            return Err(Error::BadSetting);
-        }
-        if let Some(m) = &s.ocv {
-            m.check()?;
-        }
+/// The working area a pack's cells share, one cell at a time: the two
+/// estimators' window-length arrays and caches, and the weights of the
+/// one-step prediction. It belongs to the last cell iterated; another
+/// cell's iteration first loads that cell's state into it.
+#[derive(Clone, Debug)]
+pub struct WorkingArea<T, const N: usize, const MEM: usize> {
+    gi: PaperRegressionGi<T, N, MEM>,
+    oe: OutputErrorRefinement<T, N, MEM>,
+    /// Weights at the order of the cell being predicted.
+    pw: GlWeights<T, MEM>,
+    owner: Option<usize>,
+}
+
+impl<T: Real, const N: usize, const MEM: usize> WorkingArea<T, N, MEM> {
+    fn new<const P: usize>(s: &OnlineSettings<T, P>) -> Result<Self, Error> {
         Ok(Self {
-            window: SampleWindow::new(),
             gi: PaperRegressionGi::new(&s.battery, s.alpha0)?,
             oe: OutputErrorRefinement::new(&s.battery, s.initial_in_window())?,
+            pw: GlWeights::new(s.initial.alpha, s.battery.h, s.battery.memory)?,
+            owner: None,
+        })
+    }
+
+    /// Loads cell `k`'s iteration state unless the area is already its.
+    fn take<const P: usize>(
+        &mut self,
+        s: &OnlineSettings<T, P>,
+        k: usize,
+        cell: &CellState<T, N>,
+    ) -> Result<(), Error> {
+        if self.owner != Some(k) {
+            self.owner = None;
+            self.gi.resume(&s.battery, &cell.gi)?;
+            self.oe.resume(&s.battery, &cell.oe)?;
+            self.owner = Some(k);
+        }
+        Ok(())
+    }
+}
+
+impl<T: Real, const N: usize> CellState<T, N> {
+    fn new<const MEM: usize, const P: usize>(
+        s: &OnlineSettings<T, P>,
+        work: &WorkingArea<T, N, MEM>,
+    ) -> Self {
+        Self {
+            u: [T::ZERO; N],
+            len: 0,
+            pushed: 0,
+            version: 0,
+            gi: work.gi.state(),
+            oe: work.oe.state(),
             // With a prior the refinement starts at its centre: the paper
             // method's start-up is not needed.
             refining: s.method == Method::Refined && s.battery.prior.is_some(),
@@ -438,12 +715,19 @@ impl<T: Real, const N: usize, const MEM: usize> CellEstimator<T, N, MEM> {
             ocv_now: None,
             rest_start: None,
             current_std: T::zero(),
-            pw: GlWeights::new(s.initial.alpha, s.battery.h, s.battery.memory)?,
             rmse: T::infinity(),
             status: Status::Filling,
             counts: SampleCounts::default(),
             spikes_in_row: 0,
-        })
+            last_rejection: None,
+        }
+    }
+
+    fn view<'a>(&'a self, history: &'a CurrentHistory<T, N>) -> CellWindow<'a, T, N> {
+        CellWindow {
+            history,
+            cell: self,
+        }
     }
 
     /// The last good estimate (`None` until the first one). With an OCV
@@ -467,17 +751,7 @@ impl<T: Real, const N: usize, const MEM: usize> CellEstimator<T, N, MEM> {
         self.soc
     }
 
-    /// Sets the state of charge now (before the next sample), e.g. from the
-    /// BMS's own SOC estimate or a rested voltage. Without a call the first
-    /// sample's voltage is read through the inverse OCV curve.
-    pub fn set_state_of_charge(&mut self, soc: T) {
-        if soc.is_finite() {
-            self.soc = Some(soc);
-            self.rest_start = None;
-        }
-    }
-
-    /// Health after the last sample.
+    /// Health after the last update.
     pub fn status(&self) -> Status {
         self.status
     }
@@ -487,16 +761,14 @@ impl<T: Real, const N: usize, const MEM: usize> CellEstimator<T, N, MEM> {
         self.counts
     }
 
-    /// The window.
-    pub fn window(&self) -> &SampleWindow<T, N> {
-        &self.window
+    /// Why the last sample was rejected (`None`: it was accepted).
+    pub fn last_rejection(&self) -> Option<Rejection> {
+        self.last_rejection
     }
 
-    /// What the output-error refinement has computed so far (zero while
-    /// the paper method runs): simulations, trial steps and sensitivity
-    /// passes, the counters behind its cost.
-    pub fn refinement_work(&self) -> RefinementWork {
-        self.oe.work()
+    /// The fit's RMSE (V) of the last published estimate.
+    pub fn rmse(&self) -> T {
+        self.rmse
     }
 
     /// True once the output-error refinement has taken over.
@@ -504,28 +776,70 @@ impl<T: Real, const N: usize, const MEM: usize> CellEstimator<T, N, MEM> {
         self.refining
     }
 
-    /// One-step prediction of the terminal voltage for the next sample at
-    /// current `current` from the estimate, with the polarization history
-    /// reconstructed from the window (`U_p = U_t − U_oc − R_i·I − η(I)`) and, with
-    /// an OCV curve, the OCV at the state of charge after that sample. O(M).
-    pub fn predict<const P: usize>(&self, s: &OnlineSettings<T, P>, current: T) -> Option<T> {
-        let y = self.predict_window(current)?;
+    /// What the output-error refinement has computed for this cell.
+    pub fn refinement_work(&self) -> RefinementWork {
+        self.oe.work()
+    }
+
+    /// See [`CellEstimator::set_state_of_charge`].
+    pub fn set_state_of_charge(&mut self, soc: T) {
+        if soc.is_finite() {
+            self.soc = Some(soc);
+            self.rest_start = None;
+        }
+    }
+
+    /// Restarts the window (the pack's ring keeps the currents).
+    fn clear_window(&mut self) {
+        self.len = 0;
+        self.pushed = 0;
+        self.version = self.version.wrapping_add(1);
+    }
+
+    /// Writes `u` into the ring slot the pack's next current goes to and
+    /// counts it: the window is whole again once the pack has pushed that
+    /// current.
+    fn push_voltage(&mut self, slot: usize, u: T) {
+        self.u[slot] = u;
+        self.len = (usize::from(self.len) + 1).min(N) as u16;
+        self.pushed += 1;
+        self.version = self.version.wrapping_add(1);
+    }
+
+    /// [`CellEstimator::predict`] with the prediction weights `w` (set to
+    /// the estimate's order here).
+    fn predict<const MEM: usize, const P: usize>(
+        &self,
+        s: &OnlineSettings<T, P>,
+        history: &CurrentHistory<T, N>,
+        w: &mut GlWeights<T, MEM>,
+        current: T,
+    ) -> Option<T> {
+        let y = self.predict_window(history, w, current)?;
         Some(match (&s.ocv, self.soc) {
             (Some(m), Some(z)) => y + m.table.ocv(m.soc_after(z, current, s.battery.h)),
             _ => y,
         })
     }
 
-    /// [`predict`](Self::predict) in the window's coordinates (the
+    /// The one-step prediction in the window's coordinates (the
     /// overpotential with an OCV curve).
-    fn predict_window(&self, current: T) -> Option<T> {
+    fn predict_window<const MEM: usize>(
+        &self,
+        history: &CurrentHistory<T, N>,
+        w: &mut GlWeights<T, MEM>,
+        current: T,
+    ) -> Option<T> {
         let p = self.estimate?;
-        let wts = self.pw.weights();
+        if w.alpha() != p.alpha {
+            w.set_order(p.alpha).ok()?;
+        }
+        let wts = w.weights();
         let mut hist = T::zero();
-        for (&wj, (i, u)) in wts.iter().skip(1).zip(self.window.recent()) {
+        for (&wj, (i, u)) in wts.iter().skip(1).zip(self.view(history).newest_first()) {
             hist = hist + wj * ((u - p.u_oc) - p.static_voltage(i));
         }
-        let a = p.tau() * self.pw.scale();
+        let a = p.tau() * w.scale();
         let up = (p.r_ct * current - a * hist) / (T::one() + a);
         Some(p.u_oc + p.static_voltage(current) + up)
     }
@@ -546,9 +860,11 @@ impl<T: Real, const N: usize, const MEM: usize> CellEstimator<T, N, MEM> {
         }
     }
 
-    fn classify<const P: usize>(
+    fn classify<const MEM: usize, const P: usize>(
         &self,
         s: &OnlineSettings<T, P>,
+        history: &CurrentHistory<T, N>,
+        w: &mut GlWeights<T, MEM>,
         current: T,
         voltage: T,
     ) -> Option<Rejection> {
@@ -559,7 +875,8 @@ impl<T: Real, const N: usize, const MEM: usize> CellEstimator<T, N, MEM> {
             return Some(Rejection::OutOfRange);
         }
         let y = self.to_window(s, current, voltage);
-        if self.spikes_in_row < s.max_consecutive_spikes && self.is_spike(s, current, y) {
+        if self.spikes_in_row < s.max_consecutive_spikes && self.is_spike(s, history, w, current, y)
+        {
             return Some(Rejection::Spike);
         }
         None
@@ -568,27 +885,40 @@ impl<T: Real, const N: usize, const MEM: usize> CellEstimator<T, N, MEM> {
     /// True when `y` (in the window's coordinates) is further than
     /// `max(spike_sigmas·RMSE, spike_floor)` from the model's prediction
     /// for `current`.
-    fn is_spike<const P: usize>(&self, s: &OnlineSettings<T, P>, current: T, y: T) -> bool {
+    fn is_spike<const MEM: usize, const P: usize>(
+        &self,
+        s: &OnlineSettings<T, P>,
+        history: &CurrentHistory<T, N>,
+        w: &mut GlWeights<T, MEM>,
+        current: T,
+        y: T,
+    ) -> bool {
         if !self.rmse.is_finite() {
             return false;
         }
-        self.predict_window(current).is_some_and(|pred| {
-            let limit = (s.spike_sigmas * self.rmse).max(s.spike_floor);
-            (y - pred).abs() > limit
-        })
+        self.predict_window(history, w, current)
+            .is_some_and(|pred| {
+                let limit = (s.spike_sigmas * self.rmse).max(s.spike_floor);
+                (y - pred).abs() > limit
+            })
     }
 
-    /// Feeds one sample (current in A, positive when charging; terminal
-    /// voltage in V) and runs the iterations for it. Never panics; never
-    /// loses a sample (a rejected one is counted and substituted).
-    pub fn push<const P: usize>(
+    /// Validates one sample, substitutes it when rejected and writes it
+    /// into ring slot `slot` (the pack then pushes `stored`, the current of
+    /// that slot: the measured one when plausible, else the last one).
+    /// Counts it. The window is read before the slot is written.
+    #[allow(clippy::too_many_arguments)]
+    fn accept<const MEM: usize, const P: usize>(
         &mut self,
         s: &OnlineSettings<T, P>,
+        history: &CurrentHistory<T, N>,
+        w: &mut GlWeights<T, MEM>,
+        stored: Option<T>,
         current: T,
         voltage: T,
-    ) -> SampleReport<T> {
+    ) -> Option<Rejection> {
         self.counts.samples += 1;
-        let rejected = self.classify(s, current, voltage);
+        let rejected = self.classify(s, history, w, current, voltage);
         if let (Some(m), None) = (&s.ocv, rejected) {
             let rest = current.abs() <= m.capacity_ah / T::lit(100.0);
             match (self.soc, self.rest_start) {
@@ -611,110 +941,140 @@ impl<T: Real, const N: usize, const MEM: usize> CellEstimator<T, N, MEM> {
                 _ => self.rest_start = None,
             }
         }
-        let sample = match rejected {
-            None => {
+        let sample = match (rejected, stored) {
+            (None, Some(i)) => {
                 // Not the `y` that `classify` judged: at a rested start the
                 // SOC was just refined from this very sample.
-                let y = self.to_window(s, current, voltage);
-                if self.spikes_in_row >= s.max_consecutive_spikes && self.is_spike(s, current, y) {
+                let y = self.to_window(s, i, voltage);
+                if self.spikes_in_row >= s.max_consecutive_spikes
+                    && self.is_spike(s, history, w, i, y)
+                {
                     // A step believed after max_consecutive_spikes
                     // rejections (a recalibrated sensor, a contactor): the
                     // samples before it belong to another regime, which no
                     // model of the window can fit across the step. The
                     // window restarts here; the estimate is kept, but no
                     // sample is judged by it until it has been refitted.
-                    self.window.clear();
+                    self.clear_window();
                     self.rmse = T::infinity();
                 }
                 self.spikes_in_row = 0;
-                Some((current, y))
+                Some((i, y))
             }
-            Some(why) => {
+            (why, stored) => {
                 match why {
-                    Rejection::NonFinite => self.counts.non_finite += 1,
-                    Rejection::OutOfRange => self.counts.out_of_range += 1,
-                    Rejection::Spike => {
+                    Some(Rejection::NonFinite) => self.counts.non_finite += 1,
+                    Some(Rejection::OutOfRange) => self.counts.out_of_range += 1,
+                    Some(Rejection::Spike) => {
                         self.counts.spikes += 1;
                         self.spikes_in_row = self.spikes_in_row.saturating_add(1);
                     }
+                    // Accepted but nothing to store it with: cannot happen
+                    // (an accepted sample has a plausible current).
+                    None => {}
                 }
                 // Substitute. The current: the measured one when it is
                 // itself plausible (only the voltage was bad), else the last
-                // one. The voltage: the model's prediction for that current
-                // (or the last voltage before a model exists).
-                let plausible = current.is_finite() && current.abs() <= s.current_limit;
-                self.window.recent().next().map(|(last_i, u)| {
-                    let i = if plausible { current } else { last_i };
-                    (i, self.predict_window(i).unwrap_or(u))
-                })
+                // one (the pack's `stored`). The voltage: the model's
+                // prediction for that current (or the last voltage before a
+                // model exists). An empty window takes no substitute.
+                let last = self.view(history).newest_first().next();
+                match (stored, last) {
+                    (Some(i), Some((_, u))) => {
+                        Some((i, self.predict_window(history, w, i).unwrap_or(u)))
+                    }
+                    _ => None,
+                }
             }
         };
-        if let Some((i, u)) = sample {
-            // Cannot fail: both values are finite here.
-            let _ = self.window.push(i, u);
-            if let Some(m) = &s.ocv {
-                // The charge of the sample as it entered the window (the
-                // substitute's current for a rejected one).
-                self.soc = self.soc_after(s, i);
-                self.ocv_now = self.soc.map(|z| m.table.ocv(z));
+        match sample {
+            Some((i, u)) => {
+                if let Some(slot) = stored.map(|_| history.slot()) {
+                    self.push_voltage(slot, u);
+                }
+                if let Some(m) = &s.ocv {
+                    // The charge of the sample as it entered the window (the
+                    // substitute's current for a rejected one).
+                    self.soc = self.soc_after(s, i);
+                    self.ocv_now = self.soc.map(|z| m.table.ocv(z));
+                }
+            }
+            None => {
+                // Nothing stored for this cell while the pack stores a
+                // current: the window restarts after the gap.
+                if stored.is_some() && self.len > 0 {
+                    self.clear_window();
+                }
             }
         }
-        let mut report = SampleReport {
-            status: self.status,
-            rejected,
-            iterations: 0,
-            rmse: self.rmse,
-        };
-        self.run(s, &mut report);
-        self.status = report.status;
-        report.rmse = self.rmse;
-        report
+        self.last_rejection = rejected;
+        rejected
     }
 
-    fn run<const P: usize>(&mut self, s: &OnlineSettings<T, P>, report: &mut SampleReport<T>) {
+    /// The iterations of one update (after its sample is in the window).
+    fn run<const MEM: usize, const P: usize>(
+        &mut self,
+        s: &OnlineSettings<T, P>,
+        history: &CurrentHistory<T, N>,
+        work: &mut WorkingArea<T, N, MEM>,
+        k: usize,
+    ) -> (Status, u16) {
         let b = &s.battery;
         let need = b.memory - 1 + super::regression::MIN_ROWS;
-        if self.window.len() < need {
-            report.status = Status::Filling;
-            return;
+        let len = usize::from(self.len);
+        if len < need {
+            return (Status::Filling, 0);
         }
         // Current excitation over the fitted part of the window.
-        let fitted = self.window.len() + 1 - b.memory;
+        let fitted = len + 1 - b.memory;
         let count = T::lit(fitted as f64);
-        let recent = || self.window.recent().take(fitted).map(|(i, _)| i);
+        let recent = || {
+            self.view(history)
+                .newest_first()
+                .take(fitted)
+                .map(|(i, _)| i)
+        };
         let mean = recent().fold(T::zero(), |a, i| a + i) / count;
         let var = recent().fold(T::zero(), |a, i| a + (i - mean) * (i - mean)) / count;
         if var.sqrt() <= b.min_current_std {
-            report.status = Status::NotExcited;
-            return;
+            return (Status::NotExcited, 0);
         }
         self.current_std = var.sqrt();
+        if work.take(s, k, self).is_err() {
+            return (Status::Held, 0);
+        }
+        let mut status = self.status;
+        let mut iterations = 0;
         for _ in 0..s.iterations_per_sample {
             let ok = if self.refining {
-                self.step_refined(s)
+                self.step_refined(s, history, work)
             } else {
-                self.step_paper(s)
+                self.step_paper(s, history, work)
             };
-            report.iterations += 1;
+            iterations += 1;
             match ok {
-                Ok(status) => report.status = status,
+                Ok(st) => status = st,
                 Err(Error::NotExcited) => {
-                    report.status = Status::NotExcited;
-                    return;
+                    status = Status::NotExcited;
+                    break;
                 }
                 Err(_) => {
-                    report.status = Status::Held;
-                    return;
+                    status = Status::Held;
+                    break;
                 }
             }
         }
+        self.gi = work.gi.state();
+        self.oe = work.oe.state();
+        (status, iterations)
     }
 
     /// Publishes `p` when it is plausible from a window of `rows` fitted
     /// samples; otherwise says why it is held.
-    fn publish<const P: usize>(
+    fn publish<const MEM: usize, const P: usize>(
         &mut self,
         s: &OnlineSettings<T, P>,
+        w: &mut GlWeights<T, MEM>,
         p: CellParameters<T>,
         rmse: T,
         rows: usize,
@@ -722,7 +1082,7 @@ impl<T: Real, const N: usize, const MEM: usize> CellEstimator<T, N, MEM> {
         if let Some(why) = s.implausible(&p, rows, self.current_std, rmse) {
             return Err(why);
         }
-        if self.pw.set_order(p.alpha).is_ok() {
+        if w.set_order(p.alpha).is_ok() {
             self.estimate = Some(p);
             self.rmse = rmse;
             Ok(())
@@ -731,13 +1091,19 @@ impl<T: Real, const N: usize, const MEM: usize> CellEstimator<T, N, MEM> {
         }
     }
 
-    fn step_paper<const P: usize>(&mut self, s: &OnlineSettings<T, P>) -> Result<Status, Error> {
-        let it = self.gi.iterate(&s.battery, &self.window)?;
+    fn step_paper<const MEM: usize, const P: usize>(
+        &mut self,
+        s: &OnlineSettings<T, P>,
+        history: &CurrentHistory<T, N>,
+        work: &mut WorkingArea<T, N, MEM>,
+    ) -> Result<Status, Error> {
+        let it = work.gi.iterate(&s.battery, &self.view(history))?;
         let rows = T::lit(it.rows.max(1) as f64);
-        let cell = self.gi.cell();
+        let cell = work.gi.cell();
         let mut status = Status::Starting;
         if let Some(p) = cell {
-            status = match self.publish(s, p, (T::lit(2.0) * it.cost / rows).sqrt(), it.rows) {
+            let rmse = (T::lit(2.0) * it.cost / rows).sqrt();
+            status = match self.publish(s, &mut work.pw, p, rmse, it.rows) {
                 Ok(()) => Status::Tracking,
                 Err(why) => why,
             };
@@ -749,15 +1115,20 @@ impl<T: Real, const N: usize, const MEM: usize> CellEstimator<T, N, MEM> {
                 .estimate
                 .filter(|p| p.alpha >= s.battery.alpha_min && p.alpha <= s.battery.alpha_max)
                 .unwrap_or(s.initial_in_window());
-            self.oe.set_cell(&s.battery, start)?;
+            work.oe.set_cell(&s.battery, start)?;
             self.refining = true;
         }
         Ok(status)
     }
 
-    fn step_refined<const P: usize>(&mut self, s: &OnlineSettings<T, P>) -> Result<Status, Error> {
-        let st = self.oe.iterate(&s.battery, &self.window)?;
-        match self.publish(s, self.oe.cell(), st.rmse, st.rows) {
+    fn step_refined<const MEM: usize, const P: usize>(
+        &mut self,
+        s: &OnlineSettings<T, P>,
+        history: &CurrentHistory<T, N>,
+        work: &mut WorkingArea<T, N, MEM>,
+    ) -> Result<Status, Error> {
+        let st = work.oe.iterate(&s.battery, &self.view(history))?;
+        match self.publish(s, &mut work.pw, work.oe.cell(), st.rmse, st.rows) {
             Ok(()) => Ok(Status::Tracking),
             Err(why) => {
                 // Not plausible: held, and the refinement starts again from
@@ -765,11 +1136,133 @@ impl<T: Real, const N: usize, const MEM: usize> CellEstimator<T, N, MEM> {
                 // it does not wander further from where the window's
                 // information is.
                 let back = self.estimate.unwrap_or(s.initial_in_window());
-                if self.oe.set_cell(&s.battery, back).is_err() {
-                    let _ = self.oe.set_cell(&s.battery, s.initial_in_window());
+                if work.oe.set_cell(&s.battery, back).is_err() {
+                    let _ = work.oe.set_cell(&s.battery, s.initial_in_window());
                 }
                 Ok(why)
             }
         }
+    }
+}
+
+/// Checks the limits of the online settings (the rest is checked by the
+/// estimators).
+fn check_limits<T: Real, const P: usize>(s: &OnlineSettings<T, P>) -> Result<(), Error> {
+    let limits_ok = s.current_limit > T::zero()
+        && s.current_limit.is_finite()
+        && s.voltage_min.is_finite()
+        && s.voltage_max.is_finite()
+        && s.voltage_min < s.voltage_max
+        && s.spike_sigmas > T::zero()
+        && s.spike_floor > T::zero()
+        && s.spike_floor.is_finite()
+        && s.max_ocv_offset > T::zero()
+        && s.max_relaxation_windows > T::zero();
+    if !limits_ok {
+        return Err(Error::BadSetting);
+    }
+    if let Some(m) = &s.ocv {
+        m.check()?;
+    }
+    Ok(())
+}
+
+/// The pack estimator's per-sample flow for cells `0..cells`, shared with
+/// [`CellEstimator`] (the one-cell pack). See [`PackEstimator::push`].
+impl<T: Real, const N: usize, const MEM: usize, const CELLS: usize>
+    PackEstimator<T, N, MEM, CELLS>
+{
+    /// A pack of `cells` cells (at most `CELLS`), every one with an empty
+    /// window.
+    ///
+    /// # Errors
+    /// [`Error::CellCount`] for 0 or more than `CELLS` cells; the settings
+    /// errors of [`CellEstimator::new`].
+    pub fn with_cells<const P: usize>(
+        s: &OnlineSettings<T, P>,
+        cells: usize,
+    ) -> Result<Self, Error> {
+        if cells == 0 || cells > CELLS || cells > usize::from(u16::MAX) {
+            return Err(Error::CellCount {
+                given: cells,
+                expected: CELLS,
+            });
+        }
+        if N > usize::from(u16::MAX) {
+            return Err(Error::BadSetting);
+        }
+        check_limits(s)?;
+        let work = WorkingArea::new(s)?;
+        let cell = CellState::new(s, &work);
+        Ok(Self {
+            history: CurrentHistory::new(),
+            cells: core::array::from_fn(|_| cell.clone()),
+            active: cells,
+            work,
+            next: 0,
+        })
+    }
+
+    /// Pushes one sample period (the pack's current and one voltage per
+    /// cell), then runs `updates` cell updates, round robin from where the
+    /// last period stopped; `report(k, r)` hears every cell's report.
+    pub(crate) fn push_with<const P: usize>(
+        &mut self,
+        s: &OnlineSettings<T, P>,
+        updates: usize,
+        current: T,
+        voltages: &[T],
+        mut report: impl FnMut(usize, SampleReport<T>),
+    ) -> Result<(), Error> {
+        let cells = self.active;
+        if voltages.len() != cells {
+            return Err(Error::CellCount {
+                given: voltages.len(),
+                expected: cells,
+            });
+        }
+        // The current the ring stores for this period: the measured one
+        // when plausible, else the last one (none before the first).
+        let plausible = current.is_finite() && current.abs() <= s.current_limit;
+        let stored = if plausible {
+            Some(current)
+        } else {
+            self.history.newest()
+        };
+        let Self {
+            history,
+            cells: states,
+            work,
+            ..
+        } = self;
+        for (cell, &v) in states[..cells].iter_mut().zip(voltages) {
+            cell.accept(s, history, &mut work.pw, stored, current, v);
+        }
+        if let Some(i) = stored {
+            history.push(i);
+        }
+        let updates = updates.min(cells);
+        let first = self.next;
+        for k in 0..cells {
+            let cell = &mut self.cells[k];
+            let scheduled = (k + cells - first) % cells < updates;
+            let (status, iterations) = if scheduled {
+                cell.run(s, &self.history, &mut self.work, k)
+            } else {
+                (cell.status, 0)
+            };
+            cell.status = status;
+            report(
+                k,
+                SampleReport {
+                    status,
+                    rejected: cell.last_rejection,
+                    iterations,
+                    rmse: cell.rmse,
+                },
+            );
+        }
+        self.next = (first + updates) % cells;
+        Ok(())
     }
 }

@@ -69,7 +69,7 @@ use super::{current_std, BatterySettings, CellModel, CellParameters, Prior, Star
 use crate::error::Error;
 use crate::frac::GlWeights;
 use crate::real::Real;
-use crate::window::SampleWindow;
+use crate::window::Window;
 
 /// Fewest fitted samples an iteration accepts.
 pub const MIN_ROWS: usize = 8;
@@ -208,6 +208,24 @@ pub struct OutputErrorRefinement<T, const N: usize, const MEM: usize> {
     /// the loaded window (the sensitivities still hold it).
     linear: Option<Linearization<T>>,
     work: RefinementWork,
+}
+
+/// The part of [`OutputErrorRefinement`] a cell keeps between iterations
+/// (small and `Copy`; the rest is working area).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RefinementState<T> {
+    p: CellParameters<T>,
+    lambda: T,
+    beta: T,
+    k: u32,
+    work: RefinementWork,
+}
+
+impl<T: Copy> RefinementState<T> {
+    /// The counters of the work done for this cell.
+    pub fn work(&self) -> RefinementWork {
+        self.work
+    }
 }
 
 /// `J₀ᵀJ₀` of an iteration (its upper triangle by rows), the estimate it
@@ -349,6 +367,42 @@ impl<T: Real, const N: usize, const MEM: usize> OutputErrorRefinement<T, N, MEM>
         Ok(())
     }
 
+    /// What this refinement carries between samples for one cell: the
+    /// estimate, the damping, the OCV slope and the counters. The rest of
+    /// the type is working area over the loaded window (and caches of it),
+    /// which a pack shares between its cells ([`resume`](Self::resume)
+    /// reloads it).
+    pub fn state(&self) -> RefinementState<T> {
+        RefinementState {
+            p: self.p,
+            lambda: self.lambda,
+            beta: self.beta,
+            k: self.k,
+            work: self.work,
+        }
+    }
+
+    /// Takes up a cell's [`state`](Self::state): the next iteration
+    /// continues that cell's refinement on whatever window it is given (the
+    /// working area is reloaded and resimulated).
+    ///
+    /// # Errors
+    /// [`Error::Frac`] for a bad period, order or memory; on error nothing
+    /// changes.
+    pub fn resume(&mut self, s: &BatterySettings<T>, st: &RefinementState<T>) -> Result<(), Error> {
+        self.w.set(st.p.alpha, s.h, s.memory)?;
+        self.p = st.p;
+        self.lambda = st.lambda;
+        self.beta = st.beta;
+        self.k = st.k;
+        self.work = st.work;
+        self.stamp = None;
+        self.fresh = false;
+        self.stalled = None;
+        self.linear = None;
+        Ok(())
+    }
+
     /// The current estimate.
     pub fn cell(&self) -> CellParameters<T> {
         self.p
@@ -391,7 +445,7 @@ impl<T: Real, const N: usize, const MEM: usize> OutputErrorRefinement<T, N, MEM>
         Some(self.p.u_oc + self.p.static_voltage(current) + up)
     }
 
-    fn load(&mut self, s: &BatterySettings<T>, win: &SampleWindow<T, N>) -> Result<(), Error> {
+    fn load(&mut self, s: &BatterySettings<T>, win: &impl Window<T>) -> Result<(), Error> {
         if self.w.h() != s.h || self.w.len() != s.memory {
             self.w.set(self.p.alpha, s.h, s.memory)?;
             self.stamp = None;
@@ -676,7 +730,7 @@ impl<T: Real, const N: usize, const MEM: usize> OutputErrorRefinement<T, N, MEM>
     pub fn iterate(
         &mut self,
         s: &BatterySettings<T>,
-        win: &SampleWindow<T, N>,
+        win: &impl Window<T>,
     ) -> Result<RefinementStep<T>, Error> {
         s.check::<MEM>()?;
         self.load(s, win)?;
@@ -886,7 +940,7 @@ impl<T: Real, const N: usize, const MEM: usize> OutputErrorRefinement<T, N, MEM>
     pub fn information(
         &mut self,
         s: &BatterySettings<T>,
-        win: &SampleWindow<T, N>,
+        win: &impl Window<T>,
     ) -> Result<FitInformation<T>, Error> {
         s.check::<MEM>()?;
         self.load(s, win)?;
@@ -1139,6 +1193,7 @@ fn window_cost<T: Real>(data: &WindowData<'_, T>, p: &CellParameters<T>, beta: T
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::window::SampleWindow;
 
     /// The simulated terminal voltage of `p`, β over the loaded window.
     fn predicted<const N: usize, const MEM: usize>(

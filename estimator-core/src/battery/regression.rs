@@ -49,7 +49,7 @@ use crate::error::Error;
 use crate::frac::GlWeights;
 use crate::gi::{Iteration, OrderStep, P0};
 use crate::real::{dot, norm, Real};
-use crate::window::SampleWindow;
+use crate::window::Window;
 
 /// Fewest regression rows an iteration accepts (four parameters and α).
 pub const MIN_ROWS: usize = 8;
@@ -167,6 +167,17 @@ pub struct PaperRegressionGi<T, const N: usize, const MEM: usize> {
     stamp: Option<(u32, usize, T)>,
 }
 
+/// The part of [`PaperRegressionGi`] a cell keeps between iterations
+/// (small and `Copy`; the rest is working area).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PaperRegressionState<T> {
+    theta: [T; 4],
+    alpha: T,
+    k: u32,
+    order_moves: u32,
+    vref: Option<T>,
+}
+
 impl<T: Real, const N: usize, const MEM: usize> PaperRegressionGi<T, N, MEM> {
     /// A new estimator with the paper's initial values `θ̂₀ = 1/p₀` and the
     /// initial order `alpha0`.
@@ -234,6 +245,42 @@ impl<T: Real, const N: usize, const MEM: usize> PaperRegressionGi<T, N, MEM> {
         Ok(())
     }
 
+    /// What this estimator carries between samples for one cell: θ̂, α̂,
+    /// the counters and the voltage centre. The rest of the type is working
+    /// area over the loaded window, which a pack shares between its cells
+    /// ([`resume`](Self::resume) reloads it).
+    pub fn state(&self) -> PaperRegressionState<T> {
+        PaperRegressionState {
+            theta: self.theta,
+            alpha: self.w.alpha(),
+            k: self.k,
+            order_moves: self.order_moves,
+            vref: self.vref,
+        }
+    }
+
+    /// Takes up a cell's [`state`](Self::state): the next iteration
+    /// continues that cell's iterations on whatever window it is given (the
+    /// working area is reloaded from it).
+    ///
+    /// # Errors
+    /// [`Error::Frac`] for a bad period, order or memory; on error nothing
+    /// changes.
+    pub fn resume(
+        &mut self,
+        s: &BatterySettings<T>,
+        st: &PaperRegressionState<T>,
+    ) -> Result<(), Error> {
+        self.w.set(st.alpha, s.h, s.memory)?;
+        self.theta = st.theta;
+        self.k = st.k;
+        self.order_moves = st.order_moves;
+        self.vref = st.vref;
+        self.stamp = None;
+        self.derivatives = false;
+        Ok(())
+    }
+
     /// θ̂ of the regression.
     pub fn theta(&self) -> &[T; 4] {
         &self.theta
@@ -294,7 +341,7 @@ impl<T: Real, const N: usize, const MEM: usize> PaperRegressionGi<T, N, MEM> {
     /// was pushed since the last load (the window's version moved by one) and α is unchanged, the known rows are
     /// shifted by one (if the window slid) and only the newest row is
     /// computed: `O(N + M)` instead of `O(N·M)`, with bit-identical values.
-    fn load(&mut self, s: &BatterySettings<T>, win: &SampleWindow<T, N>) -> Result<(), Error> {
+    fn load(&mut self, s: &BatterySettings<T>, win: &impl Window<T>) -> Result<(), Error> {
         if self.w.h() != s.h || self.w.len() != s.memory {
             self.w.set(self.w.alpha(), s.h, s.memory)?;
             self.stamp = None;
@@ -576,7 +623,7 @@ impl<T: Real, const N: usize, const MEM: usize> PaperRegressionGi<T, N, MEM> {
     pub fn iterate(
         &mut self,
         s: &BatterySettings<T>,
-        win: &SampleWindow<T, N>,
+        win: &impl Window<T>,
     ) -> Result<Iteration<T>, Error> {
         s.check::<MEM>()?;
         self.load(s, win)?;
@@ -709,6 +756,7 @@ impl<T: Real, const N: usize, const MEM: usize> PaperRegressionGi<T, N, MEM> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::window::SampleWindow;
 
     /// A pulse current and a made-up voltage with memory: enough to excite
     /// every regressor.

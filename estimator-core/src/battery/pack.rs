@@ -1,0 +1,252 @@
+//! The pack estimator: every series cell of a battery pack on one MCU.
+//!
+//! The cells of a series string share one current, so the pack keeps the
+//! current history once ([`CurrentHistory`]) and each cell only what it must
+//! carry between samples ([`CellState`]: its voltages in the same ring, its
+//! estimate, state of charge, counters and the iteration state of its
+//! estimators; under 2 KiB at `(L, M) = (256, 64)` in `f32`). The
+//! window-length arrays an iteration needs (regressors, simulations,
+//! sensitivities, trial steps) are in one [`WorkingArea`] shared by all
+//! cells: a cell is iterated at a time, and the area is reloaded when it
+//! passes to another cell.
+//!
+//! Every sample period ([`PackEstimator::push`]):
+//!
+//! 1. **Every cell takes its sample.** Each voltage is validated on its own
+//!    (the checks of [`super::online`]); a bad one is rejected, counted for
+//!    that cell and substituted, without touching the other cells. Nothing
+//!    is lost: every cell's window moves with the pack's current.
+//! 2. **Scheduled updates.** [`PackSettings::updates_per_period`] cells are
+//!    updated (each runs [`OnlineSettings::iterations_per_sample`]
+//!    iterations), round robin from where the last period stopped, so the
+//!    work of every period is the same bounded amount and every cell is
+//!    updated at least every `⌈cells / updates⌉` periods
+//!    ([`PackEstimator::refresh_periods`]).
+//! 3. **Health.** [`PackEstimator::health`] sets each cell's `R_i` and
+//!    `R_ct` beside the pack's median and flags a cell whose resistance
+//!    stands out by more than [`PackSettings::flag_ratio`] (an aged or
+//!    failing cell).
+//!
+//! The module owns the schedule and the health; the per-cell algorithm is
+//! [`super::online`]'s (a [`super::online::CellEstimator`] is the one-cell
+//! pack).
+
+use super::online::{
+    CellState, CellWindow, CurrentHistory, OnlineSettings, SampleReport, WorkingArea,
+};
+use super::CellParameters;
+use crate::error::Error;
+use crate::real::Real;
+
+/// Settings of a pack: the cells' online settings (one value for all
+/// cells), the schedule and the health threshold.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PackSettings<T, const P: usize = 0> {
+    /// The settings every cell runs with.
+    pub cell: OnlineSettings<T, P>,
+    /// Cell updates per sample period (the per-period budget: each costs
+    /// about the same, measured by `cargo xtask bench-target --cells`).
+    /// At least 1; more than the cells updates every cell every period.
+    pub updates_per_period: u16,
+    /// A cell is flagged when its `R_i` or `R_ct` is above the pack's median
+    /// by more than this fraction (0.3: 30 % above).
+    pub flag_ratio: T,
+}
+
+impl<T: Real, const P: usize> PackSettings<T, P> {
+    /// Every cell updated every period, cells flagged 30 % above the
+    /// median.
+    pub fn new(cell: OnlineSettings<T, P>) -> Self {
+        Self {
+            cell,
+            updates_per_period: u16::MAX,
+            flag_ratio: T::lit(0.3),
+        }
+    }
+}
+
+/// What one sample period did to the pack.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct PackReport {
+    /// Cells whose sample was rejected this period.
+    pub rejected: u16,
+    /// Cells updated this period.
+    pub updated: u16,
+    /// Iterations run this period (all cells).
+    pub iterations: u32,
+}
+
+/// Each cell beside the pack: the pack's median resistances and which
+/// cells stand out.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PackHealth<T> {
+    /// Median `R_i` (Ω) of the cells with an estimate.
+    pub median_r_i: T,
+    /// Median `R_ct` (Ω) of the cells with an estimate.
+    pub median_r_ct: T,
+    /// Cells with an estimate.
+    pub estimated: u16,
+}
+
+/// A pack of up to `CELLS` series cells sharing one current: window
+/// capacity `N`, memory capacity `MEM`.
+///
+/// ```
+/// use estimator_core::battery::online::{OnlineSettings, Status};
+/// use estimator_core::battery::pack::{PackEstimator, PackSettings};
+/// use estimator_core::battery::CellParameters;
+///
+/// let s = PackSettings::new(OnlineSettings::new(1.0, 16, CellParameters::<f32>::cell_18650()));
+/// let mut pack = PackEstimator::<f32, 64, 16, 4>::new(&s, 4).unwrap();
+/// let r = pack.push(&s, 1.0, &[3.7, 3.7, f32::NAN, 3.7]).unwrap();
+/// assert_eq!(r.rejected, 1);
+/// assert_eq!(pack.cell(2).unwrap().counts().non_finite, 1);
+/// assert_eq!(pack.cell(0).unwrap().counts().rejected(), 0);
+/// assert_eq!(pack.cell(0).unwrap().status(), Status::Filling);
+/// ```
+#[derive(Clone, Debug)]
+pub struct PackEstimator<T, const N: usize, const MEM: usize, const CELLS: usize> {
+    pub(super) history: CurrentHistory<T, N>,
+    pub(super) cells: [CellState<T, N>; CELLS],
+    /// Cells in use (`≤ CELLS`).
+    pub(super) active: usize,
+    pub(super) work: WorkingArea<T, N, MEM>,
+    /// The cell the next period's updates start at.
+    pub(super) next: usize,
+}
+
+impl<T: Real, const N: usize, const MEM: usize, const CELLS: usize>
+    PackEstimator<T, N, MEM, CELLS>
+{
+    /// A pack of `cells` cells (at most `CELLS`).
+    ///
+    /// # Errors
+    /// [`Error::CellCount`] for 0 or more than `CELLS` cells; settings
+    /// errors (as [`super::online::CellEstimator::new`]; a zero
+    /// `updates_per_period` or a flag ratio that is not positive is
+    /// [`Error::BadSetting`]).
+    pub fn new<const P: usize>(s: &PackSettings<T, P>, cells: usize) -> Result<Self, Error> {
+        if s.updates_per_period == 0 || !(s.flag_ratio > T::zero() && s.flag_ratio.is_finite()) {
+            return Err(Error::BadSetting);
+        }
+        Self::with_cells(&s.cell, cells)
+    }
+
+    /// Pushes one sample period: the pack's current (A, positive when
+    /// charging) and every cell's terminal voltage (V, cell 1 first), then
+    /// runs the period's scheduled cell updates. Never panics; never loses
+    /// a sample (a rejected voltage is counted for its cell and
+    /// substituted).
+    ///
+    /// # Errors
+    /// [`Error::CellCount`] when `voltages` does not have one voltage per
+    /// cell (nothing is pushed).
+    pub fn push<const P: usize>(
+        &mut self,
+        s: &PackSettings<T, P>,
+        current: T,
+        voltages: &[T],
+    ) -> Result<PackReport, Error> {
+        let mut r = PackReport::default();
+        self.push_with(
+            &s.cell,
+            usize::from(s.updates_per_period.max(1)),
+            current,
+            voltages,
+            |_, c: SampleReport<T>| {
+                r.rejected += u16::from(c.rejected.is_some());
+                r.updated += u16::from(c.iterations > 0);
+                r.iterations += u32::from(c.iterations);
+            },
+        )?;
+        Ok(r)
+    }
+
+    /// Cells in use.
+    pub fn cells(&self) -> usize {
+        self.active
+    }
+
+    /// Cell `k`'s state (0-based; `None` beyond the cells in use).
+    pub fn cell(&self, k: usize) -> Option<&CellState<T, N>> {
+        self.cells[..self.active].get(k)
+    }
+
+    /// Cell `k`'s state, to set its state of charge (0-based).
+    pub fn cell_mut(&mut self, k: usize) -> Option<&mut CellState<T, N>> {
+        self.cells[..self.active].get_mut(k)
+    }
+
+    /// Cell `k`'s window (the pack's currents with its voltages). Cell
+    /// indices beyond the cells in use give the last cell's.
+    pub fn window(&self, k: usize) -> CellWindow<'_, T, N> {
+        let k = k.min(self.active - 1);
+        CellWindow::new(&self.history, &self.cells[k])
+    }
+
+    /// The longest run of periods between two updates of a cell:
+    /// `⌈cells / updates_per_period⌉`.
+    pub fn refresh_periods<const P: usize>(&self, s: &PackSettings<T, P>) -> usize {
+        let u = usize::from(s.updates_per_period.max(1)).min(self.active);
+        self.active.div_ceil(u)
+    }
+
+    /// The pack's median `R_i` and `R_ct` over the cells with an estimate
+    /// (`None` before any has one).
+    pub fn health(&self) -> Option<PackHealth<T>> {
+        let mut r_i = [T::zero(); CELLS];
+        let mut r_ct = [T::zero(); CELLS];
+        let mut n = 0;
+        for p in self.cells[..self.active]
+            .iter()
+            .filter_map(|c| c.estimate())
+        {
+            r_i[n] = p.r_i;
+            r_ct[n] = p.r_ct;
+            n += 1;
+        }
+        if n == 0 {
+            return None;
+        }
+        Some(PackHealth {
+            median_r_i: median(&mut r_i[..n]),
+            median_r_ct: median(&mut r_ct[..n]),
+            estimated: n as u16,
+        })
+    }
+
+    /// True when cell `k` has an estimate whose `R_i` or `R_ct` is above
+    /// the pack's median by more than [`PackSettings::flag_ratio`].
+    pub fn is_flagged<const P: usize>(
+        &self,
+        s: &PackSettings<T, P>,
+        health: &PackHealth<T>,
+        k: usize,
+    ) -> bool {
+        let limit = T::one() + s.flag_ratio;
+        self.cell(k)
+            .and_then(|c| c.estimate())
+            .is_some_and(|p: CellParameters<T>| {
+                p.r_i > limit * health.median_r_i || p.r_ct > limit * health.median_r_ct
+            })
+    }
+}
+
+/// The median of `x` (sorted in place; the mean of the middle two for an
+/// even count). Insertion sort: a pack has at most a few hundred cells.
+fn median<T: Real>(x: &mut [T]) -> T {
+    for k in 1..x.len() {
+        let mut j = k;
+        while j > 0 && x[j - 1] > x[j] {
+            x.swap(j - 1, j);
+            j -= 1;
+        }
+    }
+    let n = x.len();
+    if n % 2 == 1 {
+        x[n / 2]
+    } else {
+        (x[n / 2 - 1] + x[n / 2]) / T::lit(2.0)
+    }
+}

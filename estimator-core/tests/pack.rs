@@ -1,0 +1,249 @@
+//! The pack estimator: per-cell state size, the shared working area (a cell
+//! gets the same estimate in a pack as alone), rejection per cell, the
+//! schedule and the health flag.
+
+use estimator_core::battery::online::{CellEstimator, CellState, OnlineSettings, Status};
+use estimator_core::battery::pack::{PackEstimator, PackSettings};
+use estimator_core::battery::profile::Profile;
+use estimator_core::battery::simulate::simulate;
+use estimator_core::battery::CellParameters;
+use estimator_core::frac::GlWeights;
+use estimator_core::Error;
+use rand::SeedableRng;
+use rand_distr::{Distribution, Normal};
+
+/// Terminal voltage of `p` for `current` from rest, full memory, plus white
+/// noise σ.
+fn record(p: &CellParameters<f64>, current: &[f64], sigma: f64, seed: u64) -> Vec<f64> {
+    let mut w = Box::new(GlWeights::<f64, 4096>::new(p.alpha, 1.0, current.len()).unwrap());
+    let (mut up, mut v) = (vec![0.0; current.len()], vec![0.0; current.len()]);
+    simulate(p, &mut w, current, |_| p.u_oc, &mut up, &mut v).unwrap();
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    let nd = Normal::new(0.0, sigma).unwrap();
+    v.iter().map(|x| x + nd.sample(&mut rng)).collect()
+}
+
+fn pulse(len: usize) -> Vec<f64> {
+    (0..len)
+        .map(|l| Profile::Pulse.current(l as f64, 6.0))
+        .collect()
+}
+
+fn rel(a: f64, b: f64) -> f64 {
+    (a / b - 1.0).abs()
+}
+
+#[test]
+fn a_cell_keeps_under_2_kib_at_256_64_in_f32() {
+    use estimator_core::battery::online::{CurrentHistory, WorkingArea};
+    let cell = core::mem::size_of::<CellState<f32, 256>>();
+    let work = core::mem::size_of::<WorkingArea<f32, 256, 64>>();
+    let hist = core::mem::size_of::<CurrentHistory<f32, 256>>();
+    let pack16 = core::mem::size_of::<PackEstimator<f32, 256, 64, 16>>();
+    println!(
+        "size_of: per cell {cell} B, working area {work} B, current history {hist} B, \
+         16-cell pack {pack16} B"
+    );
+    assert!(cell <= 2048, "{cell}");
+    // The pack is its cells plus one shared part (no per-cell copy of the
+    // working area).
+    assert!(pack16 <= 16 * cell + work + hist + 64, "{pack16}");
+}
+
+#[test]
+fn a_cell_in_a_pack_gets_the_estimate_it_gets_alone() {
+    // Four cells with their own parameters and noise share the working
+    // area; each must follow, bit for bit, its own single-cell estimator.
+    let base = CellParameters::<f64>::cell_18650();
+    let i = pulse(900);
+    let cells: Vec<CellParameters<f64>> = (0..4)
+        .map(|k| CellParameters {
+            r_i: base.r_i * (0.9 + 0.07 * k as f64),
+            r_ct: base.r_ct * (1.1 - 0.05 * k as f64),
+            ..base
+        })
+        .collect();
+    let v: Vec<Vec<f64>> = cells
+        .iter()
+        .enumerate()
+        .map(|(k, p)| record(p, &i, 0.001, 10 + k as u64))
+        .collect();
+    let s = PackSettings::new(OnlineSettings::new(1.0, 32, base));
+    let mut pack = Box::new(PackEstimator::<f64, 128, 32, 4>::new(&s, 4).unwrap());
+    let mut alone: Vec<_> = (0..4)
+        .map(|_| Box::new(CellEstimator::<f64, 128, 32>::new(&s.cell).unwrap()))
+        .collect();
+    for l in 0..i.len() {
+        let volts: Vec<f64> = v.iter().map(|x| x[l]).collect();
+        pack.push(&s, i[l], &volts).unwrap();
+        for (k, est) in alone.iter_mut().enumerate() {
+            let r = est.push(&s.cell, i[l], v[k][l]);
+            assert_eq!(
+                pack.cell(k).unwrap().status(),
+                r.status,
+                "cell {k} sample {l}"
+            );
+            assert_eq!(
+                pack.cell(k).unwrap().estimate(),
+                est.estimate(),
+                "cell {k} sample {l}"
+            );
+        }
+    }
+    for (k, est) in alone.iter().enumerate() {
+        let p = est.estimate().expect("an estimate");
+        assert_eq!(est.status(), Status::Tracking);
+        assert!(rel(p.r_i, cells[k].r_i) < 0.05, "cell {k}: {p:?}");
+    }
+    // The four cells were told apart: distinct R_i.
+    let r: Vec<f64> = (0..4)
+        .map(|k| pack.cell(k).unwrap().estimate().unwrap().r_i)
+        .collect();
+    assert!(r.windows(2).all(|w| w[1] > w[0]), "{r:?}");
+}
+
+#[test]
+fn a_bad_voltage_is_rejected_for_its_cell_only() {
+    let p = CellParameters::<f64>::cell_18650();
+    let i = pulse(600);
+    let v = record(&p, &i, 0.001, 3);
+    let s = PackSettings::new(OnlineSettings::new(1.0, 32, p));
+    let mut pack = Box::new(PackEstimator::<f64, 128, 32, 3>::new(&s, 3).unwrap());
+    let mut clean = Box::new(CellEstimator::<f64, 128, 32>::new(&s.cell).unwrap());
+    for l in 0..i.len() {
+        // Cell 2: a NaN, an out-of-range value and spikes.
+        let bad = match l {
+            100 => f64::NAN,
+            200 => 9.0,
+            400 | 450 | 500 => v[l] + 0.3,
+            _ => v[l],
+        };
+        let r = pack.push(&s, i[l], &[v[l], v[l], bad]).unwrap();
+        assert_eq!(r.rejected, u16::from(bad != v[l]), "sample {l}");
+        clean.push(&s.cell, i[l], v[l]);
+        for k in 0..2 {
+            assert_eq!(
+                pack.cell(k).unwrap().estimate(),
+                clean.estimate(),
+                "sample {l}"
+            );
+        }
+    }
+    let c = pack.cell(2).unwrap().counts();
+    assert_eq!(
+        (c.samples, c.non_finite, c.out_of_range, c.spikes),
+        (600, 1, 1, 3)
+    );
+    assert_eq!(pack.cell(0).unwrap().counts().rejected(), 0);
+    assert_eq!(pack.window(2).pushed(), 600, "no sample lost");
+    let (a, b) = (
+        pack.cell(0).unwrap().estimate().unwrap(),
+        pack.cell(2).unwrap().estimate().unwrap(),
+    );
+    assert!(rel(b.r_ct, a.r_ct) < 0.05, "{a:?} {b:?}");
+}
+
+#[test]
+fn the_schedule_updates_a_bounded_number_of_cells_and_every_cell() {
+    let p = CellParameters::<f64>::cell_18650();
+    let i = pulse(1200);
+    let v = record(&p, &i, 0.001, 5);
+    let mut s = PackSettings::new(OnlineSettings::new(1.0, 16, p));
+    s.updates_per_period = 2;
+    let mut pack = Box::new(PackEstimator::<f64, 128, 16, 5>::new(&s, 5).unwrap());
+    assert_eq!(pack.refresh_periods(&s), 3);
+    let work = |pack: &PackEstimator<f64, 128, 16, 5>| -> Vec<u32> {
+        (0..5)
+            .map(|k| pack.cell(k).unwrap().refinement_work().iterations)
+            .collect()
+    };
+    let mut last = [0usize; 5];
+    let mut longest = 0;
+    for l in 0..i.len() {
+        let before = work(&pack);
+        let r = pack.push(&s, i[l], &[v[l]; 5]).unwrap();
+        if l < 600 {
+            continue;
+        }
+        // Past the start-up, all cells refine: exactly the budget, every
+        // period, and no cell waits longer than ⌈5/2⌉ periods.
+        assert!((0..5).all(|k| pack.cell(k).unwrap().is_refining()));
+        assert_eq!((r.updated, r.iterations), (2, 2), "sample {l}");
+        let after = work(&pack);
+        let moved: Vec<usize> = (0..5).filter(|&k| after[k] != before[k]).collect();
+        assert_eq!(moved.len(), 2, "sample {l}");
+        for k in moved {
+            if l >= 610 {
+                longest = longest.max(l - last[k]);
+            }
+            last[k] = l;
+        }
+    }
+    assert_eq!(longest, 3, "the longest wait");
+    assert!((0..5).all(|k| pack.cell(k).unwrap().estimate().is_some()));
+}
+
+#[test]
+fn the_aged_cell_is_flagged() {
+    let base = CellParameters::<f64>::cell_18650();
+    let i = pulse(700);
+    let spread = [1.0, 0.93, 1.07, 0.97, 1.04, 0.95];
+    let mut cells: Vec<CellParameters<f64>> = spread
+        .iter()
+        .map(|&f| CellParameters {
+            r_i: base.r_i * f,
+            r_ct: base.r_ct * (2.0 - f),
+            ..base
+        })
+        .collect();
+    cells[4].r_i *= 1.6;
+    cells[4].r_ct *= 1.6;
+    let v: Vec<Vec<f64>> = cells
+        .iter()
+        .enumerate()
+        .map(|(k, p)| record(p, &i, 0.001, 20 + k as u64))
+        .collect();
+    let s = PackSettings::new(OnlineSettings::new(1.0, 32, base));
+    let mut pack = Box::new(PackEstimator::<f64, 128, 32, 8>::new(&s, 6).unwrap());
+    for l in 0..i.len() {
+        let volts: Vec<f64> = v.iter().map(|x| x[l]).collect();
+        pack.push(&s, i[l], &volts).unwrap();
+    }
+    let h = pack.health().expect("estimates");
+    assert_eq!(h.estimated, 6);
+    let flagged: Vec<usize> = (0..6).filter(|&k| pack.is_flagged(&s, &h, k)).collect();
+    assert_eq!(flagged, vec![4], "{h:?}");
+    assert!(rel(h.median_r_i, base.r_i) < 0.1, "{h:?}");
+}
+
+#[test]
+fn wrong_cell_counts_are_typed_errors() {
+    let s = PackSettings::new(OnlineSettings::new(
+        1.0,
+        16,
+        CellParameters::<f32>::cell_18650(),
+    ));
+    assert_eq!(
+        PackEstimator::<f32, 64, 16, 4>::new(&s, 5).err(),
+        Some(Error::CellCount {
+            given: 5,
+            expected: 4
+        })
+    );
+    assert!(PackEstimator::<f32, 64, 16, 4>::new(&s, 0).is_err());
+    let mut pack = PackEstimator::<f32, 64, 16, 4>::new(&s, 3).unwrap();
+    assert_eq!(
+        pack.push(&s, 1.0, &[3.7; 4]).err(),
+        Some(Error::CellCount {
+            given: 4,
+            expected: 3
+        })
+    );
+    assert_eq!(pack.cell(0).unwrap().counts().samples, 0, "nothing pushed");
+    let mut bad = s;
+    bad.updates_per_period = 0;
+    assert_eq!(
+        PackEstimator::<f32, 64, 16, 4>::new(&bad, 3).err(),
+        Some(Error::BadSetting)
+    );
+}
