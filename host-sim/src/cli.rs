@@ -34,6 +34,9 @@ enum SimulateCmd {
     Hammerstein(SimHammersteinArgs),
     /// The fractional battery model of §6.2; writes `time_s,current_a,voltage_v,soc`.
     Battery(SimBatteryArgs),
+    /// A series pack of cells sharing one current; writes
+    /// `time_s,current_a,cell_1_v,…,cell_N_v` and the truth beside it as JSON.
+    Pack(SimPackArgs),
 }
 
 #[derive(Subcommand, Debug)]
@@ -48,6 +51,9 @@ enum IdentifyCmd {
 enum OnlineCmd {
     /// Track a cell's parameters over a sliding window, as the firmware does.
     Battery(OnlineBatteryArgs),
+    /// Track every cell of a pack record (`time_s,current_a,cell_1_v,…`),
+    /// as the firmware's pack estimator does.
+    Pack(OnlinePackArgs),
 }
 
 /// `simulate hammerstein`.
@@ -125,6 +131,87 @@ pub struct SimBatteryArgs {
     #[arg(long)]
     pub bv_i0: Option<f64>,
     /// Output CSV.
+    #[arg(long)]
+    pub out: PathBuf,
+}
+
+/// `simulate pack`.
+#[derive(clap::Args, Debug)]
+pub struct SimPackArgs {
+    /// Cells in series.
+    #[arg(long)]
+    pub cells: usize,
+    /// paper (§6.2, ±150 A) or cell (18650-like, ±6 A).
+    #[arg(long, value_parser = ["paper", "cell"], default_value = "cell")]
+    pub preset: String,
+    /// Current profile.
+    #[arg(long, value_parser = ["pulse", "hppc", "drive"], default_value = "pulse")]
+    pub profile: String,
+    /// Spread of R_i, R_ct and Q between cells: each is the preset's times
+    /// 1 + u, u uniform in [−S, S] (0.1: ±10 %).
+    #[arg(long, default_value_t = 0.0)]
+    pub spread: f64,
+    /// An aged cell (1-based): its R_i and R_ct times --aged-factor.
+    #[arg(long)]
+    pub aged: Option<usize>,
+    /// How much larger the aged cell's R_i and R_ct are.
+    #[arg(long, default_value_t = 1.5)]
+    pub aged_factor: f64,
+    /// Voltage noise σ (V) of every cell; default: the preset's.
+    #[arg(long)]
+    pub sigma: Option<f64>,
+    /// Current amplitude of the profile (A; default: the preset's).
+    #[arg(long)]
+    pub amplitude: Option<f64>,
+    /// Number of samples.
+    #[arg(long, default_value_t = 1000)]
+    pub length: usize,
+    /// Random seed (the spread and every cell's noise).
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Sample period (s).
+    #[arg(long, default_value_t = 1.0)]
+    pub h: f64,
+    /// Output CSV; the truth goes beside it as FILE.json (`cells`: cell,
+    /// r_i, r_ct, q, alpha, u_oc, aged).
+    #[arg(long)]
+    pub out: PathBuf,
+}
+
+/// `online pack`.
+#[derive(clap::Args, Debug)]
+pub struct OnlinePackArgs {
+    /// Input CSV with columns time_s,current_a,cell_1_v,…,cell_N_v.
+    #[arg(long)]
+    pub input: PathBuf,
+    /// Window length L (one of 64, 128, 256, 512, 1024).
+    #[arg(long, default_value_t = 256)]
+    pub window: usize,
+    /// Memory M (default L/4).
+    #[arg(long)]
+    pub memory: Option<usize>,
+    /// Iterations per cell update.
+    #[arg(long, default_value_t = 1)]
+    pub iterations_per_sample: u16,
+    /// Cell updates per sample period, round robin (default: every cell
+    /// every period).
+    #[arg(long)]
+    pub updates_per_period: Option<u16>,
+    /// Flag a cell whose R_i or R_ct is above the pack's median by more
+    /// than this fraction.
+    #[arg(long, default_value_t = 0.3)]
+    pub flag_ratio: f64,
+    /// Arithmetic of the estimator: `f64`, or `f32` as the firmware runs it.
+    #[arg(long, value_enum, default_value = "f64")]
+    pub precision: Precision,
+    /// Where the model starts in the window (as `online battery`).
+    #[arg(long, value_enum, default_value = "from-data")]
+    pub start: StartArg,
+    /// Output CSV in long format, one row per cell and sample:
+    /// `time_s,cell,r_i,r_ct,q,alpha,u_oc,status,rejected,flagged` (cell
+    /// 1-based; the estimate empty before the cell's first; status as in
+    /// `online battery`; rejected 1 when this sample of the cell was
+    /// rejected; flagged 1 when the cell stands out from the median).
     #[arg(long)]
     pub out: PathBuf,
 }
@@ -419,6 +506,8 @@ fn run(cli: Cli) -> Result<()> {
         Command::Identify(IdentifyCmd::Hammerstein(a)) => crate::identify::hammerstein(&a),
         Command::Identify(IdentifyCmd::Battery(a)) => crate::identify::battery(&a),
         Command::Online(OnlineCmd::Battery(a)) => crate::online::battery(&a),
+        Command::Simulate(SimulateCmd::Pack(a)) => crate::pack::simulate(&a),
+        Command::Online(OnlineCmd::Pack(a)) => crate::pack::online(&a),
         Command::Reproduce(a) => crate::reproduce::run(&a),
     }
 }

@@ -98,6 +98,27 @@ pub fn read_battery(path: &Path, max_rows: Option<usize>) -> Result<BatteryRecor
             time.len()
         );
     }
+    let h = uniform_step(path, &time)?;
+    Ok(BatteryRecord {
+        time,
+        current,
+        voltage,
+        h,
+    })
+}
+
+/// Writes a file atomically: `fill` writes into a temporary file next to
+/// `path`, which is renamed over `path` only if `fill` succeeds.
+/// The sample period of a `time_s` column: its first step, which every
+/// step must repeat (to 1 ppm).
+pub fn uniform_step(path: &Path, time: &[f64]) -> Result<f64> {
+    if time.len() < 2 {
+        bail!(
+            "{}: {} data rows; at least 2 are needed",
+            path.display(),
+            time.len()
+        );
+    }
     let h = time[1] - time[0];
     if h.is_nan() || h <= 0.0 {
         bail!(
@@ -117,16 +138,9 @@ pub fn read_battery(path: &Path, max_rows: Option<usize>) -> Result<BatteryRecor
             );
         }
     }
-    Ok(BatteryRecord {
-        time,
-        current,
-        voltage,
-        h,
-    })
+    Ok(h)
 }
 
-/// Writes a file atomically: `fill` writes into a temporary file next to
-/// `path`, which is renamed over `path` only if `fill` succeeds.
 pub fn write_atomic(path: &Path, fill: impl FnOnce(&mut dyn Write) -> Result<()>) -> Result<()> {
     let tmp = temp_path(path);
     let res = (|| {

@@ -11,6 +11,7 @@ pub mod identify;
 pub mod io;
 pub mod ocv;
 pub mod online;
+pub mod pack;
 pub mod plot;
 pub mod presets;
 pub mod progress;

@@ -136,7 +136,8 @@ impl TrackOptions<'_> {
         }
     }
 
-    fn settings<T: Real>(&self, h: f64) -> Result<OnlineSettings<T, OCV_POINTS>> {
+    /// The core's settings for sample period `h`.
+    pub(crate) fn settings<T: Real>(&self, h: f64) -> Result<OnlineSettings<T, OCV_POINTS>> {
         let mut s = OnlineSettings::new(T::lit(h), self.memory, CellParameters::cell_18650());
         s.battery.start = match self.start {
             StartArg::FromData => Start::FromData,

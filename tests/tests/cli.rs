@@ -786,3 +786,112 @@ fn butler_volmer_model_is_chosen_when_the_data_identify_it() {
         "{err}"
     );
 }
+
+#[test]
+fn pack_round_trip_tracks_every_cell_and_flags_the_aged_one() {
+    let csv = tmp("pack.csv");
+    let track = tmp("pack-track.csv");
+    let o = run(&[
+        "simulate",
+        "pack",
+        "--cells",
+        "8",
+        "--preset",
+        "cell",
+        "--profile",
+        "pulse",
+        "--spread",
+        "0.1",
+        "--aged",
+        "3",
+        "--sigma",
+        "0.001",
+        "--length",
+        "2000",
+        "--seed",
+        "1",
+        "--out",
+        s(&csv),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let want = "time_s,current_a,cell_1_v,cell_2_v,cell_3_v,cell_4_v,cell_5_v,cell_6_v,cell_7_v,cell_8_v\n";
+    assert!(text.starts_with(want), "{}", &text[..120]);
+    let truth = read_json(&csv.with_extension("json"));
+    let cells = truth["cells"].as_array().unwrap();
+    assert_eq!(cells.len(), 8);
+    assert_eq!(cells[2]["aged"], true);
+    // The spread is there, and the aged cell is 1.5x on top of it.
+    let r_i: Vec<f64> = cells.iter().map(|c| c["r_i"].as_f64().unwrap()).collect();
+    assert!(
+        r_i.iter()
+            .all(|&r| (r / 0.02 - 1.0).abs() <= 0.1 || r > 0.027),
+        "{r_i:?}"
+    );
+    assert!(r_i[2] > 1.5 * 0.9 * 0.02, "{r_i:?}");
+
+    let o = run(&[
+        "online",
+        "pack",
+        "--input",
+        s(&csv),
+        "--window",
+        "256",
+        "--out",
+        s(&track),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let t = std::fs::read_to_string(&track).unwrap();
+    let mut lines = t.lines();
+    let head = lines.next().unwrap();
+    assert!(
+        head.starts_with("time_s,cell,r_i,r_ct,q,alpha,u_oc,status"),
+        "{head}"
+    );
+    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+    assert_eq!(rows.len(), 8 * 2000, "one row per cell and sample");
+    for (k, row) in rows[rows.len() - 8..].iter().enumerate() {
+        assert_eq!(row[1], (k + 1).to_string());
+        assert_eq!(row[7], "tracking", "{row:?}");
+        let est = |c: usize| row[c].parse::<f64>().unwrap();
+        let tru = |key: &str| cells[k][key].as_f64().unwrap();
+        assert!(
+            (est(2) / tru("r_i") - 1.0).abs() < 0.05,
+            "cell {}: {row:?}",
+            k + 1
+        );
+        // Not asserted yet: R_ct, Q, α. At memory 64 the window's fit
+        // carries the short-memory bias (on this record R_ct −12.7 % for the
+        // aged cell, −13.5 % for cell 4), issue 17 item 4; the pack's
+        // acceptance test (every cell within R_i 5 %, R_ct 10 %, Q 15 %,
+        // α 0.05) comes with its reduction.
+        // Only the aged cell is flagged.
+        assert_eq!(
+            row[9],
+            if k == 2 { "1" } else { "0" },
+            "cell {}: {row:?}",
+            k + 1
+        );
+    }
+
+    // A file that is not a pack record: one line, non-zero exit.
+    let single = tmp("single.csv");
+    std::fs::write(&single, "time_s,current_a,voltage_v\n0,1,3.7\n1,1,3.7\n").unwrap();
+    let o = run(&["online", "pack", "--input", s(&single), "--out", s(&track)]);
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+    assert!(err.contains("cell_1_v"), "{err}");
+    let o = run(&[
+        "simulate",
+        "pack",
+        "--cells",
+        "4",
+        "--aged",
+        "5",
+        "--out",
+        s(&tmp("bad.csv")),
+    ]);
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("--aged 5"));
+}

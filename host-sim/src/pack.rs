@@ -1,0 +1,406 @@
+//! `simulate pack` and `online pack`: a series string of cells that share
+//! one current.
+//!
+//! A pack record is `time_s,current_a,cell_1_v,…,cell_N_v` (current positive
+//! when charging). `online pack` runs the core's
+//! [`estimator_core::battery::pack::PackEstimator`], the same code the
+//! firmware runs.
+
+use crate::cli::{OnlinePackArgs, Precision, SimPackArgs};
+use crate::io::{self, OCV_POINTS};
+use crate::online::TrackOptions;
+use crate::presets;
+use crate::simulate::{battery_data, Current, OcvCurve};
+use anyhow::{anyhow, bail, Context, Result};
+use estimator_core::battery::online::OnlineSettings;
+use estimator_core::battery::pack::{PackEstimator, PackSettings};
+use estimator_core::battery::CellParameters;
+use estimator_core::Real;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use std::path::{Path, PathBuf};
+
+/// Most cells `online pack` takes (the host's pack capacity).
+pub const MAX_CELLS: usize = 256;
+
+/// A pack record.
+pub struct PackRecord {
+    /// Time (s).
+    pub time: Vec<f64>,
+    /// The pack current (A, positive when charging).
+    pub current: Vec<f64>,
+    /// Every cell's terminal voltage (V), cell 1 first.
+    pub cells: Vec<Vec<f64>>,
+    /// Sample period (s).
+    pub h: f64,
+}
+
+/// The columns of a pack record with `cells` cells.
+pub fn header(cells: usize) -> Vec<String> {
+    let mut h = vec!["time_s".to_string(), "current_a".to_string()];
+    h.extend((1..=cells).map(|k| format!("cell_{k}_v")));
+    h
+}
+
+/// Reads a pack record: `time_s`, `current_a` and `cell_1_v`, `cell_2_v`, …
+/// (as many as the header has, in order from 1).
+pub fn read_pack(path: &Path) -> Result<PackRecord> {
+    let first = std::fs::File::open(path)
+        .with_context(|| format!("{}: cannot open", path.display()))
+        .and_then(|f| {
+            let mut line = String::new();
+            std::io::BufRead::read_line(&mut std::io::BufReader::new(f), &mut line)
+                .with_context(|| format!("{}: cannot read", path.display()))?;
+            Ok(line)
+        })?;
+    let names: Vec<&str> = first.trim().split(',').map(str::trim).collect();
+    let cells = (1..)
+        .take_while(|k| names.contains(&format!("cell_{k}_v").as_str()))
+        .count();
+    if cells == 0 {
+        bail!(
+            "{}: row 1: no column `cell_1_v` (expected header time_s,current_a,cell_1_v,…,cell_N_v)",
+            path.display()
+        );
+    }
+    let wanted = header(cells);
+    let refs: Vec<&str> = wanted.iter().map(String::as_str).collect();
+    let mut c = io::read_columns(path, &refs, None)?;
+    let volts = c.data.split_off(2);
+    let current = c.data.pop().unwrap_or_default();
+    let time = c.data.pop().unwrap_or_default();
+    let h = io::uniform_step(path, &time)?;
+    Ok(PackRecord {
+        time,
+        current,
+        cells: volts,
+        h,
+    })
+}
+
+/// The JSON file written beside `out` (`pack.csv` → `pack.json`).
+pub fn truth_path(out: &Path) -> PathBuf {
+    out.with_extension("json")
+}
+
+/// Each cell's parameters: the preset's `R_i`, `R_ct` and `Q`, each times
+/// `1 + u` with `u` uniform in `[−spread, spread]` (seeded), and cell
+/// `aged` (1-based) with `R_i`, `R_ct` times `aged_factor` on top.
+pub fn pack_cells(
+    base: &CellParameters<f64>,
+    cells: usize,
+    spread: f64,
+    aged: Option<usize>,
+    aged_factor: f64,
+    seed: u64,
+) -> Vec<CellParameters<f64>> {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x005E_ED0F_CE11);
+    (1..=cells)
+        .map(|k| {
+            let mut f = || 1.0 + spread * (2.0 * rng.random::<f64>() - 1.0);
+            let mut p = CellParameters {
+                r_i: base.r_i * f(),
+                r_ct: base.r_ct * f(),
+                q: base.q * f(),
+                ..*base
+            };
+            if aged == Some(k) {
+                p.r_i *= aged_factor;
+                p.r_ct *= aged_factor;
+            }
+            p
+        })
+        .collect()
+}
+
+// Not inlined into `cli::run` (see `simulate::battery`).
+#[inline(never)]
+pub(crate) fn simulate(a: &SimPackArgs) -> Result<()> {
+    let preset = presets::battery(&a.preset).context("unknown preset")?;
+    let profile = presets::profile(&a.profile).context("unknown profile")?;
+    if a.cells == 0 || a.cells > MAX_CELLS {
+        bail!("--cells {}: must be in 1..={MAX_CELLS}", a.cells);
+    }
+    if a.length < 2 {
+        bail!("--length must be at least 2");
+    }
+    if !(a.spread.is_finite() && (0.0..0.5).contains(&a.spread)) {
+        bail!("--spread {}: must be in [0, 0.5)", a.spread);
+    }
+    if a.aged.is_some_and(|k| k == 0 || k > a.cells) {
+        bail!(
+            "--aged {}: must be a cell in 1..={}",
+            a.aged.unwrap_or(0),
+            a.cells
+        );
+    }
+    if !(a.aged_factor.is_finite() && a.aged_factor >= 1.0) {
+        bail!("--aged-factor {}: must be at least 1", a.aged_factor);
+    }
+    let sigma = a.sigma.unwrap_or(preset.sigma);
+    let amplitude = a.amplitude.unwrap_or(preset.amplitude);
+    if !(amplitude.is_finite() && amplitude >= 0.0) {
+        bail!("--amplitude {amplitude}: must be finite and ≥ 0");
+    }
+    let cells = pack_cells(
+        &preset.cell,
+        a.cells,
+        a.spread,
+        a.aged,
+        a.aged_factor,
+        a.seed,
+    );
+    let drive = Current {
+        profile,
+        amplitude,
+        mean: 0.0,
+    };
+    let mut volts = Vec::with_capacity(a.cells);
+    let mut current = Vec::new();
+    for (k, p) in cells.iter().enumerate() {
+        // Each cell its own noise.
+        let seed = a.seed.wrapping_mul(1_000).wrapping_add(k as u64 + 1);
+        let d = battery_data(p, drive, sigma, a.length, seed, a.h, OcvCurve::Constant)?;
+        current = d.current;
+        volts.push(d.voltage);
+    }
+    io::write_csv(
+        &a.out,
+        &header(a.cells)
+            .iter()
+            .map(String::as_str)
+            .collect::<Vec<_>>(),
+        (0..a.length).map(|l| {
+            let mut row = vec![format!("{}", l as f64 * a.h), format!("{}", current[l])];
+            row.extend(volts.iter().map(|v| format!("{:.9}", v[l])));
+            row
+        }),
+    )?;
+    let truth = serde_json::json!({
+        "cells": cells.iter().enumerate().map(|(k, p)| serde_json::json!({
+            "cell": k + 1,
+            "r_i": p.r_i,
+            "r_ct": p.r_ct,
+            "q": p.q,
+            "alpha": p.alpha,
+            "u_oc": p.u_oc,
+            "aged": a.aged == Some(k + 1),
+        })).collect::<Vec<_>>(),
+        "preset": a.preset,
+        "profile": a.profile,
+        "spread": a.spread,
+        "aged": a.aged,
+        "aged_factor": a.aged_factor,
+        "sigma": sigma,
+        "length": a.length,
+        "h": a.h,
+        "seed": a.seed,
+    });
+    let json = truth_path(&a.out);
+    io::write_atomic(&json, |w| {
+        writeln!(w, "{}", serde_json::to_string_pretty(&truth)?)?;
+        Ok(())
+    })?;
+    eprintln!(
+        "wrote {} rows of {} cells to {} (truth: {})",
+        a.length,
+        a.cells,
+        a.out.display(),
+        json.display()
+    );
+    Ok(())
+}
+
+/// One row of a pack track: a cell after a sample.
+#[derive(Clone, Copy, Debug)]
+pub struct PackRow {
+    /// Time (s).
+    pub t: f64,
+    /// Cell (1-based).
+    pub cell: usize,
+    /// Its estimate after this sample.
+    pub estimate: Option<CellParameters<f64>>,
+    /// Its status name.
+    pub status: &'static str,
+    /// Its sample of this period was rejected.
+    pub rejected: bool,
+    /// It stands out from the pack's median (after this sample).
+    pub flagged: bool,
+}
+
+/// What a pack run ended with: per cell, samples rejected.
+#[derive(Clone, Debug, Default)]
+pub struct PackSummary {
+    /// Samples (periods).
+    pub samples: u64,
+    /// Rejected samples per cell.
+    pub rejected: Vec<u32>,
+    /// Iterations run (all cells).
+    pub iterations: u64,
+}
+
+/// How `online pack` runs: the cell settings of `online battery` and the
+/// schedule.
+#[derive(Clone, Copy, Debug)]
+pub struct PackOptions<'a> {
+    /// The per-cell settings.
+    pub track: TrackOptions<'a>,
+    /// Cell updates per sample period.
+    pub updates_per_period: u16,
+    /// The flag threshold (fraction above the median).
+    pub flag_ratio: f64,
+}
+
+/// Runs the pack estimator over `rec`, calling `sink` for every cell after
+/// every sample.
+pub fn track_pack(
+    rec: &PackRecord,
+    o: &PackOptions,
+    sink: impl FnMut(PackRow) -> Result<()>,
+) -> Result<PackSummary> {
+    let (window, memory) = (o.track.window, o.track.memory);
+    if memory == 0 || memory + 8 > window {
+        bail!(
+            "--memory {memory}: must be in 1..={}",
+            window.saturating_sub(8)
+        );
+    }
+    if rec.cells.len() > MAX_CELLS {
+        bail!("{} cells: at most {MAX_CELLS}", rec.cells.len());
+    }
+    if o.updates_per_period == 0 {
+        bail!("--updates-per-period must be at least 1");
+    }
+    if !(o.flag_ratio.is_finite() && o.flag_ratio > 0.0) {
+        bail!("--flag-ratio {}: must be positive", o.flag_ratio);
+    }
+    match o.track.precision {
+        Precision::F64 => sized(&o.track.settings::<f64>(rec.h)?, o, rec, sink),
+        Precision::F32 => sized(&o.track.settings::<f32>(rec.h)?, o, rec, sink),
+    }
+}
+
+fn sized<T: Real>(
+    s: &OnlineSettings<T, OCV_POINTS>,
+    o: &PackOptions,
+    rec: &PackRecord,
+    sink: impl FnMut(PackRow) -> Result<()>,
+) -> Result<PackSummary> {
+    let mut ps = PackSettings::new(*s);
+    ps.updates_per_period = o.updates_per_period;
+    ps.flag_ratio = T::lit(o.flag_ratio);
+    match o.track.window {
+        64 => run::<T, 64>(&ps, rec, sink),
+        128 => run::<T, 128>(&ps, rec, sink),
+        256 => run::<T, 256>(&ps, rec, sink),
+        512 => run::<T, 512>(&ps, rec, sink),
+        1024 => run::<T, 1024>(&ps, rec, sink),
+        w => bail!("--window {w}: must be one of 64, 128, 256, 512, 1024"),
+    }
+}
+
+fn run<T: Real, const N: usize>(
+    s: &PackSettings<T, OCV_POINTS>,
+    rec: &PackRecord,
+    mut sink: impl FnMut(PackRow) -> Result<()>,
+) -> Result<PackSummary> {
+    let cells = rec.cells.len();
+    let mut pack =
+        Box::new(PackEstimator::<T, N, N, MAX_CELLS>::new(s, cells).map_err(|e| anyhow!("{e}"))?);
+    let mut volts = vec![T::zero(); cells];
+    let mut iterations = 0u64;
+    for (l, (&t, &i)) in rec.time.iter().zip(&rec.current).enumerate() {
+        for (v, c) in volts.iter_mut().zip(&rec.cells) {
+            *v = T::lit(c[l]);
+        }
+        let r = pack
+            .push(s, T::lit(i), &volts)
+            .map_err(|e| anyhow!("{e}"))?;
+        iterations += u64::from(r.iterations);
+        let health = pack.health();
+        for k in 0..cells {
+            let c = pack.cell(k).context("cell index")?;
+            sink(PackRow {
+                t,
+                cell: k + 1,
+                estimate: c.estimate().map(|p| p.cast()),
+                status: c.status().as_str(),
+                rejected: c.last_rejection().is_some(),
+                flagged: health.is_some_and(|h| pack.is_flagged(s, &h, k)),
+            })?;
+        }
+    }
+    Ok(PackSummary {
+        samples: rec.time.len() as u64,
+        rejected: (0..cells)
+            .map(|k| pack.cell(k).map_or(0, |c| c.counts().rejected()))
+            .collect(),
+        iterations,
+    })
+}
+
+// Not inlined into `cli::run` (see `simulate::battery`).
+#[inline(never)]
+pub(crate) fn online(a: &OnlinePackArgs) -> Result<()> {
+    let t0 = std::time::Instant::now();
+    let rec = read_pack(&a.input)?;
+    let memory = a.memory.unwrap_or(a.window / 4);
+    let mut track = TrackOptions::new(a.window, memory);
+    track.iterations_per_sample = a.iterations_per_sample;
+    track.precision = a.precision;
+    track.start = a.start;
+    let o = PackOptions {
+        track,
+        updates_per_period: a.updates_per_period.unwrap_or(u16::MAX),
+        flag_ratio: a.flag_ratio,
+    };
+    let f = |x: f64| format!("{x:.9e}");
+    let mut res = Ok(PackSummary::default());
+    io::write_atomic(&a.out, |w| {
+        writeln!(
+            w,
+            "time_s,cell,r_i,r_ct,q,alpha,u_oc,status,rejected,flagged"
+        )?;
+        res = track_pack(&rec, &o, |r| {
+            match r.estimate {
+                Some(p) => writeln!(
+                    w,
+                    "{},{},{},{},{},{},{},{},{},{}",
+                    r.t,
+                    r.cell,
+                    f(p.r_i),
+                    f(p.r_ct),
+                    f(p.q),
+                    f(p.alpha),
+                    f(p.u_oc),
+                    r.status,
+                    u8::from(r.rejected),
+                    u8::from(r.flagged)
+                )?,
+                None => writeln!(
+                    w,
+                    "{},{},,,,,,{},{},{}",
+                    r.t,
+                    r.cell,
+                    r.status,
+                    u8::from(r.rejected),
+                    u8::from(r.flagged)
+                )?,
+            }
+            Ok(())
+        });
+        res.as_ref().map(|_| ()).map_err(|e| anyhow!("{e:#}"))
+    })?;
+    let summary = res?;
+    let secs = t0.elapsed().as_secs_f64();
+    eprintln!(
+        "wrote {} ({} samples of {} cells, {} rejected, {} iterations, {:.0} samples/s)",
+        a.out.display(),
+        summary.samples,
+        rec.cells.len(),
+        summary.rejected.iter().map(|&x| u64::from(x)).sum::<u64>(),
+        summary.iterations,
+        summary.samples as f64 / secs.max(1e-9)
+    );
+    Ok(())
+}
