@@ -67,19 +67,35 @@ fn open_csv(path: &Path) -> (csv::Reader<fs::File>, csv::StringRecord) {
     (rd, headers)
 }
 
-/// Reads the replay CSV; returns (h, records).
-fn replay(path: &Path) -> (f64, Vec<(u32, f32, f32, f32)>) {
+/// One replay record: flags, current, the cell voltages, temperature.
+type Record = (u32, f32, Vec<f32>, f32);
+
+/// Reads the replay CSV (`time_s,current_a,voltage_v` for one cell, or
+/// `time_s,current_a,cell_1_v,…,cell_N_v` for a pack; `temperature_c`
+/// optional); returns (h, records).
+fn replay(path: &Path) -> (f64, Vec<Record>) {
     let (mut rd, headers) = open_csv(path);
     let find = |name: &str| headers.iter().position(|h| h.trim() == name);
-    let (Some(ct), Some(ci), Some(cv)) = (find("time_s"), find("current_a"), find("voltage_v"))
-    else {
+    let pack: Vec<usize> = (1..).map_while(|k| find(&format!("cell_{k}_v"))).collect();
+    let (Some(ct), Some(ci)) = (find("time_s"), find("current_a")) else {
         fail(format!(
-            "{}: the header must have time_s,current_a,voltage_v",
+            "{}: the header must have time_s,current_a,voltage_v (one cell) or time_s,current_a,cell_1_v,…,cell_N_v (a pack)",
             path.display()
         ))
     };
+    let (cols, names): (Vec<usize>, Vec<String>) = match (find("voltage_v"), pack.is_empty()) {
+        (Some(cv), true) => (vec![cv], vec!["voltage_v".to_owned()]),
+        (None, false) => (
+            pack.clone(),
+            (1..=pack.len()).map(|k| format!("cell_{k}_v")).collect(),
+        ),
+        _ => fail(format!(
+            "{}: the header must have voltage_v (one cell) or cell_1_v,…,cell_N_v (a pack), not both or neither",
+            path.display()
+        )),
+    };
     let ctemp = find("temperature_c");
-    let mut rows: Vec<(f64, f32, f32, f32)> = Vec::new();
+    let mut rows: Vec<(f64, f32, Vec<f32>, f32)> = Vec::new();
     for (k, rec) in rd.records().enumerate() {
         let row = k + 2;
         let rec = rec.unwrap_or_else(|e| fail(format!("{}: row {row}: {e}", path.display())));
@@ -92,12 +108,12 @@ fn replay(path: &Path) -> (f64, Vec<(u32, f32, f32, f32)>) {
             ))
         });
         let temp = ctemp.map_or(25.0, |c| cell(path, row, "temperature_c", get(c)));
-        rows.push((
-            t,
-            cell(path, row, "current_a", get(ci)),
-            cell(path, row, "voltage_v", get(cv)),
-            temp,
-        ));
+        let volts = cols
+            .iter()
+            .zip(&names)
+            .map(|(&c, name)| cell(path, row, name, get(c)))
+            .collect();
+        rows.push((t, cell(path, row, "current_a", get(ci)), volts, temp));
     }
     if rows.len() < 2 {
         fail(format!("{}: needs at least 2 data rows", path.display()));
@@ -124,10 +140,10 @@ fn replay(path: &Path) -> (f64, Vec<(u32, f32, f32, f32)>) {
                 ));
             }
             for _ in 1..gap.round() as usize {
-                out.push((1, f32::NAN, f32::NAN, f32::NAN));
+                out.push((1, f32::NAN, vec![f32::NAN; r.2.len()], f32::NAN));
             }
         }
-        out.push((0, r.1, r.2, r.3));
+        out.push((0, r.1, r.2.clone(), r.3));
     }
     (h, out)
 }
@@ -204,6 +220,14 @@ fn main() {
     ));
     println!("cargo:rerun-if-changed={}", replay_path.display());
     let (h, records) = replay(&replay_path);
+    let replay_cells = records.first().map_or(1, |r| r.2.len());
+    let cells = number("FRACBMS_CELLS", replay_cells, 1, 256);
+    if cells != replay_cells && env::var("CARGO_FEATURE_BOARD_QEMU").is_ok() {
+        fail(format!(
+            "FRACBMS_CELLS={cells}: the QEMU board replays {} with {replay_cells} cell(s)",
+            replay_path.display()
+        ));
+    }
     println!("cargo:rerun-if-env-changed=FRACBMS_PERIOD_S");
     let period = match env::var("FRACBMS_PERIOD_S") {
         Err(_) => h,
@@ -313,7 +337,12 @@ fn main() {
          /// `FRACBMS_PERIOD_S`, default the replay record's period.\n\
          pub const SAMPLE_PERIOD_S: f32 = {period:?};\n\
          /// Sample periods in the replay record (dropped rows included).\n\
-         pub const REPLAY_LEN: usize = {};\n",
+         pub const REPLAY_LEN: usize = {};\n\
+         /// Series cells the firmware estimates: `FRACBMS_CELLS`, default the\n\
+         /// replay record's (`voltage_v`: 1; `cell_1_v,…,cell_N_v`: N).\n\
+         pub const CELLS: usize = {cells};\n\
+         /// Cells in the replay record.\n\
+         pub const REPLAY_CELLS: usize = {replay_cells};\n",
         records.len()
     );
     let list = |x: &[f32]| {
@@ -347,11 +376,13 @@ fn main() {
         n = ocv_soc.len()
     );
     fs::write(out.join("config.rs"), cfg).expect("write config.rs");
-    let mut bin = Vec::with_capacity(16 * records.len());
+    let mut bin = Vec::with_capacity((12 + 4 * replay_cells) * records.len());
     for (flags, i, v, t) in &records {
         bin.extend_from_slice(&flags.to_le_bytes());
         bin.extend_from_slice(&i.to_le_bytes());
-        bin.extend_from_slice(&v.to_le_bytes());
+        for x in v {
+            bin.extend_from_slice(&x.to_le_bytes());
+        }
         bin.extend_from_slice(&t.to_le_bytes());
     }
     fs::write(out.join("replay.bin"), bin).expect("write replay.bin");

@@ -1,6 +1,7 @@
 //! TI bq769x0 (bq76920/30/40) cell monitor over embedded-hal 1.0 [`I2c`]:
-//! one cell's voltage, the pack current from the coulomb counter and one
-//! thermistor, as a [`CellSampler`].
+//! every connected cell's voltage (5/10/15 inputs) in one bus transaction,
+//! the pack current from the coulomb counter and one thermistor, as a
+//! [`PackSampler`] (and one cell of them as a [`CellSampler`]).
 //!
 //! The chip converts cell voltages every 50 ms (14 bits, a factory gain
 //! and offset in its EEPROM) and, with `CC_EN`, integrates the shunt voltage
@@ -15,7 +16,7 @@
 //! Signs: the coulomb counter is positive when charging, as the core's
 //! current (`estimator_core::battery`).
 
-use crate::sampler::{CellSampler, Sample, SampleError};
+use crate::sampler::{CellSampler, PackReading, PackSampler, Sample, SampleError};
 use embedded_hal::i2c::I2c;
 
 /// Registers used by the driver.
@@ -49,6 +50,8 @@ const CC_VOLTS_PER_COUNT: f32 = 8.44e-6;
 const TS_VOLTS_PER_COUNT: f32 = 382e-6;
 /// Largest 14-bit conversion.
 const ADC14_FULL_SCALE: u16 = 0x3FFF;
+/// Cell inputs of the largest part (bq76940).
+pub const MAX_CELLS: usize = 15;
 
 /// A 10 kΩ-pull-up NTC thermistor on TS1 (β equation).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -82,8 +85,12 @@ pub struct Bq769x0Config {
     pub address: u8,
     /// The part checks and sends CRC-8 bytes.
     pub crc: bool,
-    /// Which cell input (1–15) is the estimated cell.
+    /// Which cell input (1–15) is the estimated cell of the one-cell
+    /// [`CellSampler`].
     pub cell: u8,
+    /// Connected cells read by the [`PackSampler`], inputs VC1…VCn (1–15:
+    /// up to 5 on a bq76920, 10 on a bq76930, 15 on a bq76940).
+    pub cells: u8,
     /// Current-sense resistor (Ω).
     pub sense_ohm: f32,
     /// The thermistor on TS1.
@@ -96,6 +103,7 @@ impl Default for Bq769x0Config {
             address: 0x08,
             crc: false,
             cell: 1,
+            cells: 1,
             sense_ohm: 0.001,
             thermistor: Thermistor::NTC_10K_3435,
         }
@@ -112,8 +120,9 @@ pub enum Bq769x0Error<E> {
     Crc,
     /// The chip reports an internal fault (`DEVICE_XREADY`).
     DeviceFault,
-    /// [`Bq769x0Config`] is invalid (cell outside 1–15, sense resistor not
-    /// positive, address not 7-bit).
+    /// [`Bq769x0Config`] is invalid (cell or cell count outside 1–15, sense
+    /// resistor not positive, address not 7-bit), or a read asked for more
+    /// cells than configured.
     Config,
 }
 
@@ -154,6 +163,7 @@ impl<I: I2c> Bq769x0<I> {
     /// thermistor and the continuous coulomb counter.
     pub fn new(i2c: I, cfg: Bq769x0Config) -> Result<Self, Bq769x0Error<I::Error>> {
         if !(1..=15).contains(&cfg.cell)
+            || !(1..=15).contains(&cfg.cells)
             || cfg.sense_ohm.partial_cmp(&0.0) != Some(core::cmp::Ordering::Greater)
             || cfg.address > 0x7F
         {
@@ -196,7 +206,8 @@ impl<I: I2c> Bq769x0<I> {
         self.i2c
     }
 
-    /// Reads `buf.len()` registers from `first` (checking each CRC).
+    /// Reads `buf.len()` registers from `first` in one transaction
+    /// (checking each CRC; at most `2·MAX_CELLS` registers).
     fn read(&mut self, first: u8, buf: &mut [u8]) -> Result<(), Bq769x0Error<I::Error>> {
         let a = self.cfg.address;
         if !self.cfg.crc {
@@ -205,23 +216,23 @@ impl<I: I2c> Bq769x0<I> {
         }
         // Each data byte is followed by its CRC; the first CRC also covers
         // the address byte of the read.
-        let mut raw = [0u8; 4];
-        for (k, chunk) in buf.chunks_mut(2).enumerate() {
-            let n = 2 * chunk.len();
-            let reg = first.wrapping_add(2 * k as u8);
-            self.i2c.write_read(a, &[reg], &mut raw[..n])?;
-            for (j, out) in chunk.iter_mut().enumerate() {
-                let (b, c) = (raw[2 * j], raw[2 * j + 1]);
-                let crc = if j == 0 {
-                    crc8(&[(a << 1) | 1, b])
-                } else {
-                    crc8(&[b])
-                };
-                if crc != c {
-                    return Err(Bq769x0Error::Crc);
-                }
-                *out = b;
+        let mut raw = [0u8; 4 * MAX_CELLS];
+        let n = 2 * buf.len();
+        if n > raw.len() {
+            return Err(Bq769x0Error::Config);
+        }
+        self.i2c.write_read(a, &[first], &mut raw[..n])?;
+        for (j, out) in buf.iter_mut().enumerate() {
+            let (b, c) = (raw[2 * j], raw[2 * j + 1]);
+            let crc = if j == 0 {
+                crc8(&[(a << 1) | 1, b])
+            } else {
+                crc8(&[b])
+            };
+            if crc != c {
+                return Err(Bq769x0Error::Crc);
             }
+            *out = b;
         }
         Ok(())
     }
@@ -271,6 +282,61 @@ impl<I: I2c> Bq769x0<I> {
                 .thermistor
                 .celsius(f32::from(ts) * TS_VOLTS_PER_COUNT),
         }))
+    }
+}
+
+impl<I: I2c> Bq769x0<I> {
+    /// One reading of the pack: the voltages of cells 1…`cells` of the
+    /// configuration into `volts` (one transaction over VC1_HI…VCn_LO; a
+    /// conversion at 0 or full scale is NaN: that cell's sample is
+    /// rejected), the last coulomb-counter current and the TS1 temperature.
+    ///
+    /// # Errors
+    /// Bus and CRC errors, a chip fault; [`Bq769x0Error::Config`] when
+    /// `volts` is shorter than the configured cells.
+    pub fn read_cells(&mut self, volts: &mut [f32]) -> Result<PackReading, Bq769x0Error<I::Error>> {
+        let cells = usize::from(self.cfg.cells);
+        if volts.len() < cells {
+            return Err(Bq769x0Error::Config);
+        }
+        let mut stat = [0];
+        self.read(reg::SYS_STAT, &mut stat)?;
+        if stat[0] & DEVICE_XREADY != 0 {
+            return Err(Bq769x0Error::DeviceFault);
+        }
+        let mut vc = [0u8; 2 * MAX_CELLS];
+        self.read(reg::VC1_HI, &mut vc[..2 * cells])?;
+        let mut cc = [0; 2];
+        self.read(reg::CC_HI, &mut cc)?;
+        if stat[0] & CC_READY != 0 {
+            self.write(reg::SYS_STAT, CC_READY)?;
+        }
+        let ts = self.read14(reg::TS1_HI)?;
+        for (v, pair) in volts.iter_mut().zip(vc[..2 * cells].chunks_exact(2)) {
+            let raw = (u16::from(pair[0] & 0x3F) << 8) | u16::from(pair[1]);
+            *v = if raw == 0 || raw >= ADC14_FULL_SCALE {
+                f32::NAN
+            } else {
+                self.gain * f32::from(raw) + self.offset
+            };
+        }
+        Ok(PackReading {
+            current_a: f32::from(i16::from_be_bytes(cc)) * CC_VOLTS_PER_COUNT / self.cfg.sense_ohm,
+            temperature_c: self
+                .cfg
+                .thermistor
+                .celsius(f32::from(ts) * TS_VOLTS_PER_COUNT),
+        })
+    }
+}
+
+impl<I: I2c> PackSampler for Bq769x0<I> {
+    fn cells(&self) -> usize {
+        usize::from(self.cfg.cells)
+    }
+
+    fn sample_pack(&mut self, volts: &mut [f32]) -> Result<PackReading, SampleError> {
+        self.read_cells(volts).map_err(|_| SampleError::Adc)
     }
 }
 
@@ -342,6 +408,78 @@ mod tests {
     }
 
     #[test]
+    fn reads_every_cell_in_one_transaction() {
+        // A bq76940 with 15 cells: one write_read of 30 bytes from VC1_HI.
+        let codes: Vec<u16> = (0..15).map(|k| 9500 + 10 * k).collect();
+        let mut bytes: Vec<u8> = codes.iter().flat_map(|c| c.to_be_bytes()).collect();
+        bytes[2 * 6] = 0x3F; // cell 7 saturated
+        bytes[2 * 6 + 1] = 0xFF;
+        let mut t = startup();
+        t.extend([
+            T::write_read(A, vec![0x00], vec![0]),
+            T::write_read(A, vec![0x0C], bytes),
+            T::write_read(A, vec![0x32], 2370i16.to_be_bytes().to_vec()),
+            T::write_read(A, vec![0x2C], vec![0x10, 0xE0]),
+        ]);
+        let mut bus = Mock::new(&t);
+        let cfg = Bq769x0Config { cells: 15, ..cfg() };
+        let mut d = Bq769x0::new(bus.clone(), cfg).unwrap();
+        assert_eq!(PackSampler::cells(&d), 15);
+        let mut v = [0.0f32; 15];
+        let p = d.sample_pack(&mut v).unwrap();
+        assert!((p.current_a - 20.0028).abs() < 1e-3, "{p:?}");
+        for (k, &x) in v.iter().enumerate() {
+            if k == 6 {
+                assert!(x.is_nan(), "the saturated cell alone is NaN");
+            } else {
+                let want = 386e-6 * f32::from(codes[k]) - 3e-3;
+                assert!((x - want).abs() < 1e-5, "cell {}: {x} {want}", k + 1);
+            }
+        }
+        // Fewer slots than cells: a typed error before any traffic.
+        assert_eq!(
+            d.read_cells(&mut [0.0; 3]).err(),
+            Some(Bq769x0Error::Config)
+        );
+        bus.done();
+    }
+
+    #[test]
+    fn crc_block_read_checks_every_byte() {
+        let c = |b: &[u8]| crc8(b);
+        let rd = (A << 1) | 1;
+        let mut t: Vec<T> = vec![
+            T::write_read(A, vec![0x50], vec![0x08, c(&[rd, 0x08])]),
+            T::write_read(A, vec![0x59], vec![0xA0, c(&[rd, 0xA0])]),
+            T::write_read(A, vec![0x51], vec![0xFD, c(&[rd, 0xFD])]),
+            T::write(A, vec![0x0B, 0x19, c(&[A << 1, 0x0B, 0x19])]),
+            T::write_read(A, vec![0x04], vec![0x00, c(&[rd, 0x00])]),
+            T::write(A, vec![0x04, 0x18, c(&[A << 1, 0x04, 0x18])]),
+            T::write_read(A, vec![0x05], vec![0x00, c(&[rd, 0x00])]),
+            T::write(A, vec![0x05, 0x40, c(&[A << 1, 0x05, 0x40])]),
+            T::write_read(A, vec![0x00], vec![0x00, c(&[rd, 0x00])]),
+        ];
+        // Three cells, six data bytes, the fourth CRC wrong.
+        let data = [0x25u8, 0x76, 0x25, 0x80, 0x25, 0x8A];
+        let mut framed = Vec::new();
+        for (j, &b) in data.iter().enumerate() {
+            framed.push(b);
+            let crc = if j == 0 { c(&[rd, b]) } else { c(&[b]) };
+            framed.push(if j == 3 { crc ^ 1 } else { crc });
+        }
+        t.push(T::write_read(A, vec![0x0C], framed));
+        let mut bus = Mock::new(&t);
+        let cfg = Bq769x0Config {
+            crc: true,
+            cells: 3,
+            ..cfg()
+        };
+        let mut d = Bq769x0::new(bus.clone(), cfg).unwrap();
+        assert_eq!(d.read_cells(&mut [0.0; 3]).err(), Some(Bq769x0Error::Crc));
+        bus.done();
+    }
+
+    #[test]
     fn saturated_cell_and_chip_fault_are_reported() {
         let mut t = startup();
         t.extend([
@@ -396,6 +534,8 @@ mod tests {
         for bad in [
             Bq769x0Config { cell: 0, ..cfg() },
             Bq769x0Config { cell: 16, ..cfg() },
+            Bq769x0Config { cells: 0, ..cfg() },
+            Bq769x0Config { cells: 16, ..cfg() },
             Bq769x0Config {
                 sense_ohm: f32::NAN,
                 ..cfg()

@@ -8,10 +8,11 @@
 //!
 //! * [`sampler`]: [`sampler::CellSampler`] (one calibrated sample per
 //!   period), over a raw [`sampler::AdcChannel`] or a recorded stream.
-//! * [`bq769x0`]: a [`sampler::CellSampler`] over a TI bq769x0 cell monitor
+//! * [`bq769x0`]: a [`sampler::PackSampler`] over a TI bq769x0 cell monitor
 //!   on an embedded-hal 1.0 `I2c` bus.
 //! * [`task`]: [`task::EstimatorTask`], validation plus the core's
-//!   [`estimator_core::battery::online::CellEstimator`] in `f32`.
+//!   [`estimator_core::battery::pack::PackEstimator`] in `f32` (one cell:
+//!   the one-cell pack).
 //! * [`config`]: sizes and method chosen at build time (`FRACBMS_*`).
 #![cfg_attr(not(test), no_std)]
 #![deny(missing_docs)]
@@ -30,7 +31,8 @@ pub mod config {
 pub static REPLAY: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/replay.bin"));
 
 /// The task with the configured sizes.
-pub type ConfiguredTask = task::EstimatorTask<{ config::WINDOW }, { config::MEMORY }>;
+pub type ConfiguredTask =
+    task::EstimatorTask<{ config::WINDOW }, { config::MEMORY }, { config::CELLS }>;
 
 /// Task settings from the build-time configuration.
 pub fn configured_settings() -> task::TaskSettings {
@@ -45,7 +47,7 @@ pub fn configured_settings() -> task::TaskSettings {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use sampler::{CellSampler, ReplaySampler};
+    use sampler::{PackSampler, ReplaySampler};
 
     /// The default replay (data/cell-pulse.csv) through the configured
     /// f32 task on the host, beside the core's f64 `CellEstimator` with the
@@ -72,15 +74,16 @@ mod tests {
         let mut f64_cell = Box::new(
             CellEstimator::<f64, { config::WINDOW }, { config::MEMORY }>::new(&s64).unwrap(),
         );
-        let mut r = ReplaySampler::new(REPLAY);
+        let mut r = ReplaySampler::with_cells(REPLAY, config::REPLAY_CELLS);
+        let mut volts = [f32::NAN; config::CELLS];
         let mut periods = 0;
         loop {
-            let x = r.sample();
-            if task.on_sample(&s, x).is_none() {
+            let x = r.sample_pack(&mut volts);
+            if task.on_sample(&s, x, &volts).is_none() {
                 break;
             }
             let (i, v) = x.map_or((f64::NAN, f64::NAN), |x| {
-                (f64::from(x.current_a), f64::from(x.voltage_v))
+                (f64::from(x.current_a), f64::from(volts[0]))
             });
             f64_cell.push(&s64, i, v);
             periods += 1;

@@ -2,8 +2,9 @@
 //! logs at the configured rate, a final report and a self-check.
 
 use crate::board::{self, BoardApi};
+use estimator_core::battery::online::{CellState, CurrentHistory, WorkingArea};
 use firmware::config;
-use firmware::sampler::CellSampler;
+use firmware::sampler::PackSampler;
 use firmware::ConfiguredTask;
 
 /// Cost of the sample updates (timer clocks), for the performance docs.
@@ -17,8 +18,10 @@ struct Cost {
     clocks: u64,
     /// The longest update.
     max: u64,
-    /// Of the updates, those that ran the output-error refinement.
+    /// Of the updates, those that ran the output-error refinement (cell 1).
     refined: u32,
+    /// Cell updates (a pack period updates several cells).
+    cell_updates: u32,
 }
 
 /// Builds the task and moves it into its static. Not inlined, so that the
@@ -58,7 +61,8 @@ fn main() -> ! {
     let init_stack = b.stack_high_water();
     crate::board::stack::paint();
     defmt::info!(
-        "fracbms: window {=usize}, memory {=usize}, method {}, algorithm {=str}, {=u16} iteration(s)/sample, h = {=f32} s",
+        "fracbms: {=usize} cell(s), window {=usize}, memory {=usize}, method {}, algorithm {=str}, {=u16} iteration(s)/sample, h = {=f32} s",
+        config::CELLS,
         config::WINDOW,
         config::MEMORY,
         config::METHOD,
@@ -76,56 +80,81 @@ fn main() -> ! {
     }
     let (mut period, mut overruns) = (0u32, 0u32);
     let mut cost = Cost::default();
+    let mut volts = [f32::NAN; config::CELLS];
     loop {
         overruns += u32::from(b.wait_for_tick() > 0);
-        let x = b.sampler().sample();
+        let x = b.sampler().sample_pack(&mut volts);
         let t0 = b.clocks();
-        let Some(r) = task.on_sample(&s, x) else {
+        let Some(r) = task.on_sample(&s, x, &volts) else {
             break;
         };
         let dt = b.clocks() - t0;
         if r.core.iterations > 0 {
             cost.updates += 1;
-            cost.iterations += u32::from(r.core.iterations);
+            cost.iterations += r.core.iterations;
+            cost.cell_updates += u32::from(r.core.updated);
             cost.clocks += dt;
             cost.max = cost.max.max(dt);
-            cost.refined += u32::from(task.cell().is_refining());
+            cost.refined += u32::from(task.cell(0).is_some_and(|c| c.is_refining()));
         }
         if let Some(f) = r.fault {
             defmt::warn!("period {=u32}: {}", period, f);
         }
-        if let Some(why) = r.core.rejected {
-            defmt::warn!("period {=u32}: rejected ({})", period, why);
+        if r.core.rejected > 0 {
+            for k in 0..config::CELLS {
+                if let Some(why) = task.cell(k).and_then(|c| c.last_rejection()) {
+                    defmt::warn!(
+                        "period {=u32}: cell {=usize} rejected ({})",
+                        period,
+                        k + 1,
+                        why
+                    );
+                }
+            }
         }
         if period % config::LOG_EVERY == 0 {
+            let c = task.cell(0);
+            let status = c.map(|c| c.status());
             match task.estimate() {
                 Some(e) => defmt::info!(
                     "period {=u32} {}: R_i {=f32} R_ct {=f32} Q {=f32} alpha {=f32} U_oc {=f32} rmse {=f32}",
-                    period, r.core.status, e.r_i, e.r_ct, e.q, e.alpha, e.u_oc, r.core.rmse
+                    period, status, e.r_i, e.r_ct, e.q, e.alpha, e.u_oc,
+                    c.map_or(f32::INFINITY, |c| c.rmse())
                 ),
-                None => defmt::info!("period {=u32} {}", period, r.core.status),
+                None => defmt::info!("period {=u32} {}", period, status),
             }
         }
         period += 1;
     }
     let counts = task.counts();
     let f = task.faults();
+    let (mut non_finite, mut out_of_range, mut spikes) = (0, 0, 0);
+    for c in (0..config::CELLS).filter_map(|k| task.cell(k)) {
+        non_finite += c.counts().non_finite;
+        out_of_range += c.counts().out_of_range;
+        spikes += c.counts().spikes;
+    }
     defmt::println!(
         "FAULTS adc={=u32} saturated={=u32} dropped={=u32} stuck={=u32} temperature={=u32} non_finite={=u32} out_of_range={=u32} spikes={=u32} overruns={=u32}",
         f.adc, f.saturated, f.dropped, f.stuck, f.temperature,
-        counts.non_finite, counts.out_of_range, counts.spikes, overruns
+        non_finite, out_of_range, spikes, overruns
     );
     defmt::println!(
-        "COST updates={=u32} iterations={=u32} clocks={=u64} max_clocks={=u64} clock_hz={=u32} window={=usize} memory={=usize}",
+        "COST updates={=u32} iterations={=u32} cell_updates={=u32} cells={=usize} clocks={=u64} max_clocks={=u64} clock_hz={=u32} window={=usize} memory={=usize}",
         cost.updates,
         cost.iterations,
+        cost.cell_updates,
+        config::CELLS,
         cost.clocks,
         cost.max,
         <board::Board as BoardApi>::CLOCK_HZ,
         config::WINDOW,
         config::MEMORY
     );
-    let work = task.cell().refinement_work();
+    let work = task
+        .cell(0)
+        .map(|c| c.refinement_work())
+        .unwrap_or_default();
     defmt::println!(
         "WORK updates={=u32} iterations={=u32} simulations={=u32} trials={=u32} linearizations={=u32}",
         cost.refined,
@@ -140,6 +169,12 @@ fn main() -> ! {
         init_stack,
         core::mem::size_of::<ConfiguredTask>()
     );
+    defmt::println!(
+        "MEM bytes_per_cell={=usize} shared_bytes={=usize}",
+        core::mem::size_of::<CellState<f32, { config::WINDOW }>>(),
+        core::mem::size_of::<WorkingArea<f32, { config::WINDOW }, { config::MEMORY }>>()
+            + core::mem::size_of::<CurrentHistory<f32, { config::WINDOW }>>()
+    );
     let all = counts.samples == config::REPLAY_LEN as u64;
     if !all {
         defmt::error!(
@@ -148,14 +183,27 @@ fn main() -> ! {
             config::REPLAY_LEN
         );
     }
-    let ok = match task.estimate() {
+    let ok = if config::CELLS == 1 {
+        one_cell_result(task, counts.samples, all)
+    } else {
+        pack_result(&s, task, counts.samples, all)
+    };
+    b.finish(ok)
+}
+
+/// The final report of a one-cell image (the flat JSON of `cargo xtask
+/// qemu`); true when the run passed its self-check.
+fn one_cell_result(task: &ConfiguredTask, samples: u64, all: bool) -> bool {
+    match task.estimate() {
         Some(e) => {
             defmt::println!(
                 "RESULT r_i={=f32} r_ct={=f32} q={=f32} alpha={=f32} u_oc={=f32} samples={=u64} rejected={=u32}",
-                e.r_i, e.r_ct, e.q, e.alpha, e.u_oc, counts.samples, counts.rejected()
+                e.r_i, e.r_ct, e.q, e.alpha, e.u_oc, samples, task.rejected()
             );
-            if let (Some(z), Some(d)) = (task.cell().state_of_charge(), task.cell().ocv_offset()) {
-                defmt::println!("SOC soc={=f32} ocv_offset_v={=f32}", z, d);
+            if let Some(c) = task.cell(0) {
+                if let (Some(z), Some(d)) = (c.state_of_charge(), c.ocv_offset()) {
+                    defmt::println!("SOC soc={=f32} ocv_offset_v={=f32}", z, d);
+                }
             }
             if e.is_butler_volmer() {
                 defmt::println!("BV bv_a_v={=f32} bv_i0_a={=f32}", e.bv_a, e.bv_i0);
@@ -170,12 +218,65 @@ fn main() -> ! {
             all
         }
         None => {
-            defmt::error!(
-                "check failed: no estimate after {=u64} samples",
-                counts.samples
-            );
+            defmt::error!("check failed: no estimate after {=u64} samples", samples);
             false
         }
-    };
-    b.finish(ok)
+    }
+}
+
+/// The final report of a pack image: one `CELL` line per cell (its
+/// estimate, rejected samples, flag) and a `PACK` line; true when every
+/// cell has a physical estimate (or this is a cost measurement).
+fn pack_result(
+    s: &firmware::task::TaskSettings,
+    task: &ConfiguredTask,
+    samples: u64,
+    all: bool,
+) -> bool {
+    let health = task.health();
+    let mut ok = all;
+    for k in 0..config::CELLS {
+        let rejected = task.cell(k).map_or(0, |c| c.counts().rejected());
+        let flagged = health.is_some_and(|h| task.is_flagged(s, &h, k));
+        match task.estimate_of(k) {
+            Some(e) => {
+                defmt::println!(
+                    "CELL cell={=usize} r_i={=f32} r_ct={=f32} q={=f32} alpha={=f32} u_oc={=f32} rejected={=u32} flagged={=bool}",
+                    k + 1, e.r_i, e.r_ct, e.q, e.alpha, e.u_oc, rejected, flagged
+                );
+                if !e.is_physical() {
+                    defmt::error!(
+                        "check failed: cell {=usize}'s estimate is not physical",
+                        k + 1
+                    );
+                    ok &= config::BENCH;
+                }
+            }
+            None => {
+                defmt::println!(
+                    "CELL cell={=usize} rejected={=u32} flagged=false",
+                    k + 1,
+                    rejected
+                );
+                if !config::BENCH {
+                    defmt::error!("check failed: no estimate of cell {=usize}", k + 1);
+                    ok = false;
+                }
+            }
+        }
+    }
+    if let Some(h) = health {
+        defmt::println!(
+            "PACK cells={=usize} samples={=u64} rejected={=u32} median_r_i={=f32} median_r_ct={=f32}",
+            config::CELLS, samples, task.rejected(), h.median_r_i, h.median_r_ct
+        );
+    } else {
+        defmt::println!(
+            "PACK cells={=usize} samples={=u64} rejected={=u32}",
+            config::CELLS,
+            samples,
+            task.rejected()
+        );
+    }
+    ok
 }

@@ -10,6 +10,12 @@
 //! Two samplers implement [`CellSampler`]: [`AdcSampler`] (three raw
 //! channels with a [`Calibration`] each, detecting saturation) and
 //! [`ReplaySampler`] (a recorded stream, used on QEMU and in host tests).
+//!
+//! * [`PackSampler`]: every series cell's voltage with the pack current and
+//!   a temperature, per sample period ([`crate::bq769x0`] reads them in one
+//!   bus transaction; [`ReplaySampler`] plays a pack record). A cell whose
+//!   own reading is bad (saturated) comes back as NaN, so that only that
+//!   cell's sample is rejected.
 
 /// One calibrated measurement.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -45,6 +51,47 @@ pub trait AdcChannel {
     const FULL_SCALE: u16;
     /// Converts once.
     fn read_raw(&mut self) -> Result<u16, Self::Error>;
+}
+
+/// What a pack sampler returns besides the cell voltages.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PackReading {
+    /// Pack current (A), positive when charging.
+    pub current_a: f32,
+    /// Pack temperature (°C).
+    pub temperature_c: f32,
+}
+
+/// A source of one sample of every series cell per sample period.
+pub trait PackSampler {
+    /// Cells this sampler reads.
+    fn cells(&self) -> usize;
+    /// Takes this period's sample: every cell's terminal voltage (V, cell 1
+    /// first) into `volts[..cells]` (a cell whose reading is bad gets NaN),
+    /// the current and temperature returned. An error is the whole
+    /// period's (bus, converter, a dropped row).
+    fn sample_pack(&mut self, volts: &mut [f32]) -> Result<PackReading, SampleError>;
+}
+
+/// A one-cell [`PackSampler`] over a [`CellSampler`] (e.g. an
+/// [`AdcSampler`] of one cell).
+pub struct SingleCell<S>(pub S);
+
+impl<S: CellSampler> PackSampler for SingleCell<S> {
+    fn cells(&self) -> usize {
+        1
+    }
+
+    fn sample_pack(&mut self, volts: &mut [f32]) -> Result<PackReading, SampleError> {
+        let x = self.0.sample()?;
+        if let Some(v) = volts.first_mut() {
+            *v = x.voltage_v;
+        }
+        Ok(PackReading {
+            current_a: x.current_a,
+            temperature_c: x.temperature_c,
+        })
+    }
 }
 
 /// Linear calibration `value = gain · raw + offset` in engineering units.
@@ -103,9 +150,16 @@ impl<I: AdcChannel, V: AdcChannel, T: AdcChannel> CellSampler for AdcSampler<I, 
     }
 }
 
-/// Bytes per record of a replay stream (see `build.rs`): `u32` flags, then
-/// current, voltage, temperature as little-endian `f32`.
+/// Bytes per record of a one-cell replay stream (see `build.rs`): `u32`
+/// flags, then current, voltage, temperature as little-endian `f32`. A pack
+/// record of `C` cells has the `C` voltages in the voltage's place:
+/// [`replay_record`]`(C)` bytes.
 pub const REPLAY_RECORD: usize = 16;
+
+/// Bytes per record of a replay stream of `cells` cells.
+pub const fn replay_record(cells: usize) -> usize {
+    12 + 4 * cells
+}
 
 /// Plays a recorded stream, one record per sample period.
 ///
@@ -125,14 +179,23 @@ pub const REPLAY_RECORD: usize = 16;
 /// ```
 pub struct ReplaySampler<'a> {
     records: core::slice::ChunksExact<'a, u8>,
+    cells: usize,
 }
 
 impl<'a> ReplaySampler<'a> {
-    /// Plays `bytes` (a whole number of [`REPLAY_RECORD`]-byte records; a
-    /// trailing partial record is ignored).
+    /// Plays `bytes` of a one-cell stream (a whole number of
+    /// [`REPLAY_RECORD`]-byte records; a trailing partial record is
+    /// ignored).
     pub fn new(bytes: &'a [u8]) -> Self {
+        Self::with_cells(bytes, 1)
+    }
+
+    /// Plays `bytes` of a stream of `cells` cells (at least 1).
+    pub fn with_cells(bytes: &'a [u8], cells: usize) -> Self {
+        let cells = cells.max(1);
         Self {
-            records: bytes.chunks_exact(REPLAY_RECORD),
+            records: bytes.chunks_exact(replay_record(cells)),
+            cells,
         }
     }
 
@@ -149,7 +212,9 @@ fn word(r: &[u8], at: usize) -> [u8; 4] {
 }
 
 impl CellSampler for ReplaySampler<'_> {
+    /// Cell 1 of the stream.
     fn sample(&mut self) -> Result<Sample, SampleError> {
+        let cells = self.cells;
         let r = self.records.next().ok_or(SampleError::EndOfStream)?;
         if u32::from_le_bytes(word(r, 0)) & 1 != 0 {
             return Err(SampleError::Dropped);
@@ -157,7 +222,28 @@ impl CellSampler for ReplaySampler<'_> {
         Ok(Sample {
             current_a: f32::from_le_bytes(word(r, 4)),
             voltage_v: f32::from_le_bytes(word(r, 8)),
-            temperature_c: f32::from_le_bytes(word(r, 12)),
+            temperature_c: f32::from_le_bytes(word(r, 8 + 4 * cells)),
+        })
+    }
+}
+
+impl PackSampler for ReplaySampler<'_> {
+    fn cells(&self) -> usize {
+        self.cells
+    }
+
+    fn sample_pack(&mut self, volts: &mut [f32]) -> Result<PackReading, SampleError> {
+        let cells = self.cells;
+        let r = self.records.next().ok_or(SampleError::EndOfStream)?;
+        if u32::from_le_bytes(word(r, 0)) & 1 != 0 {
+            return Err(SampleError::Dropped);
+        }
+        for (k, v) in volts.iter_mut().take(cells).enumerate() {
+            *v = f32::from_le_bytes(word(r, 8 + 4 * k));
+        }
+        Ok(PackReading {
+            current_a: f32::from_le_bytes(word(r, 4)),
+            temperature_c: f32::from_le_bytes(word(r, 8 + 4 * cells)),
         })
     }
 }
@@ -203,6 +289,26 @@ mod tests {
                 },
             ),
         }
+    }
+
+    #[test]
+    fn a_pack_stream_plays_every_cell() {
+        let mut rec = vec![0u8; 2 * replay_record(3)];
+        let put = |r: &mut [u8], at: usize, x: f32| r[at..at + 4].copy_from_slice(&x.to_le_bytes());
+        put(&mut rec, 4, -2.0);
+        for k in 0..3 {
+            put(&mut rec, 8 + 4 * k, [3.6, 3.7, 3.8][k]);
+        }
+        put(&mut rec, 20, 31.0);
+        rec[24..28].copy_from_slice(&1u32.to_le_bytes());
+        let mut r = ReplaySampler::with_cells(&rec, 3);
+        assert_eq!(r.cells(), 3);
+        let mut v = [0.0f32; 3];
+        let p = r.sample_pack(&mut v).unwrap();
+        assert_eq!((p.current_a, p.temperature_c), (-2.0, 31.0));
+        assert_eq!(v, [3.6, 3.7, 3.8]);
+        assert_eq!(r.sample_pack(&mut v), Err(SampleError::Dropped));
+        assert_eq!(r.sample_pack(&mut v), Err(SampleError::EndOfStream));
     }
 
     #[test]

@@ -1,36 +1,44 @@
-//! The estimator task: one call per sample period.
+//! The estimator task: one call per sample period, for every series cell.
 //!
-//! [`EstimatorTask::on_sample`] takes what the sampler returned this period
-//! and
+//! [`EstimatorTask::on_sample`] takes what the pack sampler returned this
+//! period and
 //!
 //! 1. flags what the sampler itself knows is wrong (converter error,
 //!    saturation, a dropped sample) and what only a history shows: a
-//!    *stuck* voltage channel (bit-identical readings while the current
-//!    moves) and an implausible temperature;
-//! 2. pushes exactly one sample into the core's [`CellEstimator`] every
-//!    period, so the time base the fractional differences rely on stays
-//!    uniform: a faulty sample is pushed as NaN, which the core counts as
-//!    rejected and replaces by its one-step prediction (no sample is lost);
-//! 3. lets the core run its bounded number of iterations
-//!    ([`OnlineSettings::iterations_per_sample`]).
+//!    *stuck* voltage channel of a cell (bit-identical readings while the
+//!    current moves) and an implausible temperature;
+//! 2. pushes exactly one sample of every cell into the core's
+//!    [`PackEstimator`] every period, so the time base the fractional
+//!    differences rely on stays uniform: a faulty reading is pushed as NaN,
+//!    which the core counts as rejected for that cell alone and replaces by
+//!    its one-step prediction (no sample is lost);
+//! 3. lets the core run the period's scheduled cell updates
+//!    ([`PackSettings::updates_per_period`], each with
+//!    [`OnlineSettings::iterations_per_sample`] iterations).
+//!
+//! One cell is the one-cell pack (the core's `CellEstimator` is the same).
 //!
 //! Nothing here allocates or panics; settings ([`TaskSettings`]) are kept
 //! apart from state ([`EstimatorTask`]).
 
-use crate::sampler::{Sample, SampleError};
+use crate::sampler::{PackReading, SampleError};
 use estimator_core::battery::ocv::{OcvModel, OcvTable};
-use estimator_core::battery::online::{
-    CellEstimator, Method, OnlineSettings, SampleCounts, SampleReport,
-};
+use estimator_core::battery::online::{CellState, Method, OnlineSettings, SampleCounts};
+use estimator_core::battery::pack::{PackEstimator, PackHealth, PackReport, PackSettings};
 use estimator_core::battery::{CellParameters, Prior, Start};
 use estimator_core::Error;
 
 /// Settings of the task (one value for every cell of a pack).
+///
+/// Every cell is updated every period by default
+/// ([`PackSettings::new`]); set `pack.updates_per_period` to spread the
+/// updates over several periods.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct TaskSettings {
-    /// The core's settings (method, iterations per sample, ranges, spikes,
-    /// the build-time OCV table).
-    pub online: OnlineSettings<f32, { crate::config::OCV_POINTS }>,
+    /// The core's settings: every cell's (method, iterations per update,
+    /// ranges, spikes, the build-time OCV table), the schedule and the
+    /// health threshold.
+    pub pack: PackSettings<f32, { crate::config::OCV_POINTS }>,
     /// A voltage bit-identical over this many consecutive samples while
     /// the current moves is a stuck channel.
     pub stuck_after: u8,
@@ -43,6 +51,11 @@ pub struct TaskSettings {
 }
 
 impl TaskSettings {
+    /// Every cell's core settings.
+    pub fn online(&self) -> &OnlineSettings<f32, { crate::config::OCV_POINTS }> {
+        &self.pack.cell
+    }
+
     /// Settings for sample period `h` (s), GL memory `memory`, `method` and
     /// `iterations` per sample, for an 18650-class Li-ion cell.
     ///
@@ -74,7 +87,7 @@ impl TaskSettings {
             }));
         }
         Self {
-            online: online.with_curve(configured_ocv()),
+            pack: PackSettings::new(online.with_curve(configured_ocv())),
             stuck_after: 4,
             stuck_current_span: 0.5,
             temperature_range: (-40.0, 85.0),
@@ -101,7 +114,7 @@ pub enum Fault {
     Saturated,
     /// No sample this period.
     Dropped,
-    /// The voltage channel is stuck.
+    /// A cell's voltage channel is stuck.
     Stuck,
     /// The temperature is NaN or out of range (sample still used).
     Temperature,
@@ -113,11 +126,12 @@ pub enum Fault {
 pub struct FaultCounts {
     /// Converter errors.
     pub adc: u32,
-    /// Saturated readings.
+    /// Saturated readings (periods; a saturated cell of a pack reading is
+    /// counted by the core as that cell's non-finite sample).
     pub saturated: u32,
     /// Dropped samples.
     pub dropped: u32,
-    /// Stuck voltage readings.
+    /// Stuck voltage readings (all cells).
     pub stuck: u32,
     /// Implausible temperatures.
     pub temperature: u32,
@@ -126,39 +140,49 @@ pub struct FaultCounts {
 /// What one sample period did.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct TaskReport {
-    /// The core's report (status, rejection, iterations, RMSE).
-    pub core: SampleReport<f32>,
-    /// The fault the task found, if any.
+    /// The core's report (cells rejected, updated, iterations).
+    pub core: PackReport,
+    /// The fault the task found, if any (the period's, else the first
+    /// stuck cell's).
     pub fault: Option<Fault>,
 }
 
-/// One cell's estimator task: window `N`, memory capacity `MEM` (f32).
+/// The run of bit-identical voltages of a cell: (bits, length, current
+/// min, max).
+type Run = Option<(u32, u8, f32, f32)>;
+
+/// The estimator task of a pack of up to `C` series cells: window `N`,
+/// memory capacity `MEM` (f32).
 #[derive(Clone, Debug)]
-pub struct EstimatorTask<const N: usize, const MEM: usize> {
-    cell: CellEstimator<f32, N, MEM>,
+pub struct EstimatorTask<const N: usize, const MEM: usize, const C: usize> {
+    pack: PackEstimator<f32, N, MEM, C>,
     faults: FaultCounts,
-    /// The run of bit-identical voltages: (bits, length, current min, max).
-    run: Option<(u32, u8, f32, f32)>,
+    runs: [Run; C],
+    volts: [f32; C],
 }
 
-impl<const N: usize, const MEM: usize> EstimatorTask<N, MEM> {
-    /// A task with an empty window; fails on inconsistent settings.
+impl<const N: usize, const MEM: usize, const C: usize> EstimatorTask<N, MEM, C> {
+    /// A task for `C` cells with empty windows; fails on inconsistent
+    /// settings.
     pub fn new(s: &TaskSettings) -> Result<Self, Error> {
         Ok(Self {
-            cell: CellEstimator::new(&s.online)?,
+            pack: PackEstimator::new(&s.pack, C)?,
             faults: FaultCounts::default(),
-            run: None,
+            runs: [None; C],
+            volts: [f32::NAN; C],
         })
     }
 
-    /// Handles this period's sample; `None` at [`SampleError::EndOfStream`]
-    /// (nothing is pushed).
+    /// Handles this period's sample: the sampler's result and the cell
+    /// voltages it wrote (cell 1 first; missing cells are NaN). `None` at
+    /// [`SampleError::EndOfStream`] (nothing is pushed).
     pub fn on_sample(
         &mut self,
         s: &TaskSettings,
-        sample: Result<Sample, SampleError>,
+        sample: Result<PackReading, SampleError>,
+        volts: &[f32],
     ) -> Option<TaskReport> {
-        let (current, voltage, fault) = match sample {
+        let (current, fault) = match sample {
             Err(SampleError::EndOfStream) => return None,
             Err(e) => {
                 let (f, c) = match e {
@@ -167,48 +191,84 @@ impl<const N: usize, const MEM: usize> EstimatorTask<N, MEM> {
                     _ => (Fault::Dropped, &mut self.faults.dropped),
                 };
                 *c += 1;
-                (f32::NAN, f32::NAN, Some(f))
+                self.volts = [f32::NAN; C];
+                (f32::NAN, Some(f))
             }
-            Ok(x) => self.check(s, &x),
+            Ok(x) => (x.current_a, self.check(s, &x, volts)),
         };
-        let core = self.cell.push(&s.online, current, voltage);
+        // Cannot fail: the task holds one voltage per cell.
+        let core = self
+            .pack
+            .push(&s.pack, current, &self.volts)
+            .unwrap_or_default();
         Some(TaskReport { core, fault })
     }
 
-    /// Stuck-voltage and temperature checks of a sample the sampler
-    /// believed: (current, voltage to push, fault).
-    fn check(&mut self, s: &TaskSettings, x: &Sample) -> (f32, f32, Option<Fault>) {
-        let bits = x.voltage_v.to_bits();
+    /// Stuck-voltage checks of every cell and the temperature check of a
+    /// reading the sampler believed; fills the voltages to push. Returns
+    /// the period's fault.
+    fn check(&mut self, s: &TaskSettings, x: &PackReading, volts: &[f32]) -> Option<Fault> {
         let i = x.current_a;
-        let run = match self.run {
-            Some((b, n, lo, hi)) if b == bits && x.voltage_v.is_finite() && i.is_finite() => {
-                (b, n.saturating_add(1), lo.min(i), hi.max(i))
-            }
-            _ => (bits, 1, i, i),
-        };
-        self.run = Some(run);
-        if run.1 >= s.stuck_after && run.3 - run.2 > s.stuck_current_span {
-            self.faults.stuck += 1;
-            return (i, f32::NAN, Some(Fault::Stuck));
+        let mut fault = None;
+        for (k, (run, out)) in self.runs.iter_mut().zip(self.volts.iter_mut()).enumerate() {
+            let v = volts.get(k).copied().unwrap_or(f32::NAN);
+            let bits = v.to_bits();
+            let r = match *run {
+                Some((b, n, lo, hi)) if b == bits && v.is_finite() && i.is_finite() => {
+                    (b, n.saturating_add(1), lo.min(i), hi.max(i))
+                }
+                _ => (bits, 1, i, i),
+            };
+            *run = Some(r);
+            *out = if r.1 >= s.stuck_after && r.3 - r.2 > s.stuck_current_span {
+                self.faults.stuck += 1;
+                fault = fault.or(Some(Fault::Stuck));
+                f32::NAN
+            } else {
+                v
+            };
         }
         let (tlo, thi) = s.temperature_range;
-        let fault = if x.temperature_c >= tlo && x.temperature_c <= thi {
-            None
-        } else {
+        if !(x.temperature_c >= tlo && x.temperature_c <= thi) {
             self.faults.temperature += 1;
-            Some(Fault::Temperature)
-        };
-        (x.current_a, x.voltage_v, fault)
+            fault = Some(Fault::Temperature);
+        }
+        fault
     }
 
-    /// The last good estimate, if any.
+    /// Cells of the pack.
+    pub fn cells(&self) -> usize {
+        C
+    }
+
+    /// Cell `k`'s last good estimate (0-based), if any.
+    pub fn estimate_of(&self, k: usize) -> Option<CellParameters<f32>> {
+        self.pack.cell(k).and_then(|c| c.estimate())
+    }
+
+    /// The first cell's last good estimate (the one cell of a one-cell
+    /// pack).
     pub fn estimate(&self) -> Option<CellParameters<f32>> {
-        self.cell.estimate()
+        self.estimate_of(0)
     }
 
-    /// The core's counters (every period pushed, and the rejected ones).
+    /// Cell `k`'s state (status, counters, state of charge; 0-based).
+    pub fn cell(&self, k: usize) -> Option<&CellState<f32, N>> {
+        self.pack.cell(k)
+    }
+
+    /// The first cell's core counters (every period is pushed into every
+    /// cell, so its `samples` counts the periods).
     pub fn counts(&self) -> SampleCounts {
-        self.cell.counts()
+        self.pack.cell(0).map(|c| c.counts()).unwrap_or_default()
+    }
+
+    /// Samples rejected over all cells.
+    pub fn rejected(&self) -> u32 {
+        (0..C)
+            .filter_map(|k| self.pack.cell(k))
+            .map(|c| c.counts().rejected())
+            .sum()
     }
 
     /// The task's fault counters.
@@ -216,8 +276,18 @@ impl<const N: usize, const MEM: usize> EstimatorTask<N, MEM> {
         self.faults
     }
 
-    /// The core estimator (window, status, prediction).
-    pub fn cell(&self) -> &CellEstimator<f32, N, MEM> {
-        &self.cell
+    /// The pack's medians (`None` before any cell has an estimate).
+    pub fn health(&self) -> Option<PackHealth<f32>> {
+        self.pack.health()
+    }
+
+    /// True when cell `k` stands out from the pack's median.
+    pub fn is_flagged(&self, s: &TaskSettings, health: &PackHealth<f32>, k: usize) -> bool {
+        self.pack.is_flagged(&s.pack, health, k)
+    }
+
+    /// The core pack estimator.
+    pub fn pack(&self) -> &PackEstimator<f32, N, MEM, C> {
+        &self.pack
     }
 }

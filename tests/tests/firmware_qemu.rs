@@ -439,3 +439,68 @@ fn qemu_firmware_with_the_butler_volmer_model_agrees_with_host_sim() {
         );
     }
 }
+
+/// An 8-cell pack record (±10 % spread, cell 3 aged 1.5x, 2000 s, σ = 1 mV)
+/// through the QEMU pack firmware (f32, window 256, memory 64, every cell
+/// updated every period): the pack JSON has every cell, the aged cell alone
+/// is flagged, and every cell agrees with `host-sim online pack` (f64, same
+/// settings) within the firmware's stated tolerance.
+#[test]
+fn qemu_pack_firmware_agrees_with_host_sim_and_flags_the_aged_cell() {
+    let csv = tmp("pack8.csv");
+    host_sim(&[
+        "simulate",
+        "pack",
+        "--cells",
+        "8",
+        "--preset",
+        "cell",
+        "--profile",
+        "pulse",
+        "--spread",
+        "0.1",
+        "--aged",
+        "3",
+        "--sigma",
+        "0.001",
+        "--length",
+        "2000",
+        "--seed",
+        "1",
+        "--out",
+        csv.to_str().unwrap(),
+    ]);
+    let track = tmp("pack8-track.csv");
+    host_sim(&[
+        "online",
+        "pack",
+        "--input",
+        csv.to_str().unwrap(),
+        "--window",
+        "256",
+        "--memory",
+        "64",
+        "--start",
+        "at-rest",
+        "--out",
+        track.to_str().unwrap(),
+    ]);
+    let t = std::fs::read_to_string(&track).unwrap();
+    let rows: Vec<Vec<&str>> = t.lines().skip(1).map(|l| l.split(',').collect()).collect();
+    let fw = firmware(&csv, &["--window", "256", "--memory", "64"]);
+    eprintln!("firmware {fw}");
+    assert_eq!(fw["samples"].as_u64(), Some(2000), "{fw}");
+    assert_eq!(fw["rejected"].as_u64(), Some(0), "{fw}");
+    let cells = fw["cells"].as_array().expect("a pack JSON");
+    assert_eq!(cells.len(), 8);
+    for (k, (c, host_row)) in cells.iter().zip(&rows[rows.len() - 8..]).enumerate() {
+        assert_eq!(c["cell"].as_u64(), Some(k as u64 + 1));
+        assert_eq!(c["flagged"].as_bool(), Some(k == 2), "{c}");
+        assert_eq!(host_row[1], (k + 1).to_string());
+        let num = |i: usize| -> f64 { host_row[i].parse().unwrap() };
+        let host = serde_json::json!({
+            "r_i": num(2), "r_ct": num(3), "q": num(4), "alpha": num(5), "u_oc": num(6),
+        });
+        assert_agree(c, &host);
+    }
+}

@@ -6,8 +6,11 @@
 //!   under `qemu-system-arm -machine mps2-an386` (inside `timeout`), decodes
 //!   its defmt log with `defmt-print` (to stderr) and prints the final
 //!   estimates as the last line of stdout, one JSON object with the keys
-//!   `r_i`, `r_ct`, `q`, `alpha`, `u_oc`, `samples`, `rejected`. The exit
-//!   status is non-zero when the firmware failed.
+//!   `r_i`, `r_ct`, `q`, `alpha`, `u_oc`, `samples`, `rejected`. A pack
+//!   record (`time_s,current_a,cell_1_v,…,cell_N_v`) builds the pack
+//!   firmware for its N cells and prints `{"cells": [{"cell", "r_i",
+//!   "r_ct", "q", "alpha", "u_oc", "rejected", "flagged"}, …], "samples",
+//!   "rejected"}`. The exit status is non-zero when the firmware failed.
 //! * `cargo xtask run-elf ELF` runs a built image the same way (the
 //!   target's cargo runner).
 //! * `cargo xtask bench-target [--window L] [--memory M] [--iterations K]
@@ -17,7 +20,10 @@
 //!   clock) and prints, as the last line, `{"window": L, "memory": M,
 //!   "iterations_per_update": K, "instructions_per_update": N,
 //!   "instructions_per_iteration": N}` (means over the updates that ran
-//!   iterations; details on stderr).
+//!   iterations; details on stderr). With `--cells N` it measures a pack of
+//!   N cells made from the input record and prints `{"cells", "window",
+//!   "memory", "iterations_per_update", "bytes_per_cell", "shared_bytes",
+//!   "instructions_per_pack_update", "instructions_per_cell_update"}`.
 //!
 //! Errors are one line on stderr and exit status 1.
 
@@ -146,6 +152,57 @@ struct BenchArgs {
     /// The cell model: `linear` or `butler-volmer`.
     #[arg(long, value_parser = ["linear", "butler-volmer"], default_value = "linear")]
     model: String,
+    /// Measure a pack of this many cells: the input's voltage for every
+    /// cell (cell k offset by k − 1 mV), all cells updated every period;
+    /// the last line then is the pack's JSON.
+    #[arg(long)]
+    cells: Option<usize>,
+}
+
+/// Writes a pack record of `cells` cells made from the one-cell record
+/// `input` (`time_s,current_a,voltage_v`): cell k's voltage is the input's
+/// plus (k − 1) mV. Returns its path (under the target directory).
+fn pack_record(input: &Path, cells: usize) -> Result<PathBuf> {
+    let text = std::fs::read_to_string(input)
+        .with_context(|| format!("{}: cannot open", input.display()))?;
+    let mut lines = text.lines();
+    let head: Vec<&str> = lines
+        .next()
+        .unwrap_or("")
+        .split(',')
+        .map(str::trim)
+        .collect();
+    let col = |name: &str| {
+        head.iter()
+            .position(|h| *h == name)
+            .with_context(|| format!("{}: no column {name}", input.display()))
+    };
+    let (ct, ci, cv) = (col("time_s")?, col("current_a")?, col("voltage_v")?);
+    let mut out = String::from("time_s,current_a");
+    for k in 1..=cells {
+        out.push_str(&format!(",cell_{k}_v"));
+    }
+    out.push('\n');
+    for (row, line) in lines.enumerate() {
+        let f: Vec<&str> = line.split(',').collect();
+        let get = |c: usize| f.get(c).copied().unwrap_or("");
+        let v: f64 = get(cv)
+            .trim()
+            .parse()
+            .with_context(|| format!("{}: row {}: voltage_v", input.display(), row + 2))?;
+        out.push_str(get(ct));
+        out.push(',');
+        out.push_str(get(ci));
+        for k in 0..cells {
+            out.push_str(&format!(",{:.9}", v + 1e-3 * k as f64));
+        }
+        out.push('\n');
+    }
+    let dir = target_dir().join("xtask");
+    std::fs::create_dir_all(&dir).with_context(|| format!("{}: cannot create", dir.display()))?;
+    let path = dir.join(format!("pack-{cells}.csv"));
+    std::fs::write(&path, out).with_context(|| format!("{}: cannot write", path.display()))?;
+    Ok(path)
 }
 
 fn root() -> PathBuf {
@@ -316,11 +373,16 @@ fn run_elf(elf: &Path, timeout: u32, icount: bool) -> Result<Summary> {
             .next()
             .filter(|k| k.chars().all(|c| c.is_ascii_uppercase()))
         {
-            let kv = words
+            let kv: BTreeMap<String, String> = words
                 .filter_map(|w| w.split_once('='))
                 .map(|(k, v)| (k.to_owned(), v.to_owned()))
                 .collect();
-            summary.insert(key.to_owned(), kv);
+            // A pack prints one CELL line per cell: keyed CELL1, CELL2, …
+            let key = match (key, kv.get("cell")) {
+                ("CELL", Some(n)) => format!("CELL{n}"),
+                _ => key.to_owned(),
+            };
+            summary.insert(key, kv);
         }
     }
     let st = qemu.wait().context("waiting for qemu")?;
@@ -349,9 +411,47 @@ fn number(s: &Summary, line: &str, key: &str) -> Result<serde_json::Value> {
         .into())
 }
 
+/// The JSON of a pack image's final report: `{"cells": [{"cell", "r_i",
+/// "r_ct", "q", "alpha", "u_oc", "rejected", "flagged"}, …], "samples",
+/// "rejected"}` (a cell without an estimate has null parameters).
+fn pack_json(s: &Summary) -> Result<serde_json::Value> {
+    let cells = int(s, "PACK", "cells")?;
+    let mut list = Vec::new();
+    for k in 1..=cells {
+        let line = format!("CELL{k}");
+        let mut c = serde_json::Map::new();
+        c.insert("cell".into(), k.into());
+        let has = s.get(&line).is_some_and(|m| m.contains_key("r_i"));
+        for key in ["r_i", "r_ct", "q", "alpha", "u_oc"] {
+            let v = if has {
+                number(s, &line, key)?
+            } else {
+                serde_json::Value::Null
+            };
+            c.insert(key.into(), v);
+        }
+        c.insert("rejected".into(), number(s, &line, "rejected")?);
+        let flagged = s.get(&line).and_then(|m| m.get("flagged"));
+        c.insert(
+            "flagged".into(),
+            (flagged.map(String::as_str) == Some("true")).into(),
+        );
+        list.push(serde_json::Value::Object(c));
+    }
+    Ok(serde_json::json!({
+        "cells": list,
+        "samples": number(s, "PACK", "samples")?,
+        "rejected": number(s, "PACK", "rejected")?,
+    }))
+}
+
 fn qemu(a: &QemuArgs) -> Result<()> {
     let elf = build(a)?;
     let s = run_elf(&elf, a.timeout, a.icount)?;
+    if s.contains_key("PACK") {
+        println!("{}", pack_json(&s)?);
+        return Ok(());
+    }
     let mut out = serde_json::Map::new();
     for key in ["r_i", "r_ct", "q", "alpha", "u_oc", "samples", "rejected"] {
         out.insert(key.into(), number(&s, "RESULT", key)?);
@@ -381,12 +481,18 @@ fn int(s: &Summary, line: &str, key: &str) -> Result<u64> {
 }
 
 fn bench_target(b: &BenchArgs) -> Result<()> {
+    let input = if b.input.is_absolute() {
+        b.input.clone()
+    } else {
+        root().join(&b.input)
+    };
+    let input = match b.cells {
+        Some(n) if !(1..=256).contains(&n) => bail!("--cells {n}: must be in 1..=256"),
+        Some(n) => pack_record(&input, n)?,
+        None => input,
+    };
     let a = QemuArgs {
-        input: if b.input.is_absolute() {
-            b.input.clone()
-        } else {
-            root().join(&b.input)
-        },
+        input,
         method: b.method,
         algorithm: Algorithm::Op,
         window: b.window,
@@ -444,6 +550,27 @@ fn bench_target(b: &BenchArgs) -> Result<()> {
             w("simulations")? as f64 / refined,
             w("linearizations")? as f64 / refined,
         );
+    }
+    if let Some(cells) = b.cells {
+        let cell_updates = int(&s, "COST", "cell_updates")?.max(1);
+        eprintln!(
+            "bench-target: {cells} cells, {cell_updates} cell updates; {:.0} instructions per cell update",
+            clocks as f64 * per_clock / cell_updates as f64
+        );
+        println!(
+            "{}",
+            serde_json::json!({
+                "cells": cells,
+                "window": b.window,
+                "memory": b.memory,
+                "iterations_per_update": b.iterations,
+                "bytes_per_cell": int(&s, "MEM", "bytes_per_cell")?,
+                "shared_bytes": int(&s, "MEM", "shared_bytes")?,
+                "instructions_per_pack_update": per_update.round() as u64,
+                "instructions_per_cell_update": (clocks as f64 * per_clock / cell_updates as f64).round() as u64,
+            })
+        );
+        return Ok(());
     }
     println!(
         "{}",

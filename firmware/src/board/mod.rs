@@ -1,10 +1,10 @@
 //! Boards: what differs between the QEMU machine and a real BMS MCU.
 //!
-//! A board supplies a [`CellSampler`], a periodic sample tick from a
+//! A board supplies a [`PackSampler`], a periodic sample tick from a
 //! hardware timer, a timer-based cycle count for cost measurements, the
 //! stack high-water mark, and a way to stop.
 
-use firmware::sampler::CellSampler;
+use firmware::sampler::PackSampler;
 
 #[cfg(feature = "board-qemu")]
 pub mod qemu;
@@ -28,7 +28,7 @@ compile_error!(
 /// What the application needs from a board.
 pub trait BoardApi {
     /// The sampler of this board.
-    type Sampler: CellSampler;
+    type Sampler: PackSampler;
     /// The sampler.
     fn sampler(&mut self) -> &mut Self::Sampler;
     /// Blocks until the next sample tick; returns how many ticks were

@@ -74,7 +74,7 @@ pub fn init() -> Qemu {
     syst.enable_counter();
     Qemu {
         _syst: syst,
-        sampler: ReplaySampler::new(firmware::REPLAY),
+        sampler: ReplaySampler::with_cells(firmware::REPLAY, firmware::config::REPLAY_CELLS),
         handled: 0,
     }
 }

@@ -4,7 +4,7 @@ use super::halt;
 use core::cell::RefCell;
 use embassy_stm32::adc::{Adc, AdcChannel as _, AnyAdcChannel, SampleTime};
 use embassy_stm32::peripherals::{ADC1, TIM2};
-use firmware::sampler::{AdcChannel, AdcSampler, Calibration};
+use firmware::sampler::{AdcChannel, AdcSampler, Calibration, SingleCell};
 
 /// Full scale of a 12-bit conversion.
 const FULL_SCALE: u16 = 4095;
@@ -58,8 +58,8 @@ impl AdcChannel for Stm32Channel {
     }
 }
 
-/// The sampler of this board: ADC1 through the analog front end.
-pub type Stm32Sampler = AdcSampler<Stm32Channel, Stm32Channel, Stm32Channel>;
+/// The sampler of this board: ADC1 through the analog front end (one cell).
+pub type Stm32Sampler = SingleCell<AdcSampler<Stm32Channel, Stm32Channel, Stm32Channel>>;
 
 /// ADC1 on PA0, PA1, PA4; gives TIM2 back.
 pub(super) fn make_sampler(
@@ -70,7 +70,7 @@ pub(super) fn make_sampler(
         halt()
     };
     let adc: &'static SharedAdc = adc;
-    let sampler = AdcSampler {
+    let sampler = SingleCell(AdcSampler {
         current: (
             Stm32Channel {
                 adc,
@@ -92,6 +92,6 @@ pub(super) fn make_sampler(
             },
             FrontEnd::TEMPERATURE,
         ),
-    };
+    });
     (sampler, p.TIM2)
 }

@@ -9,11 +9,19 @@ pub type Stm32Sampler = firmware::bq769x0::Bq769x0<
     embassy_stm32::i2c::I2c<'static, embassy_stm32::mode::Blocking, embassy_stm32::i2c::Master>,
 >;
 
-/// Settings of the bq769x0 (edit for your board).
+// One bq769x0 has at most 15 cell inputs (bq76940).
+const _: () = assert!(
+    firmware::config::CELLS <= firmware::bq769x0::MAX_CELLS,
+    "FRACBMS_CELLS: one bq769x0 reads at most 15 cells (a bq76940)"
+);
+
+/// Settings of the bq769x0 (edit for your board): the firmware's cells
+/// (`FRACBMS_CELLS`, 15 for a bq76940) on inputs VC1…VCn.
 pub const BQ769X0: firmware::bq769x0::Bq769x0Config = firmware::bq769x0::Bq769x0Config {
     address: 0x08,
     crc: false,
     cell: 1,
+    cells: firmware::config::CELLS as u8,
     sense_ohm: 0.001,
     thermistor: firmware::bq769x0::Thermistor::NTC_10K_3435,
 };
