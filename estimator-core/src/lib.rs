@@ -24,6 +24,9 @@
 //!   runs it for every series cell: the current kept once, per-cell state
 //!   under 2 KiB, one shared working area, a per-period schedule and the
 //!   flag of a cell that stands out ([`battery::pack`]).
+//! * [`tail`] — the Grünwald–Letnikov weights beyond the memory as a sum of
+//!   exponentials with fixed rates (the far past carried by a few
+//!   recursions; for reducing the short-memory bias).
 //! * [`flops`] — the flop counts of the paper's Tables 1–2.
 //! * [`error`] — the typed errors; nothing in this crate panics on bad data.
 //!
@@ -87,6 +90,7 @@ pub mod frac;
 pub mod gi;
 pub mod model;
 pub mod real;
+pub mod tail;
 pub mod window;
 
 pub use error::{Error, FracError};
