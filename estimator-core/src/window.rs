@@ -36,6 +36,12 @@ pub trait Window<T: Real> {
     /// many were copied (the window length, or less if the slices are
     /// shorter).
     fn copy_into(&self, u: &mut [T], y: &mut [T]) -> usize;
+    /// The modes of the samples that left the window
+    /// ([`crate::tail::PastModes`]); `None` when they are not kept (the
+    /// past is then taken as rest).
+    fn past(&self) -> Option<crate::tail::PastModes<T>> {
+        None
+    }
 }
 
 impl<T: Real, const N: usize> Window<T> for SampleWindow<T, N> {

@@ -220,6 +220,7 @@ fn f32_refinement_agrees_with_f64() {
         min_current_std: 1e-3,
         prior: None,
         model: estimator_core::battery::CellModel::Linear,
+        tail: s64.tail,
     };
     let mut w64 = SampleWindow::<f64, 256>::new();
     let mut w32 = SampleWindow::<f32, 256>::new();

@@ -247,3 +247,43 @@ fn wrong_cell_counts_are_typed_errors() {
         Some(Error::BadSetting)
     );
 }
+
+/// The short-memory bias and its correction. A full-memory, noise-free
+/// record of the 18650 cell (2000 s pulse); the sliding window (256, 64)
+/// with the truncated sum is biased, and with the tail beyond the memory
+/// (`BatterySettings::tail`: the in-window taps at lags ≥ 64 and the past
+/// before the window, from the cell's modes) it finds the truth.
+#[test]
+fn the_tail_removes_the_short_memory_bias() {
+    let p = CellParameters::<f64>::cell_18650();
+    let i = pulse(2000);
+    let mut w = Box::new(GlWeights::<f64, 4096>::new(p.alpha, 1.0, i.len()).unwrap());
+    let (mut up, mut v) = (vec![0.0; i.len()], vec![0.0; i.len()]);
+    simulate(&p, &mut w, &i, |_| p.u_oc, &mut up, &mut v).unwrap();
+    let run = |tail: bool| {
+        let mut s = OnlineSettings::new(1.0, 64, p);
+        s.battery.tail = tail;
+        let mut est = Box::new(CellEstimator::<f64, 256, 64>::new(&s).unwrap());
+        let mut worst = [0.0f64; 3];
+        for l in 0..i.len() {
+            est.push(&s, i[l], v[l]);
+            if l >= 1500 {
+                let e = est.estimate().expect("an estimate");
+                worst[0] = worst[0].max(rel(e.r_ct, p.r_ct));
+                worst[1] = worst[1].max(rel(e.q, p.q));
+                worst[2] = worst[2].max((e.alpha - p.alpha).abs());
+            }
+        }
+        worst
+    };
+    let (truncated, tail) = (run(false), run(true));
+    println!("worst over the last 500 samples (R_ct, Q, alpha): truncated {truncated:?}, with the tail {tail:?}");
+    assert!(
+        truncated[0] > 0.02,
+        "the bias is there without the tail: {truncated:?}"
+    );
+    assert!(
+        tail[0] < 0.005 && tail[1] < 0.005 && tail[2] < 0.002,
+        "{tail:?}"
+    );
+}

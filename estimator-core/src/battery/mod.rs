@@ -241,6 +241,13 @@ pub struct BatterySettings<T> {
     pub prior: Option<Prior<T>>,
     /// Which cell model the output-error refinement fits.
     pub model: CellModel,
+    /// The output-error refinement adds the Grünwald–Letnikov taps beyond
+    /// the memory ([`crate::tail`]: the lags ≥ `M` inside the window and
+    /// the past before it, from the window's [`crate::tail::PastModes`]),
+    /// which removes the short-memory bias on data with a longer memory.
+    /// For the linear model with `memory ≥ 64` and orders up to 1; ignored
+    /// otherwise.
+    pub tail: bool,
 }
 
 /// The cell model the output-error refinement fits.
@@ -423,6 +430,7 @@ impl<T: Real> BatterySettings<T> {
             min_current_std: T::lit(1e-3),
             prior: None,
             model: CellModel::Linear,
+            tail: false,
         }
     }
 
@@ -450,6 +458,15 @@ impl<T: Real> BatterySettings<T> {
         }
     }
 
+    /// True when the output-error refinement adds the tail beyond the
+    /// memory ([`Self::tail`], the linear model, `memory ≥ 64`).
+    pub fn uses_tail(&self) -> bool {
+        self.tail
+            && self.model == CellModel::Linear
+            && self.memory >= crate::tail::MIN_MEMORY
+            && self.alpha_max <= T::one()
+    }
+
     /// A 64-bit FNV-1a hash of every setting (bit patterns of the reals):
     /// the key under which the refinement remembers that a window is
     /// searched out, in 8 bytes instead of a copy of the settings.
@@ -472,7 +489,9 @@ impl<T: Real> BatterySettings<T> {
         }
         eat(self.memory as u64);
         eat(u64::from(self.max_halvings));
-        eat(u64::from(self.estimate_order) | u64::from(self.ocv_slope) << 1);
+        eat(u64::from(self.estimate_order)
+            | u64::from(self.ocv_slope) << 1
+            | u64::from(self.tail) << 2);
         eat(match self.start {
             Start::AtRest => 0,
             Start::FromData => 1,

@@ -54,6 +54,7 @@ use super::{BatterySettings, CellParameters, Start};
 use crate::error::Error;
 use crate::frac::GlWeights;
 use crate::real::Real;
+use crate::tail::PastModes;
 use crate::window::Window;
 
 /// Leading rested samples (current at most `C/100`) whose mean voltage
@@ -600,6 +601,9 @@ impl<T: Real, const N: usize> Window<T> for CellWindow<'_, T, N> {
     fn recent(&self) -> impl Iterator<Item = (T, T)> + '_ {
         self.newest_first()
     }
+    fn past(&self) -> Option<PastModes<T>> {
+        (self.cell.past.count > 0).then_some(self.cell.past)
+    }
     fn copy_into(&self, u: &mut [T], y: &mut [T]) -> usize {
         let len = usize::from(self.cell.len).min(u.len()).min(y.len());
         let head = self.history.head;
@@ -653,6 +657,9 @@ pub struct CellState<T, const N: usize> {
     spikes_in_row: u8,
     /// Whether the last sample was rejected, and why.
     last_rejection: Option<Rejection>,
+    /// The modes of the samples that left the window (the past the
+    /// refinement's tail needs, [`BatterySettings::tail`]).
+    past: PastModes<T>,
 }
 
 /// The working area a pack's cells share, one cell at a time: the two
@@ -720,6 +727,7 @@ impl<T: Real, const N: usize> CellState<T, N> {
             counts: SampleCounts::default(),
             spikes_in_row: 0,
             last_rejection: None,
+            past: PastModes::new(),
         }
     }
 
@@ -789,17 +797,26 @@ impl<T: Real, const N: usize> CellState<T, N> {
         }
     }
 
-    /// Restarts the window (the pack's ring keeps the currents).
+    /// Restarts the window (the pack's ring keeps the currents); its past
+    /// is forgotten.
     fn clear_window(&mut self) {
         self.len = 0;
         self.pushed = 0;
         self.version = self.version.wrapping_add(1);
+        self.past = PastModes::new();
     }
 
     /// Writes `u` into the ring slot the pack's next current goes to and
     /// counts it: the window is whole again once the pack has pushed that
-    /// current.
-    fn push_voltage(&mut self, slot: usize, u: T) {
+    /// current. A full window's oldest sample, in that slot, leaves into the
+    /// past's modes (the value the window held: a substitute for a rejected
+    /// sample).
+    fn push_voltage(&mut self, history: &CurrentHistory<T, N>, u: T) {
+        let slot = history.slot();
+        if usize::from(self.len) == N {
+            let next = history.i[(slot + 1) % N];
+            self.past.leave(history.i[slot], self.u[slot], next);
+        }
         self.u[slot] = u;
         self.len = (usize::from(self.len) + 1).min(N) as u16;
         self.pushed += 1;
@@ -989,8 +1006,8 @@ impl<T: Real, const N: usize> CellState<T, N> {
         };
         match sample {
             Some((i, u)) => {
-                if let Some(slot) = stored.map(|_| history.slot()) {
-                    self.push_voltage(slot, u);
+                if stored.is_some() {
+                    self.push_voltage(history, u);
                 }
                 if let Some(m) = &s.ocv {
                     // The charge of the sample as it entered the window (the

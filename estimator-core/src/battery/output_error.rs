@@ -69,6 +69,7 @@ use super::{current_std, BatterySettings, CellModel, CellParameters, Prior, Star
 use crate::error::Error;
 use crate::frac::GlWeights;
 use crate::real::Real;
+use crate::tail::{PastModes, TailKernel, MODES};
 use crate::window::Window;
 
 /// Fewest fitted samples an iteration accepts.
@@ -197,6 +198,8 @@ pub struct OutputErrorRefinement<T, const N: usize, const MEM: usize> {
     trial_e: [T; N],
     n: usize,
     warm: usize,
+    /// The modes of the loaded window's past (with `warm > 0`).
+    past: Option<PastModes<T>>,
     stamp: Option<u32>,
     /// `up` (and `e`) hold the simulation of `p`, β over the loaded window.
     fresh: bool,
@@ -337,6 +340,7 @@ impl<T: Real, const N: usize, const MEM: usize> OutputErrorRefinement<T, N, MEM>
             trial_e: [T::ZERO; N],
             n: 0,
             warm: 0,
+            past: None,
             stamp: None,
             fresh: false,
             stalled: None,
@@ -457,6 +461,8 @@ impl<T: Real, const N: usize, const MEM: usize> OutputErrorRefinement<T, N, MEM>
                 Start::AtRest if !win.has_slid() => 0,
                 _ => s.memory - 1,
             };
+            // From rest there is no past; from data it is the window's.
+            self.past = if self.warm > 0 { win.past() } else { None };
             self.stamp = Some(key);
             self.fresh = false;
             if self.n > 0 {
@@ -475,8 +481,9 @@ impl<T: Real, const N: usize, const MEM: usize> OutputErrorRefinement<T, N, MEM>
     }
 
     /// The sensitivities of `U_p` to every parameter, for the simulation
-    /// held in `up` and `e`.
-    fn sensitivities(&mut self, slope: bool, kinetic: bool) {
+    /// held in `up` and `e`; with `tail`, of the model with the taps beyond
+    /// the memory ([`BatterySettings::tail`]).
+    fn sensitivities(&mut self, slope: bool, kinetic: bool, tail: bool) {
         let (n, warm) = (self.n, self.warm);
         let wts = self.w.weights();
         let g = self.w.scale();
@@ -484,11 +491,55 @@ impl<T: Real, const N: usize, const MEM: usize> OutputErrorRefinement<T, N, MEM>
         let p = self.p;
         let tau = p.tau();
         let a = tau * g;
+        let memory = wts.len();
+        // The tail: coefficients at the estimate's order and the modes of
+        // the past (rest without one), for U_p and for each sensitivity's
+        // free response (∂U_p(past)/∂R_i = −I, ∂/∂U_oc = −1, ∂/∂β = c).
+        let zero = [T::zero(); MODES];
+        let kernel = if tail {
+            TailKernel::new(p.alpha).ok()
+        } else {
+            None
+        };
+        let past = self.past.filter(|_| warm > 0);
+        let (c0, h) = (self.c[0], self.w.h());
+        let modes = |f: &dyn Fn(&PastModes<T>, usize) -> T| -> [T; MODES] {
+            past.map_or(zero, |pm| core::array::from_fn(|k| f(&pm, k)))
+        };
+        let z_up = past.map_or(zero, |pm| pm.polarization(p.u_oc, p.r_i, self.beta, c0, h));
+        let z_ri = modes(&|pm, k| -pm.current[k]);
+        let z_uoc = modes(&|pm, k| -pm.one[k]);
+        let z_beta = modes(&|pm, k| pm.charge_modes(k, c0, h));
+        let tails = kernel.map(|k| {
+            (
+                Tail {
+                    rates: k.rates,
+                    c: Tail::scaled(&k, &k.coefficients, memory),
+                    z0: zero,
+                },
+                Tail::scaled(&k, &k.derivatives, memory),
+            )
+        });
         // h^(−α)·Σ_j (∂w_j/∂α)·U_p(l − j) (the order sensitivity's drive),
-        // into the trial buffer, free until the step search.
+        // into the trial buffer, free until the step search; with the tail,
+        // its weights' derivatives too: h^(−α)·Σ_k ∂C_k/∂α·Z_k(l − M) over
+        // the simulation.
         let dup = &mut self.trial;
         self.w
             .for_each_weight_derivative(&self.up[..n], warm..n, |l, d| dup[l] = d);
+        if let Some((t, dc)) = &tails {
+            let mut z = z_up;
+            for (l, dl) in dup.iter_mut().enumerate().take(n).skip(warm) {
+                if l >= memory {
+                    let x = self.up[l - memory];
+                    for (zk, &r) in z.iter_mut().zip(&t.rates) {
+                        *zk = r * *zk + x;
+                    }
+                }
+                let d = dc.iter().zip(&z).fold(T::zero(), |s, (&c, &z)| s + c * z);
+                *dl = *dl + g * d;
+            }
+        }
         let (i, e, dup) = (&self.i, &self.e, &self.trial);
         for x in [
             &mut self.s_rct,
@@ -504,25 +555,37 @@ impl<T: Real, const N: usize, const MEM: usize> OutputErrorRefinement<T, N, MEM>
         }
         // Two recursions at a time through the pair kernel (same weights
         // and `a`): each gets the values it would get alone.
-        cpe_filter_pair(
-            wts,
-            a,
-            warm,
-            &mut self.s_rct[..n],
-            &mut self.s_q[..n],
-            |l| (i[l] - p.q * g * e[l], -p.r_ct * g * e[l]),
-        );
-        if warm == 0 {
-            // From rest: no history, so no free responses (and no stale
-            // ones from an earlier window).
-            cpe_filter(
+        let rct_q = |l: usize| (i[l] - p.q * g * e[l], -p.r_ct * g * e[l]);
+        match &tails {
+            Some((t, _)) => cpe_filter_pair_tail(
                 wts,
                 a,
                 warm,
-                &mut self.s_a[..n],
-                |l| a * ln_h * e[l] - tau * dup[l],
-                |_, _, _| {},
-            );
+                &mut self.s_rct[..n],
+                &mut self.s_q[..n],
+                t,
+                zero,
+                rct_q,
+            ),
+            None => cpe_filter_pair(
+                wts,
+                a,
+                warm,
+                &mut self.s_rct[..n],
+                &mut self.s_q[..n],
+                rct_q,
+            ),
+        }
+        let order = |l: usize| a * ln_h * e[l] - tau * dup[l];
+        if warm == 0 {
+            // From rest: no history, so no free responses (and no stale
+            // ones from an earlier window).
+            match &tails {
+                Some((t, _)) => {
+                    cpe_filter_tail(wts, a, warm, &mut self.s_a[..n], t, order, |_, _, _| {})
+                }
+                None => cpe_filter(wts, a, warm, &mut self.s_a[..n], order, |_, _, _| {}),
+            }
             self.s_ri[..n].fill(T::zero());
             self.s_uoc[..n].fill(T::zero());
             self.s_beta[..n].fill(T::zero());
@@ -535,7 +598,8 @@ impl<T: Real, const N: usize, const MEM: usize> OutputErrorRefinement<T, N, MEM>
         }
         if kinetic {
             // The history U_p = U_t − U_oc − R_i·I − η(I) moves with η's
-            // parameters: the free responses to −∂η.
+            // parameters: the free responses to −∂η. (No tail: the model
+            // with the Butler–Volmer term keeps the truncated sum.)
             for ((sa, si), &il) in self.s_bva[..warm]
                 .iter_mut()
                 .zip(&mut self.s_bvi0[..warm])
@@ -562,28 +626,70 @@ impl<T: Real, const N: usize, const MEM: usize> OutputErrorRefinement<T, N, MEM>
             *sr = -il;
             *su = -T::one();
         }
-        cpe_filter_pair(wts, a, warm, &mut self.s_a[..n], &mut self.s_ri[..n], |l| {
-            (a * ln_h * e[l] - tau * dup[l], T::zero())
-        });
+        let order_ri = |l: usize| (order(l), T::zero());
+        match &tails {
+            Some((t, _)) => cpe_filter_pair_tail(
+                wts,
+                a,
+                warm,
+                &mut self.s_a[..n],
+                &mut self.s_ri[..n],
+                t,
+                z_ri,
+                order_ri,
+            ),
+            None => cpe_filter_pair(
+                wts,
+                a,
+                warm,
+                &mut self.s_a[..n],
+                &mut self.s_ri[..n],
+                order_ri,
+            ),
+        }
+        let free = |_: usize| (T::zero(), T::zero());
         if slope {
             self.s_beta[..warm].copy_from_slice(&self.c[..warm]);
-            cpe_filter_pair(
-                wts,
-                a,
-                warm,
-                &mut self.s_uoc[..n],
-                &mut self.s_beta[..n],
-                |_| (T::zero(), T::zero()),
-            );
+            match &tails {
+                Some((t, _)) => cpe_filter_pair_tail(
+                    wts,
+                    a,
+                    warm,
+                    &mut self.s_uoc[..n],
+                    &mut self.s_beta[..n],
+                    &Tail { z0: z_uoc, ..*t },
+                    z_beta,
+                    free,
+                ),
+                None => cpe_filter_pair(
+                    wts,
+                    a,
+                    warm,
+                    &mut self.s_uoc[..n],
+                    &mut self.s_beta[..n],
+                    free,
+                ),
+            }
         } else {
-            cpe_filter(
-                wts,
-                a,
-                warm,
-                &mut self.s_uoc[..n],
-                |_| T::zero(),
-                |_, _, _| {},
-            );
+            match &tails {
+                Some((t, _)) => cpe_filter_tail(
+                    wts,
+                    a,
+                    warm,
+                    &mut self.s_uoc[..n],
+                    &Tail { z0: z_uoc, ..*t },
+                    |_| T::zero(),
+                    |_, _, _| {},
+                ),
+                None => cpe_filter(
+                    wts,
+                    a,
+                    warm,
+                    &mut self.s_uoc[..n],
+                    |_| T::zero(),
+                    |_, _, _| {},
+                ),
+            }
         }
     }
 
@@ -753,6 +859,7 @@ impl<T: Real, const N: usize, const MEM: usize> OutputErrorRefinement<T, N, MEM>
             v: &self.v[..n],
             c: &self.c[..n],
             warm,
+            tail: tail_context(s, self.past.as_ref()),
         };
         // The last iteration on this window left the simulation of the
         // estimate in `up` (its accepted trial, or the kept estimate's).
@@ -846,6 +953,7 @@ impl<T: Real, const N: usize, const MEM: usize> OutputErrorRefinement<T, N, MEM>
                 v: &self.v[..n],
                 c: &self.c[..n],
                 warm,
+                tail: tail_context(s, self.past.as_ref()),
             };
             self.work.simulations = self.work.simulations.wrapping_add(1);
             self.work.trials = self.work.trials.wrapping_add(1);
@@ -891,7 +999,11 @@ impl<T: Real, const N: usize, const MEM: usize> OutputErrorRefinement<T, N, MEM>
     /// New sensitivities at the estimate (whose simulation `up` holds) and
     /// the data's normal equations `JᵀJ`, `Jᵀr` in `x`.
     fn normal_equations(&mut self, s: &BatterySettings<T>) -> (Square<T>, [T; COLUMNS]) {
-        self.sensitivities(s.ocv_slope, s.model == CellModel::ButlerVolmer);
+        self.sensitivities(
+            s.ocv_slope,
+            s.model == CellModel::ButlerVolmer,
+            s.uses_tail(),
+        );
         // The linear model's kinetic columns are zero: not accumulated.
         // (A constant width: the compiler keeps the sums in registers.)
         match s.model {
@@ -953,6 +1065,7 @@ impl<T: Real, const N: usize, const MEM: usize> OutputErrorRefinement<T, N, MEM>
             v: &self.v[..n],
             c: &self.c[..n],
             warm,
+            tail: tail_context(s, self.past.as_ref()),
         };
         let cost = if self.fresh {
             window_cost(&data, &self.p, self.beta, &self.up[..n])
@@ -1135,6 +1248,150 @@ struct WindowData<'a, T> {
     v: &'a [T],
     c: &'a [T],
     warm: usize,
+    /// The taps beyond the memory ([`BatterySettings::tail`]), if added.
+    tail: Option<TailContext<'a, T>>,
+}
+
+/// What the tail beyond the memory needs from a window: its past's modes
+/// (`None`: rest), the sample period and the memory.
+#[derive(Clone, Copy)]
+struct TailContext<'a, T> {
+    past: Option<&'a PastModes<T>>,
+    h: T,
+    memory: usize,
+}
+
+/// The tail of one recursion: `Σ_{j≥M} ŵ_j·x(l − j) = Σ_k C_k·Z_k(l − M)`
+/// with `C_k = c_k·r_k^M` and `Z_k(n) = r_k·Z_k(n − 1) + x(n)` from
+/// `Z_k(−1) = z0_k`, the modes of the past.
+#[derive(Clone, Copy)]
+struct Tail<T> {
+    rates: [T; MODES],
+    c: [T; MODES],
+    z0: [T; MODES],
+}
+
+impl<T: Real> Tail<T> {
+    /// `C_k = x_k·r_k^M` for coefficients `x` (`c_k` or `∂c_k/∂α`).
+    fn scaled(kernel: &TailKernel<T>, x: &[T; MODES], memory: usize) -> [T; MODES] {
+        core::array::from_fn(|k| x[k] * power(kernel.rates[k], memory))
+    }
+}
+
+/// The tail context of settings `s` for a window with past `past` (`None`
+/// when the settings add no tail).
+fn tail_context<'a, T: Real>(
+    s: &BatterySettings<T>,
+    past: Option<&'a PastModes<T>>,
+) -> Option<TailContext<'a, T>> {
+    s.uses_tail().then_some(TailContext {
+        past,
+        h: s.h,
+        memory: s.memory,
+    })
+}
+
+/// `x^n` by squaring (`powi` is a general `pow` call on some targets).
+fn power<T: Real>(mut x: T, mut n: usize) -> T {
+    let mut y = T::one();
+    while n > 0 {
+        if n & 1 == 1 {
+            y = y * x;
+        }
+        x = x * x;
+        n >>= 1;
+    }
+    y
+}
+
+/// Rows of a chunk: the tail of a row reaches only rows at least `M` back,
+/// so a chunk of at most `M` rows has all of its tails from rows solved
+/// before it.
+const CHUNK: usize = 64;
+
+/// [`cpe_filter`] with the tail `t` of `x` added to every row's history:
+/// chunks of at most `min(M, CHUNK)` rows, each row's tail from the modes
+/// of the rows before the chunk. The history passed to `seen` includes the
+/// tail.
+#[inline]
+fn cpe_filter_tail<T: Real>(
+    w: &[T],
+    a: T,
+    warm: usize,
+    x: &mut [T],
+    t: &Tail<T>,
+    mut drive: impl FnMut(usize) -> T,
+    mut seen: impl FnMut(usize, T, T),
+) {
+    let (m, n) = (w.len(), x.len());
+    let mut z = t.z0;
+    let mut start = warm;
+    while start < n {
+        let end = (start + CHUNK.min(m)).min(n);
+        let mut tb = [T::zero(); CHUNK];
+        for l in start..end {
+            if l >= m {
+                let xn = x[l - m];
+                for (zk, &r) in z.iter_mut().zip(&t.rates) {
+                    *zk = r * *zk + xn;
+                }
+            }
+            tb[l - start] = t.c.iter().zip(&z).fold(T::zero(), |s, (&c, &z)| s + c * z);
+        }
+        cpe_filter(
+            w,
+            a,
+            start,
+            &mut x[..end],
+            |l| drive(l) - a * tb[l - start],
+            |l, xv, h| seen(l, xv, h + tb[l - start]),
+        );
+        start = end;
+    }
+}
+
+/// [`cpe_filter_pair`] with tails `tx`, `ty` (same rates and coefficients,
+/// their own past modes), as [`cpe_filter_tail`].
+#[inline]
+#[allow(clippy::too_many_arguments)]
+fn cpe_filter_pair_tail<T: Real>(
+    w: &[T],
+    a: T,
+    warm: usize,
+    x: &mut [T],
+    y: &mut [T],
+    tx: &Tail<T>,
+    zy: [T; MODES],
+    mut drive: impl FnMut(usize) -> (T, T),
+) {
+    let (m, n) = (w.len(), x.len().min(y.len()));
+    let (mut px, mut py) = (tx.z0, zy);
+    let mut start = warm;
+    while start < n {
+        let end = (start + CHUNK.min(m)).min(n);
+        let (mut bx, mut by) = ([T::zero(); CHUNK], [T::zero(); CHUNK]);
+        for l in start..end {
+            if l >= m {
+                let (xn, yn) = (x[l - m], y[l - m]);
+                for k in 0..MODES {
+                    px[k] = tx.rates[k] * px[k] + xn;
+                    py[k] = tx.rates[k] * py[k] + yn;
+                }
+            }
+            let (mut sx, mut sy) = (T::zero(), T::zero());
+            for k in 0..MODES {
+                sx = sx + tx.c[k] * px[k];
+                sy = sy + tx.c[k] * py[k];
+            }
+            bx[l - start] = sx;
+            by[l - start] = sy;
+        }
+        cpe_filter_pair(w, a, start, &mut x[..end], &mut y[..end], |l| {
+            let (dx, dy) = drive(l);
+            (dx - a * bx[l - start], dy - a * by[l - start])
+        });
+        start = end;
+    }
 }
 
 /// Simulates `p` over a window into `buf` (weights already at `p.alpha`),
@@ -1150,19 +1407,48 @@ fn simulate_window<T: Real, const MEM: usize>(
     buf: &mut [T],
     e: &mut [T],
 ) -> T {
-    let WindowData { i, v, c, warm } = *data;
+    let WindowData {
+        i,
+        v,
+        c,
+        warm,
+        tail,
+        ..
+    } = *data;
     for l in 0..warm {
         buf[l] = residual(v[l], p, beta, c[l], i[l], T::zero());
     }
     let a = p.tau() * w.scale();
-    cpe_filter(
-        w.weights(),
-        a,
-        warm,
-        buf,
-        |l| p.r_ct * i[l],
-        |l, x, h| e[l] = x + h,
-    );
+    match tail.and_then(|t| Some((t, TailKernel::new(p.alpha).ok()?))) {
+        Some((t, kernel)) => {
+            let z0 = match (t.past, c.first()) {
+                (Some(past), Some(&c0)) => past.polarization(p.u_oc, p.r_i, beta, c0, t.h),
+                _ => [T::zero(); MODES],
+            };
+            let tl = Tail {
+                rates: kernel.rates,
+                c: Tail::scaled(&kernel, &kernel.coefficients, t.memory),
+                z0,
+            };
+            cpe_filter_tail(
+                w.weights(),
+                a,
+                warm,
+                buf,
+                &tl,
+                |l| p.r_ct * i[l],
+                |l, x, h| e[l] = x + h,
+            );
+        }
+        None => cpe_filter(
+            w.weights(),
+            a,
+            warm,
+            buf,
+            |l| p.r_ct * i[l],
+            |l, x, h| e[l] = x + h,
+        ),
+    }
     window_cost(data, p, beta, buf)
 }
 
@@ -1181,7 +1467,7 @@ fn residual<T: Real>(v: T, p: &CellParameters<T>, beta: T, c: T, i: T, up: T) ->
 /// ½Σr² over the fitted samples of the simulation `up` of `p`, β.
 #[inline]
 fn window_cost<T: Real>(data: &WindowData<'_, T>, p: &CellParameters<T>, beta: T, up: &[T]) -> T {
-    let WindowData { i, v, c, warm } = *data;
+    let WindowData { i, v, c, warm, .. } = *data;
     let mut cost = T::zero();
     for l in warm..up.len() {
         let r = residual(v[l], p, beta, c[l], i[l], up[l]);
@@ -1197,6 +1483,7 @@ mod tests {
 
     /// The simulated terminal voltage of `p`, β over the loaded window.
     fn predicted<const N: usize, const MEM: usize>(
+        s: &BatterySettings<f64>,
         oe: &OutputErrorRefinement<f64, N, MEM>,
         p: &CellParameters<f64>,
         beta: f64,
@@ -1209,6 +1496,7 @@ mod tests {
             v: &oe.v[..n],
             c: &oe.c[..n],
             warm: oe.warm,
+            tail: tail_context(s, oe.past.as_ref()),
         };
         let (mut up, mut e) = (vec![0.0; n], vec![0.0; n]);
         simulate_window(&w, &data, p, beta, &mut up, &mut e);
@@ -1414,7 +1702,7 @@ mod tests {
             });
             let mut oe = OutputErrorRefinement::<f64, N, 24>::new(&s, truth).unwrap();
             let total = |oe: &OutputErrorRefinement<f64, N, 24>, p: &CellParameters<f64>| {
-                let pred = predicted(oe, p, 0.0);
+                let pred = predicted(&s, oe, p, 0.0);
                 let data: f64 = (oe.warm..oe.n)
                     .map(|l| (v[l] - pred[l]).powi(2))
                     .sum::<f64>()
@@ -1533,9 +1821,10 @@ mod tests {
                 v: &oe.v[..n],
                 c: &oe.c[..n],
                 warm: oe.warm,
+                tail: tail_context(&s, oe.past.as_ref()),
             };
             simulate_window(&oe.w, &data, &p, oe.beta, &mut oe.up[..n], &mut oe.e[..n]);
-            oe.sensitivities(true, s.model == CellModel::ButlerVolmer);
+            oe.sensitivities(true, s.model == CellModel::ButlerVolmer, s.uses_tail());
             // Central differences in x = [ln R_i, ln R_ct, ln Q, α, U_oc, β,
             // ln a, ln i₀].
             let step = [1e-5, 1e-5, 1e-5, 1e-5, 1e-5, 1e-9, 1e-5, 1e-5];
@@ -1559,7 +1848,7 @@ mod tests {
                         6 => q.bv_a *= (sign * d).exp(),
                         _ => q.bv_i0 *= (sign * d).exp(),
                     }
-                    predicted(&oe, &q, beta)
+                    predicted(&s, &oe, &q, beta)
                 };
                 let (hi, lo) = (moved(1.0), moved(-1.0));
                 let fd: Vec<f64> = (0..n).map(|l| (hi[l] - lo[l]) / (2.0 * d)).collect();
@@ -1572,6 +1861,124 @@ mod tests {
                         "{start:?} {model:?}: column {k}, row {l}: {j} vs {f}"
                     );
                 }
+            }
+        }
+    }
+
+    /// A window with the modes of a past (what a pack's cell window gives).
+    struct WithPast<'a, const N: usize> {
+        win: &'a SampleWindow<f64, N>,
+        past: PastModes<f64>,
+    }
+
+    impl<const N: usize> Window<f64> for WithPast<'_, N> {
+        fn len(&self) -> usize {
+            self.win.len()
+        }
+        fn version(&self) -> u32 {
+            self.win.version()
+        }
+        fn has_slid(&self) -> bool {
+            true
+        }
+        fn recent(&self) -> impl Iterator<Item = (f64, f64)> + '_ {
+            self.win.recent()
+        }
+        fn copy_into(&self, u: &mut [f64], y: &mut [f64]) -> usize {
+            self.win.copy_into(u, y)
+        }
+        fn past(&self) -> Option<PastModes<f64>> {
+            Some(self.past)
+        }
+    }
+
+    /// With the tail beyond the memory (taps at lags ≥ M inside the window
+    /// and a past before it), the Jacobian from the sensitivity recursions
+    /// still equals central finite differences of the simulation, column by
+    /// column (h = 0.5, α = 0.71 inside a segment of the coefficient table,
+    /// OCV slope fitted).
+    #[test]
+    fn jacobian_with_the_tail_equals_finite_differences() {
+        const N: usize = 200;
+        const MEM: usize = 64;
+        let mut s = BatterySettings::new(0.5, MEM);
+        s.start = Start::FromData;
+        s.ocv_slope = true;
+        s.tail = true;
+        assert!(s.uses_tail());
+        let sample = |l: usize| {
+            let x = l as f64;
+            let i = 3.0 * (0.11 * x).sin() + 2.0 * (0.037 * x).cos() - 0.5;
+            (i, 3.7 + 0.02 * i + 0.004 * (0.05 * x).sin() - 1e-5 * x)
+        };
+        // 300 samples left before the window's 200.
+        let mut past = PastModes::new();
+        for l in 0..300 {
+            let (i, v) = sample(l);
+            past.leave(i, v, sample(l + 1).0);
+        }
+        let mut win = SampleWindow::<f64, N>::new();
+        for l in 300..500 {
+            let (i, v) = sample(l);
+            win.push(i, v).unwrap();
+        }
+        let view = WithPast { win: &win, past };
+        let p = CellParameters {
+            r_i: 0.018,
+            r_ct: 0.013,
+            q: 430.0,
+            alpha: 0.71,
+            u_oc: 3.69,
+            bv_a: 0.0,
+            bv_i0: 1.3,
+        };
+        let mut oe = OutputErrorRefinement::<f64, N, MEM>::new(&s, p).unwrap();
+        oe.beta = 2e-6;
+        oe.load(&s, &view).unwrap();
+        assert!(oe.past.is_some() && oe.warm == MEM - 1);
+        oe.w.set_order(p.alpha).unwrap();
+        let n = oe.n;
+        let data = WindowData {
+            i: &oe.i[..n],
+            v: &oe.v[..n],
+            c: &oe.c[..n],
+            warm: oe.warm,
+            tail: tail_context(&s, oe.past.as_ref()),
+        };
+        simulate_window(&oe.w, &data, &p, oe.beta, &mut oe.up[..n], &mut oe.e[..n]);
+        oe.sensitivities(true, false, true);
+        // The tail changes the simulation: the test sees it.
+        let mut plain = s;
+        plain.tail = false;
+        let without = predicted(&plain, &oe, &p, oe.beta);
+        let with = predicted(&s, &oe, &p, oe.beta);
+        let moved = (0..n).fold(0.0f64, |m, l| m.max((with[l] - without[l]).abs()));
+        assert!(moved > 1e-4, "the tail moves the simulation by {moved} V");
+        let step = [1e-5, 1e-5, 1e-5, 1e-5, 1e-5, 1e-9];
+        for (k, &d) in step.iter().enumerate() {
+            let moved = |sign: f64| {
+                let mut q = p;
+                let mut beta = oe.beta;
+                match k {
+                    0 => q.r_i *= (sign * d).exp(),
+                    1 => q.r_ct *= (sign * d).exp(),
+                    2 => q.q *= (sign * d).exp(),
+                    3 => q.alpha += sign * d,
+                    4 => q.u_oc += sign * d,
+                    _ => beta += sign * d,
+                }
+                predicted(&s, &oe, &q, beta)
+            };
+            let (hi, lo) = (moved(1.0), moved(-1.0));
+            let fd: Vec<f64> = (0..n).map(|l| (hi[l] - lo[l]) / (2.0 * d)).collect();
+            let scale = fd[oe.warm..].iter().fold(0.0f64, |m, x| m.max(x.abs()));
+            assert!(scale > 0.0, "column {k} is zero");
+            for (l, &f) in fd.iter().enumerate().skip(oe.warm) {
+                let j = oe.jacobian_row(&s, &oe.p, l)[k];
+                assert!(
+                    (j - f).abs() <= 1e-6 * scale,
+                    "column {k}, row {l}: {j} vs {f}"
+                );
             }
         }
     }
