@@ -14,7 +14,8 @@
 //!   core's own [`OcvTable`](estimator_core::battery::ocv::OcvTable), and
 //!   writes it into `config.rs` as two `static` arrays (flash).
 //! * Reads the prior's centre (`FRACBMS_PRIOR=r_i,r_ct,q,alpha[,bv_a,bv_i0]`)
-//!   and the cell model (`FRACBMS_MODEL=linear|butler-volmer`).
+//!   and the cell model (`FRACBMS_MODEL=linear|butler-volmer`), the
+//!   short-memory correction (`FRACBMS_TAIL=0|1`).
 //! * For `target_os = "none"` only: puts `memory.x` (which includes
 //!   `fracbms-board.x`) and the board's map as `fracbms-board.x` on the link
 //!   path and passes `-Tlink.x` and `-Tdefmt.x`.
@@ -208,6 +209,11 @@ fn main() {
             "FRACBMS_INJECT={i}: must be none, panic or hardfault"
         )),
     };
+    let tail = match var("FRACBMS_TAIL", "0").as_str() {
+        "0" => false,
+        "1" => true,
+        t => fail(format!("FRACBMS_TAIL={t}: must be 0 or 1")),
+    };
     let bench = match var("FRACBMS_BENCH", "0").as_str() {
         "0" => false,
         "1" => true,
@@ -364,6 +370,9 @@ fn main() {
          /// The prior's centre `[R_i, R_ct, Q, α, a, i₀]` (`FRACBMS_PRIOR`; `None`: no\n\
          /// prior; `a = 0` for a linear one).\n\
          pub const PRIOR: Option<[f32; 6]> = {prior};\n\
+         /// The short-memory correction: the taps beyond the memory\n\
+         /// (`FRACBMS_TAIL=1`, `BatterySettings::tail`).\n\
+         pub const TAIL: bool = {tail};\n\
          /// The cell model the window fits (`FRACBMS_MODEL`).\n\
          pub const MODEL: estimator_core::battery::CellModel = estimator_core::battery::CellModel::{model};",
         list(&ocv_soc),

@@ -75,6 +75,7 @@ impl TaskSettings {
         online.method = method;
         online.iterations_per_sample = iterations;
         online.battery.model = crate::config::MODEL;
+        online.battery.tail = crate::config::TAIL;
         if let Some([r_i, r_ct, q, alpha, bv_a, bv_i0]) = crate::config::PRIOR {
             online.battery.prior = Some(Prior::new(CellParameters {
                 r_i,

@@ -207,6 +207,12 @@ pub struct OnlinePackArgs {
     /// Where the model starts in the window (as `online battery`).
     #[arg(long, value_enum, default_value = "from-data")]
     pub start: StartArg,
+    /// Add the Grünwald–Letnikov taps beyond the memory: those at lags ≥ M
+    /// inside the window and the past before it, carried by 8 exponential
+    /// modes per cell (the short-memory correction, docs/pack.md; linear
+    /// model, memory ≥ 64).
+    #[arg(long)]
+    pub tail: bool,
     /// Output CSV in long format, one row per cell and sample:
     /// `time_s,cell,r_i,r_ct,q,alpha,u_oc,status,rejected,flagged` (cell
     /// 1-based; the estimate empty before the cell's first; status as in
@@ -384,6 +390,12 @@ pub struct OnlineBatteryArgs {
     /// `auto` (the model of the `--prior` fit; linear without a prior).
     #[arg(long, value_enum, default_value = "auto")]
     pub model: ModelArg,
+    /// Add the Grünwald–Letnikov taps beyond the memory: those at lags ≥ M
+    /// inside the window and the past before it, carried by 8 exponential
+    /// modes per cell (the short-memory correction, docs/pack.md; linear
+    /// model, memory ≥ 64).
+    #[arg(long)]
+    pub tail: bool,
     #[command(flatten)]
     pub cell: OcvArgs,
     /// Output CSV `time_s,r_i,r_ct,q,alpha,u_oc,status,soc,ocv_offset_v,

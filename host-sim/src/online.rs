@@ -104,6 +104,9 @@ pub struct TrackOptions<'a> {
     pub cell: Option<&'a CellOcv>,
     /// The cell model (`auto`: the prior's, linear without one).
     pub model: ModelArg,
+    /// Add the Grünwald–Letnikov taps beyond the memory (the short-memory
+    /// correction, `BatterySettings::tail`).
+    pub tail: bool,
 }
 
 impl TrackOptions<'_> {
@@ -120,6 +123,7 @@ impl TrackOptions<'_> {
             prior: None,
             cell: None,
             model: ModelArg::Linear,
+            tail: false,
         }
     }
 
@@ -150,6 +154,7 @@ impl TrackOptions<'_> {
             noise_v: T::lit(p.noise_v),
         });
         s.battery.model = self.cell_model();
+        s.battery.tail = self.tail;
         s.iterations_per_sample = self.iterations_per_sample;
         s.method = match self.method {
             BatteryMethod::Paper => Method::Paper,
@@ -236,6 +241,7 @@ pub(crate) fn battery(a: &OnlineBatteryArgs) -> Result<()> {
         prior: prior.as_ref(),
         cell: cell.as_ref(),
         model: a.model,
+        tail: a.tail,
     };
     let summary = {
         let mut res = Ok(TrackSummary::default());

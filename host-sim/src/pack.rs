@@ -349,6 +349,7 @@ pub(crate) fn online(a: &OnlinePackArgs) -> Result<()> {
     track.iterations_per_sample = a.iterations_per_sample;
     track.precision = a.precision;
     track.start = a.start;
+    track.tail = a.tail;
     let o = PackOptions {
         track,
         updates_per_period: a.updates_per_period.unwrap_or(u16::MAX),

@@ -442,9 +442,11 @@ fn qemu_firmware_with_the_butler_volmer_model_agrees_with_host_sim() {
 
 /// An 8-cell pack record (±10 % spread, cell 3 aged 1.5x, 2000 s, σ = 1 mV)
 /// through the QEMU pack firmware (f32, window 256, memory 64, every cell
-/// updated every period): the pack JSON has every cell, the aged cell alone
-/// is flagged, and every cell agrees with `host-sim online pack` (f64, same
-/// settings) within the firmware's stated tolerance.
+/// updated every period, the short-memory correction on): the pack JSON has
+/// every cell, the aged cell alone is flagged, every cell agrees with
+/// `host-sim online pack --tail` (f64, same settings) within the firmware's
+/// stated tolerance, and every cell is within R_i 5 %, R_ct 10 %, Q 15 %,
+/// α 0.05 of its truth (issue 17).
 #[test]
 fn qemu_pack_firmware_agrees_with_host_sim_and_flags_the_aged_cell() {
     let csv = tmp("pack8.csv");
@@ -482,12 +484,16 @@ fn qemu_pack_firmware_agrees_with_host_sim_and_flags_the_aged_cell() {
         "64",
         "--start",
         "at-rest",
+        "--tail",
         "--out",
         track.to_str().unwrap(),
     ]);
     let t = std::fs::read_to_string(&track).unwrap();
     let rows: Vec<Vec<&str>> = t.lines().skip(1).map(|l| l.split(',').collect()).collect();
-    let fw = firmware(&csv, &["--window", "256", "--memory", "64"]);
+    let truth: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(csv.with_extension("json")).unwrap())
+            .unwrap();
+    let fw = firmware(&csv, &["--window", "256", "--memory", "64", "--tail"]);
     eprintln!("firmware {fw}");
     assert_eq!(fw["samples"].as_u64(), Some(2000), "{fw}");
     assert_eq!(fw["rejected"].as_u64(), Some(0), "{fw}");
@@ -502,5 +508,12 @@ fn qemu_pack_firmware_agrees_with_host_sim_and_flags_the_aged_cell() {
             "r_i": num(2), "r_ct": num(3), "q": num(4), "alpha": num(5), "u_oc": num(6),
         });
         assert_agree(c, &host);
+        let t = &truth["cells"][k];
+        let rel = |key: &str| (f(c, key) / f(t, key) - 1.0).abs();
+        assert!(
+            rel("r_i") < 0.05 && rel("r_ct") < 0.10 && rel("q") < 0.15,
+            "{c} {t}"
+        );
+        assert!((f(c, "alpha") - f(t, "alpha")).abs() < 0.05, "{c} {t}");
     }
 }

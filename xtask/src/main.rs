@@ -122,6 +122,10 @@ struct QemuArgs {
     /// (R_i + a·asinh(I/i₀) + R_ct‖CPE).
     #[arg(long, value_parser = ["linear", "butler-volmer"], default_value = "linear")]
     model: String,
+    /// The short-memory correction: the Grünwald–Letnikov taps beyond the
+    /// memory (FRACBMS_TAIL=1; docs/pack.md).
+    #[arg(long)]
+    tail: bool,
     /// Build the cost-measurement image (no physical-estimate check).
     #[arg(skip)]
     bench: bool,
@@ -152,6 +156,9 @@ struct BenchArgs {
     /// The cell model: `linear` or `butler-volmer`.
     #[arg(long, value_parser = ["linear", "butler-volmer"], default_value = "linear")]
     model: String,
+    /// The short-memory correction (as `qemu --tail`).
+    #[arg(long)]
+    tail: bool,
     /// Measure a pack of this many cells: the input's voltage for every
     /// cell (cell k offset by k − 1 mV), all cells updated every period;
     /// the last line then is the pack's JSON.
@@ -280,6 +287,7 @@ fn build(a: &QemuArgs) -> Result<PathBuf> {
         .env("FRACBMS_OCV", ocv.as_deref().unwrap_or(Path::new("")))
         .env("FRACBMS_PRIOR", &prior)
         .env("FRACBMS_MODEL", &a.model)
+        .env("FRACBMS_TAIL", if a.tail { "1" } else { "0" })
         .env(
             "FRACBMS_CAPACITY_AH",
             a.capacity_ah.map(|c| c.to_string()).unwrap_or_default(),
@@ -505,6 +513,7 @@ fn bench_target(b: &BenchArgs) -> Result<()> {
         capacity_ah: None,
         prior: None,
         model: b.model.clone(),
+        tail: b.tail,
         bench: true,
     };
     let elf = build(&a)?;
