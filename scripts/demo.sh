@@ -24,10 +24,10 @@ echo "== tracked over a 256-sample window, with the HPPC fit as prior =="
 $hs online battery --input data/pybamm/chen2020-drive.csv --window 256 "${cell[@]}" \
     --prior "$out/lgm50-hppc.json" --out "$out/lgm50-track.csv"
 tail -1 "$out/lgm50-track.csv"
-echo "== a pack: 8 cells, ±10 % spread, cell 3 aged; every cell tracked, the aged one flagged (docs/pack.md) =="
+echo "== a pack: 8 cells, ±10 % spread, cell 3 aged; every cell tracked with the short-memory correction, the aged one flagged (docs/pack.md) =="
 $hs simulate pack --cells 8 --preset cell --profile pulse --spread 0.1 --aged 3 --sigma 0.001 \
     --length 2000 --seed 1 --out "$out/pack.csv"
-$hs online pack --input "$out/pack.csv" --window 256 --out "$out/pack-track.csv"
+$hs online pack --input "$out/pack.csv" --window 256 --tail --out "$out/pack-track.csv"
 tail -8 "$out/pack-track.csv" | awk -F, '{ printf "cell %s: R_i %.2f mOhm, R_ct %.2f mOhm, %s%s\n", $2, 1e3 * $3, 1e3 * $4, $8, ($10 == "1" ? ", FLAGGED" : "") }'
 echo
 echo "Results in $out/: paper.json, refined.json, figures/*.svg (Figures 8–11), track.csv (online estimates),"
