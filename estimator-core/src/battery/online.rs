@@ -404,6 +404,12 @@ impl<T: Real, const N: usize, const MEM: usize> CellEstimator<T, N, MEM> {
         &self.pack.cells[0]
     }
 
+    /// The cell's state, as a pack's cell (its estimate, counters, last
+    /// rejection and fit RMSE).
+    pub fn cell_state(&self) -> &CellState<T, N> {
+        self.state()
+    }
+
     /// The last good estimate (`None` until the first one). With an OCV
     /// curve its `u_oc` is the open-circuit voltage now, `OCV(SOC) + ΔU`.
     pub fn estimate(&self) -> Option<CellParameters<T>> {

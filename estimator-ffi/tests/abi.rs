@@ -1,0 +1,353 @@
+//! The C ABI calls the core: a cell through `fracbms_cell_*` gives the
+//! core's `CellEstimator` estimates bit for bit, a pack the core's
+//! `PackEstimator`'s; every error is a code; the whole-record fit is the
+//! CLI's.
+
+use std::mem::MaybeUninit;
+
+use estimator_core::battery::online::{CellEstimator, OnlineSettings};
+use estimator_core::battery::pack::{PackEstimator, PackSettings};
+use estimator_core::battery::{CellParameters, Start};
+use fracbms::FracbmsCode::*;
+use fracbms::*;
+
+fn record() -> (Vec<f32>, Vec<f32>) {
+    let text = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../firmware/data/cell-pulse.csv"
+    ))
+    .unwrap();
+    text.lines()
+        .skip(1)
+        .map(|l| {
+            let f: Vec<f32> = l.split(',').map(|x| x.parse().unwrap()).collect();
+            (f[1], f[2])
+        })
+        .unzip()
+}
+
+fn defaults() -> FracbmsSettings {
+    let mut s = MaybeUninit::uninit();
+    assert_eq!(
+        unsafe { fracbms_settings_default(1.0, s.as_mut_ptr()) },
+        FRACBMS_OK
+    );
+    unsafe { s.assume_init() }
+}
+
+/// 8-byte aligned memory of at least `size` bytes.
+fn memory(size: usize) -> Vec<u64> {
+    vec![0; size.div_ceil(8)]
+}
+
+fn core_settings() -> OnlineSettings<f32, FRACBMS_OCV_POINTS_MAX> {
+    let mut s = OnlineSettings::new(1.0, 64, CellParameters::<f32>::cell_18650());
+    s.battery.start = Start::AtRest;
+    s.with_curve(None)
+}
+
+#[test]
+fn a_cell_through_the_abi_is_the_core_estimator_bit_for_bit() {
+    let (i, v) = record();
+    let s = defaults();
+    let (mut size, mut align) = (0, 0);
+    assert_eq!(
+        unsafe { fracbms_cell_size(256, 64, &mut size, &mut align) },
+        FRACBMS_OK
+    );
+    assert!(align <= 8 && size > 20_000, "{size} B aligned {align}");
+    let mut mem = memory(size);
+    let mut cell = std::ptr::null_mut();
+    assert_eq!(
+        unsafe { fracbms_cell_init(mem.as_mut_ptr().cast(), size, &s, &mut cell) },
+        FRACBMS_OK
+    );
+    let cs = core_settings();
+    let mut reference = Box::new(CellEstimator::<f32, 256, 64>::new(&cs).unwrap());
+    let mut e = MaybeUninit::<FracbmsEstimate>::uninit();
+    for (&i, &v) in i.iter().zip(&v) {
+        assert_eq!(
+            unsafe { fracbms_cell_push(cell, i, v, e.as_mut_ptr()) },
+            FRACBMS_OK
+        );
+        let r = reference.push(&cs, i, v);
+        let e = unsafe { e.assume_init() };
+        assert_eq!(e.status, r.status.into());
+        assert_eq!(e.iterations, r.iterations);
+    }
+    let e = unsafe { e.assume_init() };
+    let p = reference.estimate().unwrap();
+    assert!(e.valid);
+    assert_eq!(e.parameters, p.into());
+    assert_eq!(e.samples, 1000);
+    assert_eq!(e.rejected, 0);
+    assert!(e.state_of_charge.is_nan() && e.ocv_offset.is_nan());
+    // Reading changes nothing.
+    let mut again = MaybeUninit::uninit();
+    assert_eq!(
+        unsafe { fracbms_cell_estimate(cell, again.as_mut_ptr()) },
+        FRACBMS_OK
+    );
+    assert_eq!(unsafe { again.assume_init() }.parameters, e.parameters);
+}
+
+#[test]
+fn every_misuse_is_a_code() {
+    let s = defaults();
+    let (mut size, mut align) = (0, 0);
+    assert_eq!(
+        unsafe { fracbms_cell_size(256, 64, std::ptr::null_mut(), &mut align) },
+        FRACBMS_ERROR_NULL
+    );
+    assert_eq!(
+        unsafe { fracbms_cell_size(300, 64, &mut size, &mut align) },
+        FRACBMS_ERROR_UNSUPPORTED_SIZE
+    );
+    assert_eq!(
+        unsafe { fracbms_cell_size(256, 65, &mut size, &mut align) },
+        FRACBMS_ERROR_UNSUPPORTED_SIZE
+    );
+    assert_eq!(
+        unsafe { fracbms_cell_size(256, 0, &mut size, &mut align) },
+        FRACBMS_ERROR_UNSUPPORTED_SIZE
+    );
+    assert_eq!(
+        unsafe { fracbms_cell_size(256, 64, &mut size, &mut align) },
+        FRACBMS_OK
+    );
+    let mut mem = memory(size + 8);
+    let mut cell = std::ptr::null_mut();
+    let base: *mut u8 = mem.as_mut_ptr().cast();
+    assert_eq!(
+        unsafe { fracbms_cell_init(base.cast(), size - 1, &s, &mut cell) },
+        FRACBMS_ERROR_TOO_SMALL
+    );
+    assert_eq!(
+        unsafe { fracbms_cell_init(base.wrapping_add(1).cast(), size, &s, &mut cell) },
+        FRACBMS_ERROR_MISALIGNED
+    );
+    assert_eq!(
+        unsafe { fracbms_cell_init(std::ptr::null_mut(), size, &s, &mut cell) },
+        FRACBMS_ERROR_NULL
+    );
+    let mut bad = s;
+    bad.h = -1.0;
+    assert_eq!(
+        unsafe { fracbms_cell_init(base.cast(), size, &bad, &mut cell) },
+        FRACBMS_ERROR_SETTINGS
+    );
+    bad = s;
+    bad.method = 7;
+    assert_eq!(
+        unsafe { fracbms_cell_init(base.cast(), size, &bad, &mut cell) },
+        FRACBMS_ERROR_SETTINGS
+    );
+    bad = s;
+    let (soc, ocv) = ([0.0f32, 0.5, 0.4], [3.0f32, 3.5, 4.0]);
+    bad.ocv_soc = soc.as_ptr();
+    bad.ocv_v = ocv.as_ptr();
+    bad.ocv_points = 3;
+    bad.capacity_ah = 2.0;
+    assert_eq!(
+        unsafe { fracbms_cell_init(base.cast(), size, &bad, &mut cell) },
+        FRACBMS_ERROR_OCV
+    );
+    bad.ocv_soc = std::ptr::null();
+    assert_eq!(
+        unsafe { fracbms_cell_init(base.cast(), size, &bad, &mut cell) },
+        FRACBMS_ERROR_NULL
+    );
+    // Memory that no init wrote.
+    let mut e = MaybeUninit::uninit();
+    assert_eq!(
+        unsafe { fracbms_cell_push(base.cast(), 1.0, 3.7, e.as_mut_ptr()) },
+        FRACBMS_ERROR_NOT_INITIALIZED
+    );
+    assert_eq!(
+        unsafe { fracbms_cell_push(std::ptr::null_mut(), 1.0, 3.7, e.as_mut_ptr()) },
+        FRACBMS_ERROR_NULL
+    );
+    // A bad sample is data: rejected, counted, not an error.
+    assert_eq!(
+        unsafe { fracbms_cell_init(base.cast(), size, &s, &mut cell) },
+        FRACBMS_OK
+    );
+    for v in [f32::NAN, f32::INFINITY, 1e30, -3.7] {
+        assert_eq!(
+            unsafe { fracbms_cell_push(cell, 1.0, v, e.as_mut_ptr()) },
+            FRACBMS_OK
+        );
+        assert_ne!(
+            unsafe { e.assume_init() }.rejection,
+            FracbmsRejection::FRACBMS_REJECTION_NONE
+        );
+    }
+    assert_eq!(unsafe { e.assume_init() }.rejected, 4);
+    // Names of unknown values.
+    let name =
+        |p: *const std::ffi::c_char| unsafe { std::ffi::CStr::from_ptr(p) }.to_str().unwrap();
+    assert_eq!(name(fracbms_status_name(2)), "tracking");
+    assert_eq!(name(fracbms_status_name(99)), "unknown");
+    assert_eq!(
+        name(fracbms_code_message(-3)),
+        "the memory is smaller than reported"
+    );
+    assert_eq!(name(fracbms_code_message(5)), "unknown code");
+}
+
+#[test]
+fn a_pack_through_the_abi_is_the_core_pack_bit_for_bit() {
+    let (i, v) = record();
+    let s = defaults();
+    let cells = 5u16;
+    let (mut size, mut align) = (0, 0);
+    assert_eq!(
+        unsafe { fracbms_pack_size(256, 64, 17, &mut size, &mut align) },
+        FRACBMS_ERROR_CELL_COUNT
+    );
+    assert_eq!(
+        unsafe { fracbms_pack_size(256, 64, cells, &mut size, &mut align) },
+        FRACBMS_OK
+    );
+    let (mut size16, mut size4) = (0, 0);
+    unsafe { fracbms_pack_size(256, 64, 16, &mut size16, &mut align) };
+    unsafe { fracbms_pack_size(256, 64, 4, &mut size4, &mut align) };
+    assert!(size4 < size && size < size16, "room for 4 < 8 < 16 cells");
+    let mut mem = memory(size);
+    let mut pack = std::ptr::null_mut();
+    assert_eq!(
+        unsafe { fracbms_pack_init(mem.as_mut_ptr().cast(), size, &s, cells, 2, 0.3, &mut pack) },
+        FRACBMS_OK
+    );
+    assert_eq!(unsafe { fracbms_pack_cells(pack) }, cells);
+    let mut ps = PackSettings::new(core_settings());
+    ps.updates_per_period = 2;
+    let mut reference = Box::new(PackEstimator::<f32, 256, 64, 8>::new(&ps, 5).unwrap());
+    let mut report = FracbmsPackReport::default();
+    for (k, (&i, &v)) in i.iter().zip(&v).enumerate() {
+        // Cell c reads c mV more; cell 3 a NaN every 100 samples.
+        let vs: Vec<f32> = (0..cells)
+            .map(|c| {
+                if c == 3 && k % 100 == 7 {
+                    f32::NAN
+                } else {
+                    v + f32::from(c) * 1e-3
+                }
+            })
+            .collect();
+        assert_eq!(
+            unsafe { fracbms_pack_push(pack, i, vs.as_ptr(), cells, &mut report) },
+            FRACBMS_OK
+        );
+        let r = reference.push(&ps, i, &vs).unwrap();
+        assert_eq!(
+            (report.rejected, report.updated, report.iterations),
+            (r.rejected, r.updated, r.iterations)
+        );
+    }
+    for c in 0..cells {
+        let mut e = MaybeUninit::uninit();
+        assert_eq!(
+            unsafe { fracbms_pack_cell(pack, c, e.as_mut_ptr()) },
+            FRACBMS_OK
+        );
+        let e = unsafe { e.assume_init() };
+        let want = reference.cell(usize::from(c)).unwrap();
+        assert_eq!(e.parameters, want.estimate().unwrap().into());
+        assert_eq!(e.rejected, if c == 3 { 10 } else { 0 });
+        assert!(!e.flagged, "cells differ by an offset only");
+    }
+    let mut e = MaybeUninit::uninit();
+    assert_eq!(
+        unsafe { fracbms_pack_cell(pack, cells, e.as_mut_ptr()) },
+        FRACBMS_ERROR_CELL_COUNT
+    );
+    let short = [3.7f32; 4];
+    assert_eq!(
+        unsafe { fracbms_pack_push(pack, 0.0, short.as_ptr(), 4, &mut report) },
+        FRACBMS_ERROR_CELL_COUNT
+    );
+}
+
+#[test]
+fn whole_record_identification_is_the_clis() {
+    let text = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../firmware/data/cell-pulse.csv"
+    ))
+    .unwrap();
+    let rows: Vec<Vec<f64>> = text
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').map(|x| x.parse().unwrap()).collect())
+        .collect();
+    let col = |k: usize| rows.iter().map(|r| r[k]).collect::<Vec<f64>>();
+    let (t, i, mut v) = (col(0), col(1), col(2));
+    let mut fit = MaybeUninit::<FracbmsFit>::uninit();
+    let code = unsafe {
+        fracbms_identify_battery(
+            t.as_ptr(),
+            i.as_ptr(),
+            v.as_ptr(),
+            t.len(),
+            std::ptr::null(),
+            fit.as_mut_ptr(),
+        )
+    };
+    assert_eq!(code, FRACBMS_OK);
+    let fit = unsafe { fit.assume_init() };
+    // The CLI on the same file.
+    let path = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../firmware/data/cell-pulse.csv"
+    );
+    let rec = host_sim::io::read_battery(std::path::Path::new(path), None).unwrap();
+    let refine = host_sim::identify::Refine {
+        model: host_sim::cli::ModelArg::Auto,
+        ..Default::default()
+    };
+    let cli = host_sim::identify::battery_identify(
+        std::path::Path::new(path),
+        &rec,
+        None,
+        host_sim::cli::BatteryMethod::Refined,
+        None,
+        50,
+        false,
+        refine,
+    )
+    .unwrap();
+    assert_eq!(
+        (fit.r_i, fit.r_ct, fit.q, fit.alpha, fit.u_oc),
+        (
+            cli.json.r_i,
+            cli.json.r_ct,
+            cli.json.q,
+            cli.json.alpha,
+            cli.json.u_oc
+        )
+    );
+    assert_eq!(fit.converged, cli.json.converged);
+    // A NaN is one message, not a fit.
+    v[10] = f64::NAN;
+    let mut bad = MaybeUninit::<FracbmsFit>::uninit();
+    let code = unsafe {
+        fracbms_identify_battery(
+            t.as_ptr(),
+            i.as_ptr(),
+            v.as_ptr(),
+            t.len(),
+            std::ptr::null(),
+            bad.as_mut_ptr(),
+        )
+    };
+    assert_eq!(code, FRACBMS_ERROR_DATA);
+    let bad = unsafe { bad.assume_init() };
+    let msg = unsafe { std::ffi::CStr::from_ptr(bad.message.as_ptr()) }
+        .to_str()
+        .unwrap();
+    assert_eq!(
+        msg,
+        "record: row 12, column `voltage_v`: not a finite number (NaN)"
+    );
+}
