@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # The project's test command: formatting, lints, the no_std build for the
-# Cortex-M4F target, then the host test suite (its summary is the last line).
+# Cortex-M4F target, the C header check, then the host test suite (firmware
+# and C example under QEMU included; its summary is the last line).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -26,6 +27,14 @@ if ! command -v defmt-print >/dev/null 2>&1; then
   cargo install defmt-print --version 1.2.0 --locked --quiet
 fi
 
+# The C example firmware (examples/c/) is built with arm-none-eabi-gcc.
+if ! command -v arm-none-eabi-gcc >/dev/null 2>&1; then
+  echo "== installing gcc-arm-none-eabi"
+  SUDO=""; [ "$(id -u)" -ne 0 ] && SUDO="sudo"
+  $SUDO apt-get update -qq
+  $SUDO apt-get install -y --no-install-recommends gcc-arm-none-eabi >/dev/null
+fi
+
 echo "== cargo fmt --check"
 cargo fmt --all --check
 echo "== cargo clippy (host crates, all targets)"
@@ -33,6 +42,10 @@ cargo clippy --all-targets -- -D warnings
 echo "== no_std build: estimator-core for thumbv7em-none-eabihf"
 cargo build -p estimator-core --target thumbv7em-none-eabihf --release
 cargo clippy -p estimator-core --target thumbv7em-none-eabihf -- -D warnings
+echo "== C ABI: the static library for thumbv7em-none-eabihf, and include/fracbms.h up to date"
+cargo clippy -p estimator-ffi --target thumbv7em-none-eabihf --release -- -D warnings
+cargo build -p estimator-ffi --target thumbv7em-none-eabihf --release
+cargo xtask header --check
 echo "== firmware for the STM32L452 board (built, not run: no board here), with clippy"
 for f in board-stm32l452 stm32l452-bq769x0; do
   cargo clippy -p firmware --target thumbv7em-none-eabihf --release --no-default-features --features "$f" -- -D warnings

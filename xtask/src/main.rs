@@ -34,6 +34,9 @@ use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 
+mod c_demo;
+mod header;
+
 #[derive(Parser)]
 #[command(about = "fracbms helper commands", version)]
 struct Cli {
@@ -56,6 +59,16 @@ enum Cmd {
         /// Seconds before QEMU is stopped.
         #[arg(long, default_value_t = 600)]
         timeout: u32,
+    },
+    /// Build the C example (examples/c/) against libfracbms.a for a data
+    /// file, run it under QEMU, print its estimates as one JSON line.
+    CDemo(c_demo::CDemoArgs),
+    /// Generate the C header include/fracbms.h from estimator-ffi
+    /// (cbindgen); `--check` fails when the committed one is stale.
+    Header {
+        /// Compare with the committed header instead of writing it.
+        #[arg(long)]
+        check: bool,
     },
 }
 
@@ -600,6 +613,8 @@ fn main() {
         Cmd::Qemu(a) => qemu(a),
         Cmd::BenchTarget(b) => bench_target(b),
         Cmd::RunElf { elf, timeout } => run_elf(elf, *timeout, false).map(|_| ()),
+        Cmd::CDemo(a) => c_demo::run(a),
+        Cmd::Header { check } => header::header(&root(), *check),
     };
     if let Err(e) = r {
         eprintln!("error: {e:#}");
