@@ -29,6 +29,12 @@ $hs simulate pack --cells 8 --preset cell --profile pulse --spread 0.1 --aged 3 
     --length 2000 --seed 1 --out "$out/pack.csv"
 $hs online pack --input "$out/pack.csv" --window 256 --tail --out "$out/pack-track.csv"
 tail -8 "$out/pack-track.csv" | awk -F, '{ printf "cell %s: R_i %.2f mOhm, R_ct %.2f mOhm, %s%s\n", $2, 1e3 * $3, 1e3 * $4, $8, ($10 == "1" ? ", FLAGGED" : "") }'
+echo "== the same estimator linked into a C firmware, under QEMU (docs/c-abi.md) =="
+if command -v arm-none-eabi-gcc >/dev/null 2>&1 && command -v qemu-system-arm >/dev/null 2>&1; then
+  cargo xtask c-demo --input firmware/data/cell-pulse.csv 2>/dev/null | tail -1
+else
+  echo "   skipped: needs gcc-arm-none-eabi and qemu-system-arm (apt-get install -y --no-install-recommends gcc-arm-none-eabi qemu-system-arm)"
+fi
 echo
 echo "Results in $out/: paper.json, refined.json, figures/*.svg (Figures 8–11), track.csv (online estimates),"
 echo "lgm50-*.json, lgm50-drive-fit.csv and lgm50-track.csv (the DFN cell; docs/real-cells.md),"
