@@ -709,17 +709,17 @@ impl<T: Real, const N: usize, const MEM: usize> WorkingArea<T, N, MEM> {
 }
 
 impl<T: Real, const N: usize> CellState<T, N> {
-    fn new<const MEM: usize, const P: usize>(
-        s: &OnlineSettings<T, P>,
-        work: &WorkingArea<T, N, MEM>,
-    ) -> Self {
+    /// A cell with an empty window: its estimators' states are those of a
+    /// new working area ([`WorkingArea::new`]; test
+    /// `a_new_cell_holds_a_new_working_area_state`).
+    fn new<const MEM: usize, const P: usize>(s: &OnlineSettings<T, P>) -> Self {
         Self {
             u: [T::ZERO; N],
             len: 0,
             pushed: 0,
             version: 0,
-            gi: work.gi.state(),
-            oe: work.oe.state(),
+            gi: PaperRegressionGi::<T, N, MEM>::initial_state(s.alpha0),
+            oe: OutputErrorRefinement::<T, N, MEM>::initial_state(s.initial_in_window()),
             // With a prior the refinement starts at its centre: the paper
             // method's start-up is not needed.
             refining: s.method == Method::Refined && s.battery.prior.is_some(),
@@ -1215,13 +1215,14 @@ impl<T: Real, const N: usize, const MEM: usize, const CELLS: usize>
             return Err(Error::BadSetting);
         }
         check_limits(s)?;
-        let work = WorkingArea::new(s)?;
-        let cell = CellState::new(s, &work);
+        let cell = CellState::new::<MEM, P>(s);
+        // The working area is built in the return value: a local moved in
+        // would be one more copy of its arrays on the (start-up) stack.
         Ok(Self {
             history: CurrentHistory::new(),
             cells: core::array::from_fn(|_| cell.clone()),
             active: cells,
-            work,
+            work: WorkingArea::new(s)?,
             next: 0,
         })
     }
@@ -1287,5 +1288,22 @@ impl<T: Real, const N: usize, const MEM: usize, const CELLS: usize>
         }
         self.next = (first + updates) % cells;
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_new_cell_holds_a_new_working_area_state() {
+        let mut s = OnlineSettings::new(1.0f32, 64, CellParameters::cell_18650());
+        for alpha0 in [0.3f32, 0.5, 0.9] {
+            s.alpha0 = alpha0;
+            let work = WorkingArea::<f32, 256, 64>::new(&s).unwrap();
+            let cell = CellState::<f32, 256>::new::<64, 0>(&s);
+            assert_eq!(cell.gi, work.gi.state());
+            assert_eq!(cell.oe, work.oe.state());
+        }
     }
 }

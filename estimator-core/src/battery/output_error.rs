@@ -316,12 +316,18 @@ impl<T: Real, const N: usize, const MEM: usize> OutputErrorRefinement<T, N, MEM>
     /// Settings errors; [`Error::BadSetting`] for a non-physical start or
     /// one whose order is outside the bounds.
     pub fn new(s: &BatterySettings<T>, start: CellParameters<T>) -> Result<Self, Error> {
+        // `set_cell`'s checks and state, built in the return value (a
+        // refinement built first and then set would be one more copy of
+        // its arrays on the stack).
         s.check::<MEM>()?;
-        let mut me = Self {
+        if !start.is_physical() || start.alpha < s.alpha_min || start.alpha > s.alpha_max {
+            return Err(Error::BadSetting);
+        }
+        Ok(Self {
             p: start,
             lambda: T::lit(LAMBDA0),
             k: 0,
-            w: GlWeights::new(T::lit(0.5), s.h, s.memory)?,
+            w: GlWeights::new(start.alpha, s.h, s.memory)?,
             i: [T::ZERO; N],
             v: [T::ZERO; N],
             up: [T::ZERO; N],
@@ -346,9 +352,7 @@ impl<T: Real, const N: usize, const MEM: usize> OutputErrorRefinement<T, N, MEM>
             stalled: None,
             linear: None,
             work: RefinementWork::default(),
-        };
-        me.set_cell(s, start)?;
-        Ok(me)
+        })
     }
 
     /// Restarts from `p` (keeps the window cache, resets k and λ).
@@ -369,6 +373,18 @@ impl<T: Real, const N: usize, const MEM: usize> OutputErrorRefinement<T, N, MEM>
         self.stalled = None;
         self.linear = None;
         Ok(())
+    }
+
+    /// The [`state`](Self::state) of a new refinement started from
+    /// `start` (without building one).
+    pub fn initial_state(start: CellParameters<T>) -> RefinementState<T> {
+        RefinementState {
+            p: start,
+            lambda: T::lit(LAMBDA0),
+            beta: T::zero(),
+            k: 0,
+            work: RefinementWork::default(),
+        }
     }
 
     /// What this refinement carries between samples for one cell: the

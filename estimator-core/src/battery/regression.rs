@@ -245,6 +245,18 @@ impl<T: Real, const N: usize, const MEM: usize> PaperRegressionGi<T, N, MEM> {
         Ok(())
     }
 
+    /// The [`state`](Self::state) of a new estimator with initial order
+    /// `alpha0` (without building one).
+    pub fn initial_state(alpha0: T) -> PaperRegressionState<T> {
+        PaperRegressionState {
+            theta: [T::lit(1.0 / P0); 4],
+            alpha: alpha0,
+            k: 0,
+            order_moves: 0,
+            vref: None,
+        }
+    }
+
     /// What this estimator carries between samples for one cell: θ̂, α̂,
     /// the counters and the voltage centre. The rest of the type is working
     /// area over the loaded window, which a pack shares between its cells
