@@ -569,7 +569,7 @@ FracbmsCode fracbms_cell_size(uint16_t window, uint16_t memory, size_t *size, si
  * `fracbms_cell_size` reported) with `settings`, and returns its handle
  * in `cell`. The OCV table is copied: its arrays may go after the call.
  * The estimator is built on the stack and moved into `memory`: the call
- * needs a deep stack once (133 KB measured at window 256, docs/c-abi.md).
+ * needs a deep stack once (72 KB measured at window 256, docs/c-abi.md).
  *
  * # Safety
  * `memory` is null or valid for writes of `size` bytes, and not used for
