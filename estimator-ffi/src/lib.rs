@@ -20,8 +20,9 @@
 //! ## Errors and statuses
 //!
 //! Every function returns a [`FracbmsCode`]; nothing panics across the
-//! boundary (the bare-metal library's panic handler halts and no code path
-//! of a valid call reaches it; on the host an unwinding panic aborts at the
+//! boundary (the bare-metal library's panic handler halts, and no valid
+//! call is known to reach it, though the remaining index checks are not
+//! yet proven unreachable: docs/c-abi.md; on the host an unwinding panic aborts at the
 //! `extern "C"` boundary, and the whole-record fit catches its own). A
 //! pushed sample always returns `FRACBMS_OK` with a [`FracbmsStatus`] and a
 //! [`FracbmsRejection`] in the estimate: a bad sample is data, not an
@@ -511,9 +512,10 @@ pub unsafe extern "C" fn fracbms_identify_battery(
     identify::identify(t, i, v, ocv, &o, fit)
 }
 
-/// The bare-metal library's panic handler: halts. No valid call reaches
-/// it (every input is checked and every error is a code); a firmware's
-/// watchdog resets the MCU if one ever did.
+/// The bare-metal library's panic handler: halts. No valid call is known
+/// to reach it (every input is checked and every error is a code; the
+/// index checks left in the image are not yet proven unreachable); a
+/// firmware's watchdog resets the MCU if one ever did.
 #[cfg(all(target_os = "none", feature = "panic-handler"))]
 #[panic_handler]
 fn panic(_: &core::panic::PanicInfo) -> ! {
