@@ -14,7 +14,7 @@
 //!    keys `r_i`, `r_ct`, `q`, `alpha`, `u_oc`, `samples`, `rejected` (and
 //!    `soc`, `ocv_offset_v` with a table), as `cargo xtask qemu`.
 
-use super::{number, root, target_dir, Summary};
+use super::{number, qemu_command, root, target_dir, Summary};
 use anyhow::{bail, Context, Result};
 use estimator_core::battery::ocv::{OcvError, OcvTable};
 use std::collections::BTreeMap;
@@ -404,23 +404,8 @@ fn sizes(elf: &Path) {
 /// Runs `elf` under QEMU, echoes its output to stderr and returns its
 /// `KEY a=b …` lines by key.
 fn run_qemu(elf: &Path, timeout: u32) -> Result<Summary> {
-    let mut qemu = Command::new("timeout")
-        .arg(timeout.to_string())
-        .args([
-            "qemu-system-arm",
-            "-machine",
-            "mps2-an386",
-            "-cpu",
-            "cortex-m4",
-            "-nographic",
-            "-monitor",
-            "none",
-            "-serial",
-            "none",
-            "-semihosting-config",
-            "enable=on,target=native",
-            "-kernel",
-        ])
+    let mut qemu = qemu_command(timeout)
+        .arg("-kernel")
         .arg(elf)
         // Semihosting console output (SYS_WRITE0) goes to QEMU's stderr.
         .stdout(Stdio::from(std::io::stderr()))

@@ -345,12 +345,10 @@ fn build(a: &QemuArgs) -> Result<PathBuf> {
 /// What a firmware run printed: the `KEY a=b …` summary lines by key.
 type Summary = BTreeMap<String, BTreeMap<String, String>>;
 
-/// Runs `elf` under QEMU, echoes the decoded log to stderr, returns the
-/// summary lines; fails when QEMU fails or times out.
-fn run_elf(elf: &Path, timeout: u32, icount: bool) -> Result<Summary> {
-    if !elf.exists() {
-        bail!("{}: no such firmware image", elf.display());
-    }
+/// `timeout T qemu-system-arm` on the mps2-an386 board (Cortex-M4F) with
+/// semihosting and no serial or monitor: add `-kernel ELF` (the Rust
+/// firmware and the C example run on the same command line).
+fn qemu_command(timeout: u32) -> Command {
     let mut qemu = Command::new("timeout");
     qemu.arg(timeout.to_string()).args([
         "qemu-system-arm",
@@ -366,6 +364,16 @@ fn run_elf(elf: &Path, timeout: u32, icount: bool) -> Result<Summary> {
         "-semihosting-config",
         "enable=on,target=native",
     ]);
+    qemu
+}
+
+/// Runs `elf` under QEMU, echoes the decoded log to stderr, returns the
+/// summary lines; fails when QEMU fails or times out.
+fn run_elf(elf: &Path, timeout: u32, icount: bool) -> Result<Summary> {
+    if !elf.exists() {
+        bail!("{}: no such firmware image", elf.display());
+    }
+    let mut qemu = qemu_command(timeout);
     if icount {
         qemu.args(["-icount", "shift=0"]);
     }
