@@ -231,6 +231,16 @@ pub enum Algorithm {
     Kt,
 }
 
+/// `identify hammerstein --method`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum HammersteinMethod {
+    /// The paper's algorithm (`--algorithm`) alone.
+    Paper,
+    /// The prediction-error (maximum-likelihood) refinement started from
+    /// it, with a global search over the order.
+    Refined,
+}
+
 /// The cell model of the battery fit (`--model`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, ValueEnum)]
 pub enum ModelArg {
@@ -261,7 +271,13 @@ pub struct IdHammersteinArgs {
     /// Input CSV with columns u,y.
     #[arg(long)]
     pub input: PathBuf,
-    /// Algorithm.
+    /// Method: `paper` (the algorithm alone) or `refined` (the
+    /// prediction-error refinement started from it: maximum likelihood,
+    /// the most accurate; docs/identification.md).
+    #[arg(long, value_enum, default_value = "refined")]
+    pub method: HammersteinMethod,
+    /// Algorithm of the paper stage (the whole method with `--method paper`,
+    /// the start of the refinement with `refined`).
     #[arg(long, value_enum, default_value = "op")]
     pub algorithm: Algorithm,
     /// Order of A(z).
@@ -279,9 +295,13 @@ pub struct IdHammersteinArgs {
     /// Memory of the fractional differences (default: all rows, at most 2048).
     #[arg(long)]
     pub memory: Option<usize>,
-    /// Iterations.
+    /// Iterations of the paper stage.
     #[arg(long, default_value_t = 100)]
     pub iterations: u32,
+    /// Most iterations of the refinement (its global search over the order
+    /// included).
+    #[arg(long, default_value_t = 400)]
+    pub refine_iterations: u32,
     /// Initial order α̂₀.
     #[arg(long, default_value_t = 0.45)]
     pub alpha0: f64,

@@ -1,7 +1,8 @@
 //! `identify hammerstein` and `identify battery`.
 
 use crate::cli::{
-    parse_basis, Algorithm, BatteryMethod, IdBatteryArgs, IdHammersteinArgs, ModelArg,
+    parse_basis, Algorithm, BatteryMethod, HammersteinMethod, IdBatteryArgs, IdHammersteinArgs,
+    ModelArg,
 };
 use crate::{io, plot};
 use anyhow::{anyhow, bail, Context, Result};
@@ -12,6 +13,7 @@ use estimator_core::battery::{BatterySettings, CellModel, CellParameters};
 use estimator_core::frac::GlWeights;
 use estimator_core::gi::key_term::KeyTermGi;
 use estimator_core::gi::over_param::OverParamGi;
+use estimator_core::gi::prediction_error::{PredictionErrorRefinement, PredictionErrorSettings};
 use estimator_core::gi::{GiSettings, HammersteinEstimate, Normalization};
 use estimator_core::model::{Orders, Polynomial};
 use estimator_core::window::SampleWindow;
@@ -22,12 +24,14 @@ use std::path::Path;
 /// note; `online` streams files of any length).
 pub const MAX_ROWS: usize = 8192;
 /// Memory capacity of the Hammerstein estimators.
-pub const HAM_MEM: usize = 2048;
+pub const HAM_MEM: usize = 4096;
 /// Memory capacity of the battery estimators.
 pub const BAT_MEM: usize = 4096;
 
 type OpGi = OverParamGi<f64, MAX_ROWS, HAM_MEM, 4, 4, 4, 4, 16>;
 type KtGi = KeyTermGi<f64, MAX_ROWS, HAM_MEM, 4, 4, 4, 4, 16>;
+type Refinement = PredictionErrorRefinement<f64, MAX_ROWS, HAM_MEM, 4, 4, 4, 4, 16, 25>;
+type Estimate = HammersteinEstimate<f64, 4, 4, 4, 4, 16>;
 
 /// One entry of the iteration history.
 #[derive(Serialize, Clone, Copy, Debug)]
@@ -40,10 +44,25 @@ pub struct HistoryEntry {
     pub cost: f64,
 }
 
+/// The start the refinement's descent began from.
+#[derive(Serialize, Clone, Copy, Debug)]
+pub struct RefineStart {
+    /// 0: the paper stage's own order; `g ≥ 1`: grid order g.
+    pub index: u8,
+    /// `"paper"` or `"grid"`.
+    pub kind: &'static str,
+    /// The fixed order of that start.
+    pub alpha: f64,
+    /// The criterion there after the fit of the linear parameters.
+    pub cost: f64,
+}
+
 /// The JSON of `identify hammerstein`.
 #[derive(Serialize, Debug)]
 pub struct HammersteinJson {
-    /// "op" or "kt".
+    /// "paper" or "refined".
+    pub method: &'static str,
+    /// "op" or "kt": the paper stage.
     pub algorithm: &'static str,
     /// â.
     pub a: Vec<f64>,
@@ -57,14 +76,81 @@ pub struct HammersteinJson {
     pub alpha: f64,
     /// b̂_i γ̂_j, i-major.
     pub theta_products: Vec<f64>,
-    /// Iterations run.
+    /// Iterations of the paper stage.
     pub iterations: u32,
-    /// Converged (step 6 of the paper).
+    /// The paper stage converged (step 6 of the paper).
     pub converged: bool,
-    /// Final cost.
+    /// The criterion `½ Σ ε(l)²` at the published estimate (the whitened
+    /// one-step prediction error; the paper stage's cost with `--method
+    /// paper`).
     pub cost: f64,
-    /// Per-iteration α̂ and cost.
+    /// The criterion at the paper stage's estimate.
+    pub paper_cost: f64,
+    /// Refinement iterations (null with `--method paper`).
+    pub refine_iterations: Option<u32>,
+    /// The refinement's final cost (null with `--method paper`).
+    pub refine_cost: Option<f64>,
+    /// The refinement converged (null with `--method paper`).
+    pub refine_converged: Option<bool>,
+    /// The start of the order search that won (null with `--method paper`).
+    pub refine_start: Option<RefineStart>,
+    /// Per-iteration α̂ and cost of the paper stage.
     pub history: Vec<HistoryEntry>,
+}
+
+/// What the refinement gave.
+struct Refined {
+    est: Estimate,
+    iterations: u32,
+    cost: f64,
+    converged: bool,
+    start: RefineStart,
+}
+
+/// Runs the prediction-error refinement from `start` (in a thread with a
+/// stack for its working arrays).
+fn refine_hammerstein(
+    s: &GiSettings<f64>,
+    win: &SampleWindow<f64, MAX_ROWS>,
+    start: &Estimate,
+    max_iterations: u32,
+) -> Result<Refined> {
+    let ps = PredictionErrorSettings::new(*s);
+    std::thread::scope(|sc| {
+        std::thread::Builder::new()
+            .stack_size(64 << 20)
+            .spawn_scoped(sc, || -> Result<Refined, estimator_core::Error> {
+                let mut r = Box::new(Refinement::new(&ps, start)?);
+                let mut last = None;
+                for _ in 0..max_iterations {
+                    let it = r.iterate(&ps, &Polynomial, win)?;
+                    last = Some(it);
+                    if it.converged {
+                        break;
+                    }
+                }
+                let won = r.winning_start(&ps);
+                Ok(Refined {
+                    est: *r.estimate(),
+                    iterations: r.iterations(),
+                    cost: last.map_or(f64::NAN, |it| it.cost),
+                    converged: last.is_some_and(|it| it.converged),
+                    start: RefineStart {
+                        index: won.map_or(0, |w| w.index),
+                        kind: match won {
+                            Some(w) if w.index > 0 => "grid",
+                            _ => "paper",
+                        },
+                        alpha: won.map_or(start.alpha, |w| w.alpha),
+                        cost: won.map_or(f64::NAN, |w| w.cost),
+                    },
+                })
+            })
+            .map_err(|e| anyhow!("refinement thread: {e}"))?
+            .join()
+            .map_err(|_| anyhow!("the refinement thread panicked"))?
+            .map_err(|e| anyhow!("refinement: {e}"))
+    })
 }
 
 fn note_truncation(path: &Path, rows: usize) {
@@ -179,6 +265,34 @@ pub fn hammerstein_json(a: &IdHammersteinArgs) -> Result<HammersteinJson> {
         }
     };
     pb.finish_and_clear();
+    let paper_cost = cost;
+    let (est, b, gamma, refined) = match a.method {
+        HammersteinMethod::Paper => (est, b, gamma, None),
+        HammersteinMethod::Refined => {
+            let r = refine_hammerstein(&s, &win, &est, a.refine_iterations)
+                .map_err(|e| anyhow!("{}: {e}", a.input.display()))?;
+            let norm = match a.algorithm {
+                Algorithm::Op => Normalization::UnitGamma,
+                Algorithm::Kt => Normalization::UnitB1,
+            };
+            let (b, g) = r
+                .est
+                .factor(norm)
+                .map(|(b, g)| (b[..a.nb].to_vec(), g[..m].to_vec()))
+                .unwrap_or_default();
+            println!(
+                "refined: {} iterations from the {} start (α = {:.4}, cost {:.6e}), α̂ = {:.5}, cost {:.6e}{}",
+                r.iterations,
+                r.start.kind,
+                r.start.alpha,
+                r.start.cost,
+                r.est.alpha,
+                r.cost,
+                if r.converged { ", converged" } else { "" }
+            );
+            (r.est, b, g, Some(r))
+        }
+    };
     let mut products = Vec::new();
     for i in 0..a.nb {
         for j in 0..m {
@@ -186,6 +300,10 @@ pub fn hammerstein_json(a: &IdHammersteinArgs) -> Result<HammersteinJson> {
         }
     }
     Ok(HammersteinJson {
+        method: match a.method {
+            HammersteinMethod::Paper => "paper",
+            HammersteinMethod::Refined => "refined",
+        },
         algorithm: match a.algorithm {
             Algorithm::Op => "op",
             Algorithm::Kt => "kt",
@@ -198,7 +316,12 @@ pub fn hammerstein_json(a: &IdHammersteinArgs) -> Result<HammersteinJson> {
         theta_products: products,
         iterations: history.len() as u32,
         converged,
-        cost,
+        cost: refined.as_ref().map_or(paper_cost, |r| r.cost),
+        paper_cost,
+        refine_iterations: refined.as_ref().map(|r| r.iterations),
+        refine_cost: refined.as_ref().map(|r| r.cost),
+        refine_converged: refined.as_ref().map(|r| r.converged),
+        refine_start: refined.as_ref().map(|r| r.start),
         history,
     })
 }

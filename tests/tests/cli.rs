@@ -119,6 +119,13 @@ fn hammerstein_identify_writes_the_contract_json() {
         let j: serde_json::Value =
             serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
         assert_eq!(j["algorithm"], alg);
+        // The default method is the refinement: its keys are set.
+        assert_eq!(j["method"], "refined");
+        assert!(j["refine_iterations"].as_u64().unwrap() > 0);
+        assert!(j["refine_cost"].as_f64().unwrap() <= j["paper_cost"].as_f64().unwrap());
+        assert!(j["refine_converged"].is_boolean());
+        assert!(["paper", "grid"].contains(&j["refine_start"]["kind"].as_str().unwrap()));
+        assert!(j["refine_start"]["alpha"].as_f64().unwrap().is_finite());
         assert_eq!(j["a"].as_array().unwrap().len(), 2);
         assert_eq!(j["b"].as_array().unwrap().len(), 3);
         assert_eq!(j["c"].as_array().unwrap().len(), 2);
@@ -279,9 +286,12 @@ fn malformed_files_give_one_line_errors() {
 }
 
 /// simulate → identify on the `identifiable` preset (docs/identification.md):
-/// both algorithms recover the system part. Bounds are explicit: a within
-/// 0.03, every product b_iγ_j within 0.05, α within 0.05, and the noise
-/// model c (estimated from residuals, the hardest part) within 0.15.
+/// both algorithms recover the system part. Bounds are explicit. The paper
+/// method: a within 0.03, every product b_iγ_j within 0.05, α within 0.05,
+/// and the noise model c (estimated from residuals, the hardest part)
+/// within 0.15. The refinement (maximum likelihood), from either: a within
+/// 0.01, the products within 0.02, c within 0.03, α within 0.01, and a cost
+/// no higher than the paper stage's.
 #[test]
 fn hammerstein_round_trip_recovers_the_system() {
     let csv = tmp("identifiable.csv");
@@ -306,13 +316,20 @@ fn hammerstein_round_trip_recovers_the_system() {
         .iter()
         .flat_map(|b| [1.0, 0.5].map(|g| b * g))
         .collect();
-    for algorithm in ["op", "kt"] {
-        let json = tmp(&format!("identifiable-{algorithm}.json"));
+    for (method, algorithm) in [
+        ("paper", "op"),
+        ("paper", "kt"),
+        ("refined", "op"),
+        ("refined", "kt"),
+    ] {
+        let json = tmp(&format!("identifiable-{method}-{algorithm}.json"));
         let o = run(&[
             "identify",
             "hammerstein",
             "--input",
             s(&csv),
+            "--method",
+            method,
             "--algorithm",
             algorithm,
             "--na",
@@ -349,11 +366,26 @@ fn hammerstein_round_trip_recovers_the_system() {
                 );
             }
         };
-        near(&v("a"), &[-0.5, 0.2], 0.03, "a");
-        near(&v("theta_products"), &truth_products, 0.05, "b_i γ_j");
-        near(&v("c"), &[0.3, -0.2], 0.15, "c");
+        assert_eq!(j["method"], method);
+        let (ta, tp, tc, talpha) = if method == "paper" {
+            (0.03, 0.05, 0.15, 0.05)
+        } else {
+            let (cost, paper) = (
+                j["cost"].as_f64().unwrap(),
+                j["paper_cost"].as_f64().unwrap(),
+            );
+            assert!(cost <= paper, "{algorithm}: refined cost {cost} > {paper}");
+            assert_eq!(j["refine_cost"].as_f64(), Some(cost));
+            (0.01, 0.02, 0.03, 0.01)
+        };
+        near(&v("a"), &[-0.5, 0.2], ta, "a");
+        near(&v("theta_products"), &truth_products, tp, "b_i γ_j");
+        near(&v("c"), &[0.3, -0.2], tc, "c");
         let alpha = j["alpha"].as_f64().unwrap();
-        assert!((alpha - 0.6).abs() <= 0.05, "{algorithm} α = {alpha}");
+        assert!(
+            (alpha - 0.6).abs() <= talpha,
+            "{method} {algorithm} α = {alpha}"
+        );
     }
 }
 

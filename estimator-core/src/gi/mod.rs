@@ -17,6 +17,7 @@
 pub mod key_term;
 pub mod line_search;
 pub mod over_param;
+pub mod prediction_error;
 mod regression;
 
 pub use line_search::OrderStep;
