@@ -13,7 +13,9 @@ use estimator_core::battery::{BatterySettings, CellModel, CellParameters};
 use estimator_core::frac::GlWeights;
 use estimator_core::gi::key_term::KeyTermGi;
 use estimator_core::gi::over_param::OverParamGi;
-use estimator_core::gi::prediction_error::{PredictionErrorRefinement, PredictionErrorSettings};
+use estimator_core::gi::prediction_error::{
+    LinearStart, PredictionErrorRefinement, PredictionErrorSettings,
+};
 use estimator_core::gi::{GiSettings, HammersteinEstimate, Normalization};
 use estimator_core::model::{Orders, Polynomial};
 use estimator_core::window::SampleWindow;
@@ -51,6 +53,10 @@ pub struct RefineStart {
     pub index: u8,
     /// `"paper"` or `"grid"`.
     pub kind: &'static str,
+    /// Where its linear parameters started: `"paper"` (the paper stage's),
+    /// `"noise_model"` (a = 0, least squares for b·γ then c) or
+    /// `"equation_error"` (c = 0, least squares for a and b·γ).
+    pub linear: &'static str,
     /// The fixed order of that start.
     pub alpha: f64,
     /// The criterion there after the fit of the linear parameters.
@@ -139,6 +145,11 @@ fn refine_hammerstein(
                         index: won.map_or(0, |w| w.index),
                         kind: match won {
                             Some(w) if w.index > 0 => "grid",
+                            _ => "paper",
+                        },
+                        linear: match won.map(|w| w.linear) {
+                            Some(LinearStart::NoiseModel) => "noise_model",
+                            Some(LinearStart::EquationError) => "equation_error",
                             _ => "paper",
                         },
                         alpha: won.map_or(start.alpha, |w| w.alpha),
@@ -281,10 +292,11 @@ pub fn hammerstein_json(a: &IdHammersteinArgs) -> Result<HammersteinJson> {
                 .map(|(b, g)| (b[..a.nb].to_vec(), g[..m].to_vec()))
                 .unwrap_or_default();
             println!(
-                "refined: {} iterations from the {} start (α = {:.4}, cost {:.6e}), α̂ = {:.5}, cost {:.6e}{}",
+                "refined: {} iterations from the {} start (α = {:.4}, {} linear start, cost {:.6e}), α̂ = {:.5}, cost {:.6e}{}",
                 r.iterations,
                 r.start.kind,
                 r.start.alpha,
+                r.start.linear,
                 r.start.cost,
                 r.est.alpha,
                 r.cost,

@@ -31,14 +31,20 @@
 //! ∂ε/∂α     =  −∂ŷ/∂α                        (the paper algorithms' order derivative)
 //! ```
 //!
-//! # The order: a global search
+//! # A global search: the order and the colour of the noise
 //! The cost in α has several local minima on weakly excited data, and a
-//! descent from the paper stage's α̂ can stop in the wrong one. So the
-//! refinement first fits `[a, c, b_iγ_j]` at fixed orders: the start's own α̂
-//! (start 0) and `grid_points` orders spread evenly over
-//! `(grid_low, grid_high)` (starts 1…), each from the start's linear
-//! parameters for at most `grid_iterations` iterations. Then it descends all
-//! parameters, α included, from the start of lowest cost
+//! descent from the paper stage's α̂ can stop in the wrong one. At a fixed
+//! order, too, the criterion can have two minima: the colour of the output
+//! explained by the noise model C (small a) or by the autoregression A
+//! (small c); the paper stage often ends in the wrong one (on
+//! `paper-kt-stable` at σ = 1, a ≈ [−0.49, 0.53] and c ≈ [0.05, 0] against
+//! a ≈ [−0.02, −0.01] and c ≈ [−0.35, 0.61]). So the refinement first fits
+//! `[a, c, b_iγ_j]` at fixed orders, the start's own α̂ (start 0) and
+//! `grid_points` orders spread evenly over `(grid_low, grid_high)` (starts
+//! 1…), each from three [`LinearStart`]s (the start's own parameters, the
+//! noise-model least squares, the equation-error least squares) for at most
+//! `grid_iterations` iterations. Then it descends all parameters, α
+//! included, from the start of lowest cost
 //! ([`PredictionErrorRefinement::winning_start`] says which one won).
 //!
 //! One call of [`PredictionErrorRefinement::iterate`] is one
@@ -149,6 +155,40 @@ fn parameters<T>(s: &GiSettings<T>) -> usize {
     s.orders.na + s.orders.nc + s.orders.products()
 }
 
+/// Where the linear parameters `[a, c, b_iγ_j]` of a start of the search
+/// come from. At a fixed order the criterion can have a minimum for each way
+/// of explaining the colour of the output: by the noise model C (small a) or
+/// by the autoregression A (small c); each start below leads into one.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum LinearStart {
+    /// The start estimate's (the paper stage's).
+    Given,
+    /// `a = 0`: least squares for `b_iγ_j`, then least squares for the
+    /// noise model `c` on the equation error it leaves.
+    NoiseModel,
+    /// `c = 0`: least squares for `a` and `b_iγ_j` together (the
+    /// equation-error fit).
+    EquationError,
+}
+
+impl LinearStart {
+    /// The starts in the order the search visits them at each order.
+    pub const ALL: [LinearStart; 3] = [
+        LinearStart::Given,
+        LinearStart::NoiseModel,
+        LinearStart::EquationError,
+    ];
+
+    fn next(self) -> Option<Self> {
+        match self {
+            LinearStart::Given => Some(LinearStart::NoiseModel),
+            LinearStart::NoiseModel => Some(LinearStart::EquationError),
+            LinearStart::EquationError => None,
+        }
+    }
+}
+
 /// Where the refinement is.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -156,8 +196,10 @@ pub enum Phase {
     /// The global search: the linear parameters at the fixed order of start
     /// `start` (0: the start's own order, then the grid).
     Search {
-        /// Index of the start.
+        /// Index of the start's order.
         start: u8,
+        /// Where its linear parameters start.
+        linear: LinearStart,
     },
     /// The descent of every parameter, α included, from the winning start.
     Descent,
@@ -169,6 +211,8 @@ pub enum Phase {
 pub struct WinningStart<T> {
     /// 0: the start estimate's own order; `g ≥ 1`: grid order `g`.
     pub index: u8,
+    /// Where its linear parameters started.
+    pub linear: LinearStart,
     /// The fixed order of that start.
     pub alpha: T,
     /// The criterion after the fit of the linear parameters at that order.
@@ -244,7 +288,7 @@ pub struct PredictionErrorRefinement<
     start: HammersteinEstimate<T, NA, NB, NC, NF, NP>,
     best: HammersteinEstimate<T, NA, NB, NC, NF, NP>,
     best_cost: T,
-    best_start: u8,
+    best_start: (u8, LinearStart),
     phase: Phase,
     at_start: u8,
     damping: T,
@@ -294,8 +338,8 @@ impl<
             start: *start,
             best: *start,
             best_cost: T::infinity(),
-            best_start: 0,
-            phase: Phase::Search { start: 0 },
+            best_start: (0, LinearStart::Given),
+            phase: Phase::Descent,
             at_start: 0,
             damping: T::lit(DAMPING0),
             k: 0,
@@ -323,7 +367,7 @@ impl<
         self.start = *start;
         self.best = *start;
         self.best_cost = T::infinity();
-        self.best_start = 0;
+        self.best_start = (0, LinearStart::Given);
         self.k = 0;
         self.reg.invalidate();
         self.begin(s);
@@ -334,7 +378,10 @@ impl<
         self.at_start = 0;
         self.damping = T::lit(DAMPING0);
         self.phase = if s.gi.estimate_order {
-            Phase::Search { start: 0 }
+            Phase::Search {
+                start: 0,
+                linear: LinearStart::Given,
+            }
         } else {
             Phase::Descent
         };
@@ -361,8 +408,9 @@ impl<
     pub fn winning_start(&self, s: &PredictionErrorSettings<T>) -> Option<WinningStart<T>> {
         match self.phase {
             Phase::Descent if s.gi.estimate_order => Some(WinningStart {
-                index: self.best_start,
-                alpha: s.start_order(self.best_start, self.start.alpha),
+                index: self.best_start.0,
+                linear: self.best_start.1,
+                alpha: s.start_order(self.best_start.0, self.start.alpha),
                 cost: self.best_cost,
             }),
             _ => None,
@@ -412,21 +460,18 @@ impl<
         let phase = self.phase;
         let free_order = phase == Phase::Descent && s.gi.estimate_order;
         let np = parameters(&s.gi) + usize::from(free_order);
-        let cost0 = self.linearize(s, basis, window, free_order)?;
-
-        // Normal equations JᵀJ and the gradient Jᵀε on the rows.
-        let rows = self.reg.rows();
-        let mut h = [[T::zero(); NQ]; NQ];
-        let mut g = [T::zero(); NQ];
-        let cols = &self.jac[..np];
-        for (a, ca) in cols.iter().enumerate() {
-            for (b, cb) in cols.iter().enumerate().take(a + 1) {
-                let v = crate::real::dot(&ca[rows.clone()], &cb[rows.clone()]);
-                h[a][b] = v;
-                h[b][a] = v;
+        if let Phase::Search { linear, .. } = phase {
+            if self.at_start == 0 && linear != LinearStart::Given {
+                let before = self.est;
+                if let Err(e) = self.linear_start(s, basis, window, linear) {
+                    self.est = before;
+                    return Err(e);
+                }
             }
-            g[a] = -crate::real::dot(&ca[rows.clone()], &self.reg.res[rows.clone()]);
         }
+        let cost0 = self.linearize(s, basis, window, free_order)?;
+        let rows = self.reg.rows();
+        let (h, g) = self.normal_equations(np, |_| true);
         let mut scale = [T::one(); NQ];
         for (i, sc) in scale.iter_mut().enumerate().take(np) {
             if crate::real::positive_finite(h[i][i]) {
@@ -480,13 +525,97 @@ impl<
             converged: phase == Phase::Descent && step_done,
             rows: rows.len(),
         };
-        if let Phase::Search { start } = phase {
+        if let Phase::Search { start, linear } = phase {
             self.at_start = self.at_start.saturating_add(1);
             if step_done || self.at_start >= s.grid_iterations {
-                self.next_start(s, start, cost);
+                self.next_start(s, (start, linear), cost);
             }
         }
         Ok(report)
+    }
+
+    /// `JᵀJ` and `−Jᵀε` over the rows for the first `np` columns; a column
+    /// `k` with `!keep(k)`, and every index past `np`, gets a unit row and a
+    /// zero right-hand side (its step is 0).
+    fn normal_equations(
+        &self,
+        np: usize,
+        keep: impl Fn(usize) -> bool,
+    ) -> ([[T; NQ]; NQ], [T; NQ]) {
+        let rows = self.reg.rows();
+        let mut h = [[T::zero(); NQ]; NQ];
+        let mut g = [T::zero(); NQ];
+        let cols = &self.jac[..np];
+        for (a, ca) in cols.iter().enumerate() {
+            if !keep(a) {
+                continue;
+            }
+            for (b, cb) in cols.iter().enumerate().take(a + 1) {
+                if keep(b) {
+                    let v = crate::real::dot(&ca[rows.clone()], &cb[rows.clone()]);
+                    h[a][b] = v;
+                    h[b][a] = v;
+                }
+            }
+            g[a] = -crate::real::dot(&ca[rows.clone()], &self.reg.res[rows.clone()]);
+        }
+        for (i, row) in h.iter_mut().enumerate() {
+            if i >= np || !keep(i) {
+                row[i] = T::one();
+            }
+        }
+        (h, g)
+    }
+
+    /// Builds the linear parameters of a start at the current order from
+    /// zero by exact least squares on the parameters the criterion is
+    /// linear in (the others held).
+    fn linear_start<B: Basis<T>>(
+        &mut self,
+        s: &PredictionErrorSettings<T>,
+        basis: &B,
+        window: &SampleWindow<T, N>,
+        linear: LinearStart,
+    ) -> Result<(), Error> {
+        let o = s.gi.orders;
+        let alpha = self.est.alpha;
+        self.est = HammersteinEstimate {
+            orders: o,
+            a: [T::zero(); NA],
+            c: [T::zero(); NC],
+            products: [T::zero(); NP],
+            alpha,
+        };
+        let (na, nc) = (o.na, o.nc);
+        match linear {
+            LinearStart::Given => Ok(()),
+            LinearStart::NoiseModel => {
+                self.least_squares(s, basis, window, |k| k >= na + nc)?;
+                self.least_squares(s, basis, window, |k| k >= na && k < na + nc)
+            }
+            LinearStart::EquationError => {
+                self.least_squares(s, basis, window, |k| k < na || k >= na + nc)
+            }
+        }
+    }
+
+    /// One Gauss–Newton step without damping on the linear parameters with
+    /// `keep(k)` (exact least squares when the criterion is linear in them);
+    /// the estimate is kept when the system is singular.
+    fn least_squares<B: Basis<T>>(
+        &mut self,
+        s: &PredictionErrorSettings<T>,
+        basis: &B,
+        window: &SampleWindow<T, N>,
+        keep: impl Fn(usize) -> bool,
+    ) -> Result<(), Error> {
+        self.linearize(s, basis, window, false)?;
+        let np = parameters(&s.gi);
+        let (h, g) = self.normal_equations(np, keep);
+        if let Some(step) = T::solve_spd(&h, &g) {
+            apply_step(&mut self.est, &step[..np], false);
+        }
+        Ok(())
     }
 
     /// Loads the window at the estimate's order (clamped into the bounds),
@@ -519,19 +648,23 @@ impl<
 
     /// Ends the fit at start `start` (cost `cost`) and moves to the next
     /// start, or to the descent from the best.
-    fn next_start(&mut self, s: &PredictionErrorSettings<T>, start: u8, cost: T) {
+    fn next_start(&mut self, s: &PredictionErrorSettings<T>, at: (u8, LinearStart), cost: T) {
         if cost < self.best_cost {
             self.best_cost = cost;
             self.best = self.est;
-            self.best_start = start;
+            self.best_start = at;
         }
         self.at_start = 0;
         self.damping = T::lit(DAMPING0);
-        if start < s.grid_points {
-            let next = start + 1;
-            self.phase = Phase::Search { start: next };
+        let next = match at.1.next() {
+            Some(linear) => Some((at.0, linear)),
+            None if at.0 < s.grid_points => Some((at.0 + 1, LinearStart::Given)),
+            None => None,
+        };
+        if let Some((start, linear)) = next {
+            self.phase = Phase::Search { start, linear };
             self.est = self.start;
-            self.est.alpha = s.start_order(next, self.start.alpha);
+            self.est.alpha = s.start_order(start, self.start.alpha);
         } else {
             self.phase = Phase::Descent;
             self.est = self.best;
@@ -803,11 +936,12 @@ mod tests {
         let win = record(MEM);
         let mut pem = Box::new(Pem::new(&s, &away()).unwrap());
         let start_cost = pem.cost_at(&s, &Polynomial, &win, &away()).unwrap();
-        let mut visited = [false; 9];
+        let mut visited = [false; 27];
         let mut last = None;
-        for _ in 0..400 {
-            if let Phase::Search { start } = pem.phase() {
-                visited[usize::from(start)] = true;
+        for _ in 0..800 {
+            if let Phase::Search { start, linear } = pem.phase() {
+                let l = LinearStart::ALL.iter().position(|&x| x == linear).unwrap();
+                visited[3 * usize::from(start) + l] = true;
             }
             let before = pem.phase();
             let it = pem.iterate(&s, &Polynomial, &win).unwrap();
