@@ -57,6 +57,9 @@ cargo build -p firmware --target thumbv7em-none-eabihf --release
 echo "== numpy reference of the battery 2S-OP-GI iteration agrees with host-sim to 1e-9"
 python3 -c "import numpy" 2>/dev/null || python3 -m pip install --quiet numpy
 python3 bench/compare.py --runs 1 --iterations 100
+echo "== the Hammerstein refinement reaches the independent maximum-likelihood reference (scipy)"
+python3 -c "import scipy" 2>/dev/null || python3 -m pip install --quiet scipy
+python3 bench/hammerstein_reference_check.py
 echo "== cargo test (host crates, CLI end to end, firmware under QEMU)"
 cargo test --workspace 2>&1 | tee target/test-output.txt
 # Finish on a one-line summary of every test binary.
