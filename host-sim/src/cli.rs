@@ -292,7 +292,7 @@ pub struct IdHammersteinArgs {
     /// Basis of the nonlinearity: poly:m means f_j(u) = u^j, j = 1..m.
     #[arg(long, default_value = "poly:2")]
     pub basis: String,
-    /// Memory of the fractional differences (default: all rows, at most 2048).
+    /// Memory of the fractional differences (default: all rows, at most 4096).
     #[arg(long)]
     pub memory: Option<usize>,
     /// Iterations of the paper stage.

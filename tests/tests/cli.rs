@@ -137,6 +137,32 @@ fn hammerstein_identify_writes_the_contract_json() {
         }
         assert!(j["history"][0]["k"].as_u64() == Some(1));
     }
+    // `--method paper`: the paper stage alone, the refinement's keys null.
+    let o = run(&[
+        "identify",
+        "hammerstein",
+        "--input",
+        s(&csv),
+        "--method",
+        "paper",
+        "--iterations",
+        "12",
+        "--json",
+        s(&json),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let j: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    assert_eq!(j["method"], "paper");
+    assert_eq!(j["cost"], j["paper_cost"]);
+    for k in [
+        "refine_iterations",
+        "refine_cost",
+        "refine_converged",
+        "refine_start",
+    ] {
+        assert!(j[k].is_null(), "{k}: {}", j[k]);
+    }
 }
 
 #[test]
