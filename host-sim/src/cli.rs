@@ -347,6 +347,18 @@ pub struct IdBatteryArgs {
     pub model: ModelArg,
     #[command(flatten)]
     pub cell: OcvArgs,
+    /// Lowest plausible voltage (V; default 1.5, as online): rows below are
+    /// rejected, substituted and counted in the JSON's `rejected`, as are
+    /// non-finite rows and voltage spikes against the fitted model
+    /// (beyond max(8 robust σ, 50 mV); docs/trust.md).
+    #[arg(long)]
+    pub voltage_min: Option<f64>,
+    /// Highest plausible voltage (V; default 5).
+    #[arg(long)]
+    pub voltage_max: Option<f64>,
+    /// Largest plausible |current| (A; default 500).
+    #[arg(long)]
+    pub current_limit: Option<f64>,
     /// Write the estimates as JSON.
     #[arg(long)]
     pub json: Option<PathBuf>,

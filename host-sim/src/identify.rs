@@ -4,9 +4,9 @@ use crate::cli::{
     parse_basis, Algorithm, BatteryMethod, HammersteinMethod, IdBatteryArgs, IdHammersteinArgs,
     ModelArg,
 };
-use crate::{io, plot};
+use crate::{io, plot, trust};
 use anyhow::{anyhow, bail, Context, Result};
-use estimator_core::battery::output_error::{OutputErrorRefinement, COLUMN_NAMES};
+use estimator_core::battery::output_error::{FitInformation, OutputErrorRefinement, COLUMN_NAMES};
 use estimator_core::battery::regression::PaperRegressionGi;
 use estimator_core::battery::simulate::simulate;
 use estimator_core::battery::{BatterySettings, CellModel, CellParameters};
@@ -181,6 +181,7 @@ fn table_row(k: u32) -> bool {
 pub fn hammerstein_json(a: &IdHammersteinArgs) -> Result<HammersteinJson> {
     let m = parse_basis(&a.basis)?;
     let cols = io::read_columns(&a.input, &["u", "y"], Some(MAX_ROWS))?;
+    io::require_finite(&a.input, &cols, &["u", "y"], &[0, 1])?;
     let (u, y) = (&cols.data[0], &cols.data[1]);
     note_truncation(&a.input, u.len());
     let orders = Orders {
@@ -398,6 +399,24 @@ pub struct BatteryJson {
     pub converged: bool,
     /// Per-iteration cost of 2S-OP-GI.
     pub history: Vec<HistoryEntry>,
+    /// The fit can be trusted: no reason against it holds (see
+    /// `identifiable_reason`, docs/trust.md).
+    pub identifiable: bool,
+    /// Why not, one clause per reason (null when identifiable).
+    pub identifiable_reason: Option<String>,
+    /// 95 % intervals `[lo, hi]` of `r_i`, `r_ct`, `q`, `alpha` (null when
+    /// the information matrix is singular).
+    pub confidence: Option<trust::Confidence>,
+    /// Lag-1 autocorrelation of the residuals over the accepted rows (the
+    /// intervals are widened by `√((1+ρ)/(1−ρ))` for it).
+    pub residual_lag1_correlation: f64,
+    /// `1 − RSS/TSS` of the voltage over the accepted rows.
+    pub explained_variance: f64,
+    /// Rows rejected (not finite, out of range, spikes against the model),
+    /// substituted and not fitted.
+    pub rejected: u32,
+    /// The rejected rows by reason.
+    pub rejected_rows: trust::RejectedRows,
 }
 
 /// Both fits of `--model auto` (or `butler-volmer`) and the choice.
@@ -457,6 +476,11 @@ pub struct BatteryResult {
     pub paper_track: Vec<Option<CellParameters<f64>>>,
     /// The identified model's voltage over the record.
     pub model_voltage: Vec<f64>,
+    /// The Gauss–Newton information of the published fit at its estimate
+    /// (None when it could not be computed).
+    pub information: Option<FitInformation<f64>>,
+    /// The order bounds of the fit.
+    pub alpha_bounds: [f64; 2],
 }
 
 /// Simulates `cell` over a current record from rest (memory ≤ 4096).
@@ -624,7 +648,7 @@ fn battery_run_sized<const N: usize, const MEM: usize>(
     if method == BatteryMethod::Paper && refine.model == ModelArg::ButlerVolmer {
         bail!("--model butler-volmer needs --method refined (the paper's regression is linear)");
     }
-    let (cell, rmse_v) = match method {
+    let (cell, rmse_v, information, alpha_bounds) = match method {
         BatteryMethod::Paper => {
             let cell = gi.cell().ok_or_else(|| {
                 anyhow!(
@@ -632,8 +656,14 @@ fn battery_run_sized<const N: usize, const MEM: usize>(
                     path.display()
                 )
             })?;
+            // The information of the output-error criterion at the paper's
+            // estimate (for its intervals; nothing is refitted).
+            let si = BatterySettings::new(rec.h, n.min(BAT_MEM));
+            let info = OutputErrorRefinement::<f64, N, MEM>::new(&si, cell)
+                .and_then(|mut oe| oe.information(&si, &*win))
+                .ok();
             // The RMSE of the model voltage, computed below.
-            (cell, None)
+            (cell, None, info, [si.alpha_min, si.alpha_max])
         }
         BatteryMethod::Refined => {
             let rm = refine.memory.unwrap_or(n.min(BAT_MEM));
@@ -649,18 +679,29 @@ fn battery_run_sized<const N: usize, const MEM: usize>(
                 .cell()
                 .filter(|c| c.alpha >= so.alpha_min && c.alpha <= so.alpha_max)
                 .unwrap_or_else(|| rough_start(&rec.current, &rec.voltage));
-            let lin = refine_fit::<N, MEM>(&so, start, &win).map_err(ctx)?;
+            let mut lin = refine_fit::<N, MEM>(&so, start, &win).map_err(ctx)?;
             iters += lin.iterations;
+            let bounds = [so.alpha_min, so.alpha_max];
             if refine.model == ModelArg::Linear {
                 converged = lin.converged;
-                (lin.cell, Some(lin.rmse))
+                let info = lin.oe.information(&so, &*win).ok();
+                (lin.cell, Some(lin.rmse), info, bounds)
             } else {
-                let (fit, why) =
+                let (mut fit, why) =
                     choose_model(&so, &lin, &win, &rec.current, refine.model).map_err(ctx)?;
                 iters += fit.iterations;
                 converged = fit.converged;
                 choice = Some(why);
-                (fit.cell, Some(fit.rmse))
+                let sf = BatterySettings {
+                    model: if fit.cell.is_butler_volmer() {
+                        CellModel::ButlerVolmer
+                    } else {
+                        CellModel::Linear
+                    },
+                    ..so
+                };
+                let info = fit.oe.information(&sf, &*win).ok();
+                (fit.cell, Some(fit.rmse), info, bounds)
             }
         }
     };
@@ -692,10 +733,19 @@ fn battery_run_sized<const N: usize, const MEM: usize>(
             iterations: iters,
             converged,
             history,
+            identifiable: false,
+            identifiable_reason: None,
+            confidence: None,
+            residual_lag1_correlation: f64::NAN,
+            explained_variance: f64::NAN,
+            rejected: 0,
+            rejected_rows: trust::RejectedRows::default(),
         },
         cell,
         paper_track: track,
         model_voltage: model,
+        information,
+        alpha_bounds,
     })
 }
 
@@ -882,6 +932,126 @@ pub fn battery_identify(
     print_table: bool,
     refine: Refine,
 ) -> Result<BatteryResult> {
+    let mut r = battery_identify_unassessed(
+        path,
+        rec,
+        cell_ocv,
+        method,
+        memory,
+        iterations,
+        print_table,
+        refine,
+    )?;
+    apply_assessment(&mut r, &trust::Screened::accepted(rec));
+    Ok(r)
+}
+
+/// Writes the verdict of [`trust::assess`] into the JSON.
+fn apply_assessment(r: &mut BatteryResult, sc: &trust::Screened) {
+    let a = trust::assess(
+        sc,
+        &r.cell,
+        r.information.as_ref(),
+        r.alpha_bounds,
+        &r.model_voltage,
+    );
+    let j = &mut r.json;
+    j.identifiable = a.identifiable;
+    j.identifiable_reason = (!a.identifiable).then(|| a.reasons.join("; "));
+    j.confidence = a.confidence;
+    j.residual_lag1_correlation = a.residual_correlation;
+    j.explained_variance = a.explained;
+    let counts = sc.counts();
+    j.rejected = counts.total();
+    j.rejected_rows = counts;
+    if counts.total() > 0 {
+        // The RMSE over the accepted rows, against the measured voltages.
+        let (s, k) = sc
+            .measured
+            .iter()
+            .zip(&r.model_voltage)
+            .zip(&sc.rejected)
+            .filter(|(_, rej)| rej.is_none())
+            .fold((0.0, 0usize), |(s, k), ((v, m), _)| {
+                (s + (v - m) * (v - m), k + 1)
+            });
+        j.rmse_v = (s / k.max(1) as f64).sqrt();
+    }
+}
+
+/// [`battery_identify`] on a record whose bad rows are rejected first,
+/// then refitted without the spikes against the model (docs/trust.md): the
+/// rows rejected are substituted and counted (`rejected`, `rejected_rows`),
+/// and the verdict is computed over the accepted rows.
+///
+/// # Errors
+/// As [`battery_identify`], and when every row is rejected.
+#[allow(clippy::too_many_arguments)]
+pub fn battery_identify_screened(
+    path: &Path,
+    rec: &io::BatteryRecord,
+    limits: &trust::Limits,
+    ocv: &crate::cli::OcvArgs,
+    method: BatteryMethod,
+    memory: Option<usize>,
+    iterations: u32,
+    print_table: bool,
+    refine: Refine,
+) -> Result<(BatteryResult, trust::Screened)> {
+    let mut sc = trust::screen(path, rec, limits)?;
+    let cell_ocv = crate::ocv::resolve(ocv, path, &sc.record)?;
+    let mut r = battery_identify_unassessed(
+        path,
+        &sc.record,
+        cell_ocv.as_ref(),
+        method,
+        memory,
+        iterations,
+        print_table,
+        refine,
+    )?;
+    // No earlier fit yet: nothing has settled.
+    let mut previous = CellParameters {
+        alpha: f64::NAN,
+        ..r.cell
+    };
+    for _ in 0..trust::MAX_SPIKE_PASSES {
+        let new = sc.find_spikes(&r.model_voltage, limits);
+        // A substitute from an earlier fit pulls the refit towards it;
+        // refitting with the latest model's substitutes converges fast
+        // (each pass by the fraction of rejected rows).
+        if new == 0 && (sc.counts().total() == 0 || trust::settled(&r.cell, &previous)) {
+            break;
+        }
+        previous = r.cell;
+        sc.substitute_model(&r.model_voltage);
+        r = battery_identify_unassessed(
+            path,
+            &sc.record,
+            cell_ocv.as_ref(),
+            method,
+            memory,
+            iterations,
+            false,
+            refine,
+        )?;
+    }
+    apply_assessment(&mut r, &sc);
+    Ok((r, sc))
+}
+
+/// [`battery_identify`] without the verdict.
+#[allow(clippy::too_many_arguments)]
+fn battery_identify_unassessed(
+    path: &Path,
+    rec: &io::BatteryRecord,
+    cell_ocv: Option<&crate::ocv::CellOcv>,
+    method: BatteryMethod,
+    memory: Option<usize>,
+    iterations: u32,
+    print_table: bool,
+    refine: Refine,
+) -> Result<BatteryResult> {
     let Some(c) = cell_ocv else {
         return battery_run_with(path, rec, method, memory, iterations, print_table, refine);
     };
@@ -914,7 +1084,6 @@ pub(crate) fn battery(a: &IdBatteryArgs) -> Result<()> {
     let rec = io::read_battery(&a.input, Some(MAX_ROWS))?;
     note_truncation(&a.input, rec.current.len());
     let _ = a.algorithm; // op and kt coincide for the battery regression
-    let cell_ocv = crate::ocv::resolve(&a.cell, &a.input, &rec)?;
     let refine = Refine {
         memory: a.refine_memory,
         ocv_slope: a.ocv_slope,
@@ -924,21 +1093,54 @@ pub(crate) fn battery(a: &IdBatteryArgs) -> Result<()> {
             (m, _) => m,
         },
     };
-    let r = battery_identify(
+    let defaults = trust::Limits::default();
+    let limits = trust::Limits {
+        voltage_min: a.voltage_min.unwrap_or(defaults.voltage_min),
+        voltage_max: a.voltage_max.unwrap_or(defaults.voltage_max),
+        current_limit: a.current_limit.unwrap_or(defaults.current_limit),
+        ..defaults
+    };
+    if !(limits.voltage_min < limits.voltage_max && limits.current_limit > 0.0) {
+        bail!(
+            "--voltage-min {} --voltage-max {} --current-limit {}: need voltage-min < voltage-max and a positive current limit",
+            limits.voltage_min,
+            limits.voltage_max,
+            limits.current_limit
+        );
+    }
+    let (r, sc) = battery_identify_screened(
         &a.input,
         &rec,
-        cell_ocv.as_ref(),
+        &limits,
+        &a.cell,
         a.method,
         a.memory,
         a.iterations,
         true,
         refine,
     )?;
+    if let Some(w) = sc.warning(&a.input) {
+        eprintln!("{w}");
+    }
     let j = &r.json;
     println!(
         "{}: R_i = {:.6} Ω, R_ct = {:.6} Ω, Q = {:.3}, alpha = {:.4}, U_oc = {:.5} V, rmse = {:.3e} V ({} iterations, converged: {})",
         j.method, j.r_i, j.r_ct, j.q, j.alpha, j.u_oc, j.rmse_v, j.iterations, j.converged
     );
+    match &j.confidence {
+        Some(c) => println!(
+            "95 % intervals: R_i [{:.6}, {:.6}] Ω, R_ct [{:.6}, {:.6}] Ω, Q [{:.4}, {:.4}], alpha [{:.4}, {:.4}] (residual lag-1 correlation {:.2})",
+            c.r_i[0], c.r_i[1], c.r_ct[0], c.r_ct[1], c.q[0], c.q[1], c.alpha[0], c.alpha[1],
+            j.residual_lag1_correlation
+        ),
+        None => println!("95 % intervals: none (the information matrix is singular)"),
+    }
+    if let Some(why) = &j.identifiable_reason {
+        eprintln!(
+            "warning: {}: the fit is not identifiable: {why}",
+            a.input.display()
+        );
+    }
     if let (Some(x), Some(i0)) = (j.bv_a_v, j.bv_i0_a) {
         println!("Butler–Volmer: a = {:.3} mV, i0 = {i0:.4} A", x * 1e3);
     }

@@ -4,24 +4,74 @@
 
 use anyhow::{anyhow, bail, Context, Result};
 use std::fs::File;
-use std::io::{BufWriter, Write};
+use std::io::{BufWriter, Read, Write};
 use std::path::{Path, PathBuf};
 
 /// Columns read from a CSV file, by name.
 pub struct Columns {
     /// One vector per requested column, in the requested order.
     pub data: Vec<Vec<f64>>,
+    /// The row of each data row as a spreadsheet shows it (the header is
+    /// row 1; blank lines count), for errors found after reading.
+    pub rows: Vec<usize>,
+}
+
+impl Columns {
+    /// The spreadsheet row of data row `k` (0-based).
+    pub fn row(&self, k: usize) -> usize {
+        self.rows.get(k).copied().unwrap_or(k + 2)
+    }
+}
+
+/// A cell as an error message shows it: control characters (a line break
+/// inside a quoted cell) escaped, so that the message stays on one line.
+fn shown(cell: &str) -> std::borrow::Cow<'_, str> {
+    if cell.chars().any(char::is_control) {
+        cell.chars()
+            .map(|c| {
+                if c.is_control() {
+                    c.escape_default().to_string()
+                } else {
+                    c.to_string()
+                }
+            })
+            .collect::<String>()
+            .into()
+    } else {
+        cell.into()
+    }
 }
 
 /// Reads the named columns (other columns are ignored) of a CSV file with a
-/// header. Every cell must be a finite number. Data rows are numbered from
-/// 2 (row 1 is the header), as a spreadsheet shows them.
+/// header. Every cell must be a number (NaN and ±∞ are kept: see
+/// [`require_finite`]). Data rows are numbered from 2 (row 1 is the
+/// header), as a spreadsheet shows them (blank lines count).
 pub fn read_columns(path: &Path, names: &[&str], max_rows: Option<usize>) -> Result<Columns> {
     let file = File::open(path).with_context(|| format!("{}: cannot open", path.display()))?;
+    read_columns_from(std::io::BufReader::new(file), path, names, max_rows)
+}
+
+/// [`read_columns`] on any reader (an in-memory buffer, a pipe); `path`
+/// only names the data in the errors. The fuzz harness (`fracbms-tests`,
+/// docs/fuzzing.md) feeds it arbitrary bytes without touching the file
+/// system.
+pub fn read_columns_from(
+    mut reader: impl Read,
+    path: &Path,
+    names: &[&str],
+    max_rows: Option<usize>,
+) -> Result<Columns> {
+    // Held whole, so that an error can name the line a record is on (the
+    // columns read are about as large).
+    let mut bytes = Vec::new();
+    reader
+        .read_to_end(&mut bytes)
+        .with_context(|| format!("{}: cannot read", path.display()))?;
+    let mut lines = LineCounter::new(&bytes);
     let mut rdr = csv::ReaderBuilder::new()
         .trim(csv::Trim::All)
         .flexible(false)
-        .from_reader(std::io::BufReader::new(file));
+        .from_reader(bytes.as_slice());
     let headers = rdr
         .headers()
         .map_err(|e| anyhow!("{}: row 1: cannot read the header ({e})", path.display()))?
@@ -38,38 +88,98 @@ pub fn read_columns(path: &Path, names: &[&str], max_rows: Option<usize>) -> Res
         }
     }
     let mut data = vec![Vec::new(); names.len()];
+    let mut rows = Vec::new();
     let mut rec = csv::StringRecord::new();
-    let mut row = 1usize;
     loop {
-        row += 1;
-        match rdr.read_record(&mut rec) {
+        let row = match rdr.read_record(&mut rec) {
             Ok(false) => break,
-            Ok(true) => {}
-            Err(e) => bail!("{}: row {row}: malformed CSV ({e})", path.display()),
-        }
-        if max_rows.is_some_and(|m| data[0].len() >= m) {
+            Ok(true) => lines.row(rec.position()),
+            Err(e) => bail!(
+                "{}: row {}: malformed CSV ({e})",
+                path.display(),
+                lines.row(e.position())
+            ),
+        };
+        if max_rows.is_some_and(|m| rows.len() >= m) {
             break;
         }
         for (k, &i) in idx.iter().enumerate() {
             let cell = rec.get(i).unwrap_or("");
             let x: f64 = cell.parse().map_err(|_| {
                 anyhow!(
-                    "{}: row {row}, column `{}`: `{cell}` is not a number",
+                    "{}: row {row}, column `{}`: `{}` is not a number",
                     path.display(),
-                    names[k]
+                    names[k],
+                    shown(cell)
                 )
             })?;
-            if !x.is_finite() {
-                bail!(
-                    "{}: row {row}, column `{}`: `{cell}` is not finite",
-                    path.display(),
-                    names[k]
-                );
-            }
             data[k].push(x);
         }
+        rows.push(row);
     }
-    Ok(Columns { data })
+    Ok(Columns { data, rows })
+}
+
+/// The spreadsheet row (1-based line) of the records of a CSV text, read
+/// in order: a record's position is where the reader stood before it (on
+/// the previous record's line ending, before any blank lines it skipped),
+/// so its row is that of the first byte after the line endings there.
+struct LineCounter<'a> {
+    bytes: &'a [u8],
+    /// Bytes counted so far, and the line breaks among them.
+    at: usize,
+    breaks: usize,
+}
+
+impl<'a> LineCounter<'a> {
+    fn new(bytes: &'a [u8]) -> Self {
+        Self {
+            bytes,
+            at: 0,
+            breaks: 0,
+        }
+    }
+
+    /// The row of the record that starts at (or after the line endings
+    /// following) `pos`; the row after the last one counted without a
+    /// position.
+    fn row(&mut self, pos: Option<&csv::Position>) -> usize {
+        let b = self.bytes;
+        let mut start = pos.map_or(self.at, |p| p.byte() as usize).min(b.len());
+        while start < b.len() && (b[start] == b'\n' || b[start] == b'\r') {
+            start += 1;
+        }
+        // A record never starts before the last one counted.
+        while self.at < start {
+            let c = b[self.at];
+            // A line ends at "\n", "\r\n" or a lone "\r".
+            if c == b'\n' || (c == b'\r' && b.get(self.at + 1) != Some(&b'\n')) {
+                self.breaks += 1;
+            }
+            self.at += 1;
+        }
+        self.breaks + 1
+    }
+}
+
+/// Fails on the first NaN or infinite value of the columns `which` (indices
+/// into `names`, as read by [`read_columns`]), with the row (the header is
+/// row 1) and the column. [`read_columns`] keeps such values, since a
+/// sample stream's bad rows are the estimators' to reject (docs/trust.md);
+/// a time base, an OCV table or a Hammerstein record must be finite.
+pub fn require_finite(path: &Path, c: &Columns, names: &[&str], which: &[usize]) -> Result<()> {
+    for &k in which {
+        if let Some(l) = c.data[k].iter().position(|x| !x.is_finite()) {
+            bail!(
+                "{}: row {}, column `{}`: `{}` is not finite",
+                path.display(),
+                c.row(l),
+                names[k],
+                c.data[k][l]
+            );
+        }
+    }
+    Ok(())
 }
 
 /// A battery record: uniform sample period, current (A, + charging),
@@ -87,7 +197,31 @@ pub struct BatteryRecord {
 
 /// Reads `time_s,current_a,voltage_v` and checks the time step is uniform.
 pub fn read_battery(path: &Path, max_rows: Option<usize>) -> Result<BatteryRecord> {
-    let mut c = read_columns(path, &["time_s", "current_a", "voltage_v"], max_rows)?;
+    let c = read_columns(path, &["time_s", "current_a", "voltage_v"], max_rows)?;
+    battery_record(path, c)
+}
+
+/// [`read_battery`] on any reader; `path` only names the data in the
+/// errors.
+pub fn read_battery_from(
+    reader: impl Read,
+    path: &Path,
+    max_rows: Option<usize>,
+) -> Result<BatteryRecord> {
+    let c = read_columns_from(
+        reader,
+        path,
+        &["time_s", "current_a", "voltage_v"],
+        max_rows,
+    )?;
+    battery_record(path, c)
+}
+
+/// The record of the three columns read by [`read_battery`]: the time
+/// must be finite; a non-finite current or voltage is kept for the
+/// estimators to reject.
+fn battery_record(path: &Path, mut c: Columns) -> Result<BatteryRecord> {
+    require_finite(path, &c, &["time_s", "current_a", "voltage_v"], &[0])?;
     let voltage = c.data.pop().unwrap_or_default();
     let current = c.data.pop().unwrap_or_default();
     let time = c.data.pop().unwrap_or_default();
@@ -107,8 +241,6 @@ pub fn read_battery(path: &Path, max_rows: Option<usize>) -> Result<BatteryRecor
     })
 }
 
-/// Writes a file atomically: `fill` writes into a temporary file next to
-/// `path`, which is renamed over `path` only if `fill` succeeds.
 /// The sample period of a `time_s` column: its first step, which every
 /// step must repeat (to 1 ppm).
 pub fn uniform_step(path: &Path, time: &[f64]) -> Result<f64> {
@@ -141,6 +273,8 @@ pub fn uniform_step(path: &Path, time: &[f64]) -> Result<f64> {
     Ok(h)
 }
 
+/// Writes a file atomically: `fill` writes into a temporary file next to
+/// `path`, which is renamed over `path` only if `fill` succeeds.
 pub fn write_atomic(path: &Path, fill: impl FnOnce(&mut dyn Write) -> Result<()>) -> Result<()> {
     let tmp = temp_path(path);
     let res = (|| {
@@ -207,6 +341,17 @@ pub type HostOcvTable = estimator_core::battery::ocv::OcvTable<f64, OCV_POINTS>;
 /// strictly), with one-line errors that name the file and the row.
 pub fn read_ocv(path: &Path) -> Result<HostOcvTable> {
     let c = read_columns(path, &["soc", "ocv_v"], Some(OCV_POINTS + 1))?;
+    ocv_table(path, c)
+}
+
+/// [`read_ocv`] on any reader; `path` only names the data in the errors.
+pub fn read_ocv_from(reader: impl Read, path: &Path) -> Result<HostOcvTable> {
+    let c = read_columns_from(reader, path, &["soc", "ocv_v"], Some(OCV_POINTS + 1))?;
+    ocv_table(path, c)
+}
+
+/// The OCV table of the two columns read by [`read_ocv`].
+fn ocv_table(path: &Path, c: Columns) -> Result<HostOcvTable> {
     let (soc, ocv) = (&c.data[0], &c.data[1]);
     HostOcvTable::new(soc, ocv).map_err(|e| {
         use estimator_core::battery::ocv::OcvError;
@@ -214,7 +359,7 @@ pub fn read_ocv(path: &Path) -> Result<HostOcvTable> {
             OcvError::NonFinite { index }
             | OcvError::SocOutOfRange { index }
             | OcvError::NotIncreasing { index } => {
-                anyhow!("{}: row {}: {e}", path.display(), index + 2)
+                anyhow!("{}: row {}: {e}", path.display(), c.row(index))
             }
             _ => anyhow!("{}: {e}", path.display()),
         }

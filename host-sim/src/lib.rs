@@ -17,3 +17,4 @@ pub mod presets;
 pub mod progress;
 pub mod reproduce;
 pub mod simulate;
+pub mod trust;

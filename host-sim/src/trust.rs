@@ -1,0 +1,474 @@
+//! How far a whole-record fit (`identify battery`) can be trusted.
+//!
+//! This module owns two things and nothing else:
+//!
+//! * **Bad rows, offline as online.** A row whose current or voltage is not
+//!   finite, outside the plausible ranges, or (after a first fit) a voltage
+//!   further than `max(spike_sigmas·σ, spike_floor)` from the fitted model
+//!   is *rejected*, with the online estimator's rules and defaults
+//!   ([`OnlineSettings`]); σ is the residuals' robust scale (1.4826 × their
+//!   median absolute deviation), since one spike inflates an RMSE. The time
+//!   base stays intact: a rejected row keeps its place with a substitute, as
+//!   online (its current when plausible, else the last plausible one; its
+//!   voltage interpolated from its good neighbours for the first fit, the
+//!   model's voltage for the refits), so it adds nothing to the residuals.
+//!   The fit is repeated, with the latest model's substitutes, until no new
+//!   spike is found and two fits agree ([`settled`]; at most
+//!   [`MAX_SPIKE_PASSES`] refits).
+//! * **The verdict.** 95 % intervals for R_i, R_ct, Q and α from the
+//!   Gauss–Newton information of the published fit at its estimate
+//!   ([`FitInformation`]), the residual variance over the accepted rows, and
+//!   the residuals' correlation: the variance is inflated by
+//!   `(1 + ρ)/(1 − ρ)`, ρ the lag-1 autocorrelation of the residuals (the
+//!   AR(1) effective-sample-size correction; model error that is correlated
+//!   over time makes the rows worth fewer independent samples). Resistances
+//!   and Q are fitted in logarithms, so their intervals are
+//!   `p·exp(±1.96·k·se)`; α's is `α ± 1.96·k·se`. The fit is
+//!   `identifiable` when no reason against it holds (see [`assess`]).
+//!
+//! It does not fit anything itself: the fits are `crate::identify`'s.
+
+use crate::io::BatteryRecord;
+use anyhow::{bail, Result};
+use estimator_core::battery::online::{OnlineSettings, Rejection};
+use estimator_core::battery::output_error::FitInformation;
+use estimator_core::battery::CellParameters;
+use serde::Serialize;
+use std::path::Path;
+
+/// The normal quantile of a two-sided 95 % interval.
+pub const Z95: f64 = 1.959964;
+/// Most refits after rejecting rows.
+pub const MAX_SPIKE_PASSES: usize = 6;
+
+/// Two successive fits agree to 10⁻⁴ (relative on R_i, R_ct, Q; absolute on
+/// α): the substitutes no longer move the fit.
+pub fn settled(a: &CellParameters<f64>, b: &CellParameters<f64>) -> bool {
+    let rel = |x: f64, y: f64| (x / y - 1.0).abs() <= 1e-4;
+    rel(a.r_i, b.r_i) && rel(a.r_ct, b.r_ct) && rel(a.q, b.q) && (a.alpha - b.alpha).abs() <= 1e-4
+}
+/// An interval of R_i, R_ct or Q wider than this factor either way
+/// (`1.96·k·se(ln p) > ln 2`) is too wide to call the parameter identified.
+pub const MAX_FACTOR: f64 = 2.0;
+/// …and one of α wider than this half-width.
+pub const MAX_ALPHA_HALF_WIDTH: f64 = 0.1;
+/// The model must explain at least this fraction of the voltage's variance
+/// over the record (`1 − RSS/TSS`): below, the residuals are as large as
+/// the signal and the fit describes the noise.
+pub const MIN_EXPLAINED: f64 = 0.5;
+
+/// The plausibility limits of a row (the online estimator's defaults).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Limits {
+    /// Lowest plausible terminal voltage (V).
+    pub voltage_min: f64,
+    /// Highest plausible terminal voltage (V).
+    pub voltage_max: f64,
+    /// Largest plausible |current| (A).
+    pub current_limit: f64,
+    /// A spike is further than `spike_sigmas` robust σ of the residuals…
+    pub spike_sigmas: f64,
+    /// …and further than this (V).
+    pub spike_floor: f64,
+}
+
+impl Default for Limits {
+    /// [`OnlineSettings`]' defaults: `U_t ∈ [1.5, 5] V`, `|I| ≤ 500 A`,
+    /// spikes beyond `max(8σ, 50 mV)`.
+    fn default() -> Self {
+        let o = OnlineSettings::<f64>::new(1.0, 1, CellParameters::cell_18650());
+        Self {
+            voltage_min: o.voltage_min,
+            voltage_max: o.voltage_max,
+            current_limit: o.current_limit,
+            spike_sigmas: o.spike_sigmas,
+            spike_floor: o.spike_floor,
+        }
+    }
+}
+
+/// The rejected rows, by reason (JSON `rejected_rows`).
+#[derive(Serialize, Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct RejectedRows {
+    /// Current or voltage NaN or infinite.
+    pub non_finite: u32,
+    /// Outside the plausible current or voltage range.
+    pub out_of_range: u32,
+    /// Voltage too far from the fitted model.
+    pub spikes: u32,
+}
+
+impl RejectedRows {
+    /// All rejected rows.
+    pub fn total(&self) -> u32 {
+        self.non_finite + self.out_of_range + self.spikes
+    }
+}
+
+/// A record with its rejected rows substituted.
+pub struct Screened {
+    /// The record the fits see.
+    pub record: BatteryRecord,
+    /// Per row: why it was rejected, or `None`.
+    pub rejected: Vec<Option<Rejection>>,
+    /// The measured voltages (for the spike test and the residuals).
+    pub measured: Vec<f64>,
+}
+
+impl Screened {
+    /// A record with every row accepted (nothing screened).
+    pub fn accepted(rec: &BatteryRecord) -> Self {
+        Self {
+            record: BatteryRecord {
+                time: rec.time.clone(),
+                current: rec.current.clone(),
+                voltage: rec.voltage.clone(),
+                h: rec.h,
+            },
+            rejected: vec![None; rec.voltage.len()],
+            measured: rec.voltage.clone(),
+        }
+    }
+
+    /// The counts by reason.
+    pub fn counts(&self) -> RejectedRows {
+        let mut c = RejectedRows::default();
+        for r in self.rejected.iter().flatten() {
+            match r {
+                Rejection::NonFinite => c.non_finite += 1,
+                Rejection::OutOfRange => c.out_of_range += 1,
+                Rejection::Spike => c.spikes += 1,
+            }
+        }
+        c
+    }
+
+    /// One line naming the rejected rows (file rows: the header is row 1),
+    /// or `None` when there are none.
+    pub fn warning(&self, path: &Path) -> Option<String> {
+        let c = self.counts();
+        if c.total() == 0 {
+            return None;
+        }
+        let rows: Vec<String> = self
+            .rejected
+            .iter()
+            .enumerate()
+            .filter(|(_, r)| r.is_some())
+            .map(|(l, _)| (l + 2).to_string())
+            .collect();
+        let shown = if rows.len() > 12 {
+            format!("{}, … ({} more)", rows[..12].join(", "), rows.len() - 12)
+        } else {
+            rows.join(", ")
+        };
+        Some(format!(
+            "warning: {}: {} rows rejected ({} not finite, {} out of range, {} spikes against the model) and \
+             substituted, as the online estimator does; the fit goes on without them: rows {shown}",
+            path.display(),
+            c.total(),
+            c.non_finite,
+            c.out_of_range,
+            c.spikes
+        ))
+    }
+
+    /// Gives every rejected row the model's voltage (a substitute that adds
+    /// nothing to the residuals).
+    pub fn substitute_model(&mut self, model: &[f64]) {
+        for ((v, r), &m) in self
+            .record
+            .voltage
+            .iter_mut()
+            .zip(&self.rejected)
+            .zip(model)
+        {
+            if r.is_some() && m.is_finite() {
+                *v = m;
+            }
+        }
+    }
+
+    /// Marks the accepted rows whose measured voltage is a spike against
+    /// `model` (see the module docs); returns how many new ones.
+    pub fn find_spikes(&mut self, model: &[f64], limits: &Limits) -> usize {
+        let res: Vec<f64> = self
+            .measured
+            .iter()
+            .zip(model)
+            .zip(&self.rejected)
+            .filter(|(_, r)| r.is_none())
+            .map(|((v, m), _)| v - m)
+            .collect();
+        let sigma = robust_scale(&res);
+        if !sigma.is_finite() {
+            return 0;
+        }
+        let limit = (limits.spike_sigmas * sigma).max(limits.spike_floor);
+        let mut new = 0;
+        for ((r, &v), &m) in self.rejected.iter_mut().zip(&self.measured).zip(model) {
+            if r.is_none() && (v - m).abs() > limit {
+                *r = Some(Rejection::Spike);
+                new += 1;
+            }
+        }
+        new
+    }
+}
+
+/// 1.4826 × the median absolute deviation from the median (the normal σ
+/// of clean residuals, unmoved by a few outliers). NaN for no data.
+fn robust_scale(x: &[f64]) -> f64 {
+    fn median(v: &mut [f64]) -> f64 {
+        if v.is_empty() {
+            return f64::NAN;
+        }
+        v.sort_by(f64::total_cmp);
+        let n = v.len();
+        if n % 2 == 1 {
+            v[n / 2]
+        } else {
+            (v[n / 2 - 1] + v[n / 2]) / 2.0
+        }
+    }
+    let mut v = x.to_vec();
+    let med = median(&mut v);
+    let mut dev: Vec<f64> = x.iter().map(|r| (r - med).abs()).collect();
+    1.4826 * median(&mut dev)
+}
+
+/// Rejects the non-finite and implausible rows of `rec` and substitutes
+/// them (see the module docs).
+///
+/// # Errors
+/// When no row has a plausible voltage, or none a plausible current: there
+/// is nothing to fit.
+pub fn screen(path: &Path, rec: &BatteryRecord, limits: &Limits) -> Result<Screened> {
+    let n = rec.current.len();
+    let mut rejected = vec![None; n];
+    let plausible_i = |i: f64| i.is_finite() && i.abs() <= limits.current_limit;
+    let plausible_v = |v: f64| v.is_finite() && v >= limits.voltage_min && v <= limits.voltage_max;
+    for (l, r) in rejected.iter_mut().enumerate() {
+        let (i, v) = (rec.current[l], rec.voltage[l]);
+        if !(i.is_finite() && v.is_finite()) {
+            *r = Some(Rejection::NonFinite);
+        } else if !(plausible_i(i) && plausible_v(v)) {
+            *r = Some(Rejection::OutOfRange);
+        }
+    }
+    let Some(first_i) = rec.current.iter().copied().find(|&i| plausible_i(i)) else {
+        bail!(
+            "{}: every row is rejected: no current is finite and within ±{} A",
+            path.display(),
+            limits.current_limit
+        );
+    };
+    let good: Vec<usize> = (0..n).filter(|&l| rejected[l].is_none()).collect();
+    if good.is_empty() {
+        bail!(
+            "{}: every row is rejected: no voltage is finite and within [{}, {}] V (set --voltage-min/--voltage-max)",
+            path.display(),
+            limits.voltage_min,
+            limits.voltage_max
+        );
+    }
+    let mut out = BatteryRecord {
+        time: rec.time.clone(),
+        current: rec.current.clone(),
+        voltage: rec.voltage.clone(),
+        h: rec.h,
+    };
+    // Currents: the measured one when plausible, else the last plausible one
+    // (the first plausible one before it).
+    let mut last = first_i;
+    for i in out.current.iter_mut() {
+        if plausible_i(*i) {
+            last = *i;
+        } else {
+            *i = last;
+        }
+    }
+    // Voltages of rejected rows: linear between the good neighbours.
+    let mut k = 0; // index into `good` of the next good row at or after l
+    for (l, r) in rejected.iter().enumerate() {
+        while k < good.len() && good[k] < l {
+            k += 1;
+        }
+        if r.is_none() {
+            continue;
+        }
+        let before = k.checked_sub(1).map(|j| good[j]);
+        let after = good.get(k).copied();
+        out.voltage[l] = match (before, after) {
+            (Some(a), Some(b)) => {
+                let t = (l - a) as f64 / (b - a) as f64;
+                rec.voltage[a] + t * (rec.voltage[b] - rec.voltage[a])
+            }
+            (Some(a), None) => rec.voltage[a],
+            (None, Some(b)) => rec.voltage[b],
+            // `good` is not empty, so every row has a good neighbour.
+            (None, None) => f64::NAN,
+        };
+    }
+    Ok(Screened {
+        record: out,
+        rejected,
+        measured: rec.voltage.clone(),
+    })
+}
+
+/// The verdict on a fit (JSON `confidence`, `identifiable`,
+/// `identifiable_reason`).
+#[derive(Serialize, Clone, Debug, PartialEq)]
+pub struct Confidence {
+    /// 95 % interval of R_i (Ω).
+    pub r_i: [f64; 2],
+    /// 95 % interval of R_ct (Ω).
+    pub r_ct: [f64; 2],
+    /// 95 % interval of Q (F·s^(α−1)).
+    pub q: [f64; 2],
+    /// 95 % interval of α.
+    pub alpha: [f64; 2],
+}
+
+/// What [`assess`] concluded.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Assessment {
+    /// The intervals (`None` when the information matrix is singular).
+    pub confidence: Option<Confidence>,
+    /// No reason against the fit holds.
+    pub identifiable: bool,
+    /// Why not (empty when identifiable), one clause per reason.
+    pub reasons: Vec<String>,
+    /// The lag-1 autocorrelation ρ of the residuals over accepted rows.
+    pub residual_correlation: f64,
+    /// `1 − RSS/TSS` of the voltage over accepted rows.
+    pub explained: f64,
+}
+
+/// The intervals and the verdict of the fit of `cell` (see the module
+/// docs). `info` is the Gauss–Newton information at the estimate (None
+/// when it could not be computed), `alpha_bounds` the fit's order bounds,
+/// `model` the model's voltage over the record, `current` the record's.
+///
+/// Reasons against: the information is singular or not available (no
+/// excitation, or the fit diverged); an interval of R_i, R_ct or Q wider
+/// than a factor [`MAX_FACTOR`] either way, or of α wider than
+/// ±[`MAX_ALPHA_HALF_WIDTH`]; α at a bound of its search; a resistance
+/// collapsed to 0 (below 10⁻⁶ of the other); the current does not vary;
+/// the model explains less than [`MIN_EXPLAINED`] of the voltage's
+/// variance (the residuals are as large as the signal).
+pub fn assess(
+    sc: &Screened,
+    cell: &CellParameters<f64>,
+    info: Option<&FitInformation<f64>>,
+    alpha_bounds: [f64; 2],
+    model: &[f64],
+) -> Assessment {
+    let res: Vec<f64> = sc
+        .measured
+        .iter()
+        .zip(model)
+        .zip(&sc.rejected)
+        .filter(|(_, r)| r.is_none())
+        .map(|((v, m), _)| v - m)
+        .collect();
+    let good_v: Vec<f64> = sc
+        .measured
+        .iter()
+        .zip(&sc.rejected)
+        .filter(|(_, r)| r.is_none())
+        .map(|(v, _)| *v)
+        .collect();
+    let n = res.len().max(1) as f64;
+    let rss: f64 = res.iter().map(|r| r * r).sum();
+    let mean_v = good_v.iter().sum::<f64>() / n;
+    let tss: f64 = good_v.iter().map(|v| (v - mean_v) * (v - mean_v)).sum();
+    let explained = if tss > 0.0 { 1.0 - rss / tss } else { 0.0 };
+    let lag: f64 = res.windows(2).map(|w| w[0] * w[1]).sum();
+    let rho = if rss > 0.0 { lag / rss } else { 0.0 };
+    let inflation = {
+        let r = rho.clamp(0.0, 0.995);
+        ((1.0 + r) / (1.0 - r)).sqrt()
+    };
+    let mut reasons = Vec::new();
+    let current_varies = {
+        let c = &sc.record.current;
+        let m = c.iter().sum::<f64>() / c.len().max(1) as f64;
+        c.iter().any(|i| (i - m).abs() > 1e-9 * m.abs().max(1e-3))
+    };
+    if !current_varies {
+        reasons.push("no excitation: the current does not vary".to_owned());
+    }
+    let confidence = info.and_then(|info| {
+        let se = info.standard_errors();
+        let k = info.parameters() as f64;
+        let var_fit = info.residual_variance();
+        let var = rss / (n - k).max(1.0);
+        let scale = if var_fit > 0.0 {
+            (var / var_fit).sqrt() * inflation
+        } else {
+            f64::NAN
+        };
+        let half = |j: usize| se[j].map(|e| Z95 * e * scale).filter(|h| h.is_finite());
+        let log_interval = |p: f64, j: usize| half(j).map(|h| [p * (-h).exp(), p * h.exp()]);
+        Some(Confidence {
+            r_i: log_interval(cell.r_i, 0)?,
+            r_ct: log_interval(cell.r_ct, 1)?,
+            q: log_interval(cell.q, 2)?,
+            alpha: half(3).map(|h| [cell.alpha - h, cell.alpha + h])?,
+        })
+    });
+    match &confidence {
+        None => reasons.push(
+            "the information matrix is singular or not available: the parameters are not determined"
+                .to_owned(),
+        ),
+        Some(c) => {
+            let wide: Vec<&str> = [("R_i", c.r_i), ("R_ct", c.r_ct), ("Q", c.q)]
+                .into_iter()
+                .filter(|(_, [lo, hi])| hi / lo > MAX_FACTOR * MAX_FACTOR)
+                .map(|(name, _)| name)
+                .collect();
+            if !wide.is_empty() {
+                reasons.push(format!(
+                    "95 % intervals too wide: {} beyond a factor {MAX_FACTOR} either way",
+                    wide.join(", ")
+                ));
+            }
+            if c.alpha[1] - c.alpha[0] > 2.0 * MAX_ALPHA_HALF_WIDTH {
+                reasons.push(format!(
+                    "95 % interval of α too wide (±{:.3})",
+                    (c.alpha[1] - c.alpha[0]) / 2.0
+                ));
+            }
+        }
+    }
+    let [lo, hi] = alpha_bounds;
+    if cell.alpha <= lo + 1e-3 || cell.alpha >= hi - 1e-3 {
+        reasons.push(format!(
+            "α = {:.4} at a bound of its search [{lo}, {hi}]",
+            cell.alpha
+        ));
+    }
+    if cell.r_i < 1e-6 * cell.r_ct || cell.r_ct < 1e-6 * cell.r_i {
+        reasons.push(format!(
+            "a resistance at its bound 0 (R_i = {:.3e} Ω, R_ct = {:.3e} Ω)",
+            cell.r_i, cell.r_ct
+        ));
+    }
+    // (NaN counts against it.)
+    if explained.is_nan() || explained < MIN_EXPLAINED {
+        reasons.push(format!(
+            "the model explains {:.0} % of the voltage's variation: the residuals are as large as the signal",
+            100.0 * explained.max(0.0)
+        ));
+    }
+    Assessment {
+        confidence,
+        identifiable: reasons.is_empty(),
+        reasons,
+        residual_correlation: rho,
+        explained,
+    }
+}
