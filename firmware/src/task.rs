@@ -19,7 +19,9 @@
 //! One cell is the one-cell pack (the core's `CellEstimator` is the same).
 //!
 //! Nothing here allocates or panics; settings ([`TaskSettings`]) are kept
-//! apart from state ([`EstimatorTask`]).
+//! apart from state ([`EstimatorTask`]). The core's code that the step runs
+//! still links panic call sites (index checks the optimizer keeps):
+//! `cargo xtask panic-sites` lists them (docs/panic-paths.md).
 
 use crate::sampler::{PackReading, SampleError};
 use estimator_core::battery::ocv::{OcvModel, OcvTable};
@@ -177,6 +179,10 @@ impl<const N: usize, const MEM: usize, const C: usize> EstimatorTask<N, MEM, C> 
     /// Handles this period's sample: the sampler's result and the cell
     /// voltages it wrote (cell 1 first; missing cells are NaN). `None` at
     /// [`SampleError::EndOfStream`] (nothing is pushed).
+    ///
+    /// Never inlined: the per-sample step is one function in the image, the
+    /// root of `cargo xtask panic-sites`' call graph (docs/panic-paths.md).
+    #[inline(never)]
     pub fn on_sample(
         &mut self,
         s: &TaskSettings,

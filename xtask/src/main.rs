@@ -24,6 +24,11 @@
 //!   N cells made from the input record and prints `{"cells", "window",
 //!   "memory", "iterations_per_update", "bytes_per_cell", "shared_bytes",
 //!   "instructions_per_pack_update", "instructions_per_cell_update"}`.
+//! * `cargo xtask panic-sites [--features F] [--elf ELF] [--root NAME]
+//!   [--sites] [--deny-reachable]` builds the release firmware and lists
+//!   its panic call sites, marking those reachable from the per-sample step
+//!   (`EstimatorTask::on_sample`) by the static call graph of the
+//!   disassembly (docs/panic-paths.md); the last line is one JSON object.
 //!
 //! Errors are one line on stderr and exit status 1.
 
@@ -36,6 +41,7 @@ use std::process::{Command, Stdio};
 
 mod c_demo;
 mod header;
+mod panic_sites;
 
 #[derive(Parser)]
 #[command(about = "fracbms helper commands", version)]
@@ -70,6 +76,10 @@ enum Cmd {
         #[arg(long)]
         check: bool,
     },
+    /// List the panic call sites of the release firmware image and those
+    /// reachable from the per-sample step (static call graph of the
+    /// disassembly); the last line is one JSON object.
+    PanicSites(panic_sites::PanicSitesArgs),
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -623,6 +633,7 @@ fn main() {
         Cmd::RunElf { elf, timeout } => run_elf(elf, *timeout, false).map(|_| ()),
         Cmd::CDemo(a) => c_demo::run(a),
         Cmd::Header { check } => header::header(&root(), *check),
+        Cmd::PanicSites(a) => panic_sites::run(a),
     };
     if let Err(e) = r {
         eprintln!("error: {e:#}");
