@@ -1104,7 +1104,13 @@ fn meaningless_records_are_not_trusted() {
         1,
         "{err}"
     );
-    let square = |k: usize| if (k / 50) % 2 == 0 { -1.0 } else { 1.0 };
+    let square = |k: usize| {
+        if (k / 50).is_multiple_of(2) {
+            -1.0
+        } else {
+            1.0
+        }
+    };
     for (name, v) in [("huge", 1e30), ("negative", -3.7)] {
         let p = tmp(&format!("trust-{name}.csv"));
         std::fs::write(

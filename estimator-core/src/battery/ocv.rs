@@ -60,6 +60,10 @@
 use crate::error::Error;
 use crate::real::Real;
 
+/// The coulomb count is kept inside `±SOC_BOUND_F64` (finite; see
+/// [`OcvModel::soc_after`]).
+const SOC_BOUND_F64: f64 = 1e6;
+
 /// What is wrong with an OCV table.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -294,10 +298,14 @@ impl<T: Real, const P: usize> OcvModel<T, P> {
 
     /// The state of charge after a sample of current `current` (A, positive
     /// when charging) held for `h` seconds, from `soc` before it. Not
-    /// clamped: a count that leaves `[0, 1]` says the capacity or the
-    /// start is wrong, and the table holds its end values there.
+    /// clamped to `[0, 1]`: a count that leaves it says the capacity or the
+    /// start is wrong, and the table holds its end values there. Only kept
+    /// finite, inside `±10⁶` (a capacity of 10⁻³⁰⁰ A·h or a period of
+    /// 10³⁰⁰ s would otherwise overflow the count to ±∞ and then NaN).
     pub fn soc_after(&self, soc: T, current: T, h: T) -> T {
-        soc + h * current / (T::lit(3600.0) * self.capacity_ah)
+        let z = soc + h * current / (T::lit(3600.0) * self.capacity_ah);
+        let bound = T::lit(SOC_BOUND_F64);
+        z.max(-bound).min(bound)
     }
 
     /// The overpotential `y = U_t − OCV(soc)` of a terminal voltage at

@@ -1043,13 +1043,18 @@ impl<T: Real, const N: usize> CellState<T, N> {
         k: usize,
     ) -> (Status, u16) {
         let b = &s.battery;
-        let need = b.memory - 1 + super::regression::MIN_ROWS;
+        // Saturating: `push` may be given other settings than the
+        // constructor's (memory 0 or `usize::MAX` then means "never enough").
+        let need = b
+            .memory
+            .saturating_sub(1)
+            .saturating_add(super::regression::MIN_ROWS);
         let len = usize::from(self.len);
         if len < need {
             return (Status::Filling, 0);
         }
         // Current excitation over the fitted part of the window.
-        let fitted = len + 1 - b.memory;
+        let fitted = (len + 1).saturating_sub(b.memory);
         let count = T::lit(fitted as f64);
         let recent = || {
             self.view(history)
