@@ -80,11 +80,7 @@ fn identification(c: &mut Criterion) {
     c.bench_function("refined/from_op", |b| {
         b.iter(|| {
             r.restart(&ps, &start).unwrap();
-            for _ in 0..400 {
-                if r.iterate(&ps, &Polynomial, &w).unwrap().converged {
-                    break;
-                }
-            }
+            r.run(&ps, &Polynomial, &w, 400).unwrap();
             black_box(*r.estimate())
         })
     });

@@ -127,14 +127,7 @@ fn refine_hammerstein(
             .stack_size(64 << 20)
             .spawn_scoped(sc, || -> Result<Refined, estimator_core::Error> {
                 let mut r = Box::new(Refinement::new(&ps, start)?);
-                let mut last = None;
-                for _ in 0..max_iterations {
-                    let it = r.iterate(&ps, &Polynomial, win)?;
-                    last = Some(it);
-                    if it.converged {
-                        break;
-                    }
-                }
+                let last = r.run(&ps, &Polynomial, win, max_iterations)?;
                 let won = r.winning_start(&ps);
                 Ok(Refined {
                     est: *r.estimate(),
@@ -1000,16 +993,19 @@ pub fn battery_identify_screened(
 ) -> Result<(BatteryResult, trust::Screened)> {
     let mut sc = trust::screen(path, rec, limits)?;
     let cell_ocv = crate::ocv::resolve(ocv, path, &sc.record)?;
-    let mut r = battery_identify_unassessed(
-        path,
-        &sc.record,
-        cell_ocv.as_ref(),
-        method,
-        memory,
-        iterations,
-        print_table,
-        refine,
-    )?;
+    let fit = |record: &io::BatteryRecord, print_table: bool| {
+        battery_identify_unassessed(
+            path,
+            record,
+            cell_ocv.as_ref(),
+            method,
+            memory,
+            iterations,
+            print_table,
+            refine,
+        )
+    };
+    let mut r = fit(&sc.record, print_table)?;
     // No earlier fit yet: nothing has settled.
     let mut previous = CellParameters {
         alpha: f64::NAN,
@@ -1025,16 +1021,7 @@ pub fn battery_identify_screened(
         }
         previous = r.cell;
         sc.substitute_model(&r.model_voltage);
-        r = battery_identify_unassessed(
-            path,
-            &sc.record,
-            cell_ocv.as_ref(),
-            method,
-            memory,
-            iterations,
-            false,
-            refine,
-        )?;
+        r = fit(&sc.record, false)?;
     }
     apply_assessment(&mut r, &sc);
     Ok((r, sc))

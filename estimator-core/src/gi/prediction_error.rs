@@ -618,6 +618,29 @@ impl<
         Ok(())
     }
 
+    /// Iterates until the descent converges or `max_iterations` calls have
+    /// run; returns the last iteration (`None` for `max_iterations = 0`).
+    ///
+    /// # Errors
+    /// The first error of [`PredictionErrorRefinement::iterate`].
+    pub fn run<B: Basis<T>>(
+        &mut self,
+        s: &PredictionErrorSettings<T>,
+        basis: &B,
+        window: &SampleWindow<T, N>,
+        max_iterations: u32,
+    ) -> Result<Option<PredictionErrorIteration<T>>, Error> {
+        let mut last = None;
+        for _ in 0..max_iterations {
+            let it = self.iterate(s, basis, window)?;
+            last = Some(it);
+            if it.converged {
+                break;
+            }
+        }
+        Ok(last)
+    }
+
     /// Loads the window at the estimate's order (clamped into the bounds),
     /// computes the residual `ε` and the Jacobian columns; returns the cost.
     fn linearize<B: Basis<T>>(

@@ -28,7 +28,7 @@ const K: usize = 100;
 /// The rows the tables print.
 const KS: [usize; 11] = [1, 10, 20, 30, 40, 50, 60, 70, 80, 90, 100];
 /// Most iterations of the prediction-error refinement (search included).
-const REFINE_K: usize = 400;
+const REFINE_K: u32 = 400;
 
 /// One simulated record with the true noise sequence e (for the reference).
 struct Record {
@@ -219,14 +219,9 @@ fn refine(
 ) -> Result<(f64, f64, bool)> {
     let ps = PredictionErrorSettings::new(*s);
     let mut r = Box::new(PaperPredictionError::<f64, L, L>::new(&ps, start)?);
-    let mut cost = f64::NAN;
-    for _ in 0..REFINE_K {
-        let it = r.iterate(&ps, &Polynomial, w)?;
-        cost = it.cost;
-        if it.converged {
-            break;
-        }
-    }
+    let cost = r
+        .run(&ps, &Polynomial, w, REFINE_K)?
+        .map_or(f64::NAN, |it| it.cost);
     let t = truth(sys);
     let mut true_est = *start;
     true_est.a.copy_from_slice(&t[..2]);
