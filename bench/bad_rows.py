@@ -3,7 +3,7 @@
 (pulse, 1000 s, seed 3) with 30 voltage spikes (±0.1…0.5 V, random rows and
 signs) and 3 NaN voltages, fitted by `identify battery` beside the clean
 record; prints the relative differences, the rejected counts and the
-intervals.
+intervals, and what `online battery` rejects on the same bad record.
 
     python3 bench/bad_rows.py        # builds host-sim (release)
 """
@@ -42,6 +42,10 @@ def main():
             fits[name] = json.load(open(out))
             if name == "bad":
                 print([line for line in p.stderr.splitlines() if "rejected" in line][0])
+        # The online estimator on the same bad record, for comparison.
+        p = subprocess.run([hs, "online", "battery", "--input", bad, "--out", os.path.join(d, "track.csv")],
+                           check=True, capture_output=True, text=True)
+        print("online battery:", [line for line in p.stderr.splitlines() if "rejected" in line][0])
         a, b = fits["clean"], fits["bad"]
         print("| | clean | 30 spikes + 3 NaN | difference |")
         print("|---|---|---|---|")
