@@ -37,8 +37,9 @@ fi
 
 echo "== cargo fmt --check"
 cargo fmt --all --check
-echo "== cargo clippy (host crates, all targets)"
+echo "== cargo clippy (host crates and the Python extension, all targets)"
 cargo clippy --all-targets -- -D warnings
+cargo clippy -p fracbms-python --all-targets -- -D warnings
 echo "== no_std build: estimator-core for thumbv7em-none-eabihf"
 cargo build -p estimator-core --target thumbv7em-none-eabihf --release
 cargo clippy -p estimator-core --target thumbv7em-none-eabihf -- -D warnings
@@ -60,7 +61,52 @@ python3 bench/compare.py --runs 1 --iterations 100
 echo "== the Hammerstein refinement reaches the independent maximum-likelihood reference (scipy)"
 python3 -c "import scipy" 2>/dev/null || python3 -m pip install --quiet scipy
 python3 bench/hammerstein_reference_check.py
+# The tests run to the end even when some fail, so that the summary below
+# counts them all.
+set +e
 echo "== cargo test (host crates, CLI end to end, firmware under QEMU)"
 cargo test --workspace 2>&1 | tee target/test-output.txt
-# Finish on a one-line summary of every test binary.
-awk '/^test result:/ { p += $4; f += $6 } END { printf "%d passed, %d failed\n", p, f; exit (f > 0) }' target/test-output.txt
+cargo_status=${PIPESTATUS[0]}
+
+echo "== Python: pip install ./python into a new virtual environment, then pytest python/tests"
+# The package is built once (maturin, profile `python`) and its tests compare
+# it with the host-sim binary cargo test has just built.
+python_status=0
+PYVENV=target/python-venv
+rm -rf "$PYVENV"
+if ! python3 -m venv "$PYVENV" 2>/dev/null; then
+  SUDO=""; [ "$(id -u)" -ne 0 ] && SUDO="sudo"
+  $SUDO apt-get update -qq && $SUDO apt-get install -y --no-install-recommends python3-venv >/dev/null
+  python3 -m venv "$PYVENV"
+fi
+"$PYVENV/bin/python" -m pip install --quiet numpy pytest || python_status=1
+start=$(date +%s)
+if "$PYVENV/bin/python" -m pip install --quiet ./python; then
+  echo "pip install ./python: built and installed in $(( $(date +%s) - start )) s"
+  cargo build -p host-sim --quiet
+  FRACBMS_HOST_SIM="$PWD/target/debug/host-sim" "$PYVENV/bin/pytest" -q python/tests \
+    --junitxml=target/pytest.xml -p no:cacheprovider || python_status=1
+  # pytest's counts in cargo's format, for the summary.
+  "$PYVENV/bin/python" - <<'PY' >> target/test-output.txt
+import xml.etree.ElementTree as ET
+s = ET.parse("target/pytest.xml").getroot()
+s = s if s.tag == "testsuite" else s.find("testsuite")
+n, f, e, k = (int(s.get(a, 0)) for a in ("tests", "failures", "errors", "skipped"))
+print(f"test result: pytest. {n - f - e - k} passed; {f + e} failed; {k} skipped (python/tests)")
+PY
+else
+  python_status=1
+  echo "test result: FAILED. 0 passed; 1 failed; (pip install ./python)" >> target/test-output.txt
+fi
+set -e
+
+# Finish on a one-line summary of every test binary and of pytest (a cargo
+# test run that did not finish counts as one failure).
+awk -v cargo="$cargo_status" -v py="$python_status" '
+  /^test result:/ { p += $4; f += $6 }
+  END {
+    if (cargo != 0 && f == 0) f = 1
+    if (py != 0 && f == 0) f = 1
+    printf "%d passed, %d failed\n", p, f
+    exit (f > 0)
+  }' target/test-output.txt

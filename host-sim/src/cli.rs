@@ -271,6 +271,17 @@ pub struct IdHammersteinArgs {
     /// Input CSV with columns u,y.
     #[arg(long)]
     pub input: PathBuf,
+    #[command(flatten)]
+    pub fit: HammersteinOptions,
+    /// Write the estimates as JSON.
+    #[arg(long)]
+    pub json: Option<PathBuf>,
+}
+
+/// How `identify hammerstein` fits (every flag but the files; the Python
+/// face fills it from its keywords).
+#[derive(clap::Args, Debug, Clone)]
+pub struct HammersteinOptions {
     /// Method: `paper` (the algorithm alone) or `refined` (the
     /// prediction-error refinement started from it: maximum likelihood,
     /// the most accurate; docs/identification.md).
@@ -305,9 +316,6 @@ pub struct IdHammersteinArgs {
     /// Initial order α̂₀.
     #[arg(long, default_value_t = 0.45)]
     pub alpha0: f64,
-    /// Write the estimates as JSON.
-    #[arg(long)]
-    pub json: Option<PathBuf>,
 }
 
 /// `identify battery`.
@@ -523,17 +531,7 @@ pub fn main() -> i32 {
             return code;
         }
     };
-    // The estimators hold their windows inline: give them a roomy stack.
-    let worker = std::thread::Builder::new()
-        .stack_size(512 << 20)
-        .spawn(move || run(cli));
-    let res = match worker {
-        Ok(h) => h
-            .join()
-            .unwrap_or_else(|_| Err(anyhow::anyhow!("internal error (please report it)"))),
-        Err(e) => Err(anyhow::anyhow!("cannot start the worker thread: {e}")),
-    };
-    match res {
+    match on_worker(move || run(cli)) {
         Ok(()) => 0,
         Err(e) => {
             let msg = format!("{e:#}").replace('\n', " ");
@@ -541,6 +539,24 @@ pub fn main() -> i32 {
             1
         }
     }
+}
+
+/// Runs `f` on a worker thread with the stack the commands need (the
+/// estimators hold their windows inline, and are built on the stack before
+/// boxing): how the CLI runs every command, and the Python face every fit.
+/// A panic comes back as an error.
+pub fn on_worker<R: Send>(f: impl FnOnce() -> Result<R> + Send) -> Result<R> {
+    std::thread::scope(|scope| {
+        match std::thread::Builder::new()
+            .stack_size(512 << 20)
+            .spawn_scoped(scope, f)
+        {
+            Ok(h) => h
+                .join()
+                .unwrap_or_else(|_| Err(anyhow::anyhow!("internal error (please report it)"))),
+            Err(e) => Err(anyhow::anyhow!("cannot start the worker thread: {e}")),
+        }
+    })
 }
 
 fn run(cli: Cli) -> Result<()> {

@@ -172,11 +172,42 @@ fn table_row(k: u32) -> bool {
 
 /// Runs `identify hammerstein` and returns the JSON value.
 pub fn hammerstein_json(a: &IdHammersteinArgs) -> Result<HammersteinJson> {
-    let m = parse_basis(&a.basis)?;
+    // The flags are checked before the file is read.
+    parse_basis(&a.fit.basis)?;
     let cols = io::read_columns(&a.input, &["u", "y"], Some(MAX_ROWS))?;
-    io::require_finite(&a.input, &cols, &["u", "y"], &[0, 1])?;
+    note_truncation(&a.input, cols.data[0].len());
+    hammerstein_fit(&a.input, &cols, &a.fit, true)
+}
+
+/// Identifies the Hammerstein system of columns `u,y` (as read by
+/// `identify hammerstein`, or [`io::Columns::from_arrays`]) as `a` says;
+/// `path` names the data in the errors. With `print`, the table of
+/// estimates versus k and a progress bar go to the terminal, as the CLI
+/// shows them. At most [`MAX_ROWS`] rows.
+pub fn hammerstein_fit(
+    path: &Path,
+    cols: &io::Columns,
+    a: &crate::cli::HammersteinOptions,
+    print: bool,
+) -> Result<HammersteinJson> {
+    let m = parse_basis(&a.basis)?;
+    io::require_finite(path, cols, &["u", "y"], &[0, 1])?;
     let (u, y) = (&cols.data[0], &cols.data[1]);
-    note_truncation(&a.input, u.len());
+    if u.len() != y.len() {
+        bail!(
+            "{}: columns u, y have {}, {} values: they must be of one length",
+            path.display(),
+            u.len(),
+            y.len()
+        );
+    }
+    if u.len() > MAX_ROWS {
+        bail!(
+            "{}: {} rows; at most {MAX_ROWS} are identified",
+            path.display(),
+            u.len()
+        );
+    }
     let orders = Orders {
         na: a.na,
         nb: a.nb,
@@ -188,13 +219,23 @@ pub fn hammerstein_json(a: &IdHammersteinArgs) -> Result<HammersteinJson> {
     let mut win = Box::new(SampleWindow::<f64, MAX_ROWS>::new());
     for (&ui, &yi) in u.iter().zip(y) {
         win.push(ui, yi)
-            .map_err(|e| anyhow!("{}: {e}", a.input.display()))?;
+            .map_err(|e| anyhow!("{}: {e}", path.display()))?;
     }
-    let ctx = |e: estimator_core::Error| anyhow!("{}: {e}", a.input.display());
+    let ctx = |e: estimator_core::Error| anyhow!("{}: {e}", path.display());
     let mut history = Vec::new();
     let mut converged = false;
     let mut cost = f64::NAN;
-    let pb = crate::progress::bar(u64::from(a.iterations), "identifying");
+    let pb = if print {
+        crate::progress::bar(u64::from(a.iterations), "identifying")
+    } else {
+        indicatif::ProgressBar::hidden()
+    };
+    // The CLI's terminal output; nothing without `print`.
+    let say = |text: String| {
+        if print {
+            pb.suspend(|| println!("{text}"));
+        }
+    };
     let header = |est: &HammersteinEstimate<f64, 4, 4, 4, 4, 16>| {
         let mut h = String::from("    k");
         for i in 0..est.orders.na {
@@ -222,7 +263,7 @@ pub fn hammerstein_json(a: &IdHammersteinArgs) -> Result<HammersteinJson> {
     let (est, b, gamma) = match a.algorithm {
         Algorithm::Op => {
             let mut gi = Box::new(OpGi::new(&s, a.alpha0).map_err(ctx)?);
-            println!("{}", header(gi.estimate()));
+            say(header(gi.estimate()));
             for _ in 0..a.iterations {
                 let it = gi.iterate(&s, &Polynomial, &win).map_err(ctx)?;
                 history.push(HistoryEntry {
@@ -232,7 +273,7 @@ pub fn hammerstein_json(a: &IdHammersteinArgs) -> Result<HammersteinJson> {
                 });
                 (converged, cost) = (it.converged, it.cost);
                 if table_row(it.k) {
-                    pb.suspend(|| println!("{}", line(it.k, gi.estimate(), it.cost)));
+                    say(line(it.k, gi.estimate(), it.cost));
                 }
                 pb.inc(1);
                 if converged {
@@ -248,7 +289,7 @@ pub fn hammerstein_json(a: &IdHammersteinArgs) -> Result<HammersteinJson> {
         }
         Algorithm::Kt => {
             let mut gi = Box::new(KtGi::new(&s, a.alpha0).map_err(ctx)?);
-            println!("{}", header(&gi.products()));
+            say(header(&gi.products()));
             for _ in 0..a.iterations {
                 let it = gi.iterate(&s, &Polynomial, &win).map_err(ctx)?;
                 history.push(HistoryEntry {
@@ -258,7 +299,7 @@ pub fn hammerstein_json(a: &IdHammersteinArgs) -> Result<HammersteinJson> {
                 });
                 (converged, cost) = (it.converged, it.cost);
                 if table_row(it.k) {
-                    pb.suspend(|| println!("{}", line(it.k, &gi.products(), it.cost)));
+                    say(line(it.k, &gi.products(), it.cost));
                 }
                 pb.inc(1);
                 if converged {
@@ -275,7 +316,7 @@ pub fn hammerstein_json(a: &IdHammersteinArgs) -> Result<HammersteinJson> {
         HammersteinMethod::Paper => (est, b, gamma, None),
         HammersteinMethod::Refined => {
             let r = refine_hammerstein(&s, &win, &est, a.refine_iterations)
-                .map_err(|e| anyhow!("{}: {e}", a.input.display()))?;
+                .map_err(|e| anyhow!("{}: {e}", path.display()))?;
             let norm = match a.algorithm {
                 Algorithm::Op => Normalization::UnitGamma,
                 Algorithm::Kt => Normalization::UnitB1,
@@ -285,7 +326,7 @@ pub fn hammerstein_json(a: &IdHammersteinArgs) -> Result<HammersteinJson> {
                 .factor(norm)
                 .map(|(b, g)| (b[..a.nb].to_vec(), g[..m].to_vec()))
                 .unwrap_or_default();
-            println!(
+            say(format!(
                 "refined: {} iterations from the {} start (α = {:.4}, {} linear start, cost {:.6e}), α̂ = {:.5}, cost {:.6e}{}",
                 r.iterations,
                 r.start.kind,
@@ -295,7 +336,7 @@ pub fn hammerstein_json(a: &IdHammersteinArgs) -> Result<HammersteinJson> {
                 r.est.alpha,
                 r.cost,
                 if r.converged { ", converged" } else { "" }
-            );
+            ));
             (r.est, b, g, Some(r))
         }
     };
@@ -939,6 +980,15 @@ pub fn battery_identify(
     Ok(r)
 }
 
+/// The model `--model` asks for under `--method`: the paper's regression
+/// is linear, so `auto` has nothing to choose there.
+pub fn model_for(model: ModelArg, method: BatteryMethod) -> ModelArg {
+    match (model, method) {
+        (ModelArg::Auto, BatteryMethod::Paper) => ModelArg::Linear,
+        (m, _) => m,
+    }
+}
+
 /// Writes the verdict of [`trust::assess`] into the JSON.
 fn apply_assessment(r: &mut BatteryResult, sc: &trust::Screened) {
     let a = trust::assess(
@@ -984,7 +1034,7 @@ pub fn battery_identify_screened(
     path: &Path,
     rec: &io::BatteryRecord,
     limits: &trust::Limits,
-    ocv: &crate::cli::OcvArgs,
+    ocv: Option<&crate::ocv::OcvSpec>,
     method: BatteryMethod,
     memory: Option<usize>,
     iterations: u32,
@@ -992,7 +1042,7 @@ pub fn battery_identify_screened(
     refine: Refine,
 ) -> Result<(BatteryResult, trust::Screened)> {
     let mut sc = trust::screen(path, rec, limits)?;
-    let cell_ocv = crate::ocv::resolve(ocv, path, &sc.record)?;
+    let cell_ocv = ocv.map(|o| o.resolve(path, &sc.record)).transpose()?;
     let fit = |record: &io::BatteryRecord, print_table: bool| {
         battery_identify_unassessed(
             path,
@@ -1074,11 +1124,7 @@ pub(crate) fn battery(a: &IdBatteryArgs) -> Result<()> {
     let refine = Refine {
         memory: a.refine_memory,
         ocv_slope: a.ocv_slope,
-        model: match (a.model, a.method) {
-            // The paper's regression is linear: auto has nothing to choose.
-            (ModelArg::Auto, BatteryMethod::Paper) => ModelArg::Linear,
-            (m, _) => m,
-        },
+        model: model_for(a.model, a.method),
     };
     let defaults = trust::Limits::default();
     let limits = trust::Limits {
@@ -1095,11 +1141,12 @@ pub(crate) fn battery(a: &IdBatteryArgs) -> Result<()> {
             limits.current_limit
         );
     }
+    let ocv = crate::ocv::OcvSpec::from_args(&a.cell)?;
     let (r, sc) = battery_identify_screened(
         &a.input,
         &rec,
         &limits,
-        &a.cell,
+        ocv.as_ref(),
         a.method,
         a.memory,
         a.iterations,

@@ -21,6 +21,16 @@ impl Columns {
     pub fn row(&self, k: usize) -> usize {
         self.rows.get(k).copied().unwrap_or(k + 2)
     }
+
+    /// Columns given in memory (a notebook's arrays, a C caller's): data
+    /// row `k` is row `k + 2`, as in the CSV file they would be read from.
+    pub fn from_arrays(data: Vec<Vec<f64>>) -> Self {
+        let n = data.iter().map(Vec::len).max().unwrap_or(0);
+        Self {
+            data,
+            rows: (2..n + 2).collect(),
+        }
+    }
 }
 
 /// A cell as an error message shows it: control characters (a line break
@@ -217,10 +227,12 @@ pub fn read_battery_from(
     battery_record(path, c)
 }
 
-/// The record of the three columns read by [`read_battery`]: the time
-/// must be finite; a non-finite current or voltage is kept for the
-/// estimators to reject.
-fn battery_record(path: &Path, mut c: Columns) -> Result<BatteryRecord> {
+/// The record of the three columns `time_s,current_a,voltage_v` (as read
+/// by [`read_battery`], or [`Columns::from_arrays`]): the time must be
+/// finite and uniform; a non-finite current or voltage is kept for the
+/// estimators to reject. `path` names the data in the errors.
+pub fn battery_record(path: &Path, mut c: Columns) -> Result<BatteryRecord> {
+    same_lengths(path, &c, &["time_s", "current_a", "voltage_v"])?;
     require_finite(path, &c, &["time_s", "current_a", "voltage_v"], &[0])?;
     let voltage = c.data.pop().unwrap_or_default();
     let current = c.data.pop().unwrap_or_default();
@@ -239,6 +251,24 @@ fn battery_record(path: &Path, mut c: Columns) -> Result<BatteryRecord> {
         voltage,
         h,
     })
+}
+
+/// Fails unless `c` holds one column per name, all of one length (always
+/// so when read from a file; arrays given in memory may differ).
+fn same_lengths(path: &Path, c: &Columns, names: &[&str]) -> Result<()> {
+    let lens: Vec<usize> = c.data.iter().map(Vec::len).collect();
+    if lens.len() != names.len() || lens.iter().any(|&n| n != lens[0]) {
+        bail!(
+            "{}: columns {} have {} values: they must be of one length",
+            path.display(),
+            names.join(", "),
+            lens.iter()
+                .map(usize::to_string)
+                .collect::<Vec<_>>()
+                .join(", ")
+        );
+    }
+    Ok(())
 }
 
 /// The sample period of a `time_s` column: its first step, which every
@@ -350,8 +380,10 @@ pub fn read_ocv_from(reader: impl Read, path: &Path) -> Result<HostOcvTable> {
     ocv_table(path, c)
 }
 
-/// The OCV table of the two columns read by [`read_ocv`].
-fn ocv_table(path: &Path, c: Columns) -> Result<HostOcvTable> {
+/// The OCV table of the two columns `soc,ocv_v` (as read by [`read_ocv`],
+/// or [`Columns::from_arrays`]); `path` names the data in the errors.
+pub fn ocv_table(path: &Path, c: Columns) -> Result<HostOcvTable> {
+    same_lengths(path, &c, &["soc", "ocv_v"])?;
     let (soc, ocv) = (&c.data[0], &c.data[1]);
     HostOcvTable::new(soc, ocv).map_err(|e| {
         use estimator_core::battery::ocv::OcvError;

@@ -4,7 +4,7 @@
 //! ([`estimator_core::battery::ocv`]); this module only reads and checks.
 
 use crate::cli::OcvArgs;
-use crate::io::{self, BatteryRecord, OCV_POINTS};
+use crate::io::{self, BatteryRecord, HostOcvTable, OCV_POINTS};
 use anyhow::{anyhow, bail, Result};
 use estimator_core::battery::ocv::OcvModel;
 use std::path::Path;
@@ -38,50 +38,107 @@ impl CellOcv {
     }
 }
 
+/// A cell's OCV curve and capacity, and the start SOC when it is given:
+/// what `--ocv`, `--capacity-ah` and `--soc0` say, checked, before a
+/// record is read (the Python face builds it from arrays).
+#[derive(Clone, Copy, Debug)]
+pub struct OcvSpec {
+    /// Curve and capacity.
+    pub model: OcvModel<f64, OCV_POINTS>,
+    /// SOC before the first row's charge (`None`: read from the record's
+    /// rested start).
+    pub soc0: Option<f64>,
+}
+
+/// Why the capacity or start SOC of an [`OcvSpec`] was refused (each face
+/// names its own argument in the message).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum OcvSpecError {
+    /// The capacity (A·h) is not finite and positive.
+    Capacity(f64),
+    /// The start SOC is not in `[0, 1]`.
+    Soc0(f64),
+}
+
+impl OcvSpec {
+    /// Checks the capacity and start SOC for `table`.
+    pub fn new(
+        table: HostOcvTable,
+        capacity_ah: f64,
+        soc0: Option<f64>,
+    ) -> Result<Self, OcvSpecError> {
+        Self::check(capacity_ah, soc0)?;
+        let model =
+            OcvModel::new(table, capacity_ah).map_err(|_| OcvSpecError::Capacity(capacity_ah))?;
+        Ok(Self { model, soc0 })
+    }
+
+    /// The checks of [`OcvSpec::new`] that need no table.
+    pub fn check(capacity_ah: f64, soc0: Option<f64>) -> Result<(), OcvSpecError> {
+        if !(capacity_ah.is_finite() && capacity_ah > 0.0) {
+            return Err(OcvSpecError::Capacity(capacity_ah));
+        }
+        match soc0 {
+            Some(z) if !(0.0..=1.0).contains(&z) => Err(OcvSpecError::Soc0(z)),
+            _ => Ok(()),
+        }
+    }
+
+    /// Checks `--capacity-ah` and `--soc0` and reads `--ocv`: `None`
+    /// without `--ocv`.
+    pub fn from_args(a: &OcvArgs) -> Result<Option<Self>> {
+        let Some(path) = &a.ocv else {
+            if a.capacity_ah.is_some() || a.soc0.is_some() {
+                bail!("--capacity-ah and --soc0 go with --ocv FILE.csv");
+            }
+            return Ok(None);
+        };
+        let cap = a
+            .capacity_ah
+            .ok_or_else(|| anyhow!("--ocv needs --capacity-ah (the cell's capacity in A·h)"))?;
+        let said = |e| match e {
+            OcvSpecError::Capacity(c) => anyhow!("--capacity-ah {c}: must be finite and positive"),
+            OcvSpecError::Soc0(z) => anyhow!("--soc0 {z}: must be in [0, 1]"),
+        };
+        // The flags are checked before the file is read.
+        Self::check(cap, a.soc0).map_err(said)?;
+        Self::new(io::read_ocv(path)?, cap, a.soc0)
+            .map_err(said)
+            .map(Some)
+    }
+
+    /// The start SOC for record `rec` (file `path`): `soc0` when given,
+    /// else read from the first rows' voltage through the inverse OCV,
+    /// which needs a record that starts at rest.
+    pub fn resolve(&self, path: &Path, rec: &BatteryRecord) -> Result<CellOcv> {
+        let model = self.model;
+        let soc0 = match self.soc0 {
+            Some(z) => z,
+            None => model.soc_at_rest(&rec.current, &rec.voltage).map_err(|_| {
+                anyhow!(
+                    "{}: row 2: the record does not start at rest (|I| = {} A above C/100 = {} A), \
+                     so its start SOC cannot be read from the OCV table; give --soc0",
+                    path.display(),
+                    rec.current.first().map_or(0.0, |i| i.abs()),
+                    model.capacity_ah / 100.0
+                )
+            })?,
+        };
+        Ok(CellOcv { model, soc0 })
+    }
+}
+
 /// Checks `--capacity-ah` and reads `--ocv`, without a record (the start
 /// SOC is left to the caller).
 pub fn model(a: &OcvArgs) -> Result<Option<OcvModel<f64, OCV_POINTS>>> {
-    let Some(path) = &a.ocv else {
-        if a.capacity_ah.is_some() || a.soc0.is_some() {
-            bail!("--capacity-ah and --soc0 go with --ocv FILE.csv");
-        }
-        return Ok(None);
-    };
-    let cap = a
-        .capacity_ah
-        .ok_or_else(|| anyhow!("--ocv needs --capacity-ah (the cell's capacity in A·h)"))?;
-    if !(cap.is_finite() && cap > 0.0) {
-        bail!("--capacity-ah {cap}: must be finite and positive");
-    }
-    if let Some(z) = a.soc0 {
-        if !(0.0..=1.0).contains(&z) {
-            bail!("--soc0 {z}: must be in [0, 1]");
-        }
-    }
-    let table = io::read_ocv(path)?;
-    OcvModel::new(table, cap)
-        .map_err(|e| anyhow!("--capacity-ah {cap}: {e}"))
-        .map(Some)
+    Ok(OcvSpec::from_args(a)?.map(|s| s.model))
 }
 
 /// Reads the options for record `rec` (file `path`): `None` without
 /// `--ocv`. Without `--soc0` the start SOC is read from the first rows'
-/// voltage, which needs a record that starts at rest.
+/// voltage through the inverse OCV; the record must then start at rest.
 pub fn resolve(a: &OcvArgs, path: &Path, rec: &BatteryRecord) -> Result<Option<CellOcv>> {
-    let Some(model) = model(a)? else {
-        return Ok(None);
-    };
-    let soc0 = match a.soc0 {
-        Some(z) => z,
-        None => model.soc_at_rest(&rec.current, &rec.voltage).map_err(|_| {
-            anyhow!(
-                "{}: row 2: the record does not start at rest (|I| = {} A above C/100 = {} A), \
-                     so its start SOC cannot be read from the OCV table; give --soc0",
-                path.display(),
-                rec.current.first().map_or(0.0, |i| i.abs()),
-                model.capacity_ah / 100.0
-            )
-        })?,
-    };
-    Ok(Some(CellOcv { model, soc0 }))
+    OcvSpec::from_args(a)?
+        .map(|s| s.resolve(path, rec))
+        .transpose()
 }

@@ -7,7 +7,7 @@ use crate::ocv::CellOcv;
 use crate::{io, progress};
 use anyhow::{anyhow, bail, Result};
 use estimator_core::battery::ocv::OcvModel;
-use estimator_core::battery::online::{CellEstimator, Method, OnlineSettings};
+use estimator_core::battery::online::{CellEstimator, Method, OnlineSettings, Rejection};
 use estimator_core::battery::output_error::RefinementWork;
 use estimator_core::battery::{CellModel, CellParameters, Prior, Start};
 use estimator_core::Real;
@@ -21,6 +21,9 @@ pub struct TrackRow {
     pub estimate: Option<CellParameters<f64>>,
     /// Status name.
     pub status: &'static str,
+    /// Why this sample was rejected (and substituted): `non_finite`,
+    /// `out_of_range` or `spike`; `None` when it was accepted.
+    pub rejected: Option<&'static str>,
     /// State of charge after this sample (with an OCV curve).
     pub soc: Option<f64>,
     /// The OCV offset ΔU of the estimate (with an OCV curve).
@@ -39,47 +42,6 @@ pub struct TrackSummary {
     pub rejected: u32,
     /// What the output-error refinement computed.
     pub work: RefinementWork,
-}
-
-fn run<T: Real, const N: usize>(
-    s: &OnlineSettings<T, OCV_POINTS>,
-    soc0: Option<f64>,
-    rec: &io::BatteryRecord,
-    mut sink: impl FnMut(TrackRow) -> Result<()>,
-) -> Result<TrackSummary> {
-    let mut est = Box::new(CellEstimator::<T, N, N>::new(s).map_err(|e| anyhow!("{e}"))?);
-    if let Some(z) = soc0 {
-        est.set_state_of_charge(T::lit(z));
-    }
-    let pb = progress::bar(rec.current.len() as u64, "tracking");
-    for (k, ((&t, &i), &v)) in rec
-        .time
-        .iter()
-        .zip(&rec.current)
-        .zip(&rec.voltage)
-        .enumerate()
-    {
-        let predicted = est.predict(s, T::lit(i)).map(|y| y.to_f64());
-        let r = est.push(s, T::lit(i), T::lit(v));
-        sink(TrackRow {
-            t,
-            estimate: est.estimate().map(|p| p.cast()),
-            predicted,
-            status: r.status.as_str(),
-            soc: est.state_of_charge().map(|z| z.to_f64()),
-            ocv_offset: est.ocv_offset().map(|d| d.to_f64()),
-        })?;
-        if k % 256 == 0 {
-            pb.set_position(k as u64);
-        }
-    }
-    pb.finish_and_clear();
-    let c = est.counts();
-    Ok(TrackSummary {
-        samples: c.samples,
-        rejected: c.rejected(),
-        work: est.refinement_work(),
-    })
 }
 
 /// How `track` runs the online estimator: the firmware's settings, as the
@@ -183,35 +145,143 @@ impl TrackOptions<'_> {
 pub fn track(
     rec: &io::BatteryRecord,
     o: &TrackOptions,
-    sink: impl FnMut(TrackRow) -> Result<()>,
+    mut sink: impl FnMut(TrackRow) -> Result<()>,
 ) -> Result<TrackSummary> {
-    let (window, memory) = (o.window, o.memory);
-    if memory == 0 || memory + 8 > window {
-        bail!(
-            "--memory {memory}: must be in 1..={}",
-            window.saturating_sub(8)
-        );
+    let mut cell = Tracker::new(o, rec.h, o.cell.map(|c| c.soc0))?;
+    let pb = progress::bar(rec.current.len() as u64, "tracking");
+    for (k, ((&t, &i), &v)) in rec
+        .time
+        .iter()
+        .zip(&rec.current)
+        .zip(&rec.voltage)
+        .enumerate()
+    {
+        sink(cell.push(t, i, v))?;
+        if k % 256 == 0 {
+            pb.set_position(k as u64);
+        }
     }
-    let soc0 = o.cell.map(|c| c.soc0);
-    match o.precision {
-        Precision::F64 => sized(&o.settings::<f64>(rec.h)?, soc0, window, rec, sink),
-        Precision::F32 => sized(&o.settings::<f32>(rec.h)?, soc0, window, rec, sink),
+    pb.finish_and_clear();
+    Ok(cell.summary())
+}
+
+/// The online estimator of one cell at the window length and precision
+/// [`TrackOptions`] choose, fed one sample at a time: the loop of
+/// [`track`] (`online battery`), and what the Python `OnlineCell` holds.
+pub struct Tracker {
+    cell: Box<dyn Step>,
+}
+
+/// [`Tracker`]'s estimator behind one type for every window and precision.
+trait Step: Send + Sync {
+    fn push(&mut self, t: f64, current: f64, voltage: f64) -> TrackRow;
+    fn summary(&self) -> TrackSummary;
+    fn set_state_of_charge(&mut self, soc: f64);
+}
+
+/// The core's single-cell estimator with its settings.
+struct Sized<T: Real, const N: usize> {
+    s: OnlineSettings<T, OCV_POINTS>,
+    est: Box<CellEstimator<T, N, N>>,
+}
+
+impl<T: Real + Send + Sync + 'static, const N: usize> Sized<T, N> {
+    fn boxed(s: OnlineSettings<T, OCV_POINTS>, soc0: Option<f64>) -> Result<Box<dyn Step>> {
+        let mut est = Box::new(CellEstimator::<T, N, N>::new(&s).map_err(|e| anyhow!("{e}"))?);
+        if let Some(z) = soc0 {
+            est.set_state_of_charge(T::lit(z));
+        }
+        Ok(Box::new(Self { s, est }))
     }
 }
 
-fn sized<T: Real>(
-    s: &OnlineSettings<T, OCV_POINTS>,
+impl<T: Real + Send + Sync, const N: usize> Step for Sized<T, N> {
+    fn push(&mut self, t: f64, current: f64, voltage: f64) -> TrackRow {
+        let (s, est) = (&self.s, &mut self.est);
+        let predicted = est.predict(s, T::lit(current)).map(|y| y.to_f64());
+        let r = est.push(s, T::lit(current), T::lit(voltage));
+        TrackRow {
+            t,
+            estimate: est.estimate().map(|p| p.cast()),
+            predicted,
+            status: r.status.as_str(),
+            rejected: r.rejected.map(|why| match why {
+                Rejection::NonFinite => "non_finite",
+                Rejection::OutOfRange => "out_of_range",
+                Rejection::Spike => "spike",
+            }),
+            soc: est.state_of_charge().map(|z| z.to_f64()),
+            ocv_offset: est.ocv_offset().map(|d| d.to_f64()),
+        }
+    }
+
+    fn set_state_of_charge(&mut self, soc: f64) {
+        self.est.set_state_of_charge(T::lit(soc));
+    }
+
+    fn summary(&self) -> TrackSummary {
+        let c = self.est.counts();
+        TrackSummary {
+            samples: c.samples,
+            rejected: c.rejected(),
+            work: self.est.refinement_work(),
+        }
+    }
+}
+
+impl Tracker {
+    /// The estimator `o` describes for sample period `h` (s), its SOC set
+    /// to `soc0` (with `o.cell`'s curve; `None`: read by the core from the
+    /// first rested samples, as the firmware does).
+    ///
+    /// # Errors
+    /// A window that is not 64, 128, 256, 512 or 1024, a memory outside
+    /// `1..=window − 8`, or settings the core refuses.
+    pub fn new(o: &TrackOptions, h: f64, soc0: Option<f64>) -> Result<Self> {
+        let (window, memory) = (o.window, o.memory);
+        if memory == 0 || memory + 8 > window {
+            bail!(
+                "--memory {memory}: must be in 1..={}",
+                window.saturating_sub(8)
+            );
+        }
+        let cell = match o.precision {
+            Precision::F64 => sized(o.settings::<f64>(h)?, soc0, window)?,
+            Precision::F32 => sized(o.settings::<f32>(h)?, soc0, window)?,
+        };
+        Ok(Self { cell })
+    }
+
+    /// Feeds the sample at time `t` (s): current (A, positive when
+    /// charging) and terminal voltage (V). Never fails: a bad sample is
+    /// rejected, counted and substituted by the core.
+    pub fn push(&mut self, t: f64, current: f64, voltage: f64) -> TrackRow {
+        self.cell.push(t, current, voltage)
+    }
+
+    /// What the estimator has seen and computed so far.
+    pub fn summary(&self) -> TrackSummary {
+        self.cell.summary()
+    }
+
+    /// Sets the state of charge now (with a curve; a non-finite value is
+    /// ignored), as [`CellEstimator::set_state_of_charge`].
+    pub fn set_state_of_charge(&mut self, soc: f64) {
+        self.cell.set_state_of_charge(soc);
+    }
+}
+
+fn sized<T: Real + Send + Sync + 'static>(
+    s: OnlineSettings<T, OCV_POINTS>,
     soc0: Option<f64>,
     window: usize,
-    rec: &io::BatteryRecord,
-    sink: impl FnMut(TrackRow) -> Result<()>,
-) -> Result<TrackSummary> {
+) -> Result<Box<dyn Step>> {
     match window {
-        64 => run::<T, 64>(s, soc0, rec, sink),
-        128 => run::<T, 128>(s, soc0, rec, sink),
-        256 => run::<T, 256>(s, soc0, rec, sink),
-        512 => run::<T, 512>(s, soc0, rec, sink),
-        1024 => run::<T, 1024>(s, soc0, rec, sink),
+        64 => Sized::<T, 64>::boxed(s, soc0),
+        128 => Sized::<T, 128>::boxed(s, soc0),
+        256 => Sized::<T, 256>::boxed(s, soc0),
+        512 => Sized::<T, 512>::boxed(s, soc0),
+        1024 => Sized::<T, 1024>::boxed(s, soc0),
         _ => bail!("--window {window}: must be one of 64, 128, 256, 512, 1024"),
     }
 }

@@ -1,7 +1,7 @@
 //! `simulate hammerstein` and `simulate battery`.
 
 use crate::cli::{SimBatteryArgs, SimHammersteinArgs};
-use crate::{io, presets, progress};
+use crate::{io, presets};
 use anyhow::{bail, Context, Result};
 use estimator_core::battery::profile::ocv_nmc;
 use estimator_core::battery::simulate::simulate;
@@ -146,15 +146,51 @@ pub fn battery_data(
     if !(sigma.is_finite() && sigma >= 0.0) {
         bail!("--sigma {sigma}: must be finite and ≥ 0");
     }
+    let current: Vec<f64> = (0..len)
+        .map(|l| drive.profile.current(l as f64 * h, drive.amplitude) + drive.mean)
+        .collect();
+    let CellVoltage { clean, ocv, soc } = battery_voltage(cell, &current, h, ocv_curve)?;
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let nd = Normal::new(0.0, 1.0).context("normal distribution")?;
+    let voltage = clean
+        .iter()
+        .map(|v| v + sigma * nd.sample(&mut rng))
+        .collect();
+    Ok(BatteryData {
+        current,
+        clean,
+        voltage,
+        ocv,
+        soc,
+    })
+}
+
+/// The noise-free voltages of a cell over a current record.
+pub struct CellVoltage {
+    /// Terminal voltage (V).
+    pub clean: Vec<f64>,
+    /// Open-circuit voltage (V).
+    pub ocv: Vec<f64>,
+    /// State of charge after each sample (NaN without a curve).
+    pub soc: Vec<f64>,
+}
+
+/// Simulates `cell` from rest over `current` (A, positive when charging;
+/// sample period `h`) with memory `min(len, SIM_MEMORY)`: the terminal
+/// voltage `simulate battery` writes before its noise is added.
+pub fn battery_voltage(
+    cell: &CellParameters<f64>,
+    current: &[f64],
+    h: f64,
+    ocv_curve: OcvCurve<'_>,
+) -> Result<CellVoltage> {
     if !(h.is_finite() && h > 0.0) {
         bail!("--h {h}: must be finite and positive");
     }
     if !cell.is_physical() {
         bail!("the cell is not physical (a resistance, Q, i₀ not positive, or a < 0)");
     }
-    let current: Vec<f64> = (0..len)
-        .map(|l| drive.profile.current(l as f64 * h, drive.amplitude) + drive.mean)
-        .collect();
+    let len = current.len();
     // SOC after each sample's charge (the voltage is read at the end of
     // the sample's interval): SOC(l) = soc0 + h·Σ_{k≤l} I(k)/(3600·C).
     let counted = |soc0: f64, cap_ah: f64| -> Vec<f64> {
@@ -187,24 +223,8 @@ pub fn battery_data(
     let memory = len.clamp(1, SIM_MEMORY);
     let mut w = Box::new(GlWeights::<f64, SIM_MEMORY>::new(cell.alpha, h, memory)?);
     let (mut up, mut clean) = (vec![0.0; len], vec![0.0; len]);
-    let pb = progress::bar(len as u64, "simulating");
-    // Simulate in one pass (the progress bar only marks start and end: the
-    // recursion is one call).
-    simulate(cell, &mut w, &current, |l| ocv[l], &mut up, &mut clean)?;
-    pb.finish_and_clear();
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let nd = Normal::new(0.0, 1.0).context("normal distribution")?;
-    let voltage = clean
-        .iter()
-        .map(|v| v + sigma * nd.sample(&mut rng))
-        .collect();
-    Ok(BatteryData {
-        current,
-        clean,
-        voltage,
-        ocv,
-        soc,
-    })
+    simulate(cell, &mut w, current, |l| ocv[l], &mut up, &mut clean)?;
+    Ok(CellVoltage { clean, ocv, soc })
 }
 
 // Not inlined into `cli::run`: the estimators are built on the stack before

@@ -1,0 +1,115 @@
+"""Type stubs of the extension module ``fracbms._fracbms`` (re-exported by
+``fracbms``). The full docstrings are the module's own (``help(fracbms.X)``)."""
+
+from typing import Any, Literal, Optional, Sequence, Tuple, Union
+
+import numpy as np
+import numpy.typing as npt
+
+ArrayLike = Union[npt.ArrayLike, Sequence[float]]
+OcvTable = Tuple[ArrayLike, ArrayLike]
+FloatArray = npt.NDArray[np.float64]
+
+MAX_ROWS: int
+"""Most rows identify_battery and identify_hammerstein take (8192)."""
+
+def identify_battery(
+    time_s: ArrayLike,
+    current_a: ArrayLike,
+    voltage_v: ArrayLike,
+    *,
+    ocv: Optional[OcvTable] = None,
+    capacity_ah: Optional[float] = None,
+    soc0: Optional[float] = None,
+    method: Literal["refined", "paper"] = "refined",
+    model: Literal["auto", "linear", "butler-volmer"] = "auto",
+    iterations: int = 50,
+    memory: Optional[int] = None,
+) -> dict[str, Any]:
+    """Identify a battery cell from a whole record: the keys of
+    ``host-sim identify battery --json`` (r_i, r_ct, q, alpha, u_oc, model,
+    bv_a_v, bv_i0_a, ocv_offset_v, soc0, soc_end, rmse_v, confidence,
+    identifiable, rejected, ...) plus ``model_v`` (numpy array). Current
+    positive when charging. Raises ValueError with the CLI's message."""
+
+def simulate_battery(
+    time_s: ArrayLike,
+    current_a: ArrayLike,
+    *,
+    r_i: float,
+    r_ct: float,
+    q: float,
+    alpha: float,
+    u_oc: Optional[float] = None,
+    bv_a_v: float = 0.0,
+    bv_i0_a: float = 1.0,
+    ocv: Optional[OcvTable] = None,
+    capacity_ah: Optional[float] = None,
+    soc0: Optional[float] = None,
+    ocv_offset_v: float = 0.0,
+) -> FloatArray:
+    """The terminal voltage (V) of a cell over a current record (A, positive
+    when charging), from rest: ``host-sim simulate battery`` without noise."""
+
+class OnlineCell:
+    """The online estimator of one cell (``host-sim online battery``): a
+    sliding window refitted after every sample, as the firmware runs it."""
+
+    def __init__(
+        self,
+        window: Literal[64, 128, 256, 512, 1024] = 256,
+        memory: int = 64,
+        h: float = 1.0,
+        ocv: Optional[OcvTable] = None,
+        capacity_ah: Optional[float] = None,
+        *,
+        soc0: Optional[float] = None,
+        method: Literal["refined", "paper"] = "refined",
+        model: Literal["auto", "linear", "butler-volmer"] = "auto",
+        precision: Literal["f64", "f32"] = "f64",
+        start: Literal["from-data", "at-rest"] = "from-data",
+        iterations_per_sample: int = 1,
+        tail: bool = False,
+    ) -> None: ...
+    def push(self, current_a: float, voltage_v: float) -> Optional[dict[str, Any]]:
+        """Feed one sample; the estimate and ``status`` after it (None while
+        the window is filling). Never raises on data: a bad sample is
+        rejected (``rejected``) and the last good estimate kept."""
+    def run(self, current_a: ArrayLike, voltage_v: ArrayLike) -> dict[str, np.ndarray]:
+        """Feed a whole record; the columns of ``host-sim online battery
+        --out`` as numpy arrays (NaN where the CSV is empty), plus
+        ``rejected``."""
+    @property
+    def samples(self) -> int:
+        """Samples offered so far."""
+    @property
+    def rejected(self) -> int:
+        """Samples rejected (and substituted) so far."""
+    @property
+    def window(self) -> int:
+        """The window length L."""
+    @property
+    def memory(self) -> int:
+        """The short memory M."""
+    @property
+    def h(self) -> float:
+        """The sample period (s)."""
+
+def identify_hammerstein(
+    u: ArrayLike,
+    y: ArrayLike,
+    *,
+    na: int,
+    nb: int,
+    nc: int,
+    basis: str = "poly:2",
+    algorithm: Literal["op", "kt"] = "op",
+    method: Literal["refined", "paper"] = "refined",
+    memory: Optional[int] = None,
+    iterations: int = 100,
+    refine_iterations: int = 400,
+    alpha0: float = 0.45,
+) -> dict[str, Any]:
+    """Identify a fractional-order Hammerstein system: the keys of
+    ``host-sim identify hammerstein --json`` (a, b, c, gamma, alpha,
+    theta_products, cost, paper_cost, refine_*, history, ...)."""

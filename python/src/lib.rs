@@ -1,0 +1,739 @@
+//! # fracbms (Python)
+//!
+//! The extension module `fracbms._fracbms`: the Python face of fracbms, on
+//! numpy arrays. It owns the conversion of Python arguments into the
+//! host-sim calls the CLI makes and of their results into dicts and arrays;
+//! it must not fit, simulate or track anything itself, so that a notebook
+//! gets what `host-sim` prints for the same data.
+//!
+//! | Python | the CLI's function |
+//! |---|---|
+//! | `identify_battery` | `identify battery --json` ([`host_sim::identify::battery_identify_screened`]) |
+//! | `simulate_battery` | `simulate battery`'s noise-free voltage ([`host_sim::simulate::battery_voltage`]) |
+//! | `OnlineCell` | `online battery` ([`host_sim::online::Tracker`]) |
+//! | `identify_hammerstein` | `identify hammerstein --json` ([`host_sim::identify::hammerstein_fit`]) |
+//!
+//! Errors are the CLI's one-line messages, raised as `ValueError`; the data
+//! are named `record` (`ocv` for an OCV table) and rows are numbered as in
+//! the CSV file the arrays would be read from: row = index + 2 (the header
+//! is row 1). Keyword errors name the keyword (`capacity_ah=0`) where the
+//! CLI names its flag (`--capacity-ah 0`).
+//!
+//! The fits run on a worker thread with the CLI's stack
+//! ([`host_sim::cli::on_worker`]) and without the GIL.
+//!
+//! The runnable example is the package's docstring (`python/fracbms/
+//! __init__.py`), run by pytest's doctests; the signatures and types are in
+//! `python/fracbms/_fracbms.pyi`.
+
+#![forbid(unsafe_code)]
+
+use std::ffi::CString;
+use std::path::Path;
+
+use clap::ValueEnum;
+use estimator_core::battery::CellParameters;
+use host_sim::cli::{
+    on_worker, Algorithm, BatteryMethod, HammersteinMethod, HammersteinOptions, ModelArg,
+    Precision, StartArg,
+};
+use host_sim::identify::{battery_identify_screened, hammerstein_fit, Refine, MAX_ROWS};
+use host_sim::io::{self, BatteryRecord, Columns};
+use host_sim::ocv::{CellOcv, OcvSpec, OcvSpecError};
+use host_sim::online::{TrackOptions, TrackRow, Tracker};
+use host_sim::simulate::{battery_voltage, OcvCurve};
+use host_sim::trust::Limits;
+use numpy::{AllowTypeChange, PyArray1, PyArrayLike1};
+use pyo3::exceptions::{PyUserWarning, PyValueError};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+
+/// A 1-D float array argument (lists, tuples and integer arrays are
+/// converted, as `numpy.asarray(x, dtype=float)` would).
+type Floats<'py> = PyArrayLike1<'py, f64, AllowTypeChange>;
+
+/// The name the data go by in the messages.
+const RECORD: &str = "record";
+/// The name of an OCV table in the messages.
+const OCV: &str = "ocv";
+
+fn value_error(e: anyhow::Error) -> PyErr {
+    PyValueError::new_err(format!("{e:#}").replace('\n', " "))
+}
+
+fn vec(a: &Floats<'_>) -> Vec<f64> {
+    a.as_array().iter().copied().collect()
+}
+
+/// Parses a keyword's string as the CLI parses its flag.
+fn choice<E: ValueEnum>(keyword: &str, value: &str) -> PyResult<E> {
+    E::from_str(value, false).map_err(|_| {
+        let names: Vec<String> = E::value_variants()
+            .iter()
+            .filter_map(|v| v.to_possible_value())
+            .map(|p| format!("'{}'", p.get_name()))
+            .collect();
+        PyValueError::new_err(format!(
+            "{keyword}='{value}': must be one of {}",
+            names.join(", ")
+        ))
+    })
+}
+
+/// `json.loads` of a value serialized as the CLI writes it.
+fn to_dict<'py>(py: Python<'py>, value: &impl serde::Serialize) -> PyResult<Bound<'py, PyDict>> {
+    let text = serde_json::to_string(value)
+        .map_err(|e| PyValueError::new_err(format!("internal error: {e}")))?;
+    py.import("json")?
+        .call_method1("loads", (text,))?
+        .cast_into::<PyDict>()
+        .map_err(PyErr::from)
+}
+
+fn warn(py: Python<'_>, message: &str) -> PyResult<()> {
+    let text = CString::new(message.replace('\0', " "))
+        .map_err(|e| PyValueError::new_err(format!("internal error: {e}")))?;
+    PyErr::warn(py, &py.get_type::<PyUserWarning>(), &text, 1)
+}
+
+/// The OCV curve of the `ocv=(soc, ocv_v)`, `capacity_ah=`, `soc0=`
+/// keywords, checked as the CLI checks `--ocv`, `--capacity-ah`, `--soc0`.
+fn ocv_spec(
+    ocv: Option<(Floats<'_>, Floats<'_>)>,
+    capacity_ah: Option<f64>,
+    soc0: Option<f64>,
+) -> PyResult<Option<OcvSpec>> {
+    let Some((soc, v)) = ocv else {
+        if capacity_ah.is_some() || soc0.is_some() {
+            return Err(PyValueError::new_err(
+                "capacity_ah and soc0 go with ocv=(soc, ocv_v)",
+            ));
+        }
+        return Ok(None);
+    };
+    let cap = capacity_ah.ok_or_else(|| {
+        PyValueError::new_err("ocv needs capacity_ah (the cell's capacity in A·h)")
+    })?;
+    let said = |e| match e {
+        OcvSpecError::Capacity(c) => {
+            PyValueError::new_err(format!("capacity_ah={c}: must be finite and positive"))
+        }
+        OcvSpecError::Soc0(z) => PyValueError::new_err(format!("soc0={z}: must be in [0, 1]")),
+    };
+    OcvSpec::check(cap, soc0).map_err(said)?;
+    let table = io::ocv_table(
+        Path::new(OCV),
+        Columns::from_arrays(vec![vec(&soc), vec(&v)]),
+    )
+    .map_err(value_error)?;
+    OcvSpec::new(table, cap, soc0).map_err(said).map(Some)
+}
+
+/// The record of three arrays, checked as `identify battery` checks a file.
+fn record(
+    time_s: &Floats<'_>,
+    current_a: &Floats<'_>,
+    voltage_v: &Floats<'_>,
+) -> PyResult<BatteryRecord> {
+    io::battery_record(
+        Path::new(RECORD),
+        Columns::from_arrays(vec![vec(time_s), vec(current_a), vec(voltage_v)]),
+    )
+    .map_err(value_error)
+}
+
+/// Identify a battery cell from a whole record (`host-sim identify battery --json`).
+///
+/// Fits the fractional-order cell model: `U_t = U_oc + R_i·I + U_p` with
+/// `Q·D^α U_p = I − U_p/R_ct`, with the paper's 2S-OP-GI (`method="paper"`)
+/// or 2S-OP-GI refined by the output error (`"refined"`, the default and the
+/// most accurate), optionally with a Butler–Volmer term `a·asinh(I/i₀)`
+/// (`model="auto"` chooses) and an OCV curve `OCV(SOC)` with the SOC counted
+/// from the current. Rows with a non-finite or implausible current or
+/// voltage, and voltage spikes against the fit, are rejected, substituted and
+/// counted (a `UserWarning` names them), as the CLI does.
+///
+/// Parameters
+/// ----------
+/// time_s, current_a, voltage_v : array_like, 1-D
+///     Time (s, uniform steps), current (A, positive when charging), terminal
+///     voltage (V). At most `MAX_ROWS` rows.
+/// ocv : (soc, ocv_v), optional
+///     The cell's OCV table (SOC in [0, 1] and voltage, both increasing).
+/// capacity_ah : float, optional
+///     Capacity (A·h) for coulomb counting; needed with `ocv`.
+/// soc0 : float, optional
+///     SOC before the first row; default: read from the rested start.
+/// method : {"refined", "paper"}
+/// model : {"auto", "linear", "butler-volmer"}
+///     The cell model (`"paper"` fits the linear model).
+/// iterations : int
+///     Iterations of 2S-OP-GI (the paper method, or the refinement's start).
+/// memory : int, optional
+///     Memory M of the paper regression (default 256).
+///
+/// Returns
+/// -------
+/// dict
+///     The keys of `host-sim identify battery --json` (`r_i`, `r_ct`, `q`,
+///     `alpha`, `u_oc`, `model`, `bv_a_v`, `bv_i0_a`, `ocv_offset_v`, `soc0`,
+///     `soc_end`, `rmse_v`, `confidence`, `identifiable`, `rejected`, ...;
+///     docs/python.md lists them), plus `model_v`: the fitted model's
+///     free-run voltage over the record (numpy array).
+///
+/// Raises
+/// ------
+/// ValueError
+///     The CLI's one-line message: a non-finite or non-uniform time, a bad
+///     OCV table, every row rejected, a bad keyword.
+#[pyfunction]
+#[pyo3(signature = (
+    time_s, current_a, voltage_v, *, ocv = None, capacity_ah = None, soc0 = None,
+    method = "refined", model = "auto", iterations = 50, memory = None
+))]
+#[allow(clippy::too_many_arguments)]
+fn identify_battery<'py>(
+    py: Python<'py>,
+    time_s: Floats<'py>,
+    current_a: Floats<'py>,
+    voltage_v: Floats<'py>,
+    ocv: Option<(Floats<'py>, Floats<'py>)>,
+    capacity_ah: Option<f64>,
+    soc0: Option<f64>,
+    method: &str,
+    model: &str,
+    iterations: u32,
+    memory: Option<usize>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let method: BatteryMethod = choice("method", method)?;
+    let model: ModelArg = choice("model", model)?;
+    let spec = ocv_spec(ocv, capacity_ah, soc0)?;
+    let rec = record(&time_s, &current_a, &voltage_v)?;
+    if rec.time.len() > MAX_ROWS {
+        return Err(PyValueError::new_err(format!(
+            "{RECORD}: {} rows; at most {MAX_ROWS} are identified (OnlineCell tracks longer records)",
+            rec.time.len()
+        )));
+    }
+    let refine = Refine {
+        model: host_sim::identify::model_for(model, method),
+        ..Refine::default()
+    };
+    let name = Path::new(RECORD);
+    let (r, sc) = py
+        .detach(|| {
+            on_worker(|| {
+                battery_identify_screened(
+                    name,
+                    &rec,
+                    &Limits::default(),
+                    spec.as_ref(),
+                    method,
+                    memory,
+                    iterations,
+                    false,
+                    refine,
+                )
+            })
+        })
+        .map_err(value_error)?;
+    if let Some(w) = sc.warning(name) {
+        warn(py, w.strip_prefix("warning: ").unwrap_or(&w))?;
+    }
+    if let Some(why) = &r.json.identifiable_reason {
+        warn(py, &format!("{RECORD}: the fit is not identifiable: {why}"))?;
+    }
+    let d = to_dict(py, &r.json)?;
+    d.set_item("model_v", PyArray1::from_vec(py, r.model_voltage))?;
+    Ok(d)
+}
+
+/// The terminal voltage of a cell over a current record, from rest.
+///
+/// The noise-free voltage `host-sim simulate battery` writes (memory: the
+/// whole record, at most 4096 samples of Grünwald–Letnikov history).
+///
+/// Parameters
+/// ----------
+/// time_s, current_a : array_like, 1-D
+///     Time (s, uniform steps) and current (A, positive when charging).
+/// r_i, r_ct : float
+///     Ohmic and charge-transfer resistances (Ω).
+/// q : float
+///     The constant-phase element's Q (F·s^(α−1)).
+/// alpha : float
+///     Fractional order α in (0, 1].
+/// u_oc : float
+///     Open-circuit voltage (V); without `ocv` only.
+/// bv_a_v, bv_i0_a : float
+///     Butler–Volmer term `a·asinh(I/i₀)` (V, A); `bv_a_v=0`: linear.
+/// ocv : (soc, ocv_v), optional
+///     An OCV table: the open-circuit voltage follows `OCV(SOC)`, with
+///     `capacity_ah` and `soc0` (both needed), plus `ocv_offset_v`.
+///
+/// Returns
+/// -------
+/// numpy.ndarray
+///     The terminal voltage (V) after each sample.
+///
+/// Raises
+/// ------
+/// ValueError
+///     A non-finite time or current, non-uniform time, a cell that is not
+///     physical, `u_oc` missing without `ocv` (or given with it).
+#[pyfunction]
+#[pyo3(signature = (
+    time_s, current_a, *, r_i, r_ct, q, alpha, u_oc = None, bv_a_v = 0.0, bv_i0_a = 1.0,
+    ocv = None, capacity_ah = None, soc0 = None, ocv_offset_v = 0.0
+))]
+#[allow(clippy::too_many_arguments)]
+fn simulate_battery<'py>(
+    py: Python<'py>,
+    time_s: Floats<'py>,
+    current_a: Floats<'py>,
+    r_i: f64,
+    r_ct: f64,
+    q: f64,
+    alpha: f64,
+    u_oc: Option<f64>,
+    bv_a_v: f64,
+    bv_i0_a: f64,
+    ocv: Option<(Floats<'py>, Floats<'py>)>,
+    capacity_ah: Option<f64>,
+    soc0: Option<f64>,
+    ocv_offset_v: f64,
+) -> PyResult<Bound<'py, PyArray1<f64>>> {
+    let spec = ocv_spec(ocv, capacity_ah, soc0)?;
+    let cols = Columns::from_arrays(vec![vec(&time_s), vec(&current_a)]);
+    let name = Path::new(RECORD);
+    io::require_finite(name, &cols, &["time_s", "current_a"], &[0, 1]).map_err(value_error)?;
+    let (time, current) = (&cols.data[0], &cols.data[1]);
+    if time.len() != current.len() {
+        return Err(PyValueError::new_err(format!(
+            "{RECORD}: columns time_s, current_a have {}, {} values: they must be of one length",
+            time.len(),
+            current.len()
+        )));
+    }
+    let h = io::uniform_step(name, time).map_err(value_error)?;
+    let u_oc = match (&spec, u_oc) {
+        (None, Some(u)) => u,
+        (None, None) => return Err(PyValueError::new_err("u_oc is needed without ocv")),
+        (Some(_), Some(_)) => {
+            return Err(PyValueError::new_err(
+                "u_oc goes without ocv (with a curve the open-circuit voltage is OCV(SOC) + ocv_offset_v)",
+            ))
+        }
+        (Some(_), None) => 0.0,
+    };
+    let cell = CellParameters {
+        r_i,
+        r_ct,
+        q,
+        alpha,
+        u_oc,
+        bv_a: bv_a_v,
+        bv_i0: bv_i0_a,
+    };
+    if !(cell.is_physical() && u_oc.is_finite() && ocv_offset_v.is_finite()) {
+        return Err(PyValueError::new_err(format!(
+            "r_i={r_i}, r_ct={r_ct}, q={q}, alpha={alpha}, u_oc={u_oc}, bv_a_v={bv_a_v}, bv_i0_a={bv_i0_a}, ocv_offset_v={ocv_offset_v}: \
+             the cell is not physical (a resistance, Q, i₀ not positive or not finite, α outside (0, 1], a < 0)"
+        )));
+    }
+    let curve = match &spec {
+        None => OcvCurve::Constant,
+        Some(s) => OcvCurve::Table {
+            table: &s.model.table,
+            soc0: s.soc0.ok_or_else(|| {
+                PyValueError::new_err("ocv needs soc0 (the state of charge before the first row)")
+            })?,
+            capacity_ah: s.model.capacity_ah,
+        },
+    };
+    let v = py
+        .detach(|| on_worker(|| battery_voltage(&cell, current, h, curve)))
+        .map_err(value_error)?;
+    let offset = if spec.is_some() { ocv_offset_v } else { 0.0 };
+    Ok(PyArray1::from_vec(
+        py,
+        v.clean.into_iter().map(|x| x + offset).collect(),
+    ))
+}
+
+/// The online estimator of one cell (`host-sim online battery`).
+///
+/// A sliding window of `window` samples with a Grünwald–Letnikov memory of
+/// `memory` samples, refitted after every sample as the firmware does: the
+/// paper's 2S-OP-GI to start, then the output-error refinement. Feed it one
+/// sample at a time with `push` or a record at once with `run`; a bad sample
+/// (non-finite, out of range, a spike) is rejected, substituted and counted,
+/// never raised, and the last good estimate is kept.
+///
+/// Parameters
+/// ----------
+/// window : {64, 128, 256, 512, 1024}
+///     Window length L.
+/// memory : int
+///     Short memory M, 1 to L − 8.
+/// h : float
+///     Sample period (s).
+/// ocv : (soc, ocv_v), optional
+///     The cell's OCV table; with `capacity_ah` (needed). The start SOC is
+///     `soc0`, or read from the first rested samples.
+/// capacity_ah : float, optional
+///     Capacity (A·h) for coulomb counting.
+/// soc0 : float, optional
+///     SOC before the first sample.
+/// method : {"refined", "paper"}
+/// model : {"auto", "linear", "butler-volmer"}
+///     `"auto"` is linear (no prior here).
+/// precision : {"f64", "f32"}
+///     `"f32"` runs the firmware's arithmetic.
+/// start : {"from-data", "at-rest"}
+/// iterations_per_sample : int
+/// tail : bool
+///     The short-memory correction (docs/pack.md).
+///
+/// Raises
+/// ------
+/// ValueError
+///     A window or memory the estimator does not take, a bad OCV table or
+///     keyword.
+#[pyclass(module = "fracbms")]
+struct OnlineCell {
+    tracker: Tracker,
+    /// Sample period (s).
+    h: f64,
+    /// Samples pushed.
+    pushed: u64,
+    /// The curve, while the start SOC is still to be read (a `run` from
+    /// the start reads it from the record's rested start, as the CLI).
+    unresolved: Option<OcvSpec>,
+    window: usize,
+    memory: usize,
+}
+
+/// The estimate of a track row under the CLI's column names.
+fn row_dict<'py>(py: Python<'py>, r: &TrackRow) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    let p = r.estimate;
+    let bv = p.filter(|p| p.is_butler_volmer());
+    d.set_item("time_s", r.t)?;
+    d.set_item("r_i", p.map(|p| p.r_i))?;
+    d.set_item("r_ct", p.map(|p| p.r_ct))?;
+    d.set_item("q", p.map(|p| p.q))?;
+    d.set_item("alpha", p.map(|p| p.alpha))?;
+    d.set_item("u_oc", p.map(|p| p.u_oc))?;
+    d.set_item("status", r.status)?;
+    d.set_item("soc", r.soc)?;
+    d.set_item("ocv_offset_v", r.ocv_offset)?;
+    d.set_item("bv_a_v", bv.map(|p| p.bv_a))?;
+    d.set_item("bv_i0_a", bv.map(|p| p.bv_i0))?;
+    d.set_item("predicted_v", r.predicted)?;
+    d.set_item("rejected", r.rejected)?;
+    Ok(d)
+}
+
+#[pymethods]
+impl OnlineCell {
+    #[new]
+    #[pyo3(signature = (
+        window = 256, memory = 64, h = 1.0, ocv = None, capacity_ah = None, *, soc0 = None,
+        method = "refined", model = "auto", precision = "f64", start = "from-data",
+        iterations_per_sample = 1, tail = false
+    ))]
+    #[allow(clippy::too_many_arguments)]
+    fn new(
+        py: Python<'_>,
+        window: usize,
+        memory: usize,
+        h: f64,
+        ocv: Option<(Floats<'_>, Floats<'_>)>,
+        capacity_ah: Option<f64>,
+        soc0: Option<f64>,
+        method: &str,
+        model: &str,
+        precision: &str,
+        start: &str,
+        iterations_per_sample: u16,
+        tail: bool,
+    ) -> PyResult<Self> {
+        if !(h.is_finite() && h > 0.0) {
+            return Err(PyValueError::new_err(format!(
+                "h={h}: must be finite and positive"
+            )));
+        }
+        let method: BatteryMethod = choice("method", method)?;
+        let model: ModelArg = choice("model", model)?;
+        let precision: Precision = choice("precision", precision)?;
+        let start: StartArg = choice("start", start)?;
+        let spec = ocv_spec(ocv, capacity_ah, soc0)?;
+        let cell = spec.map(|s| CellOcv {
+            model: s.model,
+            soc0: s.soc0.unwrap_or(f64::NAN),
+        });
+        let o = TrackOptions {
+            window,
+            memory,
+            iterations_per_sample,
+            method,
+            precision,
+            start,
+            prior: None,
+            cell: cell.as_ref(),
+            model,
+            tail,
+        };
+        let tracker = py
+            .detach(|| on_worker(|| Tracker::new(&o, h, spec.and_then(|s| s.soc0))))
+            .map_err(|e| {
+                // The CLI's flags are this class's keywords.
+                PyValueError::new_err(
+                    format!("{e:#}")
+                        .replace("--memory ", "memory=")
+                        .replace("--window ", "window="),
+                )
+            })?;
+        Ok(Self {
+            tracker,
+            h,
+            pushed: 0,
+            unresolved: spec.filter(|s| s.soc0.is_none()),
+            window,
+            memory,
+        })
+    }
+
+    /// Feed one sample: current (A, positive when charging) and voltage (V).
+    ///
+    /// Returns None while the window is filling, else a dict: `time_s`
+    /// (`k·h`), `r_i`, `r_ct`, `q`, `alpha`, `u_oc` (None until the first
+    /// physical estimate), `status` (`"starting"`, `"tracking"`, or why the
+    /// estimate is held: `"not_excited"`, `"held"`, `"unphysical"`,
+    /// `"at_bound"`, `"slow_relaxation"`, `"ocv_implausible"`), `soc`,
+    /// `ocv_offset_v`, `bv_a_v`, `bv_i0_a`, `predicted_v` (this sample's
+    /// voltage predicted from the estimate before it) and `rejected` (None,
+    /// `"non_finite"`, `"out_of_range"` or `"spike"`). Never raises on data.
+    fn push<'py>(
+        &mut self,
+        py: Python<'py>,
+        current_a: f64,
+        voltage_v: f64,
+    ) -> PyResult<Option<Bound<'py, PyDict>>> {
+        // From here on the core reads the start SOC from the stream.
+        self.unresolved = None;
+        let t = self.pushed as f64 * self.h;
+        let r = self.tracker.push(t, current_a, voltage_v);
+        self.pushed += 1;
+        if r.status == "filling" {
+            return Ok(None);
+        }
+        row_dict(py, &r).map(Some)
+    }
+
+    /// Feed a whole record; return the track as a dict of numpy arrays.
+    ///
+    /// The columns of `host-sim online battery --out`: `time_s`, `r_i`,
+    /// `r_ct`, `q`, `alpha`, `u_oc`, `status`, `soc`, `ocv_offset_v`,
+    /// `bv_a_v`, `bv_i0_a`, `predicted_v` (NaN where the CSV is empty), plus
+    /// `rejected` (`""` for an accepted sample). On a fresh cell with an OCV
+    /// table and no `soc0`, the start SOC is read from the record's rested
+    /// start, as the CLI reads it (a ValueError when it does not start at
+    /// rest). Goes on from the samples pushed before.
+    fn run<'py>(
+        &mut self,
+        py: Python<'py>,
+        current_a: Floats<'py>,
+        voltage_v: Floats<'py>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let (current, voltage) = (vec(&current_a), vec(&voltage_v));
+        if current.len() != voltage.len() {
+            return Err(PyValueError::new_err(format!(
+                "{RECORD}: columns current_a, voltage_v have {}, {} values: they must be of one length",
+                current.len(),
+                voltage.len()
+            )));
+        }
+        if let Some(spec) = self.unresolved.take() {
+            // A fresh cell with a curve and no soc0: as `online battery`,
+            // the start SOC from the record's rested start.
+            let rec = BatteryRecord {
+                time: (0..current.len()).map(|k| k as f64 * self.h).collect(),
+                current: current.clone(),
+                voltage: voltage.clone(),
+                h: self.h,
+            };
+            let c = spec.resolve(Path::new(RECORD), &rec).map_err(|e| {
+                self.unresolved = Some(spec);
+                value_error(e)
+            })?;
+            self.tracker.set_state_of_charge(c.soc0);
+        }
+        let (h, first) = (self.h, self.pushed);
+        let tracker = &mut self.tracker;
+        let rows: Vec<TrackRow> = py.detach(|| {
+            current
+                .iter()
+                .zip(&voltage)
+                .enumerate()
+                .map(|(k, (&i, &v))| tracker.push((first + k as u64) as f64 * h, i, v))
+                .collect()
+        });
+        self.pushed += rows.len() as u64;
+        let d = PyDict::new(py);
+        let nan = f64::NAN;
+        let col = |f: &dyn Fn(&TrackRow) -> Option<f64>| -> Vec<f64> {
+            rows.iter().map(|r| f(r).unwrap_or(nan)).collect()
+        };
+        let bv = |r: &TrackRow| r.estimate.filter(|p| p.is_butler_volmer());
+        let columns: [(&str, Vec<f64>); 11] = [
+            ("time_s", col(&|r| Some(r.t))),
+            ("r_i", col(&|r| r.estimate.map(|p| p.r_i))),
+            ("r_ct", col(&|r| r.estimate.map(|p| p.r_ct))),
+            ("q", col(&|r| r.estimate.map(|p| p.q))),
+            ("alpha", col(&|r| r.estimate.map(|p| p.alpha))),
+            ("u_oc", col(&|r| r.estimate.map(|p| p.u_oc))),
+            ("soc", col(&|r| r.soc)),
+            ("ocv_offset_v", col(&|r| r.ocv_offset)),
+            ("bv_a_v", col(&|r| bv(r).map(|p| p.bv_a))),
+            ("bv_i0_a", col(&|r| bv(r).map(|p| p.bv_i0))),
+            ("predicted_v", col(&|r| r.predicted)),
+        ];
+        for (k, v) in columns {
+            d.set_item(k, PyArray1::from_vec(py, v))?;
+        }
+        let np = py.import("numpy")?;
+        let strings = |f: &dyn Fn(&TrackRow) -> &'static str| -> PyResult<Bound<'py, PyAny>> {
+            let list: Vec<&str> = rows.iter().map(f).collect();
+            np.call_method1("array", (list, "U16"))
+        };
+        d.set_item("status", strings(&|r| r.status)?)?;
+        d.set_item("rejected", strings(&|r| r.rejected.unwrap_or(""))?)?;
+        Ok(d)
+    }
+
+    /// Samples offered so far.
+    #[getter]
+    fn samples(&self) -> u64 {
+        self.tracker.summary().samples
+    }
+
+    /// Samples rejected (and substituted) so far.
+    #[getter]
+    fn rejected(&self) -> u32 {
+        self.tracker.summary().rejected
+    }
+
+    /// The window length L.
+    #[getter]
+    fn window(&self) -> usize {
+        self.window
+    }
+
+    /// The short memory M.
+    #[getter]
+    fn memory(&self) -> usize {
+        self.memory
+    }
+
+    /// The sample period (s).
+    #[getter]
+    fn h(&self) -> f64 {
+        self.h
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "OnlineCell(window={}, memory={}, h={}, samples={})",
+            self.window, self.memory, self.h, self.pushed
+        )
+    }
+}
+
+/// Identify a fractional-order Hammerstein system (`host-sim identify hammerstein --json`).
+///
+/// The paper's model: `A(z) Δ^α y = B(z) f(u) + C(z) Δ^α v` with
+/// `f(u) = Σ γ_j u^j`, identified with 2S-OP-GI (`algorithm="op"`) or
+/// KT-2S-GI (`"kt"`), then (`method="refined"`, the default) the
+/// prediction-error refinement: maximum likelihood, started from a global
+/// search over the order (docs/identification.md).
+///
+/// Parameters
+/// ----------
+/// u, y : array_like, 1-D
+///     Input and output, finite, at most `MAX_ROWS` samples.
+/// na, nb, nc : int
+///     Orders of A(z), B(z), C(z).
+/// basis : str
+///     `"poly:m"`: `f_j(u) = u^j`, j = 1..m.
+/// algorithm : {"op", "kt"}
+/// method : {"refined", "paper"}
+/// memory : int, optional
+///     Memory of the fractional differences (default: all rows, at most 4096).
+/// iterations, refine_iterations : int
+///     Most iterations of the paper stage and of the refinement.
+/// alpha0 : float
+///     Initial order.
+///
+/// Returns
+/// -------
+/// dict
+///     The keys of `host-sim identify hammerstein --json`: `a`, `b`, `c`,
+///     `gamma`, `alpha`, `theta_products`, `cost`, `paper_cost`,
+///     `iterations`, `converged`, `refine_*`, `history`, ...
+///
+/// Raises
+/// ------
+/// ValueError
+///     A non-finite sample, unequal lengths, orders or basis out of range.
+#[pyfunction]
+#[pyo3(signature = (
+    u, y, *, na, nb, nc, basis = "poly:2", algorithm = "op", method = "refined",
+    memory = None, iterations = 100, refine_iterations = 400, alpha0 = 0.45
+))]
+#[allow(clippy::too_many_arguments)]
+fn identify_hammerstein<'py>(
+    py: Python<'py>,
+    u: Floats<'py>,
+    y: Floats<'py>,
+    na: usize,
+    nb: usize,
+    nc: usize,
+    basis: &str,
+    algorithm: &str,
+    method: &str,
+    memory: Option<usize>,
+    iterations: u32,
+    refine_iterations: u32,
+    alpha0: f64,
+) -> PyResult<Bound<'py, PyDict>> {
+    let o = HammersteinOptions {
+        method: choice::<HammersteinMethod>("method", method)?,
+        algorithm: choice::<Algorithm>("algorithm", algorithm)?,
+        na,
+        nb,
+        nc,
+        basis: basis.to_string(),
+        memory,
+        iterations,
+        refine_iterations,
+        alpha0,
+    };
+    let cols = Columns::from_arrays(vec![vec(&u), vec(&y)]);
+    let j = py
+        .detach(|| on_worker(|| hammerstein_fit(Path::new(RECORD), &cols, &o, false)))
+        .map_err(value_error)?;
+    to_dict(py, &j)
+}
+
+/// The module `fracbms._fracbms` (re-exported by `fracbms`).
+#[pymodule]
+fn _fracbms(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_function(wrap_pyfunction!(identify_battery, m)?)?;
+    m.add_function(wrap_pyfunction!(simulate_battery, m)?)?;
+    m.add_function(wrap_pyfunction!(identify_hammerstein, m)?)?;
+    m.add_class::<OnlineCell>()?;
+    m.add("MAX_ROWS", MAX_ROWS)?;
+    Ok(())
+}
