@@ -191,16 +191,9 @@ pub fn hammerstein_fit(
     print: bool,
 ) -> Result<HammersteinJson> {
     let m = parse_basis(&a.basis)?;
+    io::same_lengths(path, cols, &["u", "y"])?;
     io::require_finite(path, cols, &["u", "y"], &[0, 1])?;
     let (u, y) = (&cols.data[0], &cols.data[1]);
-    if u.len() != y.len() {
-        bail!(
-            "{}: columns u, y have {}, {} values: they must be of one length",
-            path.display(),
-            u.len(),
-            y.len()
-        );
-    }
     if u.len() > MAX_ROWS {
         bail!(
             "{}: {} rows; at most {MAX_ROWS} are identified",

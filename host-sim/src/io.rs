@@ -255,7 +255,7 @@ pub fn battery_record(path: &Path, mut c: Columns) -> Result<BatteryRecord> {
 
 /// Fails unless `c` holds one column per name, all of one length (always
 /// so when read from a file; arrays given in memory may differ).
-fn same_lengths(path: &Path, c: &Columns, names: &[&str]) -> Result<()> {
+pub fn same_lengths(path: &Path, c: &Columns, names: &[&str]) -> Result<()> {
     let lens: Vec<usize> = c.data.iter().map(Vec::len).collect();
     if lens.len() != names.len() || lens.iter().any(|&n| n != lens[0]) {
         bail!(

@@ -306,15 +306,9 @@ fn simulate_battery<'py>(
     let spec = ocv_spec(ocv, capacity_ah, soc0)?;
     let cols = Columns::from_arrays(vec![vec(&time_s), vec(&current_a)]);
     let name = Path::new(RECORD);
+    io::same_lengths(name, &cols, &["time_s", "current_a"]).map_err(value_error)?;
     io::require_finite(name, &cols, &["time_s", "current_a"], &[0, 1]).map_err(value_error)?;
     let (time, current) = (&cols.data[0], &cols.data[1]);
-    if time.len() != current.len() {
-        return Err(PyValueError::new_err(format!(
-            "{RECORD}: columns time_s, current_a have {}, {} values: they must be of one length",
-            time.len(),
-            current.len()
-        )));
-    }
     let h = io::uniform_step(name, time).map_err(value_error)?;
     let u_oc = match (&spec, u_oc) {
         (None, Some(u)) => u,
@@ -414,23 +408,37 @@ struct OnlineCell {
     memory: usize,
 }
 
-/// The estimate of a track row under the CLI's column names.
+/// One numeric column of a track row.
+type Column = fn(&TrackRow) -> Option<f64>;
+
+/// The numeric columns of a track row under the names of `online battery
+/// --out` (`None`: the CSV's empty cell): `push`'s dict and `run`'s arrays.
+const TRACK_NUMBERS: [(&str, Column); 11] = [
+    ("time_s", |r| Some(r.t)),
+    ("r_i", |r| r.estimate.map(|p| p.r_i)),
+    ("r_ct", |r| r.estimate.map(|p| p.r_ct)),
+    ("q", |r| r.estimate.map(|p| p.q)),
+    ("alpha", |r| r.estimate.map(|p| p.alpha)),
+    ("u_oc", |r| r.estimate.map(|p| p.u_oc)),
+    ("soc", |r| r.soc),
+    ("ocv_offset_v", |r| r.ocv_offset),
+    ("bv_a_v", |r| butler_volmer(r).map(|p| p.bv_a)),
+    ("bv_i0_a", |r| butler_volmer(r).map(|p| p.bv_i0)),
+    ("predicted_v", |r| r.predicted),
+];
+
+/// The estimate of a row when it has the Butler–Volmer term.
+fn butler_volmer(r: &TrackRow) -> Option<CellParameters<f64>> {
+    r.estimate.filter(|p| p.is_butler_volmer())
+}
+
+/// A track row as `push` returns it.
 fn row_dict<'py>(py: Python<'py>, r: &TrackRow) -> PyResult<Bound<'py, PyDict>> {
     let d = PyDict::new(py);
-    let p = r.estimate;
-    let bv = p.filter(|p| p.is_butler_volmer());
-    d.set_item("time_s", r.t)?;
-    d.set_item("r_i", p.map(|p| p.r_i))?;
-    d.set_item("r_ct", p.map(|p| p.r_ct))?;
-    d.set_item("q", p.map(|p| p.q))?;
-    d.set_item("alpha", p.map(|p| p.alpha))?;
-    d.set_item("u_oc", p.map(|p| p.u_oc))?;
+    for (k, f) in TRACK_NUMBERS {
+        d.set_item(k, f(r))?;
+    }
     d.set_item("status", r.status)?;
-    d.set_item("soc", r.soc)?;
-    d.set_item("ocv_offset_v", r.ocv_offset)?;
-    d.set_item("bv_a_v", bv.map(|p| p.bv_a))?;
-    d.set_item("bv_i0_a", bv.map(|p| p.bv_i0))?;
-    d.set_item("predicted_v", r.predicted)?;
     d.set_item("rejected", r.rejected)?;
     Ok(d)
 }
@@ -547,14 +555,13 @@ impl OnlineCell {
         current_a: Floats<'py>,
         voltage_v: Floats<'py>,
     ) -> PyResult<Bound<'py, PyDict>> {
-        let (current, voltage) = (vec(&current_a), vec(&voltage_v));
-        if current.len() != voltage.len() {
-            return Err(PyValueError::new_err(format!(
-                "{RECORD}: columns current_a, voltage_v have {}, {} values: they must be of one length",
-                current.len(),
-                voltage.len()
-            )));
-        }
+        let cols = Columns::from_arrays(vec![vec(&current_a), vec(&voltage_v)]);
+        io::same_lengths(Path::new(RECORD), &cols, &["current_a", "voltage_v"])
+            .map_err(value_error)?;
+        let [current, voltage]: [Vec<f64>; 2] = cols
+            .data
+            .try_into()
+            .map_err(|_| PyValueError::new_err("internal error: two columns expected"))?;
         if let Some(spec) = self.unresolved.take() {
             // A fresh cell with a curve and no soc0: as `online battery`,
             // the start SOC from the record's rested start.
@@ -582,26 +589,9 @@ impl OnlineCell {
         });
         self.pushed += rows.len() as u64;
         let d = PyDict::new(py);
-        let nan = f64::NAN;
-        let col = |f: &dyn Fn(&TrackRow) -> Option<f64>| -> Vec<f64> {
-            rows.iter().map(|r| f(r).unwrap_or(nan)).collect()
-        };
-        let bv = |r: &TrackRow| r.estimate.filter(|p| p.is_butler_volmer());
-        let columns: [(&str, Vec<f64>); 11] = [
-            ("time_s", col(&|r| Some(r.t))),
-            ("r_i", col(&|r| r.estimate.map(|p| p.r_i))),
-            ("r_ct", col(&|r| r.estimate.map(|p| p.r_ct))),
-            ("q", col(&|r| r.estimate.map(|p| p.q))),
-            ("alpha", col(&|r| r.estimate.map(|p| p.alpha))),
-            ("u_oc", col(&|r| r.estimate.map(|p| p.u_oc))),
-            ("soc", col(&|r| r.soc)),
-            ("ocv_offset_v", col(&|r| r.ocv_offset)),
-            ("bv_a_v", col(&|r| bv(r).map(|p| p.bv_a))),
-            ("bv_i0_a", col(&|r| bv(r).map(|p| p.bv_i0))),
-            ("predicted_v", col(&|r| r.predicted)),
-        ];
-        for (k, v) in columns {
-            d.set_item(k, PyArray1::from_vec(py, v))?;
+        for (k, f) in TRACK_NUMBERS {
+            let column: Vec<f64> = rows.iter().map(|r| f(r).unwrap_or(f64::NAN)).collect();
+            d.set_item(k, PyArray1::from_vec(py, column))?;
         }
         let np = py.import("numpy")?;
         let strings = |f: &dyn Fn(&TrackRow) -> &'static str| -> PyResult<Bound<'py, PyAny>> {
