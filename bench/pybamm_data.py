@@ -33,9 +33,9 @@ the docs and CI use without PyBaMM:
 
 Usage (PyBaMM pinned; about 6 minutes on one core)::
 
-    python3 -m venv /tmp/venv-pybamm
-    /tmp/venv-pybamm/bin/pip install pybamm==26.10.1.1
-    /tmp/venv-pybamm/bin/python bench/pybamm_data.py --out data/pybamm
+    python3 -m venv .venv-pybamm
+    .venv-pybamm/bin/pip install pybamm==26.10.1.1
+    .venv-pybamm/bin/python bench/pybamm_data.py --out data/pybamm
 """
 
 import argparse

@@ -11,10 +11,10 @@ Optional dependencies, not run in CI. Tested with::
 Setup and run (7.5 minutes on one core, 60 % of it the CMA-ES rows; results in
 docs/pybop-side-by-side.md)::
 
-    python3 -m venv /work/venvs/pybop
-    /work/venvs/pybop/bin/pip install pybop==26.3 pybamm==26.10.1.1 matplotlib
+    python3 -m venv .venv-pybop
+    .venv-pybop/bin/pip install pybop==26.3 pybamm==26.10.1.1 matplotlib
     OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MKL_NUM_THREADS=1 \\
-        /work/venvs/pybop/bin/python bench/pybop_side_by_side.py
+        .venv-pybop/bin/python bench/pybop_side_by_side.py
 
 Options: ``--records chen2020-drive`` (comma separated; default both drive
 records), ``--max-iterations N`` (PyBOP's optimisers), ``--cmaes-records``

@@ -1,15 +1,15 @@
-//! Whole-record identification on the host: `host-sim identify battery`'s
-//! own function behind a C call. This module owns the conversion of C
-//! arrays into the CLI's record; it must not fit anything itself.
+//! Whole-record identification on the host, as a C call: the host
+//! library's function (`fracbms-host`) that `host-sim identify battery`
+//! calls too. This module owns the conversion of C arrays into the library's
+//! record; it must not fit anything itself.
 
 use std::ffi::c_char;
 use std::path::Path;
 
 use estimator_core::battery::ocv::{OcvModel, OcvTable};
-use host_sim::cli::{BatteryMethod, ModelArg};
-use host_sim::identify::{battery_identify, Refine, MAX_ROWS};
-use host_sim::io::{self, BatteryRecord, OCV_POINTS};
-use host_sim::ocv::CellOcv;
+use fracbms_host::identify::{battery_identify, BatteryMethod, ModelRequest, Refine, MAX_ROWS};
+use fracbms_host::io::{self, BatteryRecord, OCV_POINTS};
+use fracbms_host::ocv::CellOcv;
 
 use crate::types::{FracbmsCode, FracbmsMethod, FracbmsModel};
 
@@ -199,10 +199,10 @@ pub(crate) fn identify(
         }
     };
     let model = match (FracbmsModel::from_i32(o.model), method) {
-        (Some(FracbmsModel::FRACBMS_MODEL_AUTO), BatteryMethod::Paper) => ModelArg::Linear,
-        (Some(FracbmsModel::FRACBMS_MODEL_AUTO), _) => ModelArg::Auto,
-        (Some(FracbmsModel::FRACBMS_MODEL_LINEAR), _) => ModelArg::Linear,
-        (Some(FracbmsModel::FRACBMS_MODEL_BUTLER_VOLMER), _) => ModelArg::ButlerVolmer,
+        (Some(FracbmsModel::FRACBMS_MODEL_AUTO), BatteryMethod::Paper) => ModelRequest::Linear,
+        (Some(FracbmsModel::FRACBMS_MODEL_AUTO), _) => ModelRequest::Auto,
+        (Some(FracbmsModel::FRACBMS_MODEL_LINEAR), _) => ModelRequest::Linear,
+        (Some(FracbmsModel::FRACBMS_MODEL_BUTLER_VOLMER), _) => ModelRequest::ButlerVolmer,
         (None, _) => {
             out.say(&format!("model {}: not a FracbmsModel", o.model));
             return FracbmsCode::FRACBMS_ERROR_SETTINGS;

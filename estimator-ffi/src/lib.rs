@@ -4,7 +4,7 @@
 //! single-cell online estimator, the pack estimator (every series cell of
 //! a pack sharing one current), the OCV table, and on the host the
 //! whole-record identification of `host-sim identify battery`. Every call
-//! goes to the same functions of `estimator-core` (and `host-sim`) as the
+//! goes to the same functions of `estimator-core` (and `fracbms-host`) as the
 //! Rust faces.
 //!
 //! The header `include/fracbms.h` is generated from this crate by

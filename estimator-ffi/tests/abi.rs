@@ -301,16 +301,16 @@ fn whole_record_identification_is_the_clis() {
         env!("CARGO_MANIFEST_DIR"),
         "/../firmware/data/cell-pulse.csv"
     );
-    let rec = host_sim::io::read_battery(std::path::Path::new(path), None).unwrap();
-    let refine = host_sim::identify::Refine {
-        model: host_sim::cli::ModelArg::Auto,
+    let rec = fracbms_host::io::read_battery(std::path::Path::new(path), None).unwrap();
+    let refine = fracbms_host::identify::Refine {
+        model: fracbms_host::identify::ModelRequest::Auto,
         ..Default::default()
     };
-    let cli = host_sim::identify::battery_identify(
+    let cli = fracbms_host::identify::battery_identify(
         std::path::Path::new(path),
         &rec,
         None,
-        host_sim::cli::BatteryMethod::Refined,
+        fracbms_host::identify::BatteryMethod::Refined,
         None,
         50,
         false,

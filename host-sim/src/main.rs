@@ -1,4 +1,8 @@
-//! `host-sim`: see `host-sim --help`.
+//! `host-sim`: see `host-sim --help`. The command line only: the domain is
+//! `fracbms-host`'s.
+
+mod cli;
+
 fn main() {
-    std::process::exit(host_sim::cli::main());
+    std::process::exit(cli::main());
 }

@@ -8,10 +8,10 @@
 //!
 //! | Python | the CLI's function |
 //! |---|---|
-//! | `identify_battery` | `identify battery --json` ([`host_sim::identify::battery_identify_screened`]) |
-//! | `simulate_battery` | `simulate battery`'s noise-free voltage ([`host_sim::simulate::battery_voltage`]) |
-//! | `OnlineCell` | `online battery` ([`host_sim::online::Tracker`]) |
-//! | `identify_hammerstein` | `identify hammerstein --json` ([`host_sim::identify::hammerstein_fit`]) |
+//! | `identify_battery` | `identify battery --json` ([`fracbms_host::identify::battery_identify_screened`]) |
+//! | `simulate_battery` | `simulate battery`'s noise-free voltage ([`fracbms_host::simulate::battery_voltage`]) |
+//! | `OnlineCell` | `online battery` ([`fracbms_host::online::Tracker`]) |
+//! | `identify_hammerstein` | `identify hammerstein --json` ([`fracbms_host::identify::hammerstein_fit`]) |
 //!
 //! Errors are the CLI's one-line messages, raised as `ValueError`; the data
 //! are named `record` (`ocv` for an OCV table) and rows are numbered as in
@@ -20,7 +20,7 @@
 //! CLI names its flag (`--capacity-ah 0`).
 //!
 //! The fits run on a worker thread with the CLI's stack
-//! ([`host_sim::cli::on_worker`]) and without the GIL.
+//! ([`fracbms_host::worker::on_worker`]) and without the GIL.
 //!
 //! The runnable example is the package's docstring (`python/fracbms/
 //! __init__.py`), run by pytest's doctests; the signatures and types are in
@@ -31,18 +31,19 @@
 use std::ffi::CString;
 use std::path::Path;
 
-use clap::ValueEnum;
-use estimator_core::battery::CellParameters;
-use host_sim::cli::{
-    on_worker, Algorithm, BatteryMethod, HammersteinMethod, HammersteinOptions, ModelArg,
-    Precision, StartArg,
+use estimator_core::battery::{CellParameters, Start};
+use fracbms_host::choice::Choice;
+use fracbms_host::identify::hammerstein::HammersteinOptions;
+use fracbms_host::identify::{
+    battery_identify_screened, hammerstein_fit, Algorithm, BatteryMethod, HammersteinMethod,
+    ModelRequest, Refine, MAX_ROWS,
 };
-use host_sim::identify::{battery_identify_screened, hammerstein_fit, Refine, MAX_ROWS};
-use host_sim::io::{self, BatteryRecord, Columns};
-use host_sim::ocv::{CellOcv, OcvSpec, OcvSpecError};
-use host_sim::online::{TrackOptions, TrackRow, Tracker};
-use host_sim::simulate::{battery_voltage, OcvCurve};
-use host_sim::trust::Limits;
+use fracbms_host::io::{self, BatteryRecord, Columns};
+use fracbms_host::ocv::{CellOcv, OcvSpec, OcvSpecError};
+use fracbms_host::online::{Precision, TrackOptions, TrackRow, Tracker};
+use fracbms_host::simulate::{battery_voltage, OcvCurve};
+use fracbms_host::trust::Limits;
+use fracbms_host::worker::on_worker;
 use numpy::{AllowTypeChange, PyArray1, PyArrayLike1};
 use pyo3::exceptions::{PyUserWarning, PyValueError};
 use pyo3::prelude::*;
@@ -57,8 +58,8 @@ const RECORD: &str = "record";
 /// The name of an OCV table in the messages.
 const OCV: &str = "ocv";
 
-fn value_error(e: anyhow::Error) -> PyErr {
-    PyValueError::new_err(format!("{e:#}").replace('\n', " "))
+fn value_error(e: fracbms_host::Error) -> PyErr {
+    PyValueError::new_err(e.to_string().replace('\n', " "))
 }
 
 fn vec(a: &Floats<'_>) -> Vec<f64> {
@@ -66,13 +67,9 @@ fn vec(a: &Floats<'_>) -> Vec<f64> {
 }
 
 /// Parses a keyword's string as the CLI parses its flag.
-fn choice<E: ValueEnum>(keyword: &str, value: &str) -> PyResult<E> {
-    E::from_str(value, false).map_err(|_| {
-        let names: Vec<String> = E::value_variants()
-            .iter()
-            .filter_map(|v| v.to_possible_value())
-            .map(|p| format!("'{}'", p.get_name()))
-            .collect();
+fn choice<E: Choice>(keyword: &str, value: &str) -> PyResult<E> {
+    E::parse(value).ok_or_else(|| {
+        let names: Vec<String> = E::names().iter().map(|n| format!("'{n}'")).collect();
         PyValueError::new_err(format!(
             "{keyword}='{value}': must be one of {}",
             names.join(", ")
@@ -206,7 +203,7 @@ fn identify_battery<'py>(
     memory: Option<usize>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let method: BatteryMethod = choice("method", method)?;
-    let model: ModelArg = choice("model", model)?;
+    let model: ModelRequest = choice("model", model)?;
     let spec = ocv_spec(ocv, capacity_ah, soc0)?;
     let rec = record(&time_s, &current_a, &voltage_v)?;
     if rec.time.len() > MAX_ROWS {
@@ -216,7 +213,7 @@ fn identify_battery<'py>(
         )));
     }
     let refine = Refine {
-        model: host_sim::identify::model_for(model, method),
+        model: fracbms_host::identify::model_for(model, method),
         ..Refine::default()
     };
     let name = Path::new(RECORD);
@@ -473,9 +470,9 @@ impl OnlineCell {
             )));
         }
         let method: BatteryMethod = choice("method", method)?;
-        let model: ModelArg = choice("model", model)?;
+        let model: ModelRequest = choice("model", model)?;
         let precision: Precision = choice("precision", precision)?;
-        let start: StartArg = choice("start", start)?;
+        let start: Start = choice("start", start)?;
         let spec = ocv_spec(ocv, capacity_ah, soc0)?;
         let cell = spec.map(|s| CellOcv {
             model: s.model,

@@ -1,4 +1,4 @@
-//! The `csv` target: `host_sim::io`'s readers ([`read_columns_from`],
+//! The `csv` target: `fracbms_host::io`'s readers ([`read_columns_from`],
 //! [`read_battery_from`], [`read_ocv_from`]) on arbitrary bytes.
 //!
 //! A case builds a CSV document (a header, data rows of numbers written in
@@ -26,7 +26,7 @@
 
 use super::gen::{log_uniform, pick, rate};
 use super::{note, Outcome, Rng};
-use host_sim::io::{
+use fracbms_host::io::{
     read_battery, read_battery_from, read_columns, read_columns_from, read_ocv, read_ocv_from,
     BatteryRecord, Columns, HostOcvTable, OCV_POINTS,
 };
@@ -84,14 +84,14 @@ fn bits(x: &[f64]) -> Vec<u64> {
     x.iter().map(|v| v.to_bits()).collect()
 }
 
-fn from_columns(r: anyhow::Result<Columns>) -> Read {
+fn from_columns(r: fracbms_host::Result<Columns>) -> Read {
     match r {
         Ok(c) => Read::Columns(c.data.iter().map(|v| bits(v)).collect()),
         Err(e) => Read::Error(format!("{e:#}")),
     }
 }
 
-fn from_battery(r: anyhow::Result<BatteryRecord>) -> Read {
+fn from_battery(r: fracbms_host::Result<BatteryRecord>) -> Read {
     match r {
         Ok(b) => Read::Battery(
             bits(&b.time),
@@ -103,7 +103,7 @@ fn from_battery(r: anyhow::Result<BatteryRecord>) -> Read {
     }
 }
 
-fn from_ocv(r: anyhow::Result<HostOcvTable>) -> Read {
+fn from_ocv(r: fracbms_host::Result<HostOcvTable>) -> Read {
     match r {
         Ok(t) => Read::Ocv(bits(t.soc_points()), bits(t.ocv_points())),
         Err(e) => Read::Error(format!("{e:#}")),

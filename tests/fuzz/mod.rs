@@ -36,7 +36,7 @@ pub type Outcome = Result<(), String>;
 /// A fuzz target.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Target {
-    /// `host_sim::io`'s CSV readers on arbitrary bytes ([`csv::case`]).
+    /// `fracbms_host::io`'s CSV readers on arbitrary bytes ([`csv::case`]).
     Csv,
     /// The single-cell online estimator ([`cell::case`]).
     Cell,

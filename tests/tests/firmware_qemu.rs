@@ -23,8 +23,12 @@ fn tmp(name: &str) -> PathBuf {
     d.join(name)
 }
 
+/// Runs the host-sim command line (`cargo run -p host-sim`: the binary
+/// `cargo test --workspace` has built, or built now).
 fn host_sim(args: &[&str]) {
-    let o = Command::new(env!("CARGO_BIN_EXE_host-sim-e2e"))
+    let o = Command::new(env!("CARGO"))
+        .current_dir(root())
+        .args(["run", "--quiet", "-p", "host-sim", "--"])
         .args(args)
         .output()
         .unwrap();

@@ -7,8 +7,8 @@
 use estimator_core::battery::ocv::{OcvModel, OcvTable};
 use estimator_core::battery::online::{CellEstimator, OnlineSettings};
 use estimator_core::battery::CellParameters;
+use fracbms_host::io::{read_battery_from, read_columns_from, read_ocv_from};
 use fracbms_tests::fuzz::{assert_cases_pass, Target};
-use host_sim::io::{read_battery_from, read_columns_from, read_ocv_from};
 use std::path::Path;
 
 /// The CI runs' seed.
@@ -38,7 +38,7 @@ fn label() -> &'static Path {
     Path::new("f.csv")
 }
 
-fn error(r: anyhow::Result<impl Sized>) -> String {
+fn error(r: fracbms_host::Result<impl Sized>) -> String {
     match r {
         Ok(_) => panic!("expected an error"),
         Err(e) => format!("{e:#}"),

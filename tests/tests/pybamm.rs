@@ -4,11 +4,11 @@
 
 use estimator_core::battery::ocv::OcvModel;
 use estimator_core::battery::Prior;
-use host_sim::cli::{BatteryMethod, ModelArg};
-use host_sim::identify::{battery_identify, BatteryResult, Refine};
-use host_sim::io;
-use host_sim::ocv::CellOcv;
-use host_sim::online;
+use fracbms_host::identify::{battery_identify, BatteryResult, Refine};
+use fracbms_host::identify::{BatteryMethod, ModelRequest};
+use fracbms_host::io;
+use fracbms_host::ocv::CellOcv;
+use fracbms_host::online;
 use std::path::{Path, PathBuf};
 
 fn data(name: &str) -> PathBuf {
@@ -38,10 +38,10 @@ fn record(cell: &str, profile: &str) -> (io::BatteryRecord, CellOcv) {
 }
 
 fn fit(cell: &str, profile: &str) -> BatteryResult {
-    fit_model(cell, profile, ModelArg::Linear)
+    fit_model(cell, profile, ModelRequest::Linear)
 }
 
-fn fit_model(cell: &str, profile: &str, model: ModelArg) -> BatteryResult {
+fn fit_model(cell: &str, profile: &str, model: ModelRequest) -> BatteryResult {
     let (rec, c) = record(cell, profile);
     let path = data(&format!("{cell}-{profile}.csv"));
     battery_identify(
@@ -173,7 +173,7 @@ fn butler_volmer_fit() {
         let name = format!("{cell}-{profile}");
         // `auto` fits both models (the Butler–Volmer one from the linear
         // fit) and reports both.
-        let auto = fit_model(cell, profile, ModelArg::Auto);
+        let auto = fit_model(cell, profile, ModelRequest::Auto);
         let c = auto.json.model_choice.as_ref().unwrap();
         let best = reference[&name]["cpe_bv"]["rmse_v"].as_f64().unwrap();
         let ratio = c.rmse_butler_volmer_v / best;

@@ -1,8 +1,8 @@
 //! `simulate hammerstein` and `simulate battery`.
 
-use crate::cli::{SimBatteryArgs, SimHammersteinArgs};
+use crate::error::Result;
+use crate::{bail, err};
 use crate::{io, presets};
-use anyhow::{bail, Context, Result};
 use estimator_core::battery::profile::ocv_nmc;
 use estimator_core::battery::simulate::simulate;
 use estimator_core::battery::CellParameters;
@@ -11,6 +11,8 @@ use estimator_core::model::Polynomial;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
+use serde::{Deserialize, Serialize};
+use std::path::PathBuf;
 
 /// Longest memory of the simulators (samples).
 pub const SIM_MEMORY: usize = 4096;
@@ -33,10 +35,10 @@ pub fn hammerstein_data(
     memory: usize,
 ) -> Result<HammersteinData> {
     if !(sigma.is_finite() && sigma >= 0.0) {
-        bail!("--sigma {sigma}: must be finite and ≥ 0");
+        bail!(Options, "--sigma {sigma}: must be finite and ≥ 0");
     }
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let n01 = Normal::new(0.0, 1.0).context("normal distribution")?;
+    let n01 = Normal::new(0.0, 1.0).map_err(|e| err!(Internal, "normal distribution: {e}"))?;
     let u: Vec<f64> = (0..len).map(|_| n01.sample(&mut rng)).collect();
     let v: Vec<f64> = (0..len).map(|_| sigma * n01.sample(&mut rng)).collect();
     let (mut y, mut e) = (vec![0.0; len], vec![0.0; len]);
@@ -44,23 +46,42 @@ pub fn hammerstein_data(
     sys.system()
         .simulate(&Polynomial, &w, &u, &v, &mut y, &mut e)?;
     if y.iter().any(|x| !x.is_finite()) {
-        bail!("the simulated output diverged (the preset is unstable at this length)");
+        bail!(
+            Data,
+            "the simulated output diverged (the preset is unstable at this length)"
+        );
     }
     Ok(HammersteinData { u, y })
 }
 
-// Not inlined into `cli::run`: the estimators are built on the stack before
-// boxing, and an inlined frame of every command would be probed (page
-// faults over megabytes) even for the command that does not run.
-#[inline(never)]
-pub(crate) fn hammerstein(a: &SimHammersteinArgs) -> Result<()> {
-    let sys = presets::hammerstein(&a.preset).context("unknown preset")?;
+/// How `simulate hammerstein` makes a record: every flag of the command.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SimulateHammerstein {
+    /// `paper-op`, `paper-kt`, `paper-kt-stable` or `identifiable`
+    /// ([`presets::hammerstein`]).
+    pub preset: String,
+    /// Standard deviation of the white noise v(l).
+    pub sigma: f64,
+    /// Number of samples.
+    pub length: usize,
+    /// Random seed (input and noise).
+    pub seed: u64,
+    /// Memory of the fractional differences (default: the whole record, at
+    /// most [`SIM_MEMORY`]).
+    pub memory: Option<usize>,
+    /// Output CSV (`u,y`).
+    pub out: PathBuf,
+}
+
+/// `simulate hammerstein`: eq. (4) for a preset, written to `a.out`.
+pub fn hammerstein_file(a: &SimulateHammerstein) -> Result<()> {
+    let sys = presets::hammerstein(&a.preset).ok_or_else(|| err!(Options, "unknown preset"))?;
     if a.length == 0 {
-        bail!("--length must be at least 1");
+        bail!(Options, "--length must be at least 1");
     }
     let memory = a.memory.unwrap_or(a.length.min(SIM_MEMORY));
     if memory == 0 || memory > SIM_MEMORY {
-        bail!("--memory {memory}: must be in 1..={SIM_MEMORY}");
+        bail!(Options, "--memory {memory}: must be in 1..={SIM_MEMORY}");
     }
     let d = hammerstein_data(&sys, a.sigma, a.length, a.seed, memory)?;
     io::write_csv(
@@ -69,9 +90,7 @@ pub(crate) fn hammerstein(a: &SimHammersteinArgs) -> Result<()> {
         d.u.iter()
             .zip(&d.y)
             .map(|(u, y)| [format!("{u:.12e}"), format!("{y:.12e}")]),
-    )?;
-    eprintln!("wrote {} rows to {}", a.length, a.out.display());
-    Ok(())
+    )
 }
 
 /// A simulated battery record.
@@ -144,14 +163,14 @@ pub fn battery_data(
     ocv_curve: OcvCurve<'_>,
 ) -> Result<BatteryData> {
     if !(sigma.is_finite() && sigma >= 0.0) {
-        bail!("--sigma {sigma}: must be finite and ≥ 0");
+        bail!(Options, "--sigma {sigma}: must be finite and ≥ 0");
     }
     let current: Vec<f64> = (0..len)
         .map(|l| drive.profile.current(l as f64 * h, drive.amplitude) + drive.mean)
         .collect();
     let CellVoltage { clean, ocv, soc } = battery_voltage(cell, &current, h, ocv_curve)?;
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let nd = Normal::new(0.0, 1.0).context("normal distribution")?;
+    let nd = Normal::new(0.0, 1.0).map_err(|e| err!(Internal, "normal distribution: {e}"))?;
     let voltage = clean
         .iter()
         .map(|v| v + sigma * nd.sample(&mut rng))
@@ -185,10 +204,13 @@ pub fn battery_voltage(
     ocv_curve: OcvCurve<'_>,
 ) -> Result<CellVoltage> {
     if !(h.is_finite() && h > 0.0) {
-        bail!("--h {h}: must be finite and positive");
+        bail!(Options, "--h {h}: must be finite and positive");
     }
     if !cell.is_physical() {
-        bail!("the cell is not physical (a resistance, Q, i₀ not positive, or a < 0)");
+        bail!(
+            Data,
+            "the cell is not physical (a resistance, Q, i₀ not positive, or a < 0)"
+        );
     }
     let len = current.len();
     // SOC after each sample's charge (the voltage is read at the end of
@@ -227,23 +249,57 @@ pub fn battery_voltage(
     Ok(CellVoltage { clean, ocv, soc })
 }
 
-// Not inlined into `cli::run`: the estimators are built on the stack before
-// boxing, and an inlined frame of every command would be probed (page
-// faults over megabytes) even for the command that does not run.
-#[inline(never)]
-pub(crate) fn battery(a: &SimBatteryArgs) -> Result<()> {
-    let preset = presets::battery(&a.preset).context("unknown preset")?;
-    let profile = presets::profile(&a.profile).context("unknown profile")?;
+/// How `simulate battery` makes a record: every flag of the command.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SimulateBattery {
+    /// `paper` (§6.2, ±150 A) or `cell` (18650-like, ±6 A).
+    pub preset: String,
+    /// Current profile: `pulse`, `hppc` or `drive`.
+    pub profile: String,
+    /// Voltage noise σ (V); default: the preset's.
+    pub sigma: Option<f64>,
+    /// Number of samples.
+    pub length: usize,
+    /// Random seed of the noise.
+    pub seed: u64,
+    /// Sample period (s).
+    pub h: f64,
+    /// Open-circuit voltage: `constant`, `nmc`, or an OCV table file.
+    pub ocv: String,
+    /// State of charge before the first sample.
+    pub soc0: f64,
+    /// Capacity (A·h; default: the preset's).
+    pub capacity_ah: Option<f64>,
+    /// Current amplitude of the profile (A; default: the preset's).
+    pub amplitude: Option<f64>,
+    /// A constant current added to the profile (A).
+    pub mean_current: f64,
+    /// Butler–Volmer coefficient a (V); 0: the linear model.
+    pub bv_a: f64,
+    /// Butler–Volmer exchange current i₀ (A; needed with `bv_a`).
+    pub bv_i0: Option<f64>,
+    /// Output CSV (`time_s,current_a,voltage_v,soc`).
+    pub out: PathBuf,
+}
+
+/// `simulate battery`: a cell of a preset over a profile, with noise,
+/// written to `a.out`.
+pub fn battery_file(a: &SimulateBattery) -> Result<()> {
+    let preset = presets::battery(&a.preset).ok_or_else(|| err!(Options, "unknown preset"))?;
+    let profile = presets::profile(&a.profile).ok_or_else(|| err!(Options, "unknown profile"))?;
     if a.length == 0 {
-        bail!("--length must be at least 1");
+        bail!(Options, "--length must be at least 1");
     }
     let sigma = a.sigma.unwrap_or(preset.sigma);
     if !(0.0..=1.0).contains(&a.soc0) {
-        bail!("--soc0 {}: must be in [0, 1]", a.soc0);
+        bail!(Options, "--soc0 {}: must be in [0, 1]", a.soc0);
     }
     let capacity_ah = a.capacity_ah.unwrap_or(preset.capacity_ah);
     if !(capacity_ah.is_finite() && capacity_ah > 0.0) {
-        bail!("--capacity-ah {capacity_ah}: must be finite and positive");
+        bail!(
+            Options,
+            "--capacity-ah {capacity_ah}: must be finite and positive"
+        );
     }
     let table;
     let curve = match a.ocv.as_str() {
@@ -263,16 +319,18 @@ pub(crate) fn battery(a: &SimBatteryArgs) -> Result<()> {
     };
     let amplitude = a.amplitude.unwrap_or(preset.amplitude);
     if !(amplitude.is_finite() && amplitude >= 0.0) {
-        bail!("--amplitude {amplitude}: must be finite and ≥ 0");
+        bail!(Options, "--amplitude {amplitude}: must be finite and ≥ 0");
     }
     if !a.mean_current.is_finite() {
-        bail!("--mean-current {}: must be finite", a.mean_current);
+        bail!(Options, "--mean-current {}: must be finite", a.mean_current);
     }
     let cell = match (a.bv_a, a.bv_i0) {
-        (x, _) if !(x.is_finite() && x >= 0.0) => bail!("--bv-a {x}: must be finite and ≥ 0 (V)"),
-        (x, None) if x > 0.0 => bail!("--bv-a needs --bv-i0 (the exchange current, A)"),
+        (x, _) if !(x.is_finite() && x >= 0.0) => {
+            bail!(Options, "--bv-a {x}: must be finite and ≥ 0 (V)")
+        }
+        (x, None) if x > 0.0 => bail!(Options, "--bv-a needs --bv-i0 (the exchange current, A)"),
         (_, Some(i0)) if !(i0.is_finite() && i0 > 0.0) => {
-            bail!("--bv-i0 {i0}: must be finite and positive (A)")
+            bail!(Options, "--bv-i0 {i0}: must be finite and positive (A)")
         }
         (x, i0) => CellParameters {
             bv_a: x,
@@ -280,7 +338,6 @@ pub(crate) fn battery(a: &SimBatteryArgs) -> Result<()> {
             ..preset.cell
         },
     };
-    let t0 = std::time::Instant::now();
     let d = battery_data(
         &cell,
         Current {
@@ -324,12 +381,5 @@ pub(crate) fn battery(a: &SimBatteryArgs) -> Result<()> {
                     format!("{z:.9}"),
                 ]
             }),
-    )?;
-    eprintln!(
-        "wrote {} rows to {} ({:.0} rows/s)",
-        a.length,
-        a.out.display(),
-        a.length as f64 / t0.elapsed().as_secs_f64().max(1e-9)
-    );
-    Ok(())
+    )
 }

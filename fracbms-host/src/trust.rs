@@ -28,8 +28,9 @@
 //!
 //! It does not fit anything itself: the fits are `crate::identify`'s.
 
+use crate::bail;
+use crate::error::Result;
 use crate::io::BatteryRecord;
-use anyhow::{bail, Result};
 use estimator_core::battery::online::{OnlineSettings, Rejection};
 use estimator_core::battery::output_error::FitInformation;
 use estimator_core::battery::CellParameters;
@@ -258,6 +259,7 @@ pub fn screen(path: &Path, rec: &BatteryRecord, limits: &Limits) -> Result<Scree
     }
     let Some(first_i) = rec.current.iter().copied().find(|&i| plausible_i(i)) else {
         bail!(
+            Data,
             "{}: every row is rejected: no current is finite and within ±{} A",
             path.display(),
             limits.current_limit
@@ -266,6 +268,7 @@ pub fn screen(path: &Path, rec: &BatteryRecord, limits: &Limits) -> Result<Scree
     let good: Vec<usize> = (0..n).filter(|&l| rejected[l].is_none()).collect();
     if good.is_empty() {
         bail!(
+            Data,
             "{}: every row is rejected: no voltage is finite and within [{}, {}] V (set --voltage-min/--voltage-max)",
             path.display(),
             limits.voltage_min,
@@ -470,5 +473,33 @@ pub fn assess(
         reasons,
         residual_correlation: rho,
         explained,
+    }
+}
+
+impl Limits {
+    /// The default limits with the voltage range and current limit given,
+    /// checked: `voltage_min < voltage_max` and a positive current limit.
+    pub fn checked(
+        voltage_min: Option<f64>,
+        voltage_max: Option<f64>,
+        current_limit: Option<f64>,
+    ) -> Result<Self> {
+        let defaults = Self::default();
+        let limits = Self {
+            voltage_min: voltage_min.unwrap_or(defaults.voltage_min),
+            voltage_max: voltage_max.unwrap_or(defaults.voltage_max),
+            current_limit: current_limit.unwrap_or(defaults.current_limit),
+            ..defaults
+        };
+        if !(limits.voltage_min < limits.voltage_max && limits.current_limit > 0.0) {
+            bail!(
+                Options,
+                "--voltage-min {} --voltage-max {} --current-limit {}: need voltage-min < voltage-max and a positive current limit",
+                limits.voltage_min,
+                limits.voltage_max,
+                limits.current_limit
+            );
+        }
+        Ok(limits)
     }
 }

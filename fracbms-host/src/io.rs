@@ -2,7 +2,8 @@
 //! file, the row and the column, and writes that never leave a half-written
 //! file behind (write to a temporary file, then rename).
 
-use anyhow::{anyhow, bail, Context, Result};
+use crate::error::{IoContext, Result};
+use crate::{bail, err};
 use std::fs::File;
 use std::io::{BufWriter, Read, Write};
 use std::path::{Path, PathBuf};
@@ -57,7 +58,7 @@ fn shown(cell: &str) -> std::borrow::Cow<'_, str> {
 /// [`require_finite`]). Data rows are numbered from 2 (row 1 is the
 /// header), as a spreadsheet shows them (blank lines count).
 pub fn read_columns(path: &Path, names: &[&str], max_rows: Option<usize>) -> Result<Columns> {
-    let file = File::open(path).with_context(|| format!("{}: cannot open", path.display()))?;
+    let file = File::open(path).io_context(|| format!("{}: cannot open", path.display()))?;
     read_columns_from(std::io::BufReader::new(file), path, names, max_rows)
 }
 
@@ -76,7 +77,7 @@ pub fn read_columns_from(
     let mut bytes = Vec::new();
     reader
         .read_to_end(&mut bytes)
-        .with_context(|| format!("{}: cannot read", path.display()))?;
+        .io_context(|| format!("{}: cannot read", path.display()))?;
     let mut lines = LineCounter::new(&bytes);
     let mut rdr = csv::ReaderBuilder::new()
         .trim(csv::Trim::All)
@@ -84,13 +85,20 @@ pub fn read_columns_from(
         .from_reader(bytes.as_slice());
     let headers = rdr
         .headers()
-        .map_err(|e| anyhow!("{}: row 1: cannot read the header ({e})", path.display()))?
+        .map_err(|e| {
+            err!(
+                Data,
+                "{}: row 1: cannot read the header ({e})",
+                path.display()
+            )
+        })?
         .clone();
     let mut idx = Vec::with_capacity(names.len());
     for name in names {
         match headers.iter().position(|h| h == *name) {
             Some(i) => idx.push(i),
             None => bail!(
+                Data,
                 "{}: row 1: missing column `{name}` (expected header {})",
                 path.display(),
                 names.join(",")
@@ -105,6 +113,7 @@ pub fn read_columns_from(
             Ok(false) => break,
             Ok(true) => lines.row(rec.position()),
             Err(e) => bail!(
+                Data,
                 "{}: row {}: malformed CSV ({e})",
                 path.display(),
                 lines.row(e.position())
@@ -116,7 +125,8 @@ pub fn read_columns_from(
         for (k, &i) in idx.iter().enumerate() {
             let cell = rec.get(i).unwrap_or("");
             let x: f64 = cell.parse().map_err(|_| {
-                anyhow!(
+                err!(
+                    Data,
                     "{}: row {row}, column `{}`: `{}` is not a number",
                     path.display(),
                     names[k],
@@ -181,6 +191,7 @@ pub fn require_finite(path: &Path, c: &Columns, names: &[&str], which: &[usize])
     for &k in which {
         if let Some(l) = c.data[k].iter().position(|x| !x.is_finite()) {
             bail!(
+                Data,
                 "{}: row {}, column `{}`: `{}` is not finite",
                 path.display(),
                 c.row(l),
@@ -239,6 +250,7 @@ pub fn battery_record(path: &Path, mut c: Columns) -> Result<BatteryRecord> {
     let time = c.data.pop().unwrap_or_default();
     if time.len() < 2 {
         bail!(
+            Data,
             "{}: {} data rows; at least 2 are needed",
             path.display(),
             time.len()
@@ -259,6 +271,7 @@ pub fn same_lengths(path: &Path, c: &Columns, names: &[&str]) -> Result<()> {
     let lens: Vec<usize> = c.data.iter().map(Vec::len).collect();
     if lens.len() != names.len() || lens.iter().any(|&n| n != lens[0]) {
         bail!(
+            Data,
             "{}: columns {} have {} values: they must be of one length",
             path.display(),
             names.join(", "),
@@ -276,6 +289,7 @@ pub fn same_lengths(path: &Path, c: &Columns, names: &[&str]) -> Result<()> {
 pub fn uniform_step(path: &Path, time: &[f64]) -> Result<f64> {
     if time.len() < 2 {
         bail!(
+            Data,
             "{}: {} data rows; at least 2 are needed",
             path.display(),
             time.len()
@@ -284,6 +298,7 @@ pub fn uniform_step(path: &Path, time: &[f64]) -> Result<f64> {
     let h = time[1] - time[0];
     if h.is_nan() || h <= 0.0 {
         bail!(
+            Data,
             "{}: row 3, column `time_s`: time does not increase ({} after {})",
             path.display(),
             time[1],
@@ -294,6 +309,7 @@ pub fn uniform_step(path: &Path, time: &[f64]) -> Result<f64> {
         let d = w[1] - w[0];
         if (d - h).abs() > 1e-6 * h.max(1e-3) + 1e-9 {
             bail!(
+                Data,
                 "{}: row {}, column `time_s`: non-uniform time step {d} s (the first step is {h} s)",
                 path.display(),
                 k + 3
@@ -308,16 +324,16 @@ pub fn uniform_step(path: &Path, time: &[f64]) -> Result<f64> {
 pub fn write_atomic(path: &Path, fill: impl FnOnce(&mut dyn Write) -> Result<()>) -> Result<()> {
     let tmp = temp_path(path);
     let res = (|| {
-        let f = File::create(&tmp).with_context(|| format!("{}: cannot create", path.display()))?;
+        let f = File::create(&tmp).io_context(|| format!("{}: cannot create", path.display()))?;
         let mut w = BufWriter::new(f);
         fill(&mut w)?;
         w.flush()
-            .with_context(|| format!("{}: cannot write", path.display()))?;
+            .io_context(|| format!("{}: cannot write", path.display()))?;
         Ok(())
     })();
     match res {
         Ok(()) => {
-            std::fs::rename(&tmp, path).with_context(|| format!("{}: cannot write", path.display()))
+            std::fs::rename(&tmp, path).io_context(|| format!("{}: cannot write", path.display()))
         }
         Err(e) => {
             let _ = std::fs::remove_file(&tmp);
@@ -391,9 +407,9 @@ pub fn ocv_table(path: &Path, c: Columns) -> Result<HostOcvTable> {
             OcvError::NonFinite { index }
             | OcvError::SocOutOfRange { index }
             | OcvError::NotIncreasing { index } => {
-                anyhow!("{}: row {}: {e}", path.display(), c.row(index))
+                err!(Data, "{}: row {}: {e}", path.display(), c.row(index))
             }
-            _ => anyhow!("{}: {e}", path.display()),
+            _ => err!(Data, "{}: {e}", path.display()),
         }
     })
 }

@@ -6,12 +6,12 @@
 
 pub mod example1;
 
-use crate::cli::{BatteryMethod, ReproduceArgs, ReproducePart};
-use crate::identify::battery_run;
+use crate::err;
+use crate::error::{IoContext, Result};
+use crate::identify::{battery_run, BatteryMethod};
 use crate::io::BatteryRecord;
 use crate::plot::{self, Panel, Series};
 use crate::{online, presets, simulate};
-use anyhow::{Context, Result};
 use estimator_core::battery::profile::Profile;
 use estimator_core::battery::CellParameters;
 use std::fmt::Write as _;
@@ -45,14 +45,44 @@ fn rel(a: f64, b: f64) -> f64 {
     (a / b - 1.0).abs()
 }
 
-/// Runs the reproduction (all of it, or one part) into `dir`.
-// Not inlined into `cli::run`: the estimators are built on the stack before
-// boxing, and an inlined frame of every command would be probed (page
-// faults over megabytes) even for the command that does not run.
-#[inline(never)]
-pub fn run(a: &ReproduceArgs) -> Result<()> {
-    std::fs::create_dir_all(&a.out)
-        .with_context(|| format!("{}: cannot create", a.out.display()))?;
+/// The parts of `reproduce`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum ReproducePart {
+    /// Both parts.
+    #[default]
+    All,
+    /// §6.1 Example 1: Tables 3–6, Figures 2–5.
+    Example1,
+    /// §6.2 battery: Figure 6, Table 7, Figures 7–11, our refinement and tracking.
+    Battery,
+}
+
+impl ReproducePart {
+    /// `"all"`, `"example1"` or `"battery"`.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            ReproducePart::All => "all",
+            ReproducePart::Example1 => "example1",
+            ReproducePart::Battery => "battery",
+        }
+    }
+}
+
+/// What `reproduce` writes, and where.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Reproduce {
+    /// Output directory (report.md and SVG figures).
+    pub out: std::path::PathBuf,
+    /// Seeds per table (the paper's tables: 10).
+    pub seeds: u64,
+    /// Which part.
+    pub part: ReproducePart,
+}
+
+/// Runs the reproduction (all of it, or one part) into `a.out`; returns the
+/// report's path.
+pub fn run(a: &Reproduce) -> Result<std::path::PathBuf> {
+    std::fs::create_dir_all(&a.out).io_context(|| format!("{}: cannot create", a.out.display()))?;
     let mut md = String::new();
     writeln!(
         md,
@@ -64,7 +94,7 @@ pub fn run(a: &ReproduceArgs) -> Result<()> {
          Every number below is a mean over seeds of simulated data; the paper's numbers stand beside ours.\n",
         a.out.display(),
         a.seeds,
-        clap::ValueEnum::to_possible_value(&a.part).map_or_else(String::new, |v| v.get_name().to_owned())
+        a.part.as_str()
     )?;
     if a.part != ReproducePart::Battery {
         example1::tables_3_to_6(&a.out, a.seeds, &mut md)?;
@@ -79,8 +109,7 @@ pub fn run(a: &ReproduceArgs) -> Result<()> {
         w.write_all(md.as_bytes())?;
         Ok(())
     })?;
-    eprintln!("wrote {}", a.out.join("report.md").display());
-    Ok(())
+    Ok(a.out.join("report.md"))
 }
 
 /// Figure 6: the equivalent circuit of §6.2 (U_oc, R_i in series, R_ct
@@ -121,7 +150,7 @@ fn figure6(dir: &Path, md: &mut String) -> Result<()> {
 }
 
 fn table7(dir: &Path, seeds: u64, md: &mut String) -> Result<()> {
-    let preset = presets::battery("paper").context("preset")?;
+    let preset = presets::battery("paper").ok_or_else(|| err!(Internal, "preset"))?;
     let truth = preset.cell;
     let len = 1000;
     let pb = crate::progress::bar(seeds, "table 7");
@@ -256,7 +285,7 @@ fn table7(dir: &Path, seeds: u64, md: &mut String) -> Result<()> {
 }
 
 fn cell_side_by_side(seeds: u64, md: &mut String) -> Result<()> {
-    let preset = presets::battery("cell").context("preset")?;
+    let preset = presets::battery("cell").ok_or_else(|| err!(Internal, "preset"))?;
     let truth = preset.cell;
     let len = 2000;
     writeln!(
@@ -330,7 +359,7 @@ fn cell_side_by_side(seeds: u64, md: &mut String) -> Result<()> {
 }
 
 fn tracking(dir: &Path, md: &mut String) -> Result<()> {
-    let preset = presets::battery("cell").context("preset")?;
+    let preset = presets::battery("cell").ok_or_else(|| err!(Internal, "preset"))?;
     let truth = preset.cell;
     let len = 3000;
     let d = simulate::battery_data(

@@ -3,11 +3,30 @@
 //! The coulomb counting and the overpotential are estimator-core's
 //! ([`estimator_core::battery::ocv`]); this module only reads and checks.
 
-use crate::cli::OcvArgs;
+use crate::error::Result;
 use crate::io::{self, BatteryRecord, HostOcvTable, OCV_POINTS};
-use anyhow::{anyhow, bail, Result};
+use crate::{bail, err};
 use estimator_core::battery::ocv::OcvModel;
-use std::path::Path;
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+
+/// The cell's open-circuit voltage curve and state of charge, as given
+/// (`--ocv`, `--capacity-ah`, `--soc0`): checked into an [`OcvSpec`] by
+/// [`OcvSpec::from_options`].
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct OcvOptions {
+    /// OCV table CSV with header `soc,ocv_v` (soc in [0, 1], both columns
+    /// increasing): the model fits U_t − OCV(SOC) with the SOC counted from
+    /// the current, and its U_oc becomes a small offset ΔU.
+    pub ocv: Option<PathBuf>,
+    /// Capacity (A·h) for coulomb counting (needed with an OCV table).
+    pub capacity_ah: Option<f64>,
+    /// State of charge at the start of the record, before the first row's
+    /// charge (default: read from the first rows' voltage through the
+    /// inverse OCV; the record must then start at rest).
+    pub soc0: Option<f64>,
+}
 
 /// A record's OCV curve, capacity and start SOC.
 #[derive(Clone, Copy, Debug)]
@@ -86,19 +105,24 @@ impl OcvSpec {
 
     /// Checks `--capacity-ah` and `--soc0` and reads `--ocv`: `None`
     /// without `--ocv`.
-    pub fn from_args(a: &OcvArgs) -> Result<Option<Self>> {
+    pub fn from_options(a: &OcvOptions) -> Result<Option<Self>> {
         let Some(path) = &a.ocv else {
             if a.capacity_ah.is_some() || a.soc0.is_some() {
-                bail!("--capacity-ah and --soc0 go with --ocv FILE.csv");
+                bail!(Options, "--capacity-ah and --soc0 go with --ocv FILE.csv");
             }
             return Ok(None);
         };
-        let cap = a
-            .capacity_ah
-            .ok_or_else(|| anyhow!("--ocv needs --capacity-ah (the cell's capacity in A·h)"))?;
+        let cap = a.capacity_ah.ok_or_else(|| {
+            err!(
+                Options,
+                "--ocv needs --capacity-ah (the cell's capacity in A·h)"
+            )
+        })?;
         let said = |e| match e {
-            OcvSpecError::Capacity(c) => anyhow!("--capacity-ah {c}: must be finite and positive"),
-            OcvSpecError::Soc0(z) => anyhow!("--soc0 {z}: must be in [0, 1]"),
+            OcvSpecError::Capacity(c) => {
+                err!(Options, "--capacity-ah {c}: must be finite and positive")
+            }
+            OcvSpecError::Soc0(z) => err!(Options, "--soc0 {z}: must be in [0, 1]"),
         };
         // The flags are checked before the file is read.
         Self::check(cap, a.soc0).map_err(said)?;
@@ -115,7 +139,8 @@ impl OcvSpec {
         let soc0 = match self.soc0 {
             Some(z) => z,
             None => model.soc_at_rest(&rec.current, &rec.voltage).map_err(|_| {
-                anyhow!(
+                err!(
+                    Data,
                     "{}: row 2: the record does not start at rest (|I| = {} A above C/100 = {} A), \
                      so its start SOC cannot be read from the OCV table; give --soc0",
                     path.display(),
@@ -130,15 +155,15 @@ impl OcvSpec {
 
 /// Checks `--capacity-ah` and reads `--ocv`, without a record (the start
 /// SOC is left to the caller).
-pub fn model(a: &OcvArgs) -> Result<Option<OcvModel<f64, OCV_POINTS>>> {
-    Ok(OcvSpec::from_args(a)?.map(|s| s.model))
+pub fn model(a: &OcvOptions) -> Result<Option<OcvModel<f64, OCV_POINTS>>> {
+    Ok(OcvSpec::from_options(a)?.map(|s| s.model))
 }
 
 /// Reads the options for record `rec` (file `path`): `None` without
 /// `--ocv`. Without `--soc0` the start SOC is read from the first rows'
 /// voltage through the inverse OCV; the record must then start at rest.
-pub fn resolve(a: &OcvArgs, path: &Path, rec: &BatteryRecord) -> Result<Option<CellOcv>> {
-    OcvSpec::from_args(a)?
+pub fn resolve(a: &OcvOptions, path: &Path, rec: &BatteryRecord) -> Result<Option<CellOcv>> {
+    OcvSpec::from_options(a)?
         .map(|s| s.resolve(path, rec))
         .transpose()
 }

@@ -6,18 +6,20 @@
 //! [`estimator_core::battery::pack::PackEstimator`], the same code the
 //! firmware runs.
 
-use crate::cli::{OnlinePackArgs, Precision, SimPackArgs};
+use crate::error::{IoContext, Result};
 use crate::io::{self, OCV_POINTS};
+use crate::online::Precision;
 use crate::online::TrackOptions;
 use crate::presets;
 use crate::simulate::{battery_data, Current, OcvCurve};
-use anyhow::{anyhow, bail, Context, Result};
+use crate::{bail, err};
 use estimator_core::battery::online::OnlineSettings;
 use estimator_core::battery::pack::{PackEstimator, PackSettings};
 use estimator_core::battery::CellParameters;
 use estimator_core::Real;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
 /// Most cells `online pack` takes (the host's pack capacity).
@@ -46,11 +48,11 @@ pub fn header(cells: usize) -> Vec<String> {
 /// (as many as the header has, in order from 1).
 pub fn read_pack(path: &Path) -> Result<PackRecord> {
     let first = std::fs::File::open(path)
-        .with_context(|| format!("{}: cannot open", path.display()))
+        .io_context(|| format!("{}: cannot open", path.display()))
         .and_then(|f| {
             let mut line = String::new();
             std::io::BufRead::read_line(&mut std::io::BufReader::new(f), &mut line)
-                .with_context(|| format!("{}: cannot read", path.display()))?;
+                .io_context(|| format!("{}: cannot read", path.display()))?;
             Ok(line)
         })?;
     let names: Vec<&str> = first.trim().split(',').map(str::trim).collect();
@@ -59,6 +61,7 @@ pub fn read_pack(path: &Path) -> Result<PackRecord> {
         .count();
     if cells == 0 {
         bail!(
+            Data,
             "{}: row 1: no column `cell_1_v` (expected header time_s,current_a,cell_1_v,…,cell_N_v)",
             path.display()
         );
@@ -113,34 +116,69 @@ pub fn pack_cells(
         .collect()
 }
 
-// Not inlined into `cli::run` (see `simulate::battery`).
-#[inline(never)]
-pub(crate) fn simulate(a: &SimPackArgs) -> Result<()> {
-    let preset = presets::battery(&a.preset).context("unknown preset")?;
-    let profile = presets::profile(&a.profile).context("unknown profile")?;
+/// How `simulate pack` makes a pack record: every flag of the command.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SimulatePack {
+    /// Cells in series.
+    pub cells: usize,
+    /// `paper` (§6.2, ±150 A) or `cell` (18650-like, ±6 A).
+    pub preset: String,
+    /// Current profile: `pulse`, `hppc` or `drive`.
+    pub profile: String,
+    /// Spread of R_i, R_ct and Q between cells: each is the preset's times
+    /// 1 + u, u uniform in [−S, S].
+    pub spread: f64,
+    /// An aged cell (1-based): its R_i and R_ct times `aged_factor`.
+    pub aged: Option<usize>,
+    /// How much larger the aged cell's R_i and R_ct are.
+    pub aged_factor: f64,
+    /// Voltage noise σ (V) of every cell; default: the preset's.
+    pub sigma: Option<f64>,
+    /// Current amplitude of the profile (A; default: the preset's).
+    pub amplitude: Option<f64>,
+    /// Number of samples.
+    pub length: usize,
+    /// Random seed (the spread and every cell's noise).
+    pub seed: u64,
+    /// Sample period (s).
+    pub h: f64,
+    /// Output CSV; the truth goes beside it ([`truth_path`]).
+    pub out: PathBuf,
+}
+
+/// `simulate pack`: writes the pack record `a.out` and the truth beside it
+/// ([`truth_path`]: `cells`: cell, r_i, r_ct, q, alpha, u_oc, aged).
+pub fn simulate_file(a: &SimulatePack) -> Result<()> {
+    let preset = presets::battery(&a.preset).ok_or_else(|| err!(Options, "unknown preset"))?;
+    let profile = presets::profile(&a.profile).ok_or_else(|| err!(Options, "unknown profile"))?;
     if a.cells == 0 || a.cells > MAX_CELLS {
-        bail!("--cells {}: must be in 1..={MAX_CELLS}", a.cells);
+        bail!(Options, "--cells {}: must be in 1..={MAX_CELLS}", a.cells);
     }
     if a.length < 2 {
-        bail!("--length must be at least 2");
+        bail!(Options, "--length must be at least 2");
     }
     if !(a.spread.is_finite() && (0.0..0.5).contains(&a.spread)) {
-        bail!("--spread {}: must be in [0, 0.5)", a.spread);
+        bail!(Options, "--spread {}: must be in [0, 0.5)", a.spread);
     }
     if a.aged.is_some_and(|k| k == 0 || k > a.cells) {
         bail!(
+            Options,
             "--aged {}: must be a cell in 1..={}",
             a.aged.unwrap_or(0),
             a.cells
         );
     }
     if !(a.aged_factor.is_finite() && a.aged_factor >= 1.0) {
-        bail!("--aged-factor {}: must be at least 1", a.aged_factor);
+        bail!(
+            Options,
+            "--aged-factor {}: must be at least 1",
+            a.aged_factor
+        );
     }
     let sigma = a.sigma.unwrap_or(preset.sigma);
     let amplitude = a.amplitude.unwrap_or(preset.amplitude);
     if !(amplitude.is_finite() && amplitude >= 0.0) {
-        bail!("--amplitude {amplitude}: must be finite and ≥ 0");
+        bail!(Options, "--amplitude {amplitude}: must be finite and ≥ 0");
     }
     let cells = pack_cells(
         &preset.cell,
@@ -200,15 +238,7 @@ pub(crate) fn simulate(a: &SimPackArgs) -> Result<()> {
     io::write_atomic(&json, |w| {
         writeln!(w, "{}", serde_json::to_string_pretty(&truth)?)?;
         Ok(())
-    })?;
-    eprintln!(
-        "wrote {} rows of {} cells to {} (truth: {})",
-        a.length,
-        a.cells,
-        a.out.display(),
-        json.display()
-    );
-    Ok(())
+    })
 }
 
 /// One row of a pack track: a cell after a sample.
@@ -261,18 +291,19 @@ pub fn track_pack(
     let (window, memory) = (o.track.window, o.track.memory);
     if memory == 0 || memory + 8 > window {
         bail!(
+            Options,
             "--memory {memory}: must be in 1..={}",
             window.saturating_sub(8)
         );
     }
     if rec.cells.len() > MAX_CELLS {
-        bail!("{} cells: at most {MAX_CELLS}", rec.cells.len());
+        bail!(Data, "{} cells: at most {MAX_CELLS}", rec.cells.len());
     }
     if o.updates_per_period == 0 {
-        bail!("--updates-per-period must be at least 1");
+        bail!(Options, "--updates-per-period must be at least 1");
     }
     if !(o.flag_ratio.is_finite() && o.flag_ratio > 0.0) {
-        bail!("--flag-ratio {}: must be positive", o.flag_ratio);
+        bail!(Options, "--flag-ratio {}: must be positive", o.flag_ratio);
     }
     match o.track.precision {
         Precision::F64 => sized(&o.track.settings::<f64>(rec.h)?, o, rec, sink),
@@ -295,7 +326,10 @@ fn sized<T: Real>(
         256 => run::<T, 256>(&ps, rec, sink),
         512 => run::<T, 512>(&ps, rec, sink),
         1024 => run::<T, 1024>(&ps, rec, sink),
-        w => bail!("--window {w}: must be one of 64, 128, 256, 512, 1024"),
+        w => bail!(
+            Options,
+            "--window {w}: must be one of 64, 128, 256, 512, 1024"
+        ),
     }
 }
 
@@ -306,7 +340,7 @@ fn run<T: Real, const N: usize>(
 ) -> Result<PackSummary> {
     let cells = rec.cells.len();
     let mut pack =
-        Box::new(PackEstimator::<T, N, N, MAX_CELLS>::new(s, cells).map_err(|e| anyhow!("{e}"))?);
+        Box::new(PackEstimator::<T, N, N, MAX_CELLS>::new(s, cells).map_err(crate::Error::from)?);
     let mut volts = vec![T::zero(); cells];
     let mut iterations = 0u64;
     for (l, (&t, &i)) in rec.time.iter().zip(&rec.current).enumerate() {
@@ -315,11 +349,11 @@ fn run<T: Real, const N: usize>(
         }
         let r = pack
             .push(s, T::lit(i), &volts)
-            .map_err(|e| anyhow!("{e}"))?;
+            .map_err(crate::Error::from)?;
         iterations += u64::from(r.iterations);
         let health = pack.health();
         for k in 0..cells {
-            let c = pack.cell(k).context("cell index")?;
+            let c = pack.cell(k).ok_or_else(|| err!(Internal, "cell index"))?;
             sink(PackRow {
                 t,
                 cell: k + 1,
@@ -339,11 +373,54 @@ fn run<T: Real, const N: usize>(
     })
 }
 
-// Not inlined into `cli::run` (see `simulate::battery`).
-#[inline(never)]
-pub(crate) fn online(a: &OnlinePackArgs) -> Result<()> {
-    let t0 = std::time::Instant::now();
-    let rec = read_pack(&a.input)?;
+/// How `online pack` runs: every flag but the files. The default is the
+/// CLI's.
+#[derive(Clone, Debug, PartialEq)]
+pub struct OnlinePack {
+    /// Window length L (one of 64, 128, 256, 512, 1024).
+    pub window: usize,
+    /// Memory M (default L/4).
+    pub memory: Option<usize>,
+    /// Iterations per cell update.
+    pub iterations_per_sample: u16,
+    /// Cell updates per sample period, round robin (default: every cell
+    /// every period).
+    pub updates_per_period: Option<u16>,
+    /// Flag a cell whose R_i or R_ct is above the pack's median by more
+    /// than this fraction.
+    pub flag_ratio: f64,
+    /// f64, or f32 as the firmware runs it.
+    pub precision: Precision,
+    /// Where the model starts in the window.
+    pub start: estimator_core::battery::Start,
+    /// The short-memory correction.
+    pub tail: bool,
+}
+
+impl Default for OnlinePack {
+    fn default() -> Self {
+        Self {
+            window: 256,
+            memory: None,
+            iterations_per_sample: 1,
+            updates_per_period: None,
+            flag_ratio: 0.3,
+            precision: Precision::F64,
+            start: estimator_core::battery::Start::FromData,
+            tail: false,
+        }
+    }
+}
+
+/// The header of the long-format track CSV `online pack` writes.
+pub const PACK_TRACK_HEADER: &str = "time_s,cell,r_i,r_ct,q,alpha,u_oc,status,rejected,flagged";
+
+/// `online pack`: reads the pack record `input`, runs the pack estimator
+/// over it as `a` says and writes the long-format track to `out` (columns
+/// [`PACK_TRACK_HEADER`], one row per cell and sample). Returns the
+/// summary and the number of cells.
+pub fn online_file(input: &Path, out: &Path, a: &OnlinePack) -> Result<(PackSummary, usize)> {
+    let rec = read_pack(input)?;
     let memory = a.memory.unwrap_or(a.window / 4);
     let mut track = TrackOptions::new(a.window, memory);
     track.iterations_per_sample = a.iterations_per_sample;
@@ -357,11 +434,8 @@ pub(crate) fn online(a: &OnlinePackArgs) -> Result<()> {
     };
     let f = |x: f64| format!("{x:.9e}");
     let mut res = Ok(PackSummary::default());
-    io::write_atomic(&a.out, |w| {
-        writeln!(
-            w,
-            "time_s,cell,r_i,r_ct,q,alpha,u_oc,status,rejected,flagged"
-        )?;
+    io::write_atomic(out, |w| {
+        writeln!(w, "{PACK_TRACK_HEADER}")?;
         res = track_pack(&rec, &o, |r| {
             match r.estimate {
                 Some(p) => writeln!(
@@ -390,18 +464,7 @@ pub(crate) fn online(a: &OnlinePackArgs) -> Result<()> {
             }
             Ok(())
         });
-        res.as_ref().map(|_| ()).map_err(|e| anyhow!("{e:#}"))
+        res.clone().map(|_| ())
     })?;
-    let summary = res?;
-    let secs = t0.elapsed().as_secs_f64();
-    eprintln!(
-        "wrote {} ({} samples of {} cells, {} rejected, {} iterations, {:.0} samples/s)",
-        a.out.display(),
-        summary.samples,
-        rec.cells.len(),
-        summary.rejected.iter().map(|&x| u64::from(x)).sum::<u64>(),
-        summary.iterations,
-        summary.samples as f64 / secs.max(1e-9)
-    );
-    Ok(())
+    Ok((res?, rec.cells.len()))
 }

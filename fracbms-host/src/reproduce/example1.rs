@@ -4,9 +4,10 @@
 //! reference (true α, true noise sequence e), which no real estimator can
 //! beat on average.
 
+use crate::err;
+use crate::error::Result;
 use crate::plot::{self, Panel, Series};
 use crate::presets::{self, Hammerstein};
-use anyhow::{anyhow, Context, Result};
 use estimator_core::frac::GlWeights;
 use estimator_core::gi::key_term::KeyTermGi;
 use estimator_core::gi::over_param::OverParamGi;
@@ -39,7 +40,7 @@ struct Record {
 
 fn generate(sys: &HammersteinSystem<'_, f64>, sigma: f64, seed: u64) -> Result<Record> {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let n01 = Normal::new(0.0, 1.0).context("normal distribution")?;
+    let n01 = Normal::new(0.0, 1.0).map_err(|e| err!(Internal, "normal distribution: {e}"))?;
     let u: Vec<f64> = (0..L).map(|_| n01.sample(&mut rng)).collect();
     let v: Vec<f64> = (0..L).map(|_| sigma * n01.sample(&mut rng)).collect();
     let (mut y, mut e) = (vec![0.0; L], vec![0.0; L]);
@@ -93,7 +94,7 @@ fn ls_reference(sys: &HammersteinSystem<'_, f64>, d: &Record) -> Result<Vec<f64>
     let sol = phi
         .svd(true, true)
         .solve(&DVector::from_column_slice(&d.y), 1e-12)
-        .map_err(|e| anyhow!("least-squares reference: {e}"))?;
+        .map_err(|e| err!(Data, "least-squares reference: {e}"))?;
     let mut p: Vec<f64> = sol.iter().copied().collect();
     p.push(sys.alpha);
     Ok(p)
@@ -326,11 +327,12 @@ fn run_all(seeds: u64) -> Result<Vec<Run>> {
                         let Some(&(c, seed)) = jobs.get(i) else {
                             return Ok(());
                         };
-                        let sys = presets::hammerstein(CASES[c].preset).context("preset")?;
+                        let sys = presets::hammerstein(CASES[c].preset)
+                            .ok_or_else(|| err!(Internal, "preset"))?;
                         let r = run_seed(&CASES[c], &sys, seed)?;
                         results
                             .lock()
-                            .map_err(|_| anyhow!("a worker panicked"))?
+                            .map_err(|_| err!(Data, "a worker panicked"))?
                             .push((c, r));
                         pb.inc(1);
                     }
@@ -338,14 +340,14 @@ fn run_all(seeds: u64) -> Result<Vec<Run>> {
             handles.push(h);
         }
         for h in handles {
-            h.join().map_err(|_| anyhow!("a worker panicked"))??;
+            h.join().map_err(|_| err!(Data, "a worker panicked"))??;
         }
         Ok(())
     })?;
     pb.finish_and_clear();
     let results = results
         .into_inner()
-        .map_err(|_| anyhow!("a worker panicked"))?;
+        .map_err(|_| err!(Data, "a worker panicked"))?;
     Ok((0..CASES.len())
         .map(|c| {
             let runs: Vec<Run> = results
@@ -360,9 +362,10 @@ fn run_all(seeds: u64) -> Result<Vec<Run>> {
 
 /// Writes Tables 3–6 into `md` and Figures 2–5 into `dir`.
 pub fn tables_3_to_6(dir: &Path, seeds: u64, md: &mut String) -> Result<()> {
-    let op = presets::hammerstein("paper-op").context("preset")?;
-    let kt = presets::hammerstein("paper-kt").context("preset")?;
-    let kt_stable = presets::hammerstein("paper-kt-stable").context("preset")?;
+    let op = presets::hammerstein("paper-op").ok_or_else(|| err!(Internal, "preset"))?;
+    let kt = presets::hammerstein("paper-kt").ok_or_else(|| err!(Internal, "preset"))?;
+    let kt_stable =
+        presets::hammerstein("paper-kt-stable").ok_or_else(|| err!(Internal, "preset"))?;
     writeln!(md, "## Example 1 (§6.1): Tables 3–6 and Figures 2–5\n")?;
     writeln!(
         md,
@@ -415,7 +418,7 @@ pub fn tables_3_to_6(dir: &Path, seeds: u64, md: &mut String) -> Result<()> {
             case.preset,
             m.snr,
             m.alpha[K - 1],
-            presets::hammerstein(case.preset).context("preset")?.alpha
+            presets::hammerstein(case.preset).ok_or_else(|| err!(Internal, "preset"))?.alpha
         )?;
         writeln!(md, "| k | δ paper | δ ours | δ LS reference |")?;
         writeln!(md, "|---|---|---|---|")?;

@@ -4,7 +4,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 fn bin() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_host-sim-e2e"))
+    Command::new(env!("CARGO_BIN_EXE_host-sim"))
 }
 
 fn tmp(name: &str) -> PathBuf {

@@ -1,16 +1,40 @@
 //! `online battery`: the sliding-window estimator, sample by sample, as the
 //! firmware runs it (f64 here).
 
-use crate::cli::{BatteryMethod, ModelArg, OnlineBatteryArgs, Precision, StartArg};
+use crate::error::Result;
+use crate::identify::{BatteryMethod, ModelRequest};
 use crate::io::OCV_POINTS;
 use crate::ocv::CellOcv;
+use crate::{bail, err};
 use crate::{io, progress};
-use anyhow::{anyhow, bail, Result};
 use estimator_core::battery::ocv::OcvModel;
 use estimator_core::battery::online::{CellEstimator, Method, OnlineSettings, Rejection};
 use estimator_core::battery::output_error::RefinementWork;
 use estimator_core::battery::{CellModel, CellParameters, Prior, Start};
 use estimator_core::Real;
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+
+/// Floating-point precision of an online estimator.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Precision {
+    /// Single precision (the Cortex-M4F FPU).
+    F32,
+    /// Double precision.
+    #[default]
+    F64,
+}
+
+impl Precision {
+    /// `"f32"` or `"f64"`.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Precision::F32 => "f32",
+            Precision::F64 => "f64",
+        }
+    }
+}
 
 /// One row of the track.
 #[derive(Clone, Copy, Debug)]
@@ -59,13 +83,13 @@ pub struct TrackOptions<'a> {
     /// f64 or f32 arithmetic.
     pub precision: Precision,
     /// Where the first window's simulation starts.
-    pub start: StartArg,
+    pub start: Start,
     /// A prior from a characterization fit (MAP window fits).
     pub prior: Option<&'a Prior<f64>>,
     /// The cell's OCV curve, capacity and start SOC.
     pub cell: Option<&'a CellOcv>,
     /// The cell model (`auto`: the prior's, linear without one).
-    pub model: ModelArg,
+    pub model: ModelRequest,
     /// Add the Grünwald–Letnikov taps beyond the memory (the short-memory
     /// correction, `BatterySettings::tail`).
     pub tail: bool,
@@ -81,10 +105,10 @@ impl TrackOptions<'_> {
             iterations_per_sample: 1,
             method: BatteryMethod::Refined,
             precision: Precision::F64,
-            start: StartArg::FromData,
+            start: Start::FromData,
             prior: None,
             cell: None,
-            model: ModelArg::Linear,
+            model: ModelRequest::Linear,
             tail: false,
         }
     }
@@ -93,9 +117,9 @@ impl TrackOptions<'_> {
     /// its centre has the term), linear without a prior.
     pub fn cell_model(&self) -> CellModel {
         match self.model {
-            ModelArg::Linear => CellModel::Linear,
-            ModelArg::ButlerVolmer => CellModel::ButlerVolmer,
-            ModelArg::Auto => match self.prior {
+            ModelRequest::Linear => CellModel::Linear,
+            ModelRequest::ButlerVolmer => CellModel::ButlerVolmer,
+            ModelRequest::Auto => match self.prior {
                 Some(p) if p.center.is_butler_volmer() => CellModel::ButlerVolmer,
                 _ => CellModel::Linear,
             },
@@ -105,10 +129,7 @@ impl TrackOptions<'_> {
     /// The core's settings for sample period `h`.
     pub(crate) fn settings<T: Real>(&self, h: f64) -> Result<OnlineSettings<T, OCV_POINTS>> {
         let mut s = OnlineSettings::new(T::lit(h), self.memory, CellParameters::cell_18650());
-        s.battery.start = match self.start {
-            StartArg::FromData => Start::FromData,
-            StartArg::AtRest => Start::AtRest,
-        };
+        s.battery.start = self.start;
         s.battery.prior = self.prior.map(|p| Prior {
             center: p.center.cast(),
             log_sigma: T::lit(p.log_sigma),
@@ -129,10 +150,10 @@ impl TrackOptions<'_> {
                     .model
                     .table
                     .cast::<T>()
-                    .map_err(|e| anyhow!("--ocv: in this precision: {e}"))?;
+                    .map_err(|e| err!(Options, "--ocv: in this precision: {e}"))?;
                 Some(
                     OcvModel::new(table, T::lit(c.model.capacity_ah))
-                        .map_err(|e| anyhow!("--capacity-ah: {e}"))?,
+                        .map_err(|e| err!(Options, "--capacity-ah: {e}"))?,
                 )
             }
         };
@@ -187,7 +208,8 @@ struct Sized<T: Real, const N: usize> {
 
 impl<T: Real + Send + Sync + 'static, const N: usize> Sized<T, N> {
     fn boxed(s: OnlineSettings<T, OCV_POINTS>, soc0: Option<f64>) -> Result<Box<dyn Step>> {
-        let mut est = Box::new(CellEstimator::<T, N, N>::new(&s).map_err(|e| anyhow!("{e}"))?);
+        let mut est =
+            Box::new(CellEstimator::<T, N, N>::new(&s).map_err(|e| err!(Options, "{e}"))?);
         if let Some(z) = soc0 {
             est.set_state_of_charge(T::lit(z));
         }
@@ -241,6 +263,7 @@ impl Tracker {
         let (window, memory) = (o.window, o.memory);
         if memory == 0 || memory + 8 > window {
             bail!(
+                Options,
                 "--memory {memory}: must be in 1..={}",
                 window.saturating_sub(8)
             );
@@ -282,45 +305,121 @@ fn sized<T: Real + Send + Sync + 'static>(
         256 => Sized::<T, 256>::boxed(s, soc0),
         512 => Sized::<T, 512>::boxed(s, soc0),
         1024 => Sized::<T, 1024>::boxed(s, soc0),
-        _ => bail!("--window {window}: must be one of 64, 128, 256, 512, 1024"),
+        _ => bail!(
+            Options,
+            "--window {window}: must be one of 64, 128, 256, 512, 1024"
+        ),
     }
 }
 
-// Not inlined into `cli::run`: the estimators are built on the stack before
-// boxing, and an inlined frame of every command would be probed (page
-// faults over megabytes) even for the command that does not run.
-#[inline(never)]
-pub(crate) fn battery(a: &OnlineBatteryArgs) -> Result<()> {
+/// How `online battery` runs: every flag but the files. The default is the
+/// CLI's.
+#[derive(Clone, Debug, PartialEq)]
+pub struct OnlineBatteryOptions {
+    /// Window length L (one of 64, 128, 256, 512, 1024).
+    pub window: usize,
+    /// Memory M (default L/4).
+    pub memory: Option<usize>,
+    /// Iterations per sample.
+    pub iterations_per_sample: u16,
+    /// The paper's 2S-OP-GI or the output-error refinement.
+    pub method: BatteryMethod,
+    /// f64, or f32 as the firmware runs it.
+    pub precision: Precision,
+    /// Where the model starts in the window.
+    pub start: Start,
+    /// A prior: the JSON of `identify battery` (see [`read_prior`]).
+    pub prior: Option<PathBuf>,
+    /// The prior's spread on R_i, R_ct and Q: a factor at one sigma.
+    pub prior_factor: f64,
+    /// The prior's spread on α at one sigma.
+    pub prior_alpha_sigma: f64,
+    /// The residual level (mV) at which the window's data are weighed
+    /// against the prior.
+    pub prior_noise_mv: f64,
+    /// The cell model (`auto`: the prior's, linear without one).
+    pub model: ModelRequest,
+    /// The short-memory correction.
+    pub tail: bool,
+    /// The cell's OCV curve, capacity and start SOC.
+    pub ocv: crate::ocv::OcvOptions,
+}
+
+impl Default for OnlineBatteryOptions {
+    fn default() -> Self {
+        Self {
+            window: 256,
+            memory: None,
+            iterations_per_sample: 1,
+            method: BatteryMethod::Refined,
+            precision: Precision::F64,
+            start: Start::FromData,
+            prior: None,
+            prior_factor: 2.0,
+            prior_alpha_sigma: 0.1,
+            prior_noise_mv: 100.0,
+            model: ModelRequest::Auto,
+            tail: false,
+            ocv: crate::ocv::OcvOptions::default(),
+        }
+    }
+}
+
+/// What [`battery_file`] did.
+#[derive(Clone, Copy, Debug)]
+pub struct OnlineReport {
+    /// Samples, rejections and the refinement's work.
+    pub summary: TrackSummary,
+    /// Wall time of the run (s).
+    pub seconds: f64,
+    /// The cell model the windows fitted.
+    pub model: CellModel,
+}
+
+/// The header of the track CSV `online battery` writes.
+pub const TRACK_HEADER: &str =
+    "time_s,r_i,r_ct,q,alpha,u_oc,status,soc,ocv_offset_v,bv_a_v,bv_i0_a,predicted_v";
+
+/// `online battery`: reads the record `input`, runs the online estimator
+/// over it as `o` says and writes the track to `out` (columns
+/// [`TRACK_HEADER`]; atomically).
+///
+/// # Errors
+/// A file that cannot be read or written, data or options that are
+/// refused.
+pub fn battery_file(input: &Path, out: &Path, o: &OnlineBatteryOptions) -> Result<OnlineReport> {
     let t0 = std::time::Instant::now();
-    let rec = io::read_battery(&a.input, None)?;
-    let cell = crate::ocv::resolve(&a.cell, &a.input, &rec)?;
-    let prior = match &a.prior {
-        Some(p) => Some(read_prior(p, a)?),
+    let rec = io::read_battery(input, None)?;
+    let cell = crate::ocv::resolve(&o.ocv, input, &rec)?;
+    let prior = match &o.prior {
+        Some(p) => Some(read_prior(
+            p,
+            o.prior_factor,
+            o.prior_alpha_sigma,
+            o.prior_noise_mv,
+        )?),
         None => None,
     };
-    let memory = a.memory.unwrap_or(a.window / 4);
+    let memory = o.memory.unwrap_or(o.window / 4);
     let f = |x: f64| format!("{x:.9e}");
     let g = |x: Option<f64>| x.map(|x| format!("{x:.9e}")).unwrap_or_default();
-    let o = TrackOptions {
-        window: a.window,
+    let t = TrackOptions {
+        window: o.window,
         memory,
-        iterations_per_sample: a.iterations_per_sample,
-        method: a.method,
-        precision: a.precision,
-        start: a.start,
+        iterations_per_sample: o.iterations_per_sample,
+        method: o.method,
+        precision: o.precision,
+        start: o.start,
         prior: prior.as_ref(),
         cell: cell.as_ref(),
-        model: a.model,
-        tail: a.tail,
+        model: o.model,
+        tail: o.tail,
     };
     let summary = {
         let mut res = Ok(TrackSummary::default());
-        io::write_atomic(&a.out, |w| {
-            writeln!(
-                w,
-                "time_s,r_i,r_ct,q,alpha,u_oc,status,soc,ocv_offset_v,bv_a_v,bv_i0_a,predicted_v"
-            )?;
-            res = track(&rec, &o, |r| {
+        io::write_atomic(out, |w| {
+            writeln!(w, "{TRACK_HEADER}")?;
+            res = track(&rec, &t, |r| {
                 let bv = r.estimate.filter(|p| p.is_butler_volmer());
                 match r.estimate {
                     Some(p) => writeln!(
@@ -350,43 +449,33 @@ pub(crate) fn battery(a: &OnlineBatteryArgs) -> Result<()> {
                 }
                 Ok(())
             });
-            res.as_ref().map(|_| ()).map_err(|e| anyhow!("{e:#}"))
+            res.clone().map(|_| ())
         })?;
         res?
     };
-    let secs = t0.elapsed().as_secs_f64();
-    let TrackSummary {
-        samples,
-        rejected,
-        work,
-    } = summary;
-    eprintln!(
-        "wrote {} ({samples} samples, {rejected} rejected, {:.0} samples/s, model {})",
-        a.out.display(),
-        samples as f64 / secs.max(1e-9),
-        o.cell_model().as_str()
-    );
-    if work.iterations > 0 {
-        // The refinement's cost drivers: each simulation and each
-        // sensitivity pass is O(L·M).
-        eprintln!(
-            "refinement: {} iterations, {} window simulations ({} trial steps), {} sensitivity passes",
-            work.iterations, work.simulations, work.trials, work.linearizations
-        );
-    }
-    Ok(())
+    Ok(OnlineReport {
+        summary,
+        seconds: t0.elapsed().as_secs_f64(),
+        model: t.cell_model(),
+    })
 }
 
-/// Reads `--prior FIT.json` (the JSON of `identify battery`) with the
-/// spreads of the other `--prior-*` flags.
-fn read_prior(path: &std::path::Path, a: &OnlineBatteryArgs) -> Result<Prior<f64>> {
+/// Reads a prior: `path` is the JSON of `identify battery` (`--prior
+/// FIT.json`), the spreads are those of the `--prior-*` flags.
+pub fn read_prior(
+    path: &Path,
+    prior_factor: f64,
+    prior_alpha_sigma: f64,
+    prior_noise_mv: f64,
+) -> Result<Prior<f64>> {
     let text = std::fs::read_to_string(path)
-        .map_err(|e| anyhow!("{}: cannot read ({e})", path.display()))?;
-    let j: serde_json::Value =
-        serde_json::from_str(&text).map_err(|e| anyhow!("{}: not JSON ({e})", path.display()))?;
+        .map_err(|e| err!(Io, "{}: cannot read ({e})", path.display()))?;
+    let j: serde_json::Value = serde_json::from_str(&text)
+        .map_err(|e| err!(Data, "{}: not JSON ({e})", path.display()))?;
     let get = |k: &str| {
         j[k].as_f64().ok_or_else(|| {
-            anyhow!(
+            err!(
+                Data,
                 "{}: no number `{k}` (expected the JSON of identify battery)",
                 path.display()
             )
@@ -407,17 +496,18 @@ fn read_prior(path: &std::path::Path, a: &OnlineBatteryArgs) -> Result<Prior<f64
         bv_a,
         bv_i0,
     };
-    if !(a.prior_factor.is_finite() && a.prior_factor > 1.0) {
-        bail!("--prior-factor {}: must be above 1", a.prior_factor);
+    if !(prior_factor.is_finite() && prior_factor > 1.0) {
+        bail!(Options, "--prior-factor {}: must be above 1", prior_factor);
     }
     let p = Prior {
         center,
-        log_sigma: a.prior_factor.ln(),
-        alpha_sigma: a.prior_alpha_sigma,
-        noise_v: a.prior_noise_mv * 1e-3,
+        log_sigma: prior_factor.ln(),
+        alpha_sigma: prior_alpha_sigma,
+        noise_v: prior_noise_mv * 1e-3,
     };
     if !p.is_valid() {
         bail!(
+            Data,
             "{}: the prior is not physical, or a --prior-* spread is not positive",
             path.display()
         );

@@ -1,9 +1,10 @@
 //! SVG figures in the paper's style (plotters): labelled axes with units,
 //! legends, one concept per panel.
 
+use crate::err;
+use crate::error::Result;
 use crate::identify::HistoryEntry;
 use crate::io::BatteryRecord;
-use anyhow::{anyhow, Result};
 use plotters::prelude::*;
 use std::path::Path;
 
@@ -50,7 +51,7 @@ fn range(v: impl Iterator<Item = f64>) -> (f64, f64) {
 
 /// Draws panels stacked vertically into one SVG file.
 pub fn panels(path: &Path, panels: &[Panel<'_>]) -> Result<()> {
-    let e = |e: &dyn std::fmt::Display| anyhow!("{}: cannot draw ({e})", path.display());
+    let e = |e: &dyn std::fmt::Display| err!(Data, "{}: cannot draw ({e})", path.display());
     let height = 320 * panels.len() as u32;
     let root = SVGBackend::new(path, (800, height)).into_drawing_area();
     root.fill(&WHITE).map_err(|x| e(&x))?;

@@ -1,0 +1,629 @@
+//! `identify battery`: the paper's §6.2 regression (2S-OP-GI) over a whole
+//! record, the output-error refinement from it, the Butler–Volmer choice
+//! ([`super::model_choice`]), the OCV curve's overpotential, and the
+//! screening and verdict of [`crate::trust`]. The estimators are
+//! `estimator-core`'s; this module drives them in `f64` and reports.
+
+use super::model_choice::{choose_model, refine_fit, ModelChoice};
+use super::{table_row, BatteryMethod, HistoryEntry, ModelRequest, BAT_MEM, MAX_ROWS};
+use crate::error::Result;
+use crate::{bail, err, io, trust};
+use estimator_core::battery::output_error::{FitInformation, OutputErrorRefinement};
+use estimator_core::battery::regression::PaperRegressionGi;
+use estimator_core::battery::simulate::simulate;
+use estimator_core::battery::{BatterySettings, CellModel, CellParameters};
+use estimator_core::frac::GlWeights;
+use estimator_core::window::SampleWindow;
+use serde::Serialize;
+use std::path::Path;
+
+/// The JSON of `identify battery`.
+#[derive(Serialize, Debug, Clone)]
+pub struct BatteryJson {
+    /// "paper" or "refined".
+    pub method: &'static str,
+    /// R_i (Ω).
+    pub r_i: f64,
+    /// R_ct (Ω).
+    pub r_ct: f64,
+    /// Q (F·s^(α−1)).
+    pub q: f64,
+    /// α.
+    pub alpha: f64,
+    /// U_oc (V). With an OCV curve: the model's open-circuit voltage at the
+    /// end of the record, `OCV(soc_end) + ΔU`.
+    pub u_oc: f64,
+    /// With an OCV curve: the offset ΔU (V) the model adds to `OCV(SOC)`
+    /// (null without a curve).
+    pub ocv_offset_v: Option<f64>,
+    /// With an OCV curve: SOC at the start of the record, before the first
+    /// row's charge (null without a curve).
+    pub soc0: Option<f64>,
+    /// With an OCV curve: SOC after the last row,
+    /// `soc0 + h·Σ I/(3600·C)` (null without a curve).
+    pub soc_end: Option<f64>,
+    /// `"linear"` or `"butler-volmer"`: the model of these estimates.
+    pub model: &'static str,
+    /// Butler–Volmer coefficient a (V) of a·asinh(I/i₀) (null for the
+    /// linear model).
+    pub bv_a_v: Option<f64>,
+    /// Butler–Volmer exchange current i₀ (A) (null for the linear model).
+    pub bv_i0_a: Option<f64>,
+    /// With `--model auto` or `butler-volmer`: both fits and why the model
+    /// was chosen (null for `--model linear`).
+    pub model_choice: Option<ModelChoice>,
+    /// RMSE of the identified model's simulated voltage against the file (V).
+    pub rmse_v: f64,
+    /// Iterations (2S-OP-GI + refinement).
+    pub iterations: u32,
+    /// Converged.
+    pub converged: bool,
+    /// Per-iteration cost of 2S-OP-GI.
+    pub history: Vec<HistoryEntry>,
+    /// The fit can be trusted: no reason against it holds (see
+    /// `identifiable_reason`, docs/trust.md).
+    pub identifiable: bool,
+    /// Why not, one clause per reason (null when identifiable).
+    pub identifiable_reason: Option<String>,
+    /// 95 % intervals `[lo, hi]` of `r_i`, `r_ct`, `q`, `alpha` (null when
+    /// the information matrix is singular).
+    pub confidence: Option<trust::Confidence>,
+    /// Lag-1 autocorrelation of the residuals over the accepted rows (the
+    /// intervals are widened by `√((1+ρ)/(1−ρ))` for it).
+    pub residual_lag1_correlation: f64,
+    /// `1 − RSS/TSS` of the voltage over the accepted rows.
+    pub explained_variance: f64,
+    /// Rows rejected (not finite, out of range, spikes against the model),
+    /// substituted and not fitted.
+    pub rejected: u32,
+    /// The rejected rows by reason.
+    pub rejected_rows: trust::RejectedRows,
+}
+
+/// What `identify battery` computed, for the plots and the report.
+pub struct BatteryResult {
+    /// The JSON summary.
+    pub json: BatteryJson,
+    /// The identified cell.
+    pub cell: CellParameters<f64>,
+    /// Estimates of 2S-OP-GI per iteration (None while not physical).
+    pub paper_track: Vec<Option<CellParameters<f64>>>,
+    /// The identified model's voltage over the record.
+    pub model_voltage: Vec<f64>,
+    /// The Gauss–Newton information of the published fit at its estimate
+    /// (None when it could not be computed).
+    pub information: Option<FitInformation<f64>>,
+    /// The order bounds of the fit.
+    pub alpha_bounds: [f64; 2],
+}
+
+/// Simulates `cell` over a current record from rest (memory ≤ 4096).
+pub fn model_voltage(cell: &CellParameters<f64>, h: f64, current: &[f64]) -> Result<Vec<f64>> {
+    let mem = current.len().clamp(1, BAT_MEM);
+    let mut w = Box::new(GlWeights::<f64, BAT_MEM>::new(cell.alpha, h, mem)?);
+    let (mut up, mut v) = (vec![0.0; current.len()], vec![0.0; current.len()]);
+    simulate(cell, &mut w, current, |_| cell.u_oc, &mut up, &mut v)?;
+    Ok(v)
+}
+
+fn rmse(a: &[f64], b: &[f64]) -> f64 {
+    let s: f64 = a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum();
+    (s / a.len().max(1) as f64).sqrt()
+}
+
+/// A rough physical start from the data alone: least squares of U on
+/// [1, I] gives U_oc and R_i + R_ct; split evenly, α = 0.7, τ = 5 s^α.
+fn rough_start(current: &[f64], voltage: &[f64]) -> CellParameters<f64> {
+    let n = current.len() as f64;
+    let mi = current.iter().sum::<f64>() / n;
+    let mv = voltage.iter().sum::<f64>() / n;
+    let sii: f64 = current.iter().map(|i| (i - mi) * (i - mi)).sum();
+    let siv: f64 = current
+        .iter()
+        .zip(voltage)
+        .map(|(i, v)| (i - mi) * (v - mv))
+        .sum();
+    let r = if sii > 0.0 {
+        (siv / sii).abs().max(1e-5)
+    } else {
+        0.01
+    };
+    CellParameters {
+        r_i: r / 2.0,
+        r_ct: r / 2.0,
+        q: 5.0 / (r / 2.0),
+        alpha: 0.7,
+        u_oc: mv - r * mi,
+        bv_a: 0.0,
+        bv_i0: 1.0,
+    }
+}
+
+/// Identifies a battery record (`method` paper or refined), printing the
+/// 2S-OP-GI table of estimates versus k when `print_table` is set.
+pub fn battery_run(
+    path: &Path,
+    rec: &io::BatteryRecord,
+    method: BatteryMethod,
+    memory: Option<usize>,
+    iterations: u32,
+    print_table: bool,
+) -> Result<BatteryResult> {
+    battery_run_with(
+        path,
+        rec,
+        method,
+        memory,
+        iterations,
+        print_table,
+        Refine::default(),
+    )
+}
+
+/// Options of the output-error refinement.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Refine {
+    /// Memory (default: the whole record, at most [`BAT_MEM`]).
+    pub memory: Option<usize>,
+    /// Fit the OCV slope.
+    pub ocv_slope: bool,
+    /// The cell model (default linear: the paper's).
+    pub model: ModelRequest,
+}
+
+/// [`battery_run`] with refinement options.
+pub fn battery_run_with(
+    path: &Path,
+    rec: &io::BatteryRecord,
+    method: BatteryMethod,
+    memory: Option<usize>,
+    iterations: u32,
+    print_table: bool,
+    refine: Refine,
+) -> Result<BatteryResult> {
+    // Estimator state sized to the record (a 1 000-row file does not
+    // allocate and clear the state of an 8 192-row one).
+    let run = match rec.current.len() {
+        0..=1024 => battery_run_sized::<1024, 1024>,
+        1025..=2048 => battery_run_sized::<2048, 2048>,
+        2049..=4096 => battery_run_sized::<4096, BAT_MEM>,
+        _ => battery_run_sized::<MAX_ROWS, BAT_MEM>,
+    };
+    run(path, rec, method, memory, iterations, print_table, refine)
+}
+
+/// [`battery_run_with`] for records of at most `N` rows, memories up to
+/// `MEM = min(N, BAT_MEM)`.
+fn battery_run_sized<const N: usize, const MEM: usize>(
+    path: &Path,
+    rec: &io::BatteryRecord,
+    method: BatteryMethod,
+    memory: Option<usize>,
+    iterations: u32,
+    print_table: bool,
+    refine: Refine,
+) -> Result<BatteryResult> {
+    let n = rec.current.len();
+    let mem = memory.unwrap_or(256.min(n / 2).max(1));
+    let need = mem - 1 + estimator_core::battery::regression::MIN_ROWS;
+    if mem == 0 || mem > BAT_MEM {
+        bail!(Options, "--memory {mem}: must be in 1..={BAT_MEM}");
+    }
+    if n < need {
+        bail!(
+            Data,
+            "{}: {n} data rows; memory {mem} needs at least {need}",
+            path.display()
+        );
+    }
+    let ctx = |e: estimator_core::Error| err!(Estimator, "{}: {e}", path.display());
+    let mut win = Box::new(SampleWindow::<f64, N>::new());
+    for (&i, &v) in rec.current.iter().zip(&rec.voltage) {
+        win.push(i, v).map_err(ctx)?;
+    }
+    let sg = BatterySettings::new(rec.h, mem);
+    let mut gi = Box::new(PaperRegressionGi::<f64, N, MEM>::new(&sg, 0.5).map_err(ctx)?);
+    let mut history = Vec::new();
+    let mut track = Vec::new();
+    let mut converged = false;
+    if print_table {
+        println!(
+            "{:>5} {:>10} {:>10} {:>10} {:>8} {:>9} {:>12}",
+            "k", "R_i", "R_ct", "Q", "alpha", "U_oc", "cost"
+        );
+    }
+    for _ in 0..iterations {
+        let it = gi.iterate(&sg, &*win).map_err(ctx)?;
+        history.push(HistoryEntry {
+            k: it.k,
+            alpha: it.alpha,
+            cost: it.cost,
+        });
+        let cell = gi.cell();
+        track.push(cell);
+        converged = it.converged;
+        if print_table && (table_row(it.k) || it.converged) {
+            match cell {
+                Some(c) => println!(
+                    "{:>5} {:>10.6} {:>10.6} {:>10.3} {:>8.4} {:>9.5} {:>12.5e}",
+                    it.k, c.r_i, c.r_ct, c.q, c.alpha, c.u_oc, it.cost
+                ),
+                None => println!(
+                    "{:>5} {:>10} {:>10} {:>10} {:>8.4} {:>9} {:>12.5e}",
+                    it.k, "-", "-", "-", it.alpha, "-", it.cost
+                ),
+            }
+        }
+        if it.converged {
+            break;
+        }
+    }
+    let mut iters = history.len() as u32;
+    let mut choice = None;
+    if method == BatteryMethod::Paper && refine.model == ModelRequest::ButlerVolmer {
+        bail!(
+            Options,
+            "--model butler-volmer needs --method refined (the paper's regression is linear)"
+        );
+    }
+    let (cell, rmse_v, information, alpha_bounds) = match method {
+        BatteryMethod::Paper => {
+            let cell = gi.cell().ok_or_else(|| {
+                err!(
+                    Data,
+                    "{}: 2S-OP-GI has no physical estimate after {iters} iterations (try more --iterations, or --method refined)",
+                    path.display()
+                )
+            })?;
+            // The information of the output-error criterion at the paper's
+            // estimate (for its intervals; nothing is refitted).
+            let si = BatterySettings::new(rec.h, n.min(BAT_MEM));
+            let info = OutputErrorRefinement::<f64, N, MEM>::new(&si, cell)
+                .and_then(|mut oe| oe.information(&si, &*win))
+                .ok();
+            // The RMSE of the model voltage, computed below.
+            (cell, None, info, [si.alpha_min, si.alpha_max])
+        }
+        BatteryMethod::Refined => {
+            let rm = refine.memory.unwrap_or(n.min(BAT_MEM));
+            if rm == 0 || rm > BAT_MEM.min(n) {
+                bail!(
+                    Options,
+                    "--refine-memory {rm}: must be in 1..={} for {n} rows",
+                    BAT_MEM.min(n)
+                );
+            }
+            let mut so = BatterySettings::new(rec.h, rm);
+            so.ocv_slope = refine.ocv_slope;
+            let start = gi
+                .cell()
+                .filter(|c| c.alpha >= so.alpha_min && c.alpha <= so.alpha_max)
+                .unwrap_or_else(|| rough_start(&rec.current, &rec.voltage));
+            let mut lin = refine_fit::<N, MEM>(&so, start, &win).map_err(ctx)?;
+            iters += lin.iterations;
+            let bounds = [so.alpha_min, so.alpha_max];
+            if refine.model == ModelRequest::Linear {
+                converged = lin.converged;
+                let info = lin.oe.information(&so, &*win).ok();
+                (lin.cell, Some(lin.rmse), info, bounds)
+            } else {
+                let (mut fit, why) =
+                    choose_model(&so, &lin, &win, &rec.current, refine.model).map_err(ctx)?;
+                iters += fit.iterations;
+                converged = fit.converged;
+                choice = Some(why);
+                let sf = BatterySettings {
+                    model: if fit.cell.is_butler_volmer() {
+                        CellModel::ButlerVolmer
+                    } else {
+                        CellModel::Linear
+                    },
+                    ..so
+                };
+                let info = fit.oe.information(&sf, &*win).ok();
+                (fit.cell, Some(fit.rmse), info, bounds)
+            }
+        }
+    };
+    let model = model_voltage(&cell, rec.h, &rec.current)?;
+    let rmse_v = rmse_v.unwrap_or_else(|| rmse(&model, &rec.voltage));
+    Ok(BatteryResult {
+        json: BatteryJson {
+            method: method.as_str(),
+            r_i: cell.r_i,
+            r_ct: cell.r_ct,
+            q: cell.q,
+            alpha: cell.alpha,
+            u_oc: cell.u_oc,
+            ocv_offset_v: None,
+            soc0: None,
+            soc_end: None,
+            model: if cell.is_butler_volmer() {
+                CellModel::ButlerVolmer.as_str()
+            } else {
+                CellModel::Linear.as_str()
+            },
+            bv_a_v: cell.is_butler_volmer().then_some(cell.bv_a),
+            bv_i0_a: cell.is_butler_volmer().then_some(cell.bv_i0),
+            model_choice: choice,
+            rmse_v,
+            iterations: iters,
+            converged,
+            history,
+            identifiable: false,
+            identifiable_reason: None,
+            confidence: None,
+            residual_lag1_correlation: f64::NAN,
+            explained_variance: f64::NAN,
+            rejected: 0,
+            rejected_rows: trust::RejectedRows::default(),
+        },
+        cell,
+        paper_track: track,
+        model_voltage: model,
+        information,
+        alpha_bounds,
+    })
+}
+
+/// [`battery_run_with`] on a record with or without the cell's OCV curve:
+/// with one, the estimators fit the overpotential `U_t − OCV(SOC)` (the
+/// fitted `U_oc` is the offset ΔU) and the result is mapped back to
+/// terminal voltages (`u_oc` at the end of the record, the model voltage
+/// with the OCV along the record).
+#[allow(clippy::too_many_arguments)]
+pub fn battery_identify(
+    path: &Path,
+    rec: &io::BatteryRecord,
+    cell_ocv: Option<&crate::ocv::CellOcv>,
+    method: BatteryMethod,
+    memory: Option<usize>,
+    iterations: u32,
+    print_table: bool,
+    refine: Refine,
+) -> Result<BatteryResult> {
+    let mut r = battery_identify_unassessed(
+        path,
+        rec,
+        cell_ocv,
+        method,
+        memory,
+        iterations,
+        print_table,
+        refine,
+    )?;
+    apply_assessment(&mut r, &trust::Screened::accepted(rec));
+    Ok(r)
+}
+
+/// The model `--model` asks for under `--method`: the paper's regression
+/// is linear, so `auto` has nothing to choose there.
+pub fn model_for(model: ModelRequest, method: BatteryMethod) -> ModelRequest {
+    match (model, method) {
+        (ModelRequest::Auto, BatteryMethod::Paper) => ModelRequest::Linear,
+        (m, _) => m,
+    }
+}
+
+/// Writes the verdict of [`trust::assess`] into the JSON.
+fn apply_assessment(r: &mut BatteryResult, sc: &trust::Screened) {
+    let a = trust::assess(
+        sc,
+        &r.cell,
+        r.information.as_ref(),
+        r.alpha_bounds,
+        &r.model_voltage,
+    );
+    let j = &mut r.json;
+    j.identifiable = a.identifiable;
+    j.identifiable_reason = (!a.identifiable).then(|| a.reasons.join("; "));
+    j.confidence = a.confidence;
+    j.residual_lag1_correlation = a.residual_correlation;
+    j.explained_variance = a.explained;
+    let counts = sc.counts();
+    j.rejected = counts.total();
+    j.rejected_rows = counts;
+    if counts.total() > 0 {
+        // The RMSE over the accepted rows, against the measured voltages.
+        let (s, k) = sc
+            .measured
+            .iter()
+            .zip(&r.model_voltage)
+            .zip(&sc.rejected)
+            .filter(|(_, rej)| rej.is_none())
+            .fold((0.0, 0usize), |(s, k), ((v, m), _)| {
+                (s + (v - m) * (v - m), k + 1)
+            });
+        j.rmse_v = (s / k.max(1) as f64).sqrt();
+    }
+}
+
+/// [`battery_identify`] on a record whose bad rows are rejected first,
+/// then refitted without the spikes against the model (docs/trust.md): the
+/// rows rejected are substituted and counted (`rejected`, `rejected_rows`),
+/// and the verdict is computed over the accepted rows.
+///
+/// # Errors
+/// As [`battery_identify`], and when every row is rejected.
+#[allow(clippy::too_many_arguments)]
+pub fn battery_identify_screened(
+    path: &Path,
+    rec: &io::BatteryRecord,
+    limits: &trust::Limits,
+    ocv: Option<&crate::ocv::OcvSpec>,
+    method: BatteryMethod,
+    memory: Option<usize>,
+    iterations: u32,
+    print_table: bool,
+    refine: Refine,
+) -> Result<(BatteryResult, trust::Screened)> {
+    let mut sc = trust::screen(path, rec, limits)?;
+    let cell_ocv = ocv.map(|o| o.resolve(path, &sc.record)).transpose()?;
+    let fit = |record: &io::BatteryRecord, print_table: bool| {
+        battery_identify_unassessed(
+            path,
+            record,
+            cell_ocv.as_ref(),
+            method,
+            memory,
+            iterations,
+            print_table,
+            refine,
+        )
+    };
+    let mut r = fit(&sc.record, print_table)?;
+    // No earlier fit yet: nothing has settled.
+    let mut previous = CellParameters {
+        alpha: f64::NAN,
+        ..r.cell
+    };
+    for _ in 0..trust::MAX_SPIKE_PASSES {
+        let new = sc.find_spikes(&r.model_voltage, limits);
+        // A substitute from an earlier fit pulls the refit towards it;
+        // refitting with the latest model's substitutes converges fast
+        // (each pass by the fraction of rejected rows).
+        if new == 0 && (sc.counts().total() == 0 || trust::settled(&r.cell, &previous)) {
+            break;
+        }
+        previous = r.cell;
+        sc.substitute_model(&r.model_voltage);
+        r = fit(&sc.record, false)?;
+    }
+    apply_assessment(&mut r, &sc);
+    Ok((r, sc))
+}
+
+/// [`battery_identify`] without the verdict.
+#[allow(clippy::too_many_arguments)]
+fn battery_identify_unassessed(
+    path: &Path,
+    rec: &io::BatteryRecord,
+    cell_ocv: Option<&crate::ocv::CellOcv>,
+    method: BatteryMethod,
+    memory: Option<usize>,
+    iterations: u32,
+    print_table: bool,
+    refine: Refine,
+) -> Result<BatteryResult> {
+    let Some(c) = cell_ocv else {
+        return battery_run_with(path, rec, method, memory, iterations, print_table, refine);
+    };
+    if refine.ocv_slope {
+        bail!(
+            Options,
+            "--ocv-slope goes without --ocv (the OCV curve carries the drift)"
+        );
+    }
+    let (y, soc_end) = c.overpotential_record(rec);
+    let mut r = battery_run_with(path, &y, method, memory, iterations, print_table, refine)?;
+    let offset = r.cell.u_oc;
+    for (m, (v, yv)) in r
+        .model_voltage
+        .iter_mut()
+        .zip(rec.voltage.iter().zip(&y.voltage))
+    {
+        // The overpotential model plus the OCV it was taken from.
+        *m += v - yv;
+    }
+    r.json.u_oc = c.model.table.ocv(soc_end) + offset;
+    r.json.ocv_offset_v = Some(offset);
+    r.json.soc0 = Some(c.soc0);
+    r.json.soc_end = Some(soc_end);
+    Ok(r)
+}
+
+/// How `identify battery` fits a record: every flag but the files and the
+/// outputs. The default is the CLI's.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, serde::Deserialize)]
+#[serde(default)]
+pub struct BatteryFitOptions {
+    /// The paper's regression, or the refinement started from it.
+    pub method: BatteryMethod,
+    /// Memory M of the paper regression (default 256).
+    pub memory: Option<usize>,
+    /// Iterations of 2S-OP-GI (default 50).
+    pub iterations: Option<u32>,
+    /// Memory of the refinement (default: the whole record, at most
+    /// [`BAT_MEM`]).
+    pub refine_memory: Option<usize>,
+    /// Fit an OCV slope dU_oc/dq (without an OCV curve).
+    pub ocv_slope: bool,
+    /// The cell model asked for (`auto` by default in the CLI; see
+    /// [`model_for`]).
+    pub model: ModelRequest,
+    /// The cell's OCV curve, capacity and start SOC.
+    pub ocv: crate::ocv::OcvOptions,
+    /// Lowest plausible voltage (V; default [`trust::Limits`]').
+    pub voltage_min: Option<f64>,
+    /// Highest plausible voltage (V).
+    pub voltage_max: Option<f64>,
+    /// Largest plausible |current| (A).
+    pub current_limit: Option<f64>,
+}
+
+/// Iterations of 2S-OP-GI when [`BatteryFitOptions::iterations`] is not
+/// given.
+pub const DEFAULT_ITERATIONS: u32 = 50;
+
+/// What [`battery_file`] read and fitted.
+pub struct BatteryFile {
+    /// The record as read (at most [`super::MAX_ROWS`] rows).
+    pub record: io::BatteryRecord,
+    /// The fit, its JSON and its model voltage.
+    pub result: BatteryResult,
+    /// The rows rejected and substituted.
+    pub screened: trust::Screened,
+}
+
+/// `identify battery` on the file `input`: reads at most
+/// [`super::MAX_ROWS`] rows (a note on stderr says when it was cut), checks
+/// the options before the file is read where it can, screens the bad rows
+/// and fits as `o` says. With `print_table`, the 2S-OP-GI table of
+/// estimates versus k goes to stdout, as the CLI shows it.
+///
+/// # Errors
+/// A file that cannot be read, data or options that are refused, or an
+/// estimator that stops.
+pub fn battery_file(input: &Path, o: &BatteryFitOptions, print_table: bool) -> Result<BatteryFile> {
+    let rec = io::read_battery(input, Some(super::MAX_ROWS))?;
+    if let Some(note) = super::truncation_note(input, rec.current.len()) {
+        eprintln!("{note}");
+    }
+    let refine = Refine {
+        memory: o.refine_memory,
+        ocv_slope: o.ocv_slope,
+        model: model_for(o.model, o.method),
+    };
+    let limits = trust::Limits::checked(o.voltage_min, o.voltage_max, o.current_limit)?;
+    let ocv = crate::ocv::OcvSpec::from_options(&o.ocv)?;
+    let (result, screened) = battery_identify_screened(
+        input,
+        &rec,
+        &limits,
+        ocv.as_ref(),
+        o.method,
+        o.memory,
+        o.iterations.unwrap_or(DEFAULT_ITERATIONS),
+        print_table,
+        refine,
+    )?;
+    Ok(BatteryFile {
+        record: rec,
+        result,
+        screened,
+    })
+}
+
+/// Writes `time_s,voltage_v,model_v` (the `--fit-out` file): the
+/// identified model's free-run voltage beside the record's.
+pub fn write_fit_csv(path: &Path, rec: &io::BatteryRecord, model_v: &[f64]) -> Result<()> {
+    io::write_csv(
+        path,
+        &["time_s", "voltage_v", "model_v"],
+        rec.time
+            .iter()
+            .zip(&rec.voltage)
+            .zip(model_v)
+            .map(|((t, v), m)| [format!("{t}"), format!("{v:.9}"), format!("{m:.9}")]),
+    )
+}

@@ -1,0 +1,38 @@
+//! The worker thread every whole-record function runs on: the estimators
+//! hold their windows inline and are built on the stack before boxing, so
+//! they need a larger stack than a caller's thread has. The CLI runs every
+//! command on it, the Python face every fit (without the GIL).
+
+use crate::error::{Error, ErrorKind};
+
+/// Stack of the worker thread (bytes).
+pub const WORKER_STACK: usize = 512 << 20;
+
+/// Runs `f` on a worker thread with [`WORKER_STACK`] bytes of stack and
+/// returns what it returns. A panic comes back as an
+/// [`ErrorKind::Internal`] error.
+///
+/// ```
+/// let n = fracbms_host::worker::on_worker(|| Ok::<_, fracbms_host::Error>(2 + 2))?;
+/// assert_eq!(n, 4);
+/// # Ok::<(), fracbms_host::Error>(())
+/// ```
+pub fn on_worker<R: Send, E: Send + From<Error>>(
+    f: impl FnOnce() -> std::result::Result<R, E> + Send,
+) -> std::result::Result<R, E> {
+    std::thread::scope(|scope| {
+        match std::thread::Builder::new()
+            .stack_size(WORKER_STACK)
+            .spawn_scoped(scope, f)
+        {
+            Ok(h) => h.join().unwrap_or_else(|_| {
+                Err(Error::new(ErrorKind::Internal, "internal error (please report it)").into())
+            }),
+            Err(e) => Err(Error::new(
+                ErrorKind::Internal,
+                format!("cannot start the worker thread: {e}"),
+            )
+            .into()),
+        }
+    })
+}

@@ -1,0 +1,253 @@
+//! `identify hammerstein|battery`: the flags, and what each prints.
+
+use super::{AlgorithmArg, BatteryMethodArg, HammersteinMethodArg, ModelArg};
+use anyhow::{Context, Result};
+use fracbms_host::identify::battery::{self as battery_fit, BatteryFitOptions};
+use fracbms_host::identify::hammerstein::{self as hammerstein_fit, HammersteinOptions};
+use fracbms_host::ocv::OcvOptions;
+use fracbms_host::{io, plot};
+use std::path::PathBuf;
+
+/// `identify hammerstein`.
+#[derive(clap::Args, Debug)]
+pub struct IdHammersteinArgs {
+    /// Input CSV with columns u,y.
+    #[arg(long)]
+    pub input: PathBuf,
+    #[command(flatten)]
+    pub fit: HammersteinFlags,
+    /// Write the estimates as JSON.
+    #[arg(long)]
+    pub json: Option<PathBuf>,
+}
+
+/// How `identify hammerstein` fits (every flag but the files):
+/// [`HammersteinOptions`].
+#[derive(clap::Args, Debug, Clone)]
+pub struct HammersteinFlags {
+    /// Method: `paper` (the algorithm alone) or `refined` (the
+    /// prediction-error refinement started from it: maximum likelihood,
+    /// the most accurate; docs/identification.md).
+    #[arg(long, value_enum, default_value = "refined")]
+    pub method: HammersteinMethodArg,
+    /// Algorithm of the paper stage (the whole method with `--method paper`,
+    /// the start of the refinement with `refined`).
+    #[arg(long, value_enum, default_value = "op")]
+    pub algorithm: AlgorithmArg,
+    /// Order of A(z).
+    #[arg(long, default_value_t = 2)]
+    pub na: usize,
+    /// Order of B(z).
+    #[arg(long, default_value_t = 3)]
+    pub nb: usize,
+    /// Order of the noise polynomial C(z).
+    #[arg(long, default_value_t = 2)]
+    pub nc: usize,
+    /// Basis of the nonlinearity: poly:m means f_j(u) = u^j, j = 1..m.
+    #[arg(long, default_value = "poly:2")]
+    pub basis: String,
+    /// Memory of the fractional differences (default: all rows, at most 4096).
+    #[arg(long)]
+    pub memory: Option<usize>,
+    /// Iterations of the paper stage.
+    #[arg(long, default_value_t = 100)]
+    pub iterations: u32,
+    /// Most iterations of the refinement (its global search over the order
+    /// included).
+    #[arg(long, default_value_t = 400)]
+    pub refine_iterations: u32,
+    /// Initial order α̂₀.
+    #[arg(long, default_value_t = 0.45)]
+    pub alpha0: f64,
+}
+
+/// `identify battery`.
+#[derive(clap::Args, Debug)]
+pub struct IdBatteryArgs {
+    /// Input CSV with columns time_s,current_a,voltage_v.
+    #[arg(long)]
+    pub input: PathBuf,
+    /// Method (default: refined, the most accurate).
+    #[arg(long, value_enum, default_value = "refined")]
+    pub method: BatteryMethodArg,
+    /// Algorithm of the paper stage (the battery regression has no b·γ
+    /// products to separate, so kt runs the same iteration as op).
+    #[arg(long, value_enum, default_value = "op")]
+    pub algorithm: AlgorithmArg,
+    /// Memory M of the paper regression (default 256); the refinement uses
+    /// the whole record (at most 4096).
+    #[arg(long)]
+    pub memory: Option<usize>,
+    /// Iterations of 2S-OP-GI (paper method, or the start of the refinement).
+    #[arg(long, default_value_t = 50)]
+    pub iterations: u32,
+    /// Memory of the refinement (default: the whole record, at most 4096;
+    /// give the firmware's memory to compare with it).
+    #[arg(long)]
+    pub refine_memory: Option<usize>,
+    /// Fit an OCV slope dU_oc/dq (the state of charge drifting through the
+    /// record; without --ocv).
+    #[arg(long)]
+    pub ocv_slope: bool,
+    /// Cell model: `linear` (R_i + R_ct‖CPE), `butler-volmer` (plus
+    /// a·asinh(I/i₀), started from the linear fit) or `auto` (the nonlinear
+    /// model only when the data identify it: current beyond i₀, a's 95 %
+    /// interval away from 0, those of R_i, R_ct, Q and i₀ within a factor
+    /// e, and a lower BIC; the JSON's `model_choice` says why).
+    #[arg(long, value_enum, default_value = "auto")]
+    pub model: ModelArg,
+    #[command(flatten)]
+    pub cell: OcvArgs,
+    /// Lowest plausible voltage (V; default 1.5, as online): rows below are
+    /// rejected, substituted and counted in the JSON's `rejected`, as are
+    /// non-finite rows and voltage spikes against the fitted model
+    /// (beyond max(8 robust σ, 50 mV); docs/trust.md).
+    #[arg(long)]
+    pub voltage_min: Option<f64>,
+    /// Highest plausible voltage (V; default 5).
+    #[arg(long)]
+    pub voltage_max: Option<f64>,
+    /// Largest plausible |current| (A; default 500).
+    #[arg(long)]
+    pub current_limit: Option<f64>,
+    /// Write the estimates as JSON.
+    #[arg(long)]
+    pub json: Option<PathBuf>,
+    /// Write `time_s,voltage_v,model_v`: the identified model's free-run
+    /// simulation from the current alone (OCV, ΔU and all) beside the data.
+    #[arg(long)]
+    pub fit_out: Option<PathBuf>,
+    /// Write Figures 8–11 for this file (SVG) into this directory.
+    #[arg(long)]
+    pub plot: Option<PathBuf>,
+}
+
+/// The cell's open-circuit voltage curve and state of charge.
+#[derive(clap::Args, Debug, Clone, Default)]
+pub struct OcvArgs {
+    /// OCV table CSV with header `soc,ocv_v` (soc in [0, 1], both columns
+    /// increasing): the model fits U_t − OCV(SOC) with the SOC counted from
+    /// the current, and its U_oc becomes a small offset ΔU.
+    #[arg(long)]
+    pub ocv: Option<PathBuf>,
+    /// Capacity (A·h) for coulomb counting (needed with --ocv).
+    #[arg(long)]
+    pub capacity_ah: Option<f64>,
+    /// State of charge at the start of the record, before the first row's
+    /// charge (default: read from the first rows' voltage through the
+    /// inverse OCV; the record must then start at rest).
+    #[arg(long)]
+    pub soc0: Option<f64>,
+}
+
+impl From<&HammersteinFlags> for HammersteinOptions {
+    fn from(a: &HammersteinFlags) -> Self {
+        Self {
+            method: a.method.into(),
+            algorithm: a.algorithm.into(),
+            na: a.na,
+            nb: a.nb,
+            nc: a.nc,
+            basis: a.basis.clone(),
+            memory: a.memory,
+            iterations: a.iterations,
+            refine_iterations: a.refine_iterations,
+            alpha0: a.alpha0,
+        }
+    }
+}
+
+impl From<&OcvArgs> for OcvOptions {
+    fn from(a: &OcvArgs) -> Self {
+        Self {
+            ocv: a.ocv.clone(),
+            capacity_ah: a.capacity_ah,
+            soc0: a.soc0,
+        }
+    }
+}
+
+// Not inlined into `cli::run`: the estimators are built on the stack before
+// boxing, and an inlined frame of every command would be probed (page
+// faults over megabytes) even for the command that does not run.
+#[inline(never)]
+pub(super) fn hammerstein(a: IdHammersteinArgs) -> Result<()> {
+    let j = hammerstein_fit::hammerstein_json(&a.input, &(&a.fit).into())?;
+    println!(
+        "alpha = {:.5}, iterations = {}, converged = {}, cost = {:.6e}",
+        j.alpha, j.iterations, j.converged, j.cost
+    );
+    if let Some(p) = &a.json {
+        io::write_json(p, &j)?;
+        eprintln!("wrote {}", p.display());
+    }
+    Ok(())
+}
+
+#[inline(never)]
+pub(super) fn battery(a: IdBatteryArgs) -> Result<()> {
+    let _ = a.algorithm; // op and kt coincide for the battery regression
+    let o = BatteryFitOptions {
+        method: a.method.into(),
+        memory: a.memory,
+        iterations: Some(a.iterations),
+        refine_memory: a.refine_memory,
+        ocv_slope: a.ocv_slope,
+        model: a.model.into(),
+        ocv: (&a.cell).into(),
+        voltage_min: a.voltage_min,
+        voltage_max: a.voltage_max,
+        current_limit: a.current_limit,
+    };
+    let f = battery_fit::battery_file(&a.input, &o, true)?;
+    let (rec, r, sc) = (&f.record, &f.result, &f.screened);
+    if let Some(w) = sc.warning(&a.input) {
+        eprintln!("{w}");
+    }
+    let j = &r.json;
+    println!(
+        "{}: R_i = {:.6} Ω, R_ct = {:.6} Ω, Q = {:.3}, alpha = {:.4}, U_oc = {:.5} V, rmse = {:.3e} V ({} iterations, converged: {})",
+        j.method, j.r_i, j.r_ct, j.q, j.alpha, j.u_oc, j.rmse_v, j.iterations, j.converged
+    );
+    match &j.confidence {
+        Some(c) => println!(
+            "95 % intervals: R_i [{:.6}, {:.6}] Ω, R_ct [{:.6}, {:.6}] Ω, Q [{:.4}, {:.4}], alpha [{:.4}, {:.4}] (residual lag-1 correlation {:.2})",
+            c.r_i[0], c.r_i[1], c.r_ct[0], c.r_ct[1], c.q[0], c.q[1], c.alpha[0], c.alpha[1],
+            j.residual_lag1_correlation
+        ),
+        None => println!("95 % intervals: none (the information matrix is singular)"),
+    }
+    if let Some(why) = &j.identifiable_reason {
+        eprintln!(
+            "warning: {}: the fit is not identifiable: {why}",
+            a.input.display()
+        );
+    }
+    if let (Some(x), Some(i0)) = (j.bv_a_v, j.bv_i0_a) {
+        println!("Butler–Volmer: a = {:.3} mV, i0 = {i0:.4} A", x * 1e3);
+    }
+    if let Some(c) = &j.model_choice {
+        println!("model: {} ({})", c.chosen, c.reason);
+    }
+    if let (Some(d), Some(z0), Some(z1)) = (j.ocv_offset_v, j.soc0, j.soc_end) {
+        println!(
+            "OCV curve: offset ΔU = {:.2} mV, SOC {z0:.4} → {z1:.4}",
+            d * 1e3
+        );
+    }
+    if let Some(p) = &a.fit_out {
+        battery_fit::write_fit_csv(p, rec, &r.model_voltage)?;
+        eprintln!("wrote {}", p.display());
+    }
+    if let Some(p) = &a.json {
+        io::write_json(p, j)?;
+        eprintln!("wrote {}", p.display());
+    }
+    if let Some(dir) = &a.plot {
+        std::fs::create_dir_all(dir)
+            .with_context(|| format!("{}: cannot create", dir.display()))?;
+        plot::battery_figures(dir, rec, &r.model_voltage, &r.json.history)?;
+        eprintln!("wrote Figures 8–11 to {}", dir.display());
+    }
+    Ok(())
+}

@@ -1,0 +1,202 @@
+//! The command line: `simulate`, `identify`, `online`, `reproduce`.
+//!
+//! Only arguments: each command's module is a table of flags (clap) that
+//! turns them into `fracbms-host`'s options, calls one library function
+//! and prints. Nothing here computes; a new capability goes into
+//! `fracbms-host` first, so that the C and Python faces get it too.
+
+mod identify;
+mod online;
+mod reproduce;
+mod simulate;
+
+use anyhow::Result;
+use clap::{Parser, Subcommand};
+use estimator_core::battery::Start;
+use fracbms_host::identify::{Algorithm, BatteryMethod, HammersteinMethod, ModelRequest};
+use fracbms_host::online::Precision;
+use fracbms_host::reproduce::ReproducePart;
+
+/// Simulate, identify and track fractional-order Hammerstein systems and
+/// battery cells (Ji, Wang & Meng), on files.
+#[derive(Parser, Debug)]
+#[command(name = "host-sim", version, about, propagate_version = true)]
+pub struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// Make synthetic data.
+    #[command(subcommand)]
+    Simulate(SimulateCmd),
+    /// Identify a model from a file.
+    #[command(subcommand)]
+    Identify(IdentifyCmd),
+    /// Feed a file sample by sample through the sliding-window estimator.
+    #[command(subcommand)]
+    Online(OnlineCmd),
+    /// Regenerate the paper's tables and figures as a Markdown report with SVG figures.
+    Reproduce(reproduce::ReproduceArgs),
+}
+
+#[derive(Subcommand, Debug)]
+enum SimulateCmd {
+    /// Eq. (4) with the paper's Example 1 values; writes `u,y`.
+    Hammerstein(simulate::SimHammersteinArgs),
+    /// The fractional battery model of §6.2; writes `time_s,current_a,voltage_v,soc`.
+    Battery(simulate::SimBatteryArgs),
+    /// A series pack of cells sharing one current; writes
+    /// `time_s,current_a,cell_1_v,…,cell_N_v` and the truth beside it as JSON.
+    Pack(simulate::SimPackArgs),
+}
+
+#[derive(Subcommand, Debug)]
+enum IdentifyCmd {
+    /// 2S-OP-GI or KT-2S-GI on a `u,y` file.
+    Hammerstein(identify::IdHammersteinArgs),
+    /// R_i, R_ct, Q, α, U_oc from a `time_s,current_a,voltage_v` file.
+    Battery(identify::IdBatteryArgs),
+}
+
+#[derive(Subcommand, Debug)]
+enum OnlineCmd {
+    /// Track a cell's parameters over a sliding window, as the firmware does.
+    Battery(online::OnlineBatteryArgs),
+    /// Track every cell of a pack record (`time_s,current_a,cell_1_v,…`),
+    /// as the firmware's pack estimator does.
+    Pack(online::OnlinePackArgs),
+}
+
+/// A flag's values (clap) for one of the library's option enums, with the
+/// conversion: the variants' docs are the flag's help.
+macro_rules! value_enum {
+    ($(#[$m:meta])* $arg:ident => $lib:ident { $($(#[$vm:meta])* $v:ident),+ $(,)? }) => {
+        $(#[$m])*
+        #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+        pub enum $arg {
+            $($(#[$vm])* $v),+
+        }
+
+        impl From<$arg> for $lib {
+            fn from(a: $arg) -> Self {
+                match a {
+                    $($arg::$v => $lib::$v),+
+                }
+            }
+        }
+    };
+}
+
+value_enum! {
+    /// Hammerstein algorithm.
+    AlgorithmArg => Algorithm {
+        /// 2S-OP-GI (over-parameterization).
+        Op,
+        /// KT-2S-GI (key term separation).
+        Kt,
+    }
+}
+
+value_enum! {
+    /// `identify hammerstein --method`.
+    HammersteinMethodArg => HammersteinMethod {
+        /// The paper's algorithm (`--algorithm`) alone.
+        Paper,
+        /// The prediction-error (maximum-likelihood) refinement started from
+        /// it, with a global search over the order.
+        Refined,
+    }
+}
+
+value_enum! {
+    /// The cell model of the battery fit (`--model`).
+    ModelArg => ModelRequest {
+        /// The paper's linear model, R_i + R_ct‖CPE.
+        Linear,
+        /// With the Butler–Volmer overpotential a·asinh(I/i₀) in front of it.
+        ButlerVolmer,
+        /// `identify`: the nonlinear model only when the data identify it
+        /// (current beyond i₀, a's interval away from 0, a lower BIC), else the
+        /// linear one. `online`: the model of the `--prior` fit, linear without
+        /// one.
+        Auto,
+    }
+}
+
+value_enum! {
+    /// Battery method.
+    BatteryMethodArg => BatteryMethod {
+        /// The paper's §6.2 regression with 2S-OP-GI.
+        Paper,
+        /// Output-error refinement started from 2S-OP-GI (most accurate).
+        Refined,
+    }
+}
+
+value_enum! {
+    /// Where the output-error model starts in the window.
+    StartArg => Start {
+        /// The polarization of the first M − 1 samples from the data.
+        FromData,
+        /// From rest until the window first slides.
+        AtRest,
+    }
+}
+
+value_enum! {
+    /// Floating-point precision of the estimator.
+    PrecisionArg => Precision {
+        /// Single precision (the Cortex-M4F FPU).
+        F32,
+        /// Double precision.
+        F64,
+    }
+}
+
+value_enum! {
+    /// The parts of `reproduce`.
+    ReproducePartArg => ReproducePart {
+        /// Both parts.
+        All,
+        /// §6.1 Example 1: Tables 3–6, Figures 2–5.
+        Example1,
+        /// §6.2 battery: Figure 6, Table 7, Figures 7–11, our refinement and tracking.
+        Battery,
+    }
+}
+
+/// Parses the arguments, runs the command and returns the exit status;
+/// errors are printed as one line.
+pub fn main() -> i32 {
+    let cli = match Cli::try_parse() {
+        Ok(c) => c,
+        Err(e) => {
+            let code = if e.use_stderr() { 2 } else { 0 };
+            let _ = e.print();
+            return code;
+        }
+    };
+    match fracbms_host::worker::on_worker(move || run(cli)) {
+        Ok(()) => 0,
+        Err(e) => {
+            let msg = format!("{e:#}").replace('\n', " ");
+            eprintln!("error: {msg}");
+            1
+        }
+    }
+}
+
+fn run(cli: Cli) -> Result<()> {
+    match cli.command {
+        Command::Simulate(SimulateCmd::Hammerstein(a)) => simulate::hammerstein(a),
+        Command::Simulate(SimulateCmd::Battery(a)) => simulate::battery(a),
+        Command::Simulate(SimulateCmd::Pack(a)) => simulate::pack(a),
+        Command::Identify(IdentifyCmd::Hammerstein(a)) => identify::hammerstein(a),
+        Command::Identify(IdentifyCmd::Battery(a)) => identify::battery(a),
+        Command::Online(OnlineCmd::Battery(a)) => online::battery(a),
+        Command::Online(OnlineCmd::Pack(a)) => online::pack(a),
+        Command::Reproduce(a) => reproduce::run(a),
+    }
+}

@@ -1,0 +1,197 @@
+//! `online battery|pack`: the flags, and the lines each prints.
+
+use super::identify::OcvArgs;
+use super::{BatteryMethodArg, ModelArg, PrecisionArg, StartArg};
+use anyhow::Result;
+use fracbms_host::online::{self as online_track, OnlineBatteryOptions};
+use fracbms_host::pack::{self, OnlinePack};
+use std::path::PathBuf;
+
+/// `online battery`.
+#[derive(clap::Args, Debug)]
+pub struct OnlineBatteryArgs {
+    /// Input CSV with columns time_s,current_a,voltage_v.
+    #[arg(long)]
+    pub input: PathBuf,
+    /// Window length L (one of 64, 128, 256, 512, 1024).
+    #[arg(long, default_value_t = 256)]
+    pub window: usize,
+    /// Memory M (default L/4).
+    #[arg(long)]
+    pub memory: Option<usize>,
+    /// Iterations per sample.
+    #[arg(long, default_value_t = 1)]
+    pub iterations_per_sample: u16,
+    /// Method.
+    #[arg(long, value_enum, default_value = "refined")]
+    pub method: BatteryMethodArg,
+    /// Arithmetic of the estimator: `f64`, or `f32` as the firmware runs it.
+    #[arg(long, value_enum, default_value = "f64")]
+    pub precision: PrecisionArg,
+    /// Where the model starts in the window: `from-data` (the polarization
+    /// of the first M − 1 samples from the data: a cell that is never at
+    /// rest) or `at-rest` (from rest until the window first slides, as the
+    /// firmware starts after power-up).
+    #[arg(long, value_enum, default_value = "from-data")]
+    pub start: StartArg,
+    /// A prior on R_i, R_ct, Q and α: the JSON of `identify battery` (e.g.
+    /// of a characterization record of the same cell). The window's fit
+    /// is then maximum a posteriori: the data where they are informative,
+    /// the prior where a window is too short to tell (the refinement starts
+    /// at the prior, without the paper method's start-up).
+    #[arg(long)]
+    pub prior: Option<PathBuf>,
+    /// The prior's spread on R_i, R_ct and Q: a factor at one sigma.
+    #[arg(long, default_value_t = 2.0)]
+    pub prior_factor: f64,
+    /// The prior's spread on α at one sigma.
+    #[arg(long, default_value_t = 0.1)]
+    pub prior_alpha_sigma: f64,
+    /// The residual level (mV) at which the window's data are weighed
+    /// against the prior (not the noise: model error correlated over the
+    /// window makes it worth fewer independent samples; see
+    /// docs/real-cells.md).
+    #[arg(long, default_value_t = 100.0)]
+    pub prior_noise_mv: f64,
+    /// Cell model: `linear`, `butler-volmer` (plus a·asinh(I/i₀); a linear
+    /// start is given the term with i₀ at the window's RMS current) or
+    /// `auto` (the model of the `--prior` fit; linear without a prior).
+    #[arg(long, value_enum, default_value = "auto")]
+    pub model: ModelArg,
+    /// Add the Grünwald–Letnikov taps beyond the memory: those at lags ≥ M
+    /// inside the window and the past before it, carried by 8 exponential
+    /// modes per cell (the short-memory correction, docs/pack.md; linear
+    /// model, memory ≥ 64).
+    #[arg(long)]
+    pub tail: bool,
+    #[command(flatten)]
+    pub cell: OcvArgs,
+    /// Output CSV `time_s,r_i,r_ct,q,alpha,u_oc,status,soc,ocv_offset_v,
+    /// bv_a_v,bv_i0_a,predicted_v` (u_oc: the open-circuit voltage now,
+    /// OCV(SOC) + ΔU with --ocv; soc and ocv_offset_v empty without --ocv;
+    /// bv_a_v and bv_i0_a empty for the linear model; predicted_v: the
+    /// one-step prediction of this row's voltage from the estimate before
+    /// it, empty before the first estimate). The status after each sample:
+    /// filling (the window is not full enough yet), starting (2S-OP-GI runs,
+    /// no physical estimate yet), tracking (updated from this window),
+    /// not_excited (the current barely varies: held), held (an iteration
+    /// failed: held), unphysical (the window's estimate has a non-positive
+    /// resistance or Q, or α outside (0, 1]: held), at_bound (α at the
+    /// search's bound, or R_ct so small that its branch swing R_ct·σ_I is
+    /// below the fit's RMSE: held), slow_relaxation (the branch relaxes slower
+    /// than the window can see, τ^(1/α) beyond the fitted window: held),
+    /// ocv_implausible (U_oc outside the plausible voltage range, or |ΔU|
+    /// above 0.15 V with --ocv: held). "Held" keeps the last good estimate.
+    #[arg(long, verbatim_doc_comment)]
+    pub out: PathBuf,
+}
+
+/// `online pack`.
+#[derive(clap::Args, Debug)]
+pub struct OnlinePackArgs {
+    /// Input CSV with columns time_s,current_a,cell_1_v,…,cell_N_v.
+    #[arg(long)]
+    pub input: PathBuf,
+    /// Window length L (one of 64, 128, 256, 512, 1024).
+    #[arg(long, default_value_t = 256)]
+    pub window: usize,
+    /// Memory M (default L/4).
+    #[arg(long)]
+    pub memory: Option<usize>,
+    /// Iterations per cell update.
+    #[arg(long, default_value_t = 1)]
+    pub iterations_per_sample: u16,
+    /// Cell updates per sample period, round robin (default: every cell
+    /// every period).
+    #[arg(long)]
+    pub updates_per_period: Option<u16>,
+    /// Flag a cell whose R_i or R_ct is above the pack's median by more
+    /// than this fraction.
+    #[arg(long, default_value_t = 0.3)]
+    pub flag_ratio: f64,
+    /// Arithmetic of the estimator: `f64`, or `f32` as the firmware runs it.
+    #[arg(long, value_enum, default_value = "f64")]
+    pub precision: PrecisionArg,
+    /// Where the model starts in the window (as `online battery`).
+    #[arg(long, value_enum, default_value = "from-data")]
+    pub start: StartArg,
+    /// Add the Grünwald–Letnikov taps beyond the memory: those at lags ≥ M
+    /// inside the window and the past before it, carried by 8 exponential
+    /// modes per cell (the short-memory correction, docs/pack.md; linear
+    /// model, memory ≥ 64).
+    #[arg(long)]
+    pub tail: bool,
+    /// Output CSV in long format, one row per cell and sample:
+    /// `time_s,cell,r_i,r_ct,q,alpha,u_oc,status,rejected,flagged` (cell
+    /// 1-based; the estimate empty before the cell's first; status as in
+    /// `online battery`; rejected 1 when this sample of the cell was
+    /// rejected; flagged 1 when the cell stands out from the median).
+    #[arg(long)]
+    pub out: PathBuf,
+}
+
+#[inline(never)]
+pub(super) fn battery(a: OnlineBatteryArgs) -> Result<()> {
+    let o = OnlineBatteryOptions {
+        window: a.window,
+        memory: a.memory,
+        iterations_per_sample: a.iterations_per_sample,
+        method: a.method.into(),
+        precision: a.precision.into(),
+        start: a.start.into(),
+        prior: a.prior,
+        prior_factor: a.prior_factor,
+        prior_alpha_sigma: a.prior_alpha_sigma,
+        prior_noise_mv: a.prior_noise_mv,
+        model: a.model.into(),
+        tail: a.tail,
+        ocv: (&a.cell).into(),
+    };
+    let r = online_track::battery_file(&a.input, &a.out, &o)?;
+    let s = r.summary;
+    eprintln!(
+        "wrote {} ({} samples, {} rejected, {:.0} samples/s, model {})",
+        a.out.display(),
+        s.samples,
+        s.rejected,
+        s.samples as f64 / r.seconds.max(1e-9),
+        r.model.as_str()
+    );
+    let work = s.work;
+    if work.iterations > 0 {
+        // The refinement's cost drivers: each simulation and each
+        // sensitivity pass is O(L·M).
+        eprintln!(
+            "refinement: {} iterations, {} window simulations ({} trial steps), {} sensitivity passes",
+            work.iterations, work.simulations, work.trials, work.linearizations
+        );
+    }
+    Ok(())
+}
+
+#[inline(never)]
+pub(super) fn pack(a: OnlinePackArgs) -> Result<()> {
+    let t0 = std::time::Instant::now();
+    let o = OnlinePack {
+        window: a.window,
+        memory: a.memory,
+        iterations_per_sample: a.iterations_per_sample,
+        updates_per_period: a.updates_per_period,
+        flag_ratio: a.flag_ratio,
+        precision: a.precision.into(),
+        start: a.start.into(),
+        tail: a.tail,
+    };
+    let (summary, cells) = pack::online_file(&a.input, &a.out, &o)?;
+    let secs = t0.elapsed().as_secs_f64();
+    eprintln!(
+        "wrote {} ({} samples of {} cells, {} rejected, {} iterations, {:.0} samples/s)",
+        a.out.display(),
+        summary.samples,
+        cells,
+        summary.rejected.iter().map(|&x| u64::from(x)).sum::<u64>(),
+        summary.iterations,
+        summary.samples as f64 / secs.max(1e-9)
+    );
+    Ok(())
+}
