@@ -37,6 +37,8 @@ fi
 
 echo "== cargo fmt --check"
 cargo fmt --all --check
+echo "== layout: no import circles between modules, no file over 800 lines without a reason"
+python3 scripts/layout_check.py estimator-core fracbms-host host-sim estimator-ffi firmware xtask python tests
 echo "== cargo clippy (host crates and the Python extension, all targets)"
 cargo clippy --all-targets -- -D warnings
 cargo clippy -p fracbms-python --all-targets -- -D warnings

@@ -75,7 +75,7 @@ pub enum Error {
     /// restored.
     Diverged,
     /// An OCV table is malformed.
-    Ocv(crate::battery::ocv::OcvError),
+    Ocv(OcvError),
     /// The start state of charge was to be read from a rested voltage, but
     /// the record does not start at rest (the first current exceeds `C/100`).
     NotAtRest,
@@ -89,8 +89,68 @@ pub enum Error {
     },
 }
 
-impl From<crate::battery::ocv::OcvError> for Error {
-    fn from(e: crate::battery::ocv::OcvError) -> Self {
+/// What is wrong with an OCV table.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum OcvError {
+    /// Fewer than two points.
+    TooFewPoints {
+        /// Points given.
+        have: usize,
+    },
+    /// More points than the table's capacity `P`.
+    TooManyPoints {
+        /// Points given.
+        have: usize,
+        /// The const-generic capacity.
+        capacity: usize,
+    },
+    /// The SOC and OCV columns differ in length.
+    LengthMismatch,
+    /// A value is NaN or infinite (point index from 0).
+    NonFinite {
+        /// Index of the point.
+        index: usize,
+    },
+    /// A state of charge outside `[0, 1]`.
+    SocOutOfRange {
+        /// Index of the point.
+        index: usize,
+    },
+    /// The SOC or the OCV does not increase strictly from the point before
+    /// (the inverse `SOC(OCV)` would not exist).
+    NotIncreasing {
+        /// Index of the point.
+        index: usize,
+    },
+}
+
+impl core::fmt::Display for OcvError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            OcvError::TooFewPoints { have } => {
+                write!(f, "OCV table has {have} points; at least 2 are needed")
+            }
+            OcvError::TooManyPoints { have, capacity } => {
+                write!(f, "OCV table has {have} points; the capacity is {capacity}")
+            }
+            OcvError::LengthMismatch => write!(f, "OCV table columns differ in length"),
+            OcvError::NonFinite { index } => {
+                write!(f, "OCV table point {index} is not finite")
+            }
+            OcvError::SocOutOfRange { index } => {
+                write!(f, "OCV table point {index}: state of charge outside [0, 1]")
+            }
+            OcvError::NotIncreasing { index } => write!(
+                f,
+                "OCV table point {index}: soc and ocv must both increase strictly"
+            ),
+        }
+    }
+}
+
+impl From<OcvError> for Error {
+    fn from(e: OcvError) -> Self {
         Error::Ocv(e)
     }
 }
@@ -152,4 +212,4 @@ impl core::fmt::Display for Error {
 
 impl core::error::Error for FracError {}
 impl core::error::Error for Error {}
-impl core::error::Error for crate::battery::ocv::OcvError {}
+impl core::error::Error for OcvError {}

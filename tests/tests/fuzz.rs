@@ -123,7 +123,7 @@ fn an_overflowing_coulomb_count_keeps_the_window_finite() {
 /// Found by `cell` and `pack` (`--replay cell:100:2217`,
 /// `pack:100:1051`, `cell:2105:3260`, with `--known-issues`): settings passed to
 /// `push` other than the constructor's, with a memory of 0 or
-/// `usize::MAX`, overflow `b.memory - 1 + MIN_ROWS` (battery/online.rs,
+/// `usize::MAX`, overflow `b.memory - 1 + MIN_ROWS` (battery/tracker/iterate.rs,
 /// `CellState::run`): a panic in builds with overflow checks (this test
 /// profile, debug firmware), where `push` is documented never to panic.
 #[test]

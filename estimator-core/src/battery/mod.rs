@@ -40,6 +40,11 @@
 //! * [`pack`] — every series cell of a pack: the shared current history and
 //!   working area, per-cell state, the update schedule and the health flag
 //!   ([`pack::PackEstimator`]; a `CellEstimator` is its one-cell case).
+//! * `tracker` (private) — one cell's tracker, the part both build on:
+//!   settings, per-cell state, the shared working area, the sample guard,
+//!   the iterations and the plausibility check. Its items are public as
+//!   [`online`]'s. Imports run one way: `online` → `pack` → `tracker`, never
+//!   back.
 
 pub mod ocv;
 pub mod online;
@@ -48,6 +53,7 @@ pub mod pack;
 pub mod profile;
 pub mod regression;
 pub mod simulate;
+mod tracker;
 
 use crate::real::Real;
 

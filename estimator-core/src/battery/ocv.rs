@@ -58,71 +58,12 @@
 //! ```
 
 use crate::error::Error;
+pub use crate::error::OcvError;
 use crate::real::Real;
 
 /// The coulomb count is kept inside `±SOC_BOUND_F64` (finite; see
 /// [`OcvModel::soc_after`]).
 const SOC_BOUND_F64: f64 = 1e6;
-
-/// What is wrong with an OCV table.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum OcvError {
-    /// Fewer than two points.
-    TooFewPoints {
-        /// Points given.
-        have: usize,
-    },
-    /// More points than the table's capacity `P`.
-    TooManyPoints {
-        /// Points given.
-        have: usize,
-        /// The const-generic capacity.
-        capacity: usize,
-    },
-    /// The SOC and OCV columns differ in length.
-    LengthMismatch,
-    /// A value is NaN or infinite (point index from 0).
-    NonFinite {
-        /// Index of the point.
-        index: usize,
-    },
-    /// A state of charge outside `[0, 1]`.
-    SocOutOfRange {
-        /// Index of the point.
-        index: usize,
-    },
-    /// The SOC or the OCV does not increase strictly from the point before
-    /// (the inverse `SOC(OCV)` would not exist).
-    NotIncreasing {
-        /// Index of the point.
-        index: usize,
-    },
-}
-
-impl core::fmt::Display for OcvError {
-    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
-        match self {
-            OcvError::TooFewPoints { have } => {
-                write!(f, "OCV table has {have} points; at least 2 are needed")
-            }
-            OcvError::TooManyPoints { have, capacity } => {
-                write!(f, "OCV table has {have} points; the capacity is {capacity}")
-            }
-            OcvError::LengthMismatch => write!(f, "OCV table columns differ in length"),
-            OcvError::NonFinite { index } => {
-                write!(f, "OCV table point {index} is not finite")
-            }
-            OcvError::SocOutOfRange { index } => {
-                write!(f, "OCV table point {index}: state of charge outside [0, 1]")
-            }
-            OcvError::NotIncreasing { index } => write!(
-                f,
-                "OCV table point {index}: soc and ocv must both increase strictly"
-            ),
-        }
-    }
-}
 
 /// A piecewise-linear open-circuit voltage curve with room for `P` points:
 /// `SOC` strictly increasing in `[0, 1]`, `OCV` (V) strictly increasing.

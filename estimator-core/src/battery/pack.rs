@@ -31,8 +31,8 @@
 //! [`super::online`]'s (a [`super::online::CellEstimator`] is the one-cell
 //! pack).
 
-use super::online::{
-    CellState, CellWindow, CurrentHistory, OnlineSettings, SampleReport, WorkingArea,
+use super::tracker::{
+    check_limits, CellState, CellWindow, CurrentHistory, OnlineSettings, SampleReport, WorkingArea,
 };
 use super::CellParameters;
 use crate::error::Error;
@@ -248,5 +248,92 @@ fn median<T: Real>(x: &mut [T]) -> T {
         x[n / 2]
     } else {
         (x[n / 2 - 1] + x[n / 2]) / T::lit(2.0)
+    }
+}
+
+/// The pack estimator's per-sample flow for cells `0..cells`, shared with
+/// [`CellEstimator`](crate::battery::online::CellEstimator) (the one-cell pack). See [`PackEstimator::push`].
+impl<T: Real, const N: usize, const MEM: usize, const CELLS: usize>
+    PackEstimator<T, N, MEM, CELLS>
+{
+    /// A pack of `cells` cells (at most `CELLS`), every one with an empty
+    /// window.
+    ///
+    /// # Errors
+    /// [`Error::CellCount`] for 0 or more than `CELLS` cells; the settings
+    /// errors of [`CellEstimator::new`](crate::battery::online::CellEstimator::new).
+    pub fn with_cells<const P: usize>(
+        s: &OnlineSettings<T, P>,
+        cells: usize,
+    ) -> Result<Self, Error> {
+        if cells == 0 || cells > CELLS || cells > usize::from(u16::MAX) {
+            return Err(Error::CellCount {
+                given: cells,
+                expected: CELLS,
+            });
+        }
+        if N > usize::from(u16::MAX) {
+            return Err(Error::BadSetting);
+        }
+        check_limits(s)?;
+        let cell = CellState::new::<MEM, P>(s);
+        // The working area is built in the return value: a local moved in
+        // would be one more copy of its arrays on the (start-up) stack.
+        Ok(Self {
+            history: CurrentHistory::new(),
+            cells: core::array::from_fn(|_| cell.clone()),
+            active: cells,
+            work: WorkingArea::new(s)?,
+            next: 0,
+        })
+    }
+
+    /// Pushes one sample period (the pack's current and one voltage per
+    /// cell), then runs `updates` cell updates, round robin from where the
+    /// last period stopped; `report(k, r)` hears every cell's report.
+    pub(crate) fn push_with<const P: usize>(
+        &mut self,
+        s: &OnlineSettings<T, P>,
+        updates: usize,
+        current: T,
+        voltages: &[T],
+        mut report: impl FnMut(usize, SampleReport<T>),
+    ) -> Result<(), Error> {
+        let cells = self.active;
+        if voltages.len() != cells {
+            return Err(Error::CellCount {
+                given: voltages.len(),
+                expected: cells,
+            });
+        }
+        // The current the ring stores for this period: the measured one
+        // when plausible, else the last one (none before the first).
+        let plausible = current.is_finite() && current.abs() <= s.current_limit;
+        let stored = if plausible {
+            Some(current)
+        } else {
+            self.history.newest()
+        };
+        let Self {
+            history,
+            cells: states,
+            work,
+            ..
+        } = self;
+        for (cell, &v) in states[..cells].iter_mut().zip(voltages) {
+            cell.accept(s, history, work, stored, current, v);
+        }
+        if let Some(i) = stored {
+            history.push(i);
+        }
+        let updates = updates.min(cells);
+        let first = self.next;
+        for k in 0..cells {
+            let scheduled = (k + cells - first) % cells < updates;
+            let r = self.cells[k].update(s, &self.history, &mut self.work, k, scheduled);
+            report(k, r);
+        }
+        self.next = (first + updates) % cells;
+        Ok(())
     }
 }

@@ -1,0 +1,132 @@
+//! The Gauss–Newton information of a fit: standard errors, BIC, the
+//! residual variance.
+
+use super::*;
+
+impl<T: Real, const N: usize, const MEM: usize> OutputErrorRefinement<T, N, MEM> {
+    /// The Gauss–Newton information of the window at the estimate (for
+    /// standard errors and model choice): the data's `JᵀJ` over `x`, its
+    /// cost and rows, and which columns `s` fits. One sensitivity pass,
+    /// `O(N·M)`; the estimate does not change.
+    ///
+    /// # Errors
+    /// As [`iterate`](Self::iterate).
+    pub fn information(
+        &mut self,
+        s: &BatterySettings<T>,
+        win: &impl Window<T>,
+    ) -> Result<FitInformation<T>, Error> {
+        s.check::<MEM>()?;
+        self.load(s, win)?;
+        let (n, warm) = (self.n, self.warm);
+        if self.w.alpha() != self.p.alpha {
+            self.w.set_order(self.p.alpha)?;
+        }
+        let data = WindowData {
+            i: &self.i[..n],
+            v: &self.v[..n],
+            c: &self.c[..n],
+            warm,
+            tail: tail_context(s, self.past.as_ref()),
+        };
+        let cost = if self.fresh {
+            window_cost(&data, &self.p, self.beta, &self.up[..n])
+        } else {
+            self.stalled = None;
+            simulate_window(
+                &self.w,
+                &data,
+                &self.p,
+                self.beta,
+                &mut self.up[..n],
+                &mut self.e[..n],
+            )
+        };
+        if !cost.is_finite() {
+            self.fresh = false;
+            return Err(Error::Diverged);
+        }
+        self.fresh = true;
+        // The sensitivities are now those of the estimate, not of the last
+        // accepted step's start: no chord step from them.
+        self.linear = None;
+        let (jtj, _) = self.normal_equations(s);
+        self.work.linearizations = self.work.linearizations.wrapping_add(1);
+        let kinetic = s.model == CellModel::ButlerVolmer && self.p.is_butler_volmer();
+        Ok(FitInformation {
+            jtj,
+            cost,
+            rows: n - warm,
+            fitted: [
+                true,
+                true,
+                true,
+                s.estimate_order,
+                true,
+                s.ocv_slope,
+                kinetic,
+                kinetic,
+            ],
+        })
+    }
+}
+
+/// The Gauss–Newton information of a converged fit
+/// ([`OutputErrorRefinement::information`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FitInformation<T> {
+    /// The data's `JᵀJ` over `x` ([`COLUMN_NAMES`]).
+    pub jtj: Square<T>,
+    /// `½Σr²` of the data (no prior).
+    pub cost: T,
+    /// Fitted samples.
+    pub rows: usize,
+    /// Which columns the fit estimates.
+    pub fitted: [bool; COLUMNS],
+}
+
+impl<T: Real> FitInformation<T> {
+    /// Number of fitted parameters.
+    pub fn parameters(&self) -> usize {
+        self.fitted.iter().filter(|&&f| f).count()
+    }
+
+    /// The residual variance `2·cost/(rows − parameters)` (V²).
+    pub fn residual_variance(&self) -> T {
+        let dof = self.rows.saturating_sub(self.parameters()).max(1);
+        T::lit(2.0) * self.cost / T::lit(dof as f64)
+    }
+
+    /// Bayesian information criterion `rows·ln(RSS/rows) + k·ln(rows)`.
+    pub fn bic(&self) -> T {
+        let rows = T::lit(self.rows.max(1) as f64);
+        let rss = T::lit(2.0) * self.cost;
+        rows * (rss / rows).ln() + T::lit(self.parameters() as f64) * rows.ln()
+    }
+
+    /// Standard errors of the fitted coordinates of `x` (`None` for the
+    /// columns not fitted, or all when `JᵀJ` is singular): the square roots
+    /// of the diagonal of `σ²·(JᵀJ)⁻¹` over the fitted columns.
+    pub fn standard_errors(&self) -> [Option<T>; COLUMNS] {
+        // The columns not fitted become identity rows and columns.
+        let mut m = self.jtj;
+        for (r, row) in m.iter_mut().enumerate() {
+            for (c, x) in row.iter_mut().enumerate() {
+                if !(self.fitted[r] && self.fitted[c]) {
+                    *x = if r == c { T::one() } else { T::zero() };
+                }
+            }
+        }
+        let var = self.residual_variance();
+        let mut out = [None; COLUMNS];
+        for k in (0..COLUMNS).filter(|&k| self.fitted[k]) {
+            let mut e = [T::zero(); COLUMNS];
+            e[k] = T::one();
+            match T::solve_spd(&m, &e) {
+                Some(x) if x[k] > T::zero() => out[k] = Some((var * x[k]).sqrt()),
+                _ => return [None; COLUMNS],
+            }
+        }
+        out
+    }
+}

@@ -1,0 +1,344 @@
+//! The Levenberg–Marquardt search: the damped step, its judgement
+//! (refused, negligible, worth a simulation) and one iteration.
+
+use super::*;
+
+/// A damped Gauss–Newton step from the normal equations.
+pub(super) enum Proposal<T> {
+    /// The damped matrix is not positive definite.
+    Singular,
+    /// The step leaves the physical region or the identifiable relaxation
+    /// times.
+    Refused,
+    /// The step is below ε, or its predicted decrease below what the cost
+    /// resolves.
+    Negligible,
+    /// A step worth simulating, and its largest relative change.
+    Step {
+        p: CellParameters<T>,
+        beta: T,
+        change: T,
+    },
+}
+
+pub(super) const LAMBDA0: f64 = 1e-3;
+/// A step whose predicted decrease is below this many machine epsilons of
+/// the cost is not tried: the cost's rounding (the simulation's, through
+/// the recursion) is of that order in `f32`.
+pub(super) const COST_RESOLUTION: f64 = 100.0;
+/// Longest relaxation time `τ^(1/α)` a trial may have, in fitted windows.
+pub(super) const MAX_RELAXATION_WINDOWS: f64 = 10.0;
+
+impl<T: Real, const N: usize, const MEM: usize> OutputErrorRefinement<T, N, MEM> {
+    /// The damped step `(A + λ·diag A)⁻¹ b` from the estimate, judged.
+    pub(super) fn propose(
+        &self,
+        s: &BatterySettings<T>,
+        a: &Square<T>,
+        b: &[T; COLUMNS],
+        cost0: T,
+        longest: T,
+    ) -> Proposal<T> {
+        let p = &self.p;
+        let mut m = *a;
+        for (k, row) in m.iter_mut().enumerate() {
+            row[k] = a[k][k] * (T::one() + self.lambda) + T::min_positive_value().sqrt();
+        }
+        let Some(dx) = solve_fitted(&m, b, s.model == CellModel::ButlerVolmer) else {
+            return Proposal::Singular;
+        };
+        let max_log = T::lit(MAX_LOG_STEP);
+        let clamp = |x: T| x.max(-max_log).min(max_log);
+        let trial = CellParameters {
+            r_i: p.r_i * clamp(dx[0]).exp(),
+            r_ct: p.r_ct * clamp(dx[1]).exp(),
+            q: p.q * clamp(dx[2]).exp(),
+            alpha: s.clamp_alpha(p.alpha + dx[3]),
+            u_oc: p.u_oc + dx[4],
+            bv_a: p.bv_a * clamp(dx[6]).exp(),
+            bv_i0: p.bv_i0 * clamp(dx[7]).exp(),
+        };
+        let beta = self.beta + dx[5];
+        let relax = trial.tau().powf(T::one() / trial.alpha);
+        let within = relax <= longest; // false for NaN
+        if !trial.is_physical() || !within {
+            return Proposal::Refused;
+        }
+        let scale = p.u_oc.abs().max(T::one());
+        let ch = [
+            (trial.r_i / p.r_i).ln().abs(),
+            (trial.r_ct / p.r_ct).ln().abs(),
+            (trial.q / p.q).ln().abs(),
+            (trial.alpha - p.alpha).abs(),
+            (trial.u_oc - p.u_oc).abs() / scale,
+            (beta - self.beta).abs() * self.c[self.warm].abs() / scale,
+            if p.is_butler_volmer() {
+                (trial.bv_a / p.bv_a).ln().abs()
+            } else {
+                T::zero()
+            },
+            (trial.bv_i0 / p.bv_i0).ln().abs(),
+        ];
+        let change = ch.iter().fold(T::zero(), |m, &x| m.max(x));
+        // The decrease the linear model predicts, dxᵀb − ½dxᵀA dx.
+        let mut pred = T::zero();
+        for k in 0..COLUMNS {
+            let adx = (0..COLUMNS).fold(T::zero(), |acc, q| acc + a[k][q] * dx[q]);
+            pred = pred + dx[k] * (b[k] - adx / T::lit(2.0));
+        }
+        let resolution = T::lit(COST_RESOLUTION) * T::epsilon();
+        if change > s.epsilon && pred > resolution * cost0 {
+            Proposal::Step {
+                p: trial,
+                beta,
+                change,
+            }
+        } else {
+            // Below the stopping tolerance, or a decrease below what the
+            // cost resolves in this precision (also for NaN): a minimum,
+            // not worth a simulation.
+            Proposal::Negligible
+        }
+    }
+
+    /// An iteration that stops at the estimate (a minimum); `data0` is the
+    /// data's part of the cost `cost0`.
+    pub(super) fn stop(&mut self, cost0: T, data0: T, rows: usize) -> RefinementStep<T> {
+        self.k += 1;
+        self.work.iterations = self.work.iterations.wrapping_add(1);
+        RefinementStep {
+            k: self.k,
+            cost: cost0,
+            rmse: rmse(data0, rows),
+            change: T::zero(),
+            converged: true,
+            accepted: false,
+            lambda: self.lambda,
+            rows,
+        }
+    }
+
+    /// One Levenberg–Marquardt iteration over the window.
+    ///
+    /// # Errors
+    /// [`Error::NotEnoughData`] while fewer than `warm-up + MIN_ROWS`
+    /// samples are held, [`Error::NotExcited`] for a current whose standard
+    /// deviation is below the threshold, [`Error::Diverged`] for a
+    /// non-finite cost; settings errors. On error the estimate is unchanged.
+    pub fn iterate(
+        &mut self,
+        s: &BatterySettings<T>,
+        win: &impl Window<T>,
+    ) -> Result<RefinementStep<T>, Error> {
+        s.check::<MEM>()?;
+        self.load(s, win)?;
+        let (n, warm) = (self.n, self.warm);
+        if current_std(&self.i[warm..n]) <= s.min_current_std {
+            return Err(Error::NotExcited);
+        }
+        if self.w.alpha() != self.p.alpha {
+            self.w.set_order(self.p.alpha)?;
+        }
+        if s.model == CellModel::ButlerVolmer && !self.p.is_butler_volmer() {
+            // A linear start (the paper method's estimate): the kinetic
+            // term with i₀ at the window's RMS current.
+            let rms = rms(&self.i[warm..n]).max(T::lit(1e-3));
+            self.p = self.p.with_butler_volmer(rms);
+            self.fresh = false;
+        }
+        let data = WindowData {
+            i: &self.i[..n],
+            v: &self.v[..n],
+            c: &self.c[..n],
+            warm,
+            tail: tail_context(s, self.past.as_ref()),
+        };
+        // The last iteration on this window left the simulation of the
+        // estimate in `up` (its accepted trial, or the kept estimate's).
+        let prior_cost = |p: &CellParameters<T>| s.prior.map_or(T::zero(), |pr| pr.cost(p, s));
+        let data0 = if self.fresh {
+            window_cost(&data, &self.p, self.beta, &self.up[..n])
+        } else {
+            self.stalled = None;
+            self.linear = None;
+            self.work.simulations = self.work.simulations.wrapping_add(1);
+            simulate_window(
+                &self.w,
+                &data,
+                &self.p,
+                self.beta,
+                &mut self.up[..n],
+                &mut self.e[..n],
+            )
+        };
+        // The cost of the estimate: the data's, plus the prior's.
+        let cost0 = data0 + prior_cost(&self.p);
+        if !cost0.is_finite() {
+            self.fresh = false;
+            return Err(Error::Diverged);
+        }
+        self.fresh = true;
+        let rows = n - warm;
+        if self.stalled == Some(s.fingerprint()) {
+            // The last iteration, from this estimate on this window with
+            // these settings, found no lower cost with any damping (and
+            // reset λ): this one would repeat it exactly.
+            return Ok(self.stop(cost0, data0, rows));
+        }
+        let longest = T::lit(MAX_RELAXATION_WINDOWS * rows as f64) * s.h;
+        if let Some(last) = self.linear.filter(|l| l.fits(s)) {
+            // The last iteration on this window accepted a step. Before new
+            // sensitivities, its Jacobian J₀ (at the estimate it started
+            // from) with the residuals here gives the chord step
+            // (J₀ᵀJ₀ + λD)⁻¹J₀ᵀr; when even that is negligible, this is a
+            // minimum (to the cost's resolution) and the O(N·M) pass is
+            // not needed. Anything else falls through to the exact step.
+            let mut b = [T::zero(); COLUMNS];
+            for l in warm..n {
+                let j = self.jacobian_row(s, &last.p, l);
+                let r = residual(
+                    self.v[l], &self.p, self.beta, self.c[l], self.i[l], self.up[l],
+                );
+                for (bb, ja) in b.iter_mut().zip(j) {
+                    *bb = *bb + ja * r;
+                }
+            }
+            let mut a = last.normal_matrix();
+            add_prior(s, &self.p, &mut a, &mut b);
+            if let Proposal::Negligible = self.propose(s, &a, &b, cost0, longest) {
+                self.linear = None;
+                self.lambda = T::lit(LAMBDA0);
+                self.stalled = Some(s.fingerprint());
+                return Ok(self.stop(cost0, data0, rows));
+            }
+        }
+        let p = self.p;
+        let (mut a, mut b) = self.normal_equations(s);
+        self.work.linearizations = self.work.linearizations.wrapping_add(1);
+        // The data's J₀ᵀJ₀ is what a chord step reuses; the prior is added
+        // there again from the settings of that iteration.
+        let data_a = a;
+        add_prior(s, &p, &mut a, &mut b);
+        let mut step = RefinementStep {
+            k: self.k,
+            cost: cost0,
+            rmse: rmse(data0, rows),
+            change: T::zero(),
+            converged: false,
+            accepted: false,
+            lambda: self.lambda,
+            rows,
+        };
+        for _ in 0..MAX_TRIES {
+            let (trial, beta, change) = match self.propose(s, &a, &b, cost0, longest) {
+                Proposal::Step { p, beta, change } => (p, beta, change),
+                Proposal::Singular | Proposal::Refused => {
+                    self.lambda = self.lambda * T::lit(10.0);
+                    continue;
+                }
+                // More damping only shrinks the step and its decrease.
+                Proposal::Negligible => break,
+            };
+            self.w.set_order(trial.alpha)?;
+            let data = WindowData {
+                i: &self.i[..n],
+                v: &self.v[..n],
+                c: &self.c[..n],
+                warm,
+                tail: tail_context(s, self.past.as_ref()),
+            };
+            self.work.simulations = self.work.simulations.wrapping_add(1);
+            self.work.trials = self.work.trials.wrapping_add(1);
+            let c = simulate_window(
+                &self.w,
+                &data,
+                &trial,
+                beta,
+                &mut self.trial[..n],
+                &mut self.trial_e[..n],
+            );
+            let c = c + prior_cost(&trial);
+            if c.is_finite() && c < cost0 {
+                core::mem::swap(&mut self.up, &mut self.trial);
+                core::mem::swap(&mut self.e, &mut self.trial_e);
+                step.change = change;
+                self.p = trial;
+                self.beta = beta;
+                self.lambda = (self.lambda / T::lit(10.0)).max(T::lit(1e-12));
+                step.accepted = true;
+                step.cost = c;
+                step.rmse = rmse(c - prior_cost(&trial), rows);
+                break;
+            }
+            self.lambda = self.lambda * T::lit(10.0);
+        }
+        self.linear = step.accepted.then(|| Linearization::new(s, p, &data_a));
+        if !step.accepted {
+            // Back to the order of the kept estimate; λ is reset so that a
+            // later window starts with a fresh trust region.
+            self.w.set_order(p.alpha)?;
+            self.lambda = T::lit(LAMBDA0);
+            self.stalled = Some(s.fingerprint());
+        }
+        self.k += 1;
+        self.work.iterations = self.work.iterations.wrapping_add(1);
+        step.k = self.k;
+        step.lambda = self.lambda;
+        step.converged = !step.accepted || step.change <= s.epsilon;
+        Ok(step)
+    }
+}
+
+/// Solves the damped normal equations `m·x = b` over the fitted columns:
+/// all with the Butler–Volmer term, the first [`LINEAR_COLUMNS`] in the
+/// linear model (the rest of `x` is then 0, as the full system with its
+/// zero columns and tiny diagonal gives, at a third less work).
+pub(super) fn solve_fitted<T: Real>(
+    m: &Square<T>,
+    b: &[T; COLUMNS],
+    kinetic: bool,
+) -> Option<[T; COLUMNS]> {
+    if kinetic {
+        return T::solve_spd(m, b);
+    }
+    let mut m6 = [[T::zero(); LINEAR_COLUMNS]; LINEAR_COLUMNS];
+    let mut b6 = [T::zero(); LINEAR_COLUMNS];
+    for ((row6, row), (b6k, &bk)) in m6.iter_mut().zip(m).zip(b6.iter_mut().zip(b)) {
+        row6.copy_from_slice(&row[..LINEAR_COLUMNS]);
+        *b6k = bk;
+    }
+    let x6 = T::solve_spd(&m6, &b6)?;
+    let mut x = [T::zero(); COLUMNS];
+    x[..LINEAR_COLUMNS].copy_from_slice(&x6);
+    Some(x)
+}
+
+/// The column of `x` of each of the prior's coordinates.
+pub(super) const PRIOR_COLUMNS: [usize; 6] = [0, 1, 2, 3, 6, 7];
+
+/// Adds the prior's part to the normal equations at `p`: its weights `w_k`
+/// to the diagonal of `JᵀJ` and `w_k·(c_k − x_k)` to `Jᵀr` (nothing without
+/// a prior).
+pub(super) fn add_prior<T: Real>(
+    s: &BatterySettings<T>,
+    p: &CellParameters<T>,
+    a: &mut Square<T>,
+    b: &mut [T; COLUMNS],
+) {
+    if let Some(pr) = &s.prior {
+        let (w, c) = pr.terms();
+        let x = Prior::coordinates(p);
+        for (k, on) in pr.active(s).into_iter().enumerate() {
+            if on {
+                let col = PRIOR_COLUMNS[k];
+                a[col][col] = a[col][col] + w[k];
+                b[col] = b[col] + w[k] * (c[k] - x[k]);
+            }
+        }
+    }
+}
+
+/// Root-mean-square residual of cost `½Σr²` over `rows` samples.
+pub(super) fn rmse<T: Real>(cost: T, rows: usize) -> T {
+    (T::lit(2.0) * cost / T::lit(rows as f64)).sqrt()
+}

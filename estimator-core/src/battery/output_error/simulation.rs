@@ -1,0 +1,251 @@
+//! The free-run simulation of the window (with the modes of its past beyond
+//! the memory) and its cost.
+
+use super::*;
+
+/// Root mean square of a slice (0 for an empty one).
+pub(super) fn rms<T: Real>(x: &[T]) -> T {
+    let sum = x.iter().fold(T::zero(), |acc, &v| acc + v * v);
+    (sum / T::lit(x.len().max(1) as f64)).sqrt()
+}
+
+/// The loaded window: current, voltage, charge still to flow, and the
+/// number of warm-up samples.
+#[derive(Clone, Copy)]
+pub(super) struct WindowData<'a, T> {
+    pub(super) i: &'a [T],
+    pub(super) v: &'a [T],
+    pub(super) c: &'a [T],
+    pub(super) warm: usize,
+    /// The taps beyond the memory ([`BatterySettings::tail`]), if added.
+    pub(super) tail: Option<TailContext<'a, T>>,
+}
+
+/// What the tail beyond the memory needs from a window: its past's modes
+/// (`None`: rest), the sample period and the memory.
+#[derive(Clone, Copy)]
+pub(super) struct TailContext<'a, T> {
+    pub(super) past: Option<&'a PastModes<T>>,
+    pub(super) h: T,
+    pub(super) memory: usize,
+}
+
+/// The tail of one recursion: `Σ_{j≥M} ŵ_j·x(l − j) = Σ_k C_k·Z_k(l − M)`
+/// with `C_k = c_k·r_k^M` and `Z_k(n) = r_k·Z_k(n − 1) + x(n)` from
+/// `Z_k(−1) = z0_k`, the modes of the past.
+#[derive(Clone, Copy)]
+pub(super) struct Tail<T> {
+    pub(super) rates: [T; MODES],
+    pub(super) c: [T; MODES],
+    pub(super) z0: [T; MODES],
+}
+
+impl<T: Real> Tail<T> {
+    /// `C_k = x_k·r_k^M` for coefficients `x` (`c_k` or `∂c_k/∂α`).
+    pub(super) fn scaled(kernel: &TailKernel<T>, x: &[T; MODES], memory: usize) -> [T; MODES] {
+        core::array::from_fn(|k| x[k] * power(kernel.rates[k], memory))
+    }
+}
+
+/// The tail context of settings `s` for a window with past `past` (`None`
+/// when the settings add no tail).
+pub(super) fn tail_context<'a, T: Real>(
+    s: &BatterySettings<T>,
+    past: Option<&'a PastModes<T>>,
+) -> Option<TailContext<'a, T>> {
+    s.uses_tail().then_some(TailContext {
+        past,
+        h: s.h,
+        memory: s.memory,
+    })
+}
+
+/// `x^n` by squaring (`powi` is a general `pow` call on some targets).
+pub(super) fn power<T: Real>(mut x: T, mut n: usize) -> T {
+    let mut y = T::one();
+    while n > 0 {
+        if n & 1 == 1 {
+            y = y * x;
+        }
+        x = x * x;
+        n >>= 1;
+    }
+    y
+}
+
+/// Rows of a chunk: the tail of a row reaches only rows at least `M` back,
+/// so a chunk of at most `M` rows has all of its tails from rows solved
+/// before it.
+pub(super) const CHUNK: usize = 64;
+
+/// [`cpe_filter`] with the tail `t` of `x` added to every row's history:
+/// chunks of at most `min(M, CHUNK)` rows, each row's tail from the modes
+/// of the rows before the chunk. The history passed to `seen` includes the
+/// tail.
+#[inline]
+pub(super) fn cpe_filter_tail<T: Real>(
+    w: &[T],
+    a: T,
+    warm: usize,
+    x: &mut [T],
+    t: &Tail<T>,
+    mut drive: impl FnMut(usize) -> T,
+    mut seen: impl FnMut(usize, T, T),
+) {
+    let (m, n) = (w.len(), x.len());
+    let mut z = t.z0;
+    let mut start = warm;
+    while start < n {
+        let end = (start + CHUNK.min(m)).min(n);
+        let mut tb = [T::zero(); CHUNK];
+        for l in start..end {
+            if l >= m {
+                let xn = x[l - m];
+                for (zk, &r) in z.iter_mut().zip(&t.rates) {
+                    *zk = r * *zk + xn;
+                }
+            }
+            tb[l - start] = t.c.iter().zip(&z).fold(T::zero(), |s, (&c, &z)| s + c * z);
+        }
+        cpe_filter(
+            w,
+            a,
+            start,
+            &mut x[..end],
+            |l| drive(l) - a * tb[l - start],
+            |l, xv, h| seen(l, xv, h + tb[l - start]),
+        );
+        start = end;
+    }
+}
+
+/// [`cpe_filter_pair`] with tails `tx`, `ty` (same rates and coefficients,
+/// their own past modes), as [`cpe_filter_tail`].
+#[inline]
+#[allow(clippy::too_many_arguments)]
+pub(super) fn cpe_filter_pair_tail<T: Real>(
+    w: &[T],
+    a: T,
+    warm: usize,
+    x: &mut [T],
+    y: &mut [T],
+    tx: &Tail<T>,
+    zy: [T; MODES],
+    mut drive: impl FnMut(usize) -> (T, T),
+) {
+    let (m, n) = (w.len(), x.len().min(y.len()));
+    let (mut px, mut py) = (tx.z0, zy);
+    let mut start = warm;
+    while start < n {
+        let end = (start + CHUNK.min(m)).min(n);
+        let (mut bx, mut by) = ([T::zero(); CHUNK], [T::zero(); CHUNK]);
+        for l in start..end {
+            if l >= m {
+                let (xn, yn) = (x[l - m], y[l - m]);
+                for k in 0..MODES {
+                    px[k] = tx.rates[k] * px[k] + xn;
+                    py[k] = tx.rates[k] * py[k] + yn;
+                }
+            }
+            let (mut sx, mut sy) = (T::zero(), T::zero());
+            for k in 0..MODES {
+                sx = sx + tx.c[k] * px[k];
+                sy = sy + tx.c[k] * py[k];
+            }
+            bx[l - start] = sx;
+            by[l - start] = sy;
+        }
+        cpe_filter_pair(w, a, start, &mut x[..end], &mut y[..end], |l| {
+            let (dx, dy) = drive(l);
+            (dx - a * bx[l - start], dy - a * by[l - start])
+        });
+        start = end;
+    }
+}
+
+/// Simulates `p` over a window into `buf` (weights already at `p.alpha`),
+/// with the open-circuit voltage `U_oc − β·c(l)` (`c` the charge still to
+/// flow), the first `warm` samples of `U_p` taken from the data, and returns
+/// ½Σr² over the fitted samples `warm..`. `e` receives
+/// `E(l) = Σ_{j≥0} w_j·U_p(l − j)` for the fitted samples.
+pub(super) fn simulate_window<T: Real, const MEM: usize>(
+    w: &GlWeights<T, MEM>,
+    data: &WindowData<'_, T>,
+    p: &CellParameters<T>,
+    beta: T,
+    buf: &mut [T],
+    e: &mut [T],
+) -> T {
+    let WindowData {
+        i,
+        v,
+        c,
+        warm,
+        tail,
+        ..
+    } = *data;
+    for l in 0..warm {
+        buf[l] = residual(v[l], p, beta, c[l], i[l], T::zero());
+    }
+    let a = p.tau() * w.scale();
+    match tail.and_then(|t| Some((t, TailKernel::new(p.alpha).ok()?))) {
+        Some((t, kernel)) => {
+            let z0 = match (t.past, c.first()) {
+                (Some(past), Some(&c0)) => past.polarization(p.u_oc, p.r_i, beta, c0, t.h),
+                _ => [T::zero(); MODES],
+            };
+            let tl = Tail {
+                rates: kernel.rates,
+                c: Tail::scaled(&kernel, &kernel.coefficients, t.memory),
+                z0,
+            };
+            cpe_filter_tail(
+                w.weights(),
+                a,
+                warm,
+                buf,
+                &tl,
+                |l| p.r_ct * i[l],
+                |l, x, h| e[l] = x + h,
+            );
+        }
+        None => cpe_filter(
+            w.weights(),
+            a,
+            warm,
+            buf,
+            |l| p.r_ct * i[l],
+            |l, x, h| e[l] = x + h,
+        ),
+    }
+    window_cost(data, p, beta, buf)
+}
+
+/// The voltage residual `U_t − (U_oc − β·c + R_i·I + η(I) + U_p)` of one
+/// sample.
+/// `U_t − U_oc` comes first: the two are close (exact by Sterbenz's lemma
+/// within a factor 2), so the rounding is that of the small remaining terms,
+/// not of the 3–4 V terminal voltage. In `f32` this is the difference
+/// between a cost that resolves a step's decrease and one whose rounding
+/// (ulp(3.7 V) ≈ 2.4e−7 V against millivolt residuals) hides it.
+#[inline]
+pub(super) fn residual<T: Real>(v: T, p: &CellParameters<T>, beta: T, c: T, i: T, up: T) -> T {
+    (v - p.u_oc) + beta * c - p.static_voltage(i) - up
+}
+
+/// ½Σr² over the fitted samples of the simulation `up` of `p`, β.
+#[inline]
+pub(super) fn window_cost<T: Real>(
+    data: &WindowData<'_, T>,
+    p: &CellParameters<T>,
+    beta: T,
+    up: &[T],
+) -> T {
+    let WindowData { i, v, c, warm, .. } = *data;
+    let mut cost = T::zero();
+    for l in warm..up.len() {
+        let r = residual(v[l], p, beta, c[l], i[l], up[l]);
+        cost = cost + r * r;
+    }
+    cost / T::lit(2.0)
+}

@@ -1,0 +1,174 @@
+//! One update of a cell: the excitation test, the iterations of the chosen
+//! method (the paper's 2S-OP-GI, then the output-error refinement), and the
+//! plausibility check before an estimate is published.
+
+use super::*;
+use crate::battery::CellParameters;
+use crate::error::Error;
+use crate::frac::GlWeights;
+use crate::real::Real;
+
+impl<T: Real, const N: usize> CellState<T, N> {
+    /// One update of the cell once its sample is in the window: the
+    /// iterations when `scheduled` (none otherwise), the status set, and
+    /// the cell's report.
+    pub(crate) fn update<const MEM: usize, const P: usize>(
+        &mut self,
+        s: &OnlineSettings<T, P>,
+        history: &CurrentHistory<T, N>,
+        work: &mut WorkingArea<T, N, MEM>,
+        k: usize,
+        scheduled: bool,
+    ) -> SampleReport<T> {
+        let (status, iterations) = if scheduled {
+            self.run(s, history, work, k)
+        } else {
+            (self.status, 0)
+        };
+        self.status = status;
+        SampleReport {
+            status,
+            rejected: self.last_rejection,
+            iterations,
+            rmse: self.rmse,
+        }
+    }
+
+    /// The iterations of one update (after its sample is in the window).
+    pub(super) fn run<const MEM: usize, const P: usize>(
+        &mut self,
+        s: &OnlineSettings<T, P>,
+        history: &CurrentHistory<T, N>,
+        work: &mut WorkingArea<T, N, MEM>,
+        k: usize,
+    ) -> (Status, u16) {
+        let b = &s.battery;
+        // Saturating: `push` may be given other settings than the
+        // constructor's (memory 0 or `usize::MAX` then means "never enough").
+        let need = b
+            .memory
+            .saturating_sub(1)
+            .saturating_add(crate::battery::regression::MIN_ROWS);
+        let len = usize::from(self.len);
+        if len < need {
+            return (Status::Filling, 0);
+        }
+        // Current excitation over the fitted part of the window.
+        let fitted = (len + 1).saturating_sub(b.memory);
+        let count = T::lit(fitted as f64);
+        let recent = || {
+            self.view(history)
+                .newest_first()
+                .take(fitted)
+                .map(|(i, _)| i)
+        };
+        let mean = recent().fold(T::zero(), |a, i| a + i) / count;
+        let var = recent().fold(T::zero(), |a, i| a + (i - mean) * (i - mean)) / count;
+        if var.sqrt() <= b.min_current_std {
+            return (Status::NotExcited, 0);
+        }
+        self.current_std = var.sqrt();
+        if work.take(s, k, self).is_err() {
+            return (Status::Held, 0);
+        }
+        let mut status = self.status;
+        let mut iterations = 0;
+        for _ in 0..s.iterations_per_sample {
+            let ok = if self.refining {
+                self.step_refined(s, history, work)
+            } else {
+                self.step_paper(s, history, work)
+            };
+            iterations += 1;
+            match ok {
+                Ok(st) => status = st,
+                Err(Error::NotExcited) => {
+                    status = Status::NotExcited;
+                    break;
+                }
+                Err(_) => {
+                    status = Status::Held;
+                    break;
+                }
+            }
+        }
+        self.gi = work.gi.state();
+        self.oe = work.oe.state();
+        (status, iterations)
+    }
+
+    /// Publishes `p` when it is plausible from a window of `rows` fitted
+    /// samples; otherwise says why it is held.
+    pub(super) fn publish<const MEM: usize, const P: usize>(
+        &mut self,
+        s: &OnlineSettings<T, P>,
+        w: &mut GlWeights<T, MEM>,
+        p: CellParameters<T>,
+        rmse: T,
+        rows: usize,
+    ) -> Result<(), Status> {
+        if let Some(why) = s.implausible(&p, rows, self.current_std, rmse) {
+            return Err(why);
+        }
+        if w.set_order(p.alpha).is_ok() {
+            self.estimate = Some(p);
+            self.rmse = rmse;
+            Ok(())
+        } else {
+            Err(Status::Held)
+        }
+    }
+
+    pub(super) fn step_paper<const MEM: usize, const P: usize>(
+        &mut self,
+        s: &OnlineSettings<T, P>,
+        history: &CurrentHistory<T, N>,
+        work: &mut WorkingArea<T, N, MEM>,
+    ) -> Result<Status, Error> {
+        let it = work.gi.iterate(&s.battery, &self.view(history))?;
+        let rows = T::lit(it.rows.max(1) as f64);
+        let cell = work.gi.cell();
+        let mut status = Status::Starting;
+        if let Some(p) = cell {
+            let rmse = (T::lit(2.0) * it.cost / rows).sqrt();
+            status = match self.publish(s, &mut work.pw, p, rmse, it.rows) {
+                Ok(()) => Status::Tracking,
+                Err(why) => why,
+            };
+        }
+        if s.method == Method::Refined
+            && (it.k >= s.paper_budget || (cell.is_some() && it.converged))
+        {
+            let start = self
+                .estimate
+                .filter(|p| p.alpha >= s.battery.alpha_min && p.alpha <= s.battery.alpha_max)
+                .unwrap_or(s.initial_in_window());
+            work.oe.set_cell(&s.battery, start)?;
+            self.refining = true;
+        }
+        Ok(status)
+    }
+
+    pub(super) fn step_refined<const MEM: usize, const P: usize>(
+        &mut self,
+        s: &OnlineSettings<T, P>,
+        history: &CurrentHistory<T, N>,
+        work: &mut WorkingArea<T, N, MEM>,
+    ) -> Result<Status, Error> {
+        let st = work.oe.iterate(&s.battery, &self.view(history))?;
+        match self.publish(s, &mut work.pw, work.oe.cell(), st.rmse, st.rows) {
+            Ok(()) => Ok(Status::Tracking),
+            Err(why) => {
+                // Not plausible: held, and the refinement starts again from
+                // the last good estimate (or the settings' start), so that
+                // it does not wander further from where the window's
+                // information is.
+                let back = self.estimate.unwrap_or(s.initial_in_window());
+                if work.oe.set_cell(&s.battery, back).is_err() {
+                    let _ = work.oe.set_cell(&s.battery, s.initial_in_window());
+                }
+                Ok(why)
+            }
+        }
+    }
+}

@@ -1,0 +1,30 @@
+//! One cell's tracker: what the online estimator keeps and does for each
+//! cell between samples, shared by [`super::online::CellEstimator`] (one
+//! cell) and [`super::pack::PackEstimator`] (many).
+//!
+//! It owns the settings ([`OnlineSettings`]), the per-cell state
+//! ([`CellState`]: voltages, estimate, state of charge, counters, the
+//! estimators' iteration state), the working area the cells share one at a
+//! time ([`WorkingArea`]), the pack's current history and a cell's view of
+//! it ([`CurrentHistory`], [`CellWindow`]), the guard that validates and
+//! substitutes each sample ([`guard`]), and the iterations and the
+//! plausibility check before an estimate is published ([`iterate`]). The
+//! per-sample flow is described in [`super::online`].
+//!
+//! It must not touch the pack's schedule or health (which cell updates in
+//! which period: [`super::pack`]), and it never imports the one-cell or the
+//! pack estimator: both are built on it. Its public items are re-exported
+//! from [`super::online`], their public path.
+
+mod guard;
+mod history;
+mod iterate;
+mod settings;
+mod state;
+mod status;
+
+pub use history::{CellWindow, CurrentHistory};
+pub(crate) use settings::check_limits;
+pub use settings::{Method, OnlineSettings};
+pub use state::{CellState, WorkingArea};
+pub use status::{Rejection, SampleCounts, SampleReport, Status};

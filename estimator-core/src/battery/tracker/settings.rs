@@ -1,0 +1,221 @@
+//! The online estimator's settings: the method, the sample limits, the spike
+//! test, the OCV curve, and the plausibility check an estimate must pass
+//! before it is published ([`OnlineSettings::implausible`]).
+
+use super::*;
+use crate::battery::ocv::OcvModel;
+use crate::battery::{BatterySettings, CellParameters, Start};
+use crate::error::Error;
+use crate::real::Real;
+
+/// Leading rested samples (current at most `C/100`) whose mean voltage
+/// gives the start state of charge when none is set.
+pub(super) const REST_SAMPLES: u8 = 10;
+
+/// Which identification method runs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Method {
+    /// The paper's 2S-OP-GI on the §6.2 regression alone.
+    Paper,
+    /// Output-error refinement started from 2S-OP-GI (the most accurate).
+    Refined,
+}
+
+/// Settings of the online estimator (one value for all cells of a pack),
+/// with room for an OCV curve of `P` points (`P = 0`: no curve, a constant
+/// `U_oc` as in §6.2).
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct OnlineSettings<T, const P: usize = 0> {
+    /// The estimators' settings (use [`Start::FromData`] for a sliding
+    /// window).
+    pub battery: BatterySettings<T>,
+    /// Method.
+    pub method: Method,
+    /// Iterations run after each sample.
+    pub iterations_per_sample: u16,
+    /// Iterations of 2S-OP-GI after which the refinement starts even if the
+    /// paper method's estimate is not physical yet (it then starts from
+    /// `initial`).
+    pub paper_budget: u32,
+    /// Starting order of 2S-OP-GI.
+    pub alpha0: T,
+    /// Fallback start of the refinement (e.g. the datasheet values).
+    pub initial: CellParameters<T>,
+    /// Largest plausible `|I|` (A).
+    pub current_limit: T,
+    /// Plausible terminal voltage range (V).
+    pub voltage_min: T,
+    /// Upper end of the plausible voltage range (V).
+    pub voltage_max: T,
+    /// A voltage further than this many model RMSEs from the prediction is a
+    /// spike…
+    pub spike_sigmas: T,
+    /// …and further than this (V) at least.
+    pub spike_floor: T,
+    /// After this many consecutive spikes the sample is believed.
+    pub max_consecutive_spikes: u8,
+    /// The cell's OCV curve and capacity (`None`: constant `U_oc`).
+    pub ocv: Option<OcvModel<T, P>>,
+    /// With a curve, the largest plausible OCV offset `|ΔU|` (V).
+    pub max_ocv_offset: T,
+    /// The longest relaxation time `τ^(1/α)` a published estimate may have,
+    /// in fitted windows (`(L − M + 1)·h`).
+    pub max_relaxation_windows: T,
+}
+
+impl<T: Real> OnlineSettings<T> {
+    /// Defaults for a Li-ion cell sampled every `h` seconds with memory
+    /// `memory`: refined method, one iteration per sample, start from data,
+    /// no OCV curve (OCV slope fitted),
+    /// `|I| ≤ 500 A`, `U_t ∈ [1.5, 5] V`, spikes beyond `max(8·RMSE, 50 mV)`,
+    /// 3 consecutive spikes believed; published relaxation times up to one
+    /// fitted window, OCV offsets up to 0.15 V.
+    pub fn new(h: T, memory: usize, initial: CellParameters<T>) -> Self {
+        let mut battery = BatterySettings::new(h, memory);
+        battery.start = Start::FromData;
+        battery.ocv_slope = true;
+        Self {
+            battery,
+            method: Method::Refined,
+            iterations_per_sample: 1,
+            paper_budget: 200,
+            alpha0: T::lit(0.5),
+            initial,
+            current_limit: T::lit(500.0),
+            voltage_min: T::lit(1.5),
+            voltage_max: T::lit(5.0),
+            spike_sigmas: T::lit(8.0),
+            spike_floor: T::lit(0.05),
+            max_consecutive_spikes: 3,
+            ocv: None,
+            max_ocv_offset: T::lit(0.15),
+            max_relaxation_windows: T::one(),
+        }
+    }
+}
+
+impl<T: Real, const P: usize> OnlineSettings<T, P> {
+    /// The same settings with the cell's OCV curve and capacity: the
+    /// estimator counts the state of charge and fits the overpotential
+    /// `U_t − OCV(SOC)`, so the OCV slope is no longer fitted.
+    pub fn with_ocv<const Q: usize>(self, ocv: OcvModel<T, Q>) -> OnlineSettings<T, Q> {
+        self.with_curve(Some(ocv))
+    }
+
+    /// [`with_ocv`](Self::with_ocv) for a curve that may be absent: `None`
+    /// gives the same settings without a curve, in the type that has room
+    /// for `Q` points (one settings type whether or not a file names a
+    /// curve).
+    pub fn with_curve<const Q: usize>(self, ocv: Option<OcvModel<T, Q>>) -> OnlineSettings<T, Q> {
+        let mut battery = self.battery;
+        if ocv.is_some() {
+            battery.ocv_slope = false;
+        }
+        OnlineSettings {
+            battery,
+            method: self.method,
+            iterations_per_sample: self.iterations_per_sample,
+            paper_budget: self.paper_budget,
+            alpha0: self.alpha0,
+            initial: self.initial,
+            current_limit: self.current_limit,
+            voltage_min: self.voltage_min,
+            voltage_max: self.voltage_max,
+            spike_sigmas: self.spike_sigmas,
+            spike_floor: self.spike_floor,
+            max_consecutive_spikes: self.max_consecutive_spikes,
+            ocv,
+            max_ocv_offset: self.max_ocv_offset,
+            max_relaxation_windows: self.max_relaxation_windows,
+        }
+    }
+
+    /// The refinement's fallback start in the window's coordinates: with a
+    /// curve, [`initial`](Self::initial) with `U_oc` replaced by `ΔU = 0`.
+    pub fn initial_in_window(&self) -> CellParameters<T> {
+        // With a prior, its centre is the better start.
+        let start = match &self.battery.prior {
+            Some(pr) => CellParameters {
+                u_oc: self.initial.u_oc,
+                ..pr.center
+            },
+            None => self.initial,
+        };
+        match self.ocv {
+            Some(_) => CellParameters {
+                u_oc: T::zero(),
+                ..start
+            },
+            None => start,
+        }
+    }
+
+    /// Why `p` (in the estimator's coordinates: `u_oc` is `ΔU` with a
+    /// curve) may not be published from a window of `rows` fitted samples
+    /// whose current has standard deviation `current_std` (A), fitted to
+    /// `rmse` (V), or `None` when it may.
+    pub fn implausible(
+        &self,
+        p: &CellParameters<T>,
+        rows: usize,
+        current_std: T,
+        rmse: T,
+    ) -> Option<Status> {
+        let b = &self.battery;
+        let pos = |x: T| x.is_finite() && x > T::zero();
+        if !(pos(p.r_i) && pos(p.r_ct) && pos(p.q) && pos(p.alpha) && p.alpha <= T::one()) {
+            return Some(Status::Unphysical);
+        }
+        if !(p.bv_a.is_finite() && p.bv_a >= T::zero() && pos(p.bv_i0)) {
+            return Some(Status::Unphysical);
+        }
+        let ocv_ok = match self.ocv {
+            Some(_) => p.u_oc.abs() <= self.max_ocv_offset,
+            None => p.u_oc >= self.voltage_min && p.u_oc <= self.voltage_max,
+        };
+        if !ocv_ok {
+            return Some(Status::OcvImplausible);
+        }
+        let tol = T::lit(1e-3);
+        if p.alpha <= b.alpha_min + tol || (b.alpha_max < T::one() && p.alpha >= b.alpha_max - tol)
+        {
+            return Some(Status::AtBound);
+        }
+        // R_ct at its lower bound, 0: a branch whose voltage swing is below
+        // the fit's residual is not seen by the window (nor are its Q, α).
+        let swing = p.r_ct * current_std;
+        if swing.is_nan() || rmse.is_nan() || swing < rmse {
+            return Some(Status::AtBound);
+        }
+        let relax = p.tau().powf(T::one() / p.alpha);
+        let longest = self.max_relaxation_windows * T::lit(rows as f64) * b.h;
+        if relax.is_nan() || relax > longest {
+            return Some(Status::SlowRelaxation);
+        }
+        None
+    }
+}
+
+/// Checks the limits of the online settings (the rest is checked by the
+/// estimators).
+pub(crate) fn check_limits<T: Real, const P: usize>(s: &OnlineSettings<T, P>) -> Result<(), Error> {
+    let limits_ok = s.current_limit > T::zero()
+        && s.current_limit.is_finite()
+        && s.voltage_min.is_finite()
+        && s.voltage_max.is_finite()
+        && s.voltage_min < s.voltage_max
+        && s.spike_sigmas > T::zero()
+        && s.spike_floor > T::zero()
+        && s.spike_floor.is_finite()
+        && s.max_ocv_offset > T::zero()
+        && s.max_relaxation_windows > T::zero();
+    if !limits_ok {
+        return Err(Error::BadSetting);
+    }
+    if let Some(m) = &s.ocv {
+        m.check()?;
+    }
+    Ok(())
+}

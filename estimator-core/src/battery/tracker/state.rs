@@ -1,0 +1,257 @@
+//! The per-cell state ([`CellState`]) and the working area the cells share
+//! one at a time ([`WorkingArea`]): settings, per-cell state and scratch
+//! apart, as in the pack.
+
+use super::*;
+use crate::battery::output_error::{OutputErrorRefinement, RefinementState, RefinementWork};
+use crate::battery::regression::{PaperRegressionGi, PaperRegressionState};
+use crate::battery::CellParameters;
+use crate::error::Error;
+use crate::frac::GlWeights;
+use crate::real::Real;
+use crate::tail::PastModes;
+
+/// What one cell carries between samples: its voltages (aligned with the
+/// pack's [`CurrentHistory`]), its estimate, state of charge, counters and
+/// the iteration state of its estimators. Everything an iteration needs
+/// beyond this is in the shared [`WorkingArea`].
+#[derive(Clone, Debug)]
+pub struct CellState<T, const N: usize> {
+    /// Voltages in the window's coordinates (the overpotential with an OCV
+    /// curve), in the pack's ring.
+    pub(super) u: [T; N],
+    /// Samples of the ring that belong to this cell's window.
+    pub(super) len: u16,
+    /// Samples pushed since the window's last restart.
+    pub(super) pushed: u64,
+    /// Changes with every change of the window (see [`crate::window::Window::version`]).
+    pub(super) version: u32,
+    pub(super) gi: PaperRegressionState<T>,
+    pub(super) oe: RefinementState<T>,
+    pub(super) refining: bool,
+    /// The last good estimate, in the window's coordinates (`u_oc` is `ΔU`
+    /// with an OCV curve).
+    pub(super) estimate: Option<CellParameters<T>>,
+    /// State of charge after the last sample (with an OCV curve, once known).
+    pub(super) soc: Option<T>,
+    /// `OCV(SOC)` after the last sample (with a curve; `None` without).
+    pub(super) ocv_now: Option<T>,
+    /// While the start SOC is read from the leading rested samples: their
+    /// number, voltage sum and the start SOC they gave.
+    pub(super) rest_start: Option<(u8, T, T)>,
+    /// Standard deviation of the current over the window's fitted part (A).
+    pub(super) current_std: T,
+    pub(super) rmse: T,
+    pub(super) status: Status,
+    pub(super) counts: SampleCounts,
+    pub(super) spikes_in_row: u8,
+    /// Whether the last sample was rejected, and why.
+    pub(super) last_rejection: Option<Rejection>,
+    /// The modes of the samples that left the window (the past the
+    /// refinement's tail needs, [`BatterySettings::tail`]).
+    pub(super) past: PastModes<T>,
+}
+
+/// The working area a pack's cells share, one cell at a time: the two
+/// estimators' window-length arrays and caches, and the weights of the
+/// one-step prediction. It belongs to the last cell iterated; another
+/// cell's iteration first loads that cell's state into it.
+#[derive(Clone, Debug)]
+pub struct WorkingArea<T, const N: usize, const MEM: usize> {
+    pub(super) gi: PaperRegressionGi<T, N, MEM>,
+    pub(super) oe: OutputErrorRefinement<T, N, MEM>,
+    /// Weights at the order of the cell being predicted.
+    pub(super) pw: GlWeights<T, MEM>,
+    pub(super) owner: Option<usize>,
+}
+
+impl<T: Real, const N: usize, const MEM: usize> WorkingArea<T, N, MEM> {
+    pub(crate) fn new<const P: usize>(s: &OnlineSettings<T, P>) -> Result<Self, Error> {
+        Ok(Self {
+            gi: PaperRegressionGi::new(&s.battery, s.alpha0)?,
+            oe: OutputErrorRefinement::new(&s.battery, s.initial_in_window())?,
+            pw: GlWeights::new(s.initial.alpha, s.battery.h, s.battery.memory)?,
+            owner: None,
+        })
+    }
+
+    /// Loads cell `k`'s iteration state unless the area is already its.
+    pub(super) fn take<const P: usize>(
+        &mut self,
+        s: &OnlineSettings<T, P>,
+        k: usize,
+        cell: &CellState<T, N>,
+    ) -> Result<(), Error> {
+        if self.owner != Some(k) {
+            self.owner = None;
+            self.gi.resume(&s.battery, &cell.gi)?;
+            self.oe.resume(&s.battery, &cell.oe)?;
+            self.owner = Some(k);
+        }
+        Ok(())
+    }
+}
+
+impl<T: Real, const N: usize> CellState<T, N> {
+    /// A cell with an empty window: its estimators' states are those of a
+    /// new working area ([`WorkingArea::new`]; test
+    /// `a_new_cell_holds_a_new_working_area_state`).
+    pub(crate) fn new<const MEM: usize, const P: usize>(s: &OnlineSettings<T, P>) -> Self {
+        Self {
+            u: [T::ZERO; N],
+            len: 0,
+            pushed: 0,
+            version: 0,
+            gi: PaperRegressionGi::<T, N, MEM>::initial_state(s.alpha0),
+            oe: OutputErrorRefinement::<T, N, MEM>::initial_state(s.initial_in_window()),
+            // With a prior the refinement starts at its centre: the paper
+            // method's start-up is not needed.
+            refining: s.method == Method::Refined && s.battery.prior.is_some(),
+            estimate: None,
+            soc: None,
+            ocv_now: None,
+            rest_start: None,
+            current_std: T::zero(),
+            rmse: T::infinity(),
+            status: Status::Filling,
+            counts: SampleCounts::default(),
+            spikes_in_row: 0,
+            last_rejection: None,
+            past: PastModes::new(),
+        }
+    }
+
+    pub(super) fn view<'a>(&'a self, history: &'a CurrentHistory<T, N>) -> CellWindow<'a, T, N> {
+        CellWindow {
+            history,
+            cell: self,
+        }
+    }
+
+    /// The last good estimate (`None` until the first one). With an OCV
+    /// curve its `u_oc` is the open-circuit voltage now, `OCV(SOC) + ΔU`.
+    pub fn estimate(&self) -> Option<CellParameters<T>> {
+        self.estimate.map(|p| CellParameters {
+            u_oc: p.u_oc + self.ocv_now.unwrap_or(T::zero()),
+            ..p
+        })
+    }
+
+    /// The OCV offset `ΔU` (V) of the last good estimate (with an OCV
+    /// curve).
+    pub fn ocv_offset(&self) -> Option<T> {
+        self.ocv_now.and(self.estimate).map(|p| p.u_oc)
+    }
+
+    /// The coulomb-counted state of charge after the last sample (with an
+    /// OCV curve, once known).
+    pub fn state_of_charge(&self) -> Option<T> {
+        self.soc
+    }
+
+    /// Health after the last update.
+    pub fn status(&self) -> Status {
+        self.status
+    }
+
+    /// Sample counters.
+    pub fn counts(&self) -> SampleCounts {
+        self.counts
+    }
+
+    /// Why the last sample was rejected (`None`: it was accepted).
+    pub fn last_rejection(&self) -> Option<Rejection> {
+        self.last_rejection
+    }
+
+    /// The fit's RMSE (V) of the last published estimate.
+    pub fn rmse(&self) -> T {
+        self.rmse
+    }
+
+    /// True once the output-error refinement has taken over.
+    pub fn is_refining(&self) -> bool {
+        self.refining
+    }
+
+    /// What the output-error refinement has computed for this cell.
+    pub fn refinement_work(&self) -> RefinementWork {
+        self.oe.work()
+    }
+
+    /// See [`CellEstimator::set_state_of_charge`](crate::battery::online::CellEstimator::set_state_of_charge).
+    pub fn set_state_of_charge(&mut self, soc: T) {
+        if soc.is_finite() {
+            self.soc = Some(soc);
+            self.rest_start = None;
+        }
+    }
+
+    /// Restarts the window (the pack's ring keeps the currents); its past
+    /// is forgotten.
+    pub(super) fn clear_window(&mut self) {
+        self.len = 0;
+        self.pushed = 0;
+        self.version = self.version.wrapping_add(1);
+        self.past = PastModes::new();
+    }
+
+    /// Writes `u` into the ring slot the pack's next current goes to and
+    /// counts it: the window is whole again once the pack has pushed that
+    /// current. A full window's oldest sample, in that slot, leaves into the
+    /// past's modes (the value the window held: a substitute for a rejected
+    /// sample).
+    pub(super) fn push_voltage(&mut self, history: &CurrentHistory<T, N>, u: T) {
+        let slot = history.slot();
+        if usize::from(self.len) == N {
+            let next = history.i[(slot + 1) % N];
+            self.past.leave(history.i[slot], self.u[slot], next);
+        }
+        self.u[slot] = u;
+        self.len = (usize::from(self.len) + 1).min(N) as u16;
+        self.pushed += 1;
+        self.version = self.version.wrapping_add(1);
+    }
+
+    /// The state of charge after a sample of `current` (with a curve and a
+    /// known SOC).
+    pub(super) fn soc_after<const P: usize>(
+        &self,
+        s: &OnlineSettings<T, P>,
+        current: T,
+    ) -> Option<T> {
+        let m = s.ocv.as_ref()?;
+        Some(m.soc_after(self.soc?, current, s.battery.h))
+    }
+
+    /// A terminal voltage in the window's coordinates, for a sample of
+    /// `current`: the overpotential `U_t − OCV(SOC)` with a curve.
+    pub(super) fn to_window<const P: usize>(
+        &self,
+        s: &OnlineSettings<T, P>,
+        current: T,
+        voltage: T,
+    ) -> T {
+        match (&s.ocv, self.soc_after(s, current)) {
+            (Some(m), Some(z)) => m.overpotential(z, voltage),
+            _ => voltage,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_new_cell_holds_a_new_working_area_state() {
+        let mut s = OnlineSettings::new(1.0f32, 64, CellParameters::cell_18650());
+        for alpha0 in [0.3f32, 0.5, 0.9] {
+            s.alpha0 = alpha0;
+            let work = WorkingArea::<f32, 256, 64>::new(&s).unwrap();
+            let cell = CellState::<f32, 256>::new::<64, 0>(&s);
+            assert_eq!(cell.gi, work.gi.state());
+            assert_eq!(cell.oe, work.oe.state());
+        }
+    }
+}

@@ -1,0 +1,32 @@
+//! End-to-end: run the host-sim binary on files, one module per kind of
+//! command, and bad data apart.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+mod bad_data;
+mod battery;
+mod hammerstein;
+mod tracking;
+
+fn bin() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_host-sim"))
+}
+
+fn tmp(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("fracbms-e2e-{}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    d.join(name)
+}
+
+fn run(args: &[&str]) -> Output {
+    bin().args(args).output().unwrap()
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+fn read_json(p: &Path) -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(p).unwrap()).unwrap()
+}
