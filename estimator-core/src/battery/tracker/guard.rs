@@ -26,7 +26,8 @@ impl<T: Real, const N: usize> CellState<T, N> {
     }
 
     /// The one-step prediction in the window's coordinates (the
-    /// overpotential with an OCV curve).
+    /// overpotential with an OCV curve); `None` without an estimate, or
+    /// when the prediction is not finite.
     pub(super) fn predict_window<const MEM: usize>(
         &self,
         history: &CurrentHistory<T, N>,
@@ -44,7 +45,13 @@ impl<T: Real, const N: usize> CellState<T, N> {
         }
         let a = p.tau() * w.scale();
         let up = (p.r_ct * current - a * hist) / (T::one() + a);
-        Some(p.u_oc + p.static_voltage(current) + up)
+        let y = p.u_oc + p.static_voltage(current) + up;
+        // An estimate far from the data can overflow here in f32 (a large
+        // current through the kinetic term, a large `a`; fuzz case
+        // `cell:1:127963`). Such a prediction is no prediction: it judges no
+        // sample as a spike, and a rejected sample's substitute is then the
+        // last window value, so the window only ever holds finite values.
+        y.is_finite().then_some(y)
     }
 
     pub(super) fn classify<const MEM: usize, const P: usize>(
