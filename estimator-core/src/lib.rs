@@ -30,6 +30,15 @@
 //! * [`flops`] — the flop counts of the paper's Tables 1–2.
 //! * [`error`] — the typed errors; nothing in this crate panics on bad data.
 //!
+//! ## What it owns, and must not touch
+//! The numerics every face shares: the firmware, the C ABI and the host
+//! library (`fracbms-host`, under the CLI and Python) all call these
+//! functions. It imports from no other crate of the workspace, and must not
+//! touch I/O, the heap, `std` or a clock; records, files and flags belong
+//! to `fracbms-host`, hardware to `firmware`. Inside, modules import one way
+//! (`scripts/layout_check.py` checks it): e.g. `battery::online` → `pack` →
+//! the private per-cell tracker.
+//!
 //! Sizes are const generics (window `N`, memory `MEM`, order capacities
 //! `NA, NB, NC`, basis capacity `NF`, product capacity `NP ≥ n_b·m`); the
 //! runtime orders may be smaller. The scalar is `f32` or `f64` ([`Real`]).

@@ -7,6 +7,10 @@
 //! goes to the same functions of `estimator-core` (and `fracbms-host`) as the
 //! Rust faces.
 //!
+//! It is a thin adapter and must not hold numerics of its own: a new
+//! capability lands in `estimator-core` (or, for whole records, in
+//! `fracbms-host`) first, and is only converted here.
+//!
 //! The header `include/fracbms.h` is generated from this crate by
 //! `cargo xtask header` (cbindgen); `docs/c-abi.md` is the guide.
 //!
