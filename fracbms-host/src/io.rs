@@ -36,7 +36,7 @@ impl Columns {
 
 /// A cell as an error message shows it: control characters (a line break
 /// inside a quoted cell) escaped, so that the message stays on one line.
-fn shown(cell: &str) -> std::borrow::Cow<'_, str> {
+pub(crate) fn shown(cell: &str) -> std::borrow::Cow<'_, str> {
     if cell.chars().any(char::is_control) {
         cell.chars()
             .map(|c| {
@@ -144,7 +144,7 @@ pub fn read_columns_from(
 /// in order: a record's position is where the reader stood before it (on
 /// the previous record's line ending, before any blank lines it skipped),
 /// so its row is that of the first byte after the line endings there.
-struct LineCounter<'a> {
+pub(crate) struct LineCounter<'a> {
     bytes: &'a [u8],
     /// Bytes counted so far, and the line breaks among them.
     at: usize,
@@ -152,7 +152,7 @@ struct LineCounter<'a> {
 }
 
 impl<'a> LineCounter<'a> {
-    fn new(bytes: &'a [u8]) -> Self {
+    pub(crate) fn new(bytes: &'a [u8]) -> Self {
         Self {
             bytes,
             at: 0,
@@ -163,7 +163,7 @@ impl<'a> LineCounter<'a> {
     /// The row of the record that starts at (or after the line endings
     /// following) `pos`; the row after the last one counted without a
     /// position.
-    fn row(&mut self, pos: Option<&csv::Position>) -> usize {
+    pub(crate) fn row(&mut self, pos: Option<&csv::Position>) -> usize {
         let b = self.bytes;
         let mut start = pos.map_or(self.at, |p| p.byte() as usize).min(b.len());
         while start < b.len() && (b[start] == b'\n' || b[start] == b'\r') {

@@ -8,8 +8,10 @@
 //!
 //! | module | owns |
 //! |---|---|
+//! | [`cycler`] | cycler exports as they come: columns recognised by their headers or named, units, the current's sign, non-uniform logs put on a uniform period |
 //! | [`io`] | CSV records and OCV tables in, CSV and JSON out (atomic writes), one-line errors that name the file, row and column |
 //! | [`ocv`] | a cell's OCV curve, capacity and start SOC, checked ([`ocv::OcvSpec`]) |
+//! | [`ocv_extraction`] | the OCV table read from a test: the rests' relaxed voltages or a low-rate charge and discharge, against the counted SOC, the capacity measured |
 //! | [`identify`] | whole-record fits: the Hammerstein system (2S-OP-GI / KT-2S-GI and the prediction-error refinement) and the battery cell (the paper's regression, the output-error refinement, the Butler–Volmer choice) |
 //! | [`trust`] | rows rejected before a fit, 95 % intervals and the identifiability verdict |
 //! | [`online`] | the sliding-window cell estimator run over a record ([`online::Tracker`]) |
@@ -56,10 +58,12 @@
 #![deny(missing_docs)]
 
 pub mod choice;
+pub mod cycler;
 pub mod error;
 pub mod identify;
 pub mod io;
 pub mod ocv;
+pub mod ocv_extraction;
 pub mod online;
 pub mod pack;
 pub mod plot;

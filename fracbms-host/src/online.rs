@@ -343,6 +343,8 @@ pub struct OnlineBatteryOptions {
     pub tail: bool,
     /// The cell's OCV curve, capacity and start SOC.
     pub ocv: crate::ocv::OcvOptions,
+    /// How the record is read: columns, current sign, period.
+    pub record: crate::cycler::RecordOptions,
 }
 
 impl Default for OnlineBatteryOptions {
@@ -361,12 +363,13 @@ impl Default for OnlineBatteryOptions {
             model: ModelRequest::Auto,
             tail: false,
             ocv: crate::ocv::OcvOptions::default(),
+            record: crate::cycler::RecordOptions::default(),
         }
     }
 }
 
 /// What [`battery_file`] did.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Debug)]
 pub struct OnlineReport {
     /// Samples, rejections and the refinement's work.
     pub summary: TrackSummary,
@@ -374,6 +377,8 @@ pub struct OnlineReport {
     pub seconds: f64,
     /// The cell model the windows fitted.
     pub model: CellModel,
+    /// What was read from the file.
+    pub record: crate::cycler::RecordReport,
 }
 
 /// The header of the track CSV `online battery` writes.
@@ -389,7 +394,8 @@ pub const TRACK_HEADER: &str =
 /// refused.
 pub fn battery_file(input: &Path, out: &Path, o: &OnlineBatteryOptions) -> Result<OnlineReport> {
     let t0 = std::time::Instant::now();
-    let rec = io::read_battery(input, None)?;
+    let read = crate::cycler::read_record(input, &o.record)?;
+    let rec = read.record;
     let cell = crate::ocv::resolve(&o.ocv, input, &rec)?;
     let prior = match &o.prior {
         Some(p) => Some(read_prior(
@@ -457,6 +463,7 @@ pub fn battery_file(input: &Path, out: &Path, o: &OnlineBatteryOptions) -> Resul
         summary,
         seconds: t0.elapsed().as_secs_f64(),
         model: t.cell_model(),
+        record: read.report,
     })
 }
 

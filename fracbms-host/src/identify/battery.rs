@@ -78,6 +78,11 @@ pub struct BatteryJson {
     pub rejected: u32,
     /// The rejected rows by reason.
     pub rejected_rows: trust::RejectedRows,
+    /// For a file: which columns, units and sign were read, and how the
+    /// rows were put on a uniform period (`period_s`, `rows_merged`,
+    /// `rows_interpolated`, `gaps`, …; absent for arrays given in memory).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub record: Option<crate::cycler::RecordReport>,
 }
 
 /// What `identify battery` computed, for the plots and the report.
@@ -357,6 +362,7 @@ fn battery_run_sized<const N: usize, const MEM: usize>(
             explained_variance: f64::NAN,
             rejected: 0,
             rejected_rows: trust::RejectedRows::default(),
+            record: None,
         },
         cell,
         paper_track: track,
@@ -559,6 +565,8 @@ pub struct BatteryFitOptions {
     pub voltage_max: Option<f64>,
     /// Largest plausible |current| (A).
     pub current_limit: Option<f64>,
+    /// How the record is read: columns, current sign, period.
+    pub record: crate::cycler::RecordOptions,
 }
 
 /// Iterations of 2S-OP-GI when [`BatteryFitOptions::iterations`] is not
@@ -569,6 +577,9 @@ pub const DEFAULT_ITERATIONS: u32 = 50;
 pub struct BatteryFile {
     /// The record as read (at most [`super::MAX_ROWS`] rows).
     pub record: io::BatteryRecord,
+    /// What was read from the file, and how the rows were put on a
+    /// uniform period.
+    pub report: crate::cycler::RecordReport,
     /// The fit, its JSON and its model voltage.
     pub result: BatteryResult,
     /// The rows rejected and substituted.
@@ -585,7 +596,13 @@ pub struct BatteryFile {
 /// A file that cannot be read, data or options that are refused, or an
 /// estimator that stops.
 pub fn battery_file(input: &Path, o: &BatteryFitOptions, print_table: bool) -> Result<BatteryFile> {
-    let rec = io::read_battery(input, Some(super::MAX_ROWS))?;
+    let read = crate::cycler::read_record(input, &o.record)?;
+    let mut rec = read.record;
+    if rec.time.len() > super::MAX_ROWS {
+        for col in [&mut rec.time, &mut rec.current, &mut rec.voltage] {
+            col.truncate(super::MAX_ROWS);
+        }
+    }
     if let Some(note) = super::truncation_note(input, rec.current.len()) {
         eprintln!("{note}");
     }
@@ -607,8 +624,11 @@ pub fn battery_file(input: &Path, o: &BatteryFitOptions, print_table: bool) -> R
         print_table,
         refine,
     )?;
+    let mut result = result;
+    result.json.record = Some(read.report.clone());
     Ok(BatteryFile {
         record: rec,
+        report: read.report,
         result,
         screened,
     })

@@ -1,6 +1,6 @@
 //! `identify hammerstein|battery`: the flags, and what each prints.
 
-use super::{AlgorithmArg, BatteryMethodArg, HammersteinMethodArg, ModelArg};
+use super::{AlgorithmArg, BatteryMethodArg, HammersteinMethodArg, ModelArg, RecordArgs};
 use anyhow::{Context, Result};
 use fracbms_host::identify::battery::{self as battery_fit, BatteryFitOptions};
 use fracbms_host::identify::hammerstein::{self as hammerstein_fit, HammersteinOptions};
@@ -64,9 +64,12 @@ pub struct HammersteinFlags {
 /// `identify battery`.
 #[derive(clap::Args, Debug)]
 pub struct IdBatteryArgs {
-    /// Input CSV with columns time_s,current_a,voltage_v.
+    /// Input: a record `time_s,current_a,voltage_v`, or a cycler export
+    /// (columns recognised or named with --columns).
     #[arg(long)]
     pub input: PathBuf,
+    #[command(flatten)]
+    pub record: RecordArgs,
     /// Method (default: refined, the most accurate).
     #[arg(long, value_enum, default_value = "refined")]
     pub method: BatteryMethodArg,
@@ -198,8 +201,10 @@ pub(super) fn battery(a: IdBatteryArgs) -> Result<()> {
         voltage_min: a.voltage_min,
         voltage_max: a.voltage_max,
         current_limit: a.current_limit,
+        record: (&a.record).into(),
     };
     let f = battery_fit::battery_file(&a.input, &o, true)?;
+    super::print_record(&a.input, &f.report);
     let (rec, r, sc) = (&f.record, &f.result, &f.screened);
     if let Some(w) = sc.warning(&a.input) {
         eprintln!("{w}");

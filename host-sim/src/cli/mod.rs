@@ -1,4 +1,4 @@
-//! The command line: `simulate`, `identify`, `online`, `reproduce`.
+//! The command line: `simulate`, `identify`, `online`, `ocv`, `reproduce`.
 //!
 //! Only arguments: each command's module is a table of flags (clap) that
 //! turns them into `fracbms-host`'s options, calls one library function
@@ -13,6 +13,7 @@ mod simulate;
 use anyhow::Result;
 use clap::{Parser, Subcommand};
 use estimator_core::battery::Start;
+use fracbms_host::cycler::{ColumnMap, CurrentSign, RecordOptions};
 use fracbms_host::identify::{Algorithm, BatteryMethod, HammersteinMethod, ModelRequest};
 use fracbms_host::online::Precision;
 use fracbms_host::reproduce::ReproducePart;
@@ -37,6 +38,8 @@ enum Command {
     /// Feed a file sample by sample through the sliding-window estimator.
     #[command(subcommand)]
     Online(OnlineCmd),
+    /// An OCV table (`soc,ocv_v`) from a test's rests or low-rate branches.
+    Ocv(ocv::OcvArgs),
     /// Regenerate the paper's tables and figures as a Markdown report with SVG figures.
     Reproduce(reproduce::ReproduceArgs),
 }
@@ -57,13 +60,13 @@ enum IdentifyCmd {
     /// 2S-OP-GI or KT-2S-GI on a `u,y` file.
     Hammerstein(identify::IdHammersteinArgs),
     /// R_i, R_ct, Q, α, U_oc from a `time_s,current_a,voltage_v` file.
-    Battery(identify::IdBatteryArgs),
+    Battery(Box<identify::IdBatteryArgs>),
 }
 
 #[derive(Subcommand, Debug)]
 enum OnlineCmd {
     /// Track a cell's parameters over a sliding window, as the firmware does.
-    Battery(online::OnlineBatteryArgs),
+    Battery(Box<online::OnlineBatteryArgs>),
     /// Track every cell of a pack record (`time_s,current_a,cell_1_v,…`),
     /// as the firmware's pack estimator does.
     Pack(online::OnlinePackArgs),
@@ -88,6 +91,9 @@ macro_rules! value_enum {
         }
     };
 }
+
+// After the macro: its flags use it.
+mod ocv;
 
 value_enum! {
     /// Hammerstein algorithm.
@@ -156,6 +162,66 @@ value_enum! {
 }
 
 value_enum! {
+    /// The sign of an export's current (`--current-sign`).
+    CurrentSignArg => CurrentSign {
+        /// Positive when charging (ours, Arbin's, BioLogic's).
+        ChargePositive,
+        /// Positive when discharging (PyBaMM's): negated on reading.
+        DischargePositive,
+    }
+}
+
+/// How a record is read, on every command that reads one (docs/cycler.md).
+#[derive(clap::Args, Debug, Clone)]
+pub struct RecordArgs {
+    /// Columns by their headers: `time=COL,current=COL,voltage=COL[,temperature=COL]`
+    /// (`temperature=none`: none). Roles left out are recognised from the
+    /// header (Arbin, Bitrode, Maccor, Neware, BioLogic, PyBaMM/PyBOP and
+    /// ours, units included: ms, min, h, mA, mV, K).
+    #[arg(long, value_parser = parse_columns)]
+    pub columns: Option<ColumnMap>,
+    /// The sign of the file's current.
+    #[arg(long, value_enum, default_value = "charge-positive")]
+    pub current_sign: CurrentSignArg,
+    /// Put the record on this uniform period (s). Default: a uniform log as
+    /// it is; a non-uniform one at its median step, raised to keep it
+    /// within 50 000 samples (printed). The current is the mean over each
+    /// period (the charge is kept), the voltage taken at the instants.
+    #[arg(long)]
+    pub period: Option<f64>,
+    /// Report steps longer than this (s) as gaps (default max(10 periods, 300 s)).
+    #[arg(long)]
+    pub max_gap: Option<f64>,
+}
+
+fn parse_columns(s: &str) -> std::result::Result<ColumnMap, String> {
+    ColumnMap::parse(s).map_err(|e| e.to_string())
+}
+
+impl From<&RecordArgs> for RecordOptions {
+    fn from(a: &RecordArgs) -> Self {
+        Self {
+            columns: a.columns.clone().unwrap_or_default(),
+            current_sign: a.current_sign.into(),
+            period: a.period,
+            max_gap: a.max_gap,
+        }
+    }
+}
+
+/// Prints what [`RecordArgs`] read: the columns line, the resampling line
+/// and the sign warning (stderr).
+pub fn print_record(path: &std::path::Path, r: &fracbms_host::cycler::RecordReport) {
+    eprintln!("{}", r.summary(path));
+    if let Some(l) = r.resampling_line() {
+        eprintln!("{l}");
+    }
+    if let Some(w) = &r.sign_warning {
+        eprintln!("warning: {}: {w}", path.display());
+    }
+}
+
+value_enum! {
     /// The parts of `reproduce`.
     ReproducePartArg => ReproducePart {
         /// Both parts.
@@ -194,9 +260,10 @@ fn run(cli: Cli) -> Result<()> {
         Command::Simulate(SimulateCmd::Battery(a)) => simulate::battery(a),
         Command::Simulate(SimulateCmd::Pack(a)) => simulate::pack(a),
         Command::Identify(IdentifyCmd::Hammerstein(a)) => identify::hammerstein(a),
-        Command::Identify(IdentifyCmd::Battery(a)) => identify::battery(a),
-        Command::Online(OnlineCmd::Battery(a)) => online::battery(a),
+        Command::Identify(IdentifyCmd::Battery(a)) => identify::battery(*a),
+        Command::Online(OnlineCmd::Battery(a)) => online::battery(*a),
         Command::Online(OnlineCmd::Pack(a)) => online::pack(a),
+        Command::Ocv(a) => ocv::run(a),
         Command::Reproduce(a) => reproduce::run(a),
     }
 }

@@ -1,7 +1,7 @@
 //! `online battery|pack`: the flags, and the lines each prints.
 
 use super::identify::OcvArgs;
-use super::{BatteryMethodArg, ModelArg, PrecisionArg, StartArg};
+use super::{BatteryMethodArg, ModelArg, PrecisionArg, RecordArgs, StartArg};
 use anyhow::Result;
 use fracbms_host::online::{self as online_track, OnlineBatteryOptions};
 use fracbms_host::pack::{self, OnlinePack};
@@ -10,9 +10,12 @@ use std::path::PathBuf;
 /// `online battery`.
 #[derive(clap::Args, Debug)]
 pub struct OnlineBatteryArgs {
-    /// Input CSV with columns time_s,current_a,voltage_v.
+    /// Input: a record `time_s,current_a,voltage_v`, or a cycler export
+    /// (columns recognised or named with --columns).
     #[arg(long)]
     pub input: PathBuf,
+    #[command(flatten)]
+    pub record: RecordArgs,
     /// Window length L (one of 64, 128, 256, 512, 1024).
     #[arg(long, default_value_t = 256)]
     pub window: usize,
@@ -146,8 +149,10 @@ pub(super) fn battery(a: OnlineBatteryArgs) -> Result<()> {
         model: a.model.into(),
         tail: a.tail,
         ocv: (&a.cell).into(),
+        record: (&a.record).into(),
     };
     let r = online_track::battery_file(&a.input, &a.out, &o)?;
+    super::print_record(&a.input, &r.record);
     let s = r.summary;
     eprintln!(
         "wrote {} ({} samples, {} rejected, {:.0} samples/s, model {})",

@@ -7,11 +7,14 @@ use super::*;
 /// (and the row and column where there is one), and writes nothing.
 #[test]
 fn malformed_files_give_one_line_errors() {
+    let rests: String = std::iter::once("time/s\tI/mA\tEwe/V\n".to_string())
+        .chain((0..600).map(|k| format!("{k}\t0\t3.7{}\n", k % 3)))
+        .collect();
     let cases: &[(&str, &str, &str)] = &[
         (
             "missing.csv",
             "time_s,current_a\n0,1\n1,2\n",
-            "missing column `voltage_v`",
+            "no voltage column recognised",
         ),
         (
             "text.csv",
@@ -19,9 +22,10 @@ fn malformed_files_give_one_line_errors() {
             "row 3, column `current_a`",
         ),
         (
-            "step.csv",
-            "time_s,current_a,voltage_v\n0,1,3.7\n1,1,3.7\n2.5,1,3.7\n",
-            "row 4, column `time_s`: non-uniform",
+            // Time going backwards on most rows is a wrong time column.
+            "backwards.csv",
+            "time_s,current_a,voltage_v\n5,1,3.7\n4,1,3.7\n3,1,3.7\n2,1,3.7\n",
+            "time goes back at",
         ),
         (
             // A NaN current or voltage is a rejected row (docs/trust.md); a
@@ -29,6 +33,17 @@ fn malformed_files_give_one_line_errors() {
             "nan.csv",
             "time_s,current_a,voltage_v\n0,1,3.7\nNaN,1,3.7\n",
             "row 3, column `time_s`: `NaN` is not finite",
+        ),
+        (
+            "single.csv",
+            "Test_Time(s),Current(A),Voltage(V)\n0,1,3.7\n",
+            "1 data rows; at least 2",
+        ),
+        (
+            // Only rests: nothing excites the cell.
+            "rests.csv",
+            &rests,
+            "no excitation",
         ),
         (
             "short.csv",

@@ -6,7 +6,9 @@ use std::process::{Command, Output};
 
 mod bad_data;
 mod battery;
+mod cycler;
 mod hammerstein;
+mod ocv;
 mod tracking;
 
 fn bin() -> Command {

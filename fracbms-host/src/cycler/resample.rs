@@ -1,0 +1,296 @@
+//! A log with varying steps and gaps, put on a uniform period: the current
+//! charge-preserving (the mean over each period), the voltage and the
+//! temperature taken at the sample instants. Owns the time base; must not
+//! touch the columns' names, units or signs (read before it runs).
+
+use serde::Serialize;
+
+/// A gap of the log: two rows further apart than the threshold.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct Gap {
+    /// Time of the row before the gap (s).
+    pub start_s: f64,
+    /// Length of the gap (s).
+    pub length_s: f64,
+}
+
+/// What cleaning and resampling did to a log.
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct Resampling {
+    /// Rows whose time stamp repeats the previous row's: the later row is
+    /// kept (a cycler logs the end of one step and the start of the next
+    /// at one instant).
+    pub duplicate_times: usize,
+    /// Rows whose time is before a row already read: dropped.
+    pub backward_times: usize,
+    /// Rows averaged into a period that holds another row.
+    pub rows_merged: usize,
+    /// Samples whose period holds no row: current held, voltage
+    /// interpolated between the rows around it.
+    pub rows_interpolated: usize,
+    /// The steps longer than [`Resampling::gap_threshold_s`].
+    pub gaps: Vec<Gap>,
+    /// The threshold of a gap (s).
+    pub gap_threshold_s: f64,
+}
+
+/// The rows of a log in time order, duplicates and backward rows removed
+/// (and counted in `r`): indices into the columns.
+pub fn clean(time: &[f64], r: &mut Resampling) -> Vec<usize> {
+    let mut keep: Vec<usize> = Vec::with_capacity(time.len());
+    for (i, &t) in time.iter().enumerate() {
+        match keep.last() {
+            Some(&j) if t == time[j] => {
+                r.duplicate_times += 1;
+                *keep.last_mut().expect("not empty") = i;
+            }
+            Some(&j) if t < time[j] => r.backward_times += 1,
+            _ => keep.push(i),
+        }
+    }
+    keep
+}
+
+/// The period a log is resampled at when none is given: the median step,
+/// raised so that the record has at most `max_samples` samples, rounded up
+/// to 1, 2 or 5 × 10ᵏ s. `time` increases strictly (after [`clean`]).
+pub fn default_period(time: &[f64], max_samples: usize) -> f64 {
+    let mut steps: Vec<f64> = time.windows(2).map(|w| w[1] - w[0]).collect();
+    if steps.is_empty() {
+        return 1.0;
+    }
+    steps.sort_by(f64::total_cmp);
+    let median = steps[steps.len() / 2];
+    let span = time[time.len() - 1] - time[0];
+    let h = median.max(span / max_samples.max(1) as f64);
+    nice_up(h)
+}
+
+/// The smallest of 1, 2, 5 × 10ᵏ that is ≥ `x` (to 1 ppm).
+fn nice_up(x: f64) -> f64 {
+    let k = x.log10().floor();
+    let base = 10f64.powf(k);
+    for m in [1.0, 2.0, 5.0, 10.0] {
+        let v = m * base;
+        if v >= x * (1.0 - 1e-6) {
+            // Decimal steps print as they read (0.1, not 0.100…02).
+            return format!("{v:.12e}").parse().unwrap_or(v);
+        }
+    }
+    10.0 * base
+}
+
+/// Whether the rows `keep` of `time` are already uniform at their first
+/// step (to 1 ppm), and that step.
+pub fn uniform(time: &[f64], keep: &[usize]) -> Option<f64> {
+    if keep.len() < 2 {
+        return None;
+    }
+    let h = time[keep[1]] - time[keep[0]];
+    let ok = keep
+        .windows(2)
+        .all(|w| ((time[w[1]] - time[w[0]]) - h).abs() <= 1e-6 * h.max(1e-3) + 1e-9);
+    ok.then_some(h)
+}
+
+/// The log's columns on the uniform grid `t₀ + k·h`, k = 0 … K−1, with
+/// `K = ⌊(t_end − t₀)/h⌋` (every period inside the log).
+pub struct Uniform {
+    /// Sample times (s).
+    pub time: Vec<f64>,
+    /// Mean current over `[t_k, t_k + h)`, the log's current held from
+    /// each row to the next.
+    pub current: Vec<f64>,
+    /// Voltage at `t_k`, linear between the rows around it; held from the
+    /// row before where the current changes at the next row.
+    pub voltage: Vec<f64>,
+    /// Temperature at `t_k`, as the voltage.
+    pub temperature: Option<Vec<f64>>,
+}
+
+/// Resamples the rows `keep` (increasing times) at period `h`; counts the
+/// merged and interpolated rows and the gaps in `r`.
+///
+/// The charge `h·Σ I_k` equals the log's `Σ I_i·(t_{i+1} − t_i)` over the
+/// periods it covers (all of it when the span is a multiple of `h`): a
+/// NaN current spoils only the periods it is held over. The samples run
+/// from the first row's time to the last's, both included when the span
+/// is a multiple of `h`: the last sample's current is the last row's,
+/// held (as a uniform log's own last row is).
+pub fn to_uniform(
+    time: &[f64],
+    current: &[f64],
+    voltage: &[f64],
+    temperature: Option<&[f64]>,
+    keep: &[usize],
+    h: f64,
+    r: &mut Resampling,
+) -> Uniform {
+    let t = |j: usize| time[keep[j]];
+    let n = keep.len();
+    let t0 = t(0);
+    let span = t(n - 1) - t0;
+    let k_max = ((span / h) * (1.0 + 1e-12) + 1e-9).floor().max(0.0) as usize;
+    for j in 1..n {
+        let d = t(j) - t(j - 1);
+        if d > r.gap_threshold_s {
+            r.gaps.push(Gap {
+                start_s: t(j - 1),
+                length_s: d,
+            });
+        }
+    }
+    let mut out = Uniform {
+        time: Vec::with_capacity(k_max + 1),
+        current: Vec::with_capacity(k_max + 1),
+        voltage: Vec::with_capacity(k_max + 1),
+        temperature: temperature.map(|_| Vec::with_capacity(k_max + 1)),
+    };
+    // `j`: the last row at or before the period's start.
+    let mut j = 0usize;
+    for k in 0..=k_max {
+        let a = t0 + k as f64 * h;
+        let b = t0 + (k + 1) as f64 * h;
+        while j + 1 < n && t(j + 1) <= a {
+            j += 1;
+        }
+        // The instant's values, linear between rows j and j + 1.
+        let at = |col: &[f64]| {
+            if j + 1 >= n || t(j) == a {
+                col[keep[j]]
+            } else {
+                let w = (a - t(j)) / (t(j + 1) - t(j));
+                col[keep[j]] + w * (col[keep[j + 1]] - col[keep[j]])
+            }
+        };
+        out.time.push(a);
+        // Where the current steps at the next row, the voltage's jump
+        // belongs to the new current: the voltage is held, not drawn
+        // across the step (a rest's end stays relaxed).
+        let steps = j + 1 < n && current[keep[j + 1]] != current[keep[j]];
+        out.voltage
+            .push(if steps { voltage[keep[j]] } else { at(voltage) });
+        if let (Some(col), Some(v)) = (temperature, out.temperature.as_mut()) {
+            v.push(at(col));
+        }
+        // The mean of the held current over [a, b).
+        let mut q = 0.0;
+        let mut i = j;
+        let mut rows_in = 0usize;
+        loop {
+            let lo = t(i).max(a);
+            let hi = if i + 1 < n { t(i + 1).min(b) } else { b };
+            if hi > lo {
+                q += current[keep[i]] * (hi - lo);
+            }
+            if t(i) >= a && t(i) < b {
+                rows_in += 1;
+            }
+            if i + 1 >= n || t(i + 1) >= b {
+                break;
+            }
+            i += 1;
+        }
+        out.current.push(q / h);
+        match rows_in {
+            0 => r.rows_interpolated += 1,
+            m => r.rows_merged += m - 1,
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn run(time: &[f64], current: &[f64], h: f64) -> (Uniform, Resampling) {
+        let mut r = Resampling {
+            gap_threshold_s: 100.0,
+            ..Resampling::default()
+        };
+        let keep = clean(time, &mut r);
+        let v: Vec<f64> = time.iter().map(|t| 3.0 + t * 1e-3).collect();
+        let u = to_uniform(time, current, &v, None, &keep, h, &mut r);
+        (u, r)
+    }
+
+    #[test]
+    fn the_charge_is_kept_and_the_voltage_taken_at_the_instants() {
+        // 0.1 s rows on a pulse, 60 s rows on a rest, a 250 s gap.
+        let mut time = vec![];
+        let mut current = vec![];
+        for k in 0..100 {
+            time.push(k as f64 * 0.1);
+            current.push(if k < 50 { -5.0 } else { 2.5 });
+        }
+        for k in 0..5 {
+            time.push(10.0 + 60.0 * k as f64);
+            current.push(if k < 3 { 0.1 } else { 0.2 });
+        }
+        time.push(490.0);
+        current.push(0.0);
+        let charge: f64 = time
+            .windows(2)
+            .zip(&current)
+            .map(|(w, i)| i * (w[1] - w[0]))
+            .sum();
+        let (u, r) = run(&time, &current, 1.0);
+        assert_eq!(u.time.len(), 491);
+        let resampled: f64 = u.current.iter().sum::<f64>() * 1.0;
+        assert!(
+            (resampled - charge).abs() < 1e-9 * charge.abs(),
+            "{resampled} vs {charge}"
+        );
+        assert_eq!(u.current[4], -5.0);
+        assert!((u.current[9] - 2.5).abs() < 1e-12 && u.current[5] == 2.5);
+        // Voltage at the instant, not a mean: 3 V + t mV.
+        assert!((u.voltage[37] - 3.037).abs() < 1e-12);
+        assert!((u.voltage[200] - 3.200).abs() < 1e-12);
+        // Held where the current steps at the next row (250 s: 0.2 A, then
+        // 0 A from 490 s).
+        assert!((u.voltage[300] - 3.250).abs() < 1e-12);
+        // 100 rows in 10 periods: 90 merged; 5 rests of 60 s and the gap;
+        // the last row is the last sample's.
+        assert_eq!(r.rows_merged, 90);
+        assert_eq!(r.rows_interpolated, 490 - 10 - 5);
+        assert_eq!(
+            r.gaps,
+            vec![Gap {
+                start_s: 250.0,
+                length_s: 240.0
+            }]
+        );
+    }
+
+    #[test]
+    fn duplicate_and_backward_times_are_counted_not_fatal() {
+        let time = [0.0, 1.0, 1.0, 2.0, 1.5, 3.0, 3.0, 4.0];
+        let current = [1.0, 9.0, 2.0, 2.0, 7.0, 9.0, 3.0, 3.0];
+        let (u, r) = run(&time, &current, 1.0);
+        assert_eq!((r.duplicate_times, r.backward_times), (2, 1));
+        assert_eq!(u.current, vec![1.0, 2.0, 2.0, 3.0, 3.0]);
+    }
+
+    #[test]
+    fn a_nan_current_spoils_only_its_periods() {
+        let time: Vec<f64> = (0..20).map(|k| k as f64 * 0.5).collect();
+        let mut current = vec![1.0; 20];
+        current[6] = f64::NAN;
+        let (u, _) = run(&time, &current, 1.0);
+        let bad: Vec<usize> = (0..u.current.len())
+            .filter(|&k| u.current[k].is_nan())
+            .collect();
+        assert_eq!(bad, vec![3]);
+    }
+
+    #[test]
+    fn the_default_period_is_the_median_step_within_a_sample_budget() {
+        let t: Vec<f64> = (0..1000).map(|k| k as f64 * 0.1).collect();
+        assert_eq!(default_period(&t, 50_000), 0.1);
+        assert_eq!(default_period(&t, 100), 1.0);
+        assert_eq!(default_period(&[0.0, 0.3, 0.6], 10), 0.5);
+        assert_eq!(nice_up(2.0), 2.0);
+        assert_eq!(nice_up(0.0123), 0.02);
+    }
+}

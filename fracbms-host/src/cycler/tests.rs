@@ -1,0 +1,189 @@
+use super::*;
+
+fn read(text: &str, o: &RecordOptions) -> Result<CyclerRecord> {
+    read_record_from(text.as_bytes(), Path::new("log.csv"), o)
+}
+
+fn message(text: &str, o: &RecordOptions) -> String {
+    match read(text, o) {
+        Ok(_) => panic!("read: {text}"),
+        Err(e) => e.to_string(),
+    }
+}
+
+#[test]
+fn our_uniform_records_read_exactly_as_before() {
+    let text = "time_s,current_a,voltage_v\n0,1.25,3.7\n1,-2.5,3.6\n2,0.1,3.65\n";
+    let r = read(text, &RecordOptions::default()).unwrap();
+    let old = crate::io::read_battery_from(text.as_bytes(), Path::new("x"), None).unwrap();
+    assert_eq!(r.record.time, old.time);
+    assert_eq!(r.record.current, old.current);
+    assert_eq!(r.record.voltage, old.voltage);
+    assert_eq!(r.record.h, old.h);
+    assert!(!r.report.resampled && r.report.resampling_line().is_none());
+    assert_eq!(r.report.period_source, "uniform");
+}
+
+#[test]
+fn units_and_sign_are_converted_and_said() {
+    let text = "Time [min],Current [mA],Voltage [mV],Temperature [K]\n\
+                0,0,3700,298.15\n0.5,1000,3650,298.65\n1,1000,3640,\n";
+    let o = RecordOptions {
+        current_sign: CurrentSign::DischargePositive,
+        ..RecordOptions::default()
+    };
+    let r = read(text, &o).unwrap();
+    assert_eq!(r.record.time, vec![0.0, 30.0, 60.0]);
+    assert_eq!(r.record.current, vec![-0.0, -1.0, -1.0]);
+    assert!((r.record.voltage[1] - 3.65).abs() < 1e-12);
+    let t = r.temperature.unwrap();
+    assert!((t[1] - 25.5).abs() < 1e-9 && t[2].is_nan());
+    let line = r.report.summary(Path::new("log.csv"));
+    assert_eq!(
+        line,
+        "read log.csv: 3 rows from row 2: time `Time [min]` (min), current `Current [mA]` (mA) discharge-positive, voltage `Voltage [mV]` (mV), temperature `Temperature [K]` (K)"
+    );
+}
+
+#[test]
+fn an_arbin_export_with_extra_and_repeated_columns_reads_as_it_comes() {
+    let text = "Data_Point,Loop,Loop,Test_Time(s),Date_Time,Step_Time(s),Step_Index,Current(A),Voltage(V)\r\n\
+                1,1,1,0.0,2020-01-01 00:00:00,0.0,1,0,3.70\r\n\
+                2,1,1,0.1,2020-01-01 00:00:00,0.1,2,-3,3.60\r\n\
+                3,1,1,0.2,2020-01-01 00:00:00,0.2,2,-3,3.59\r\n\
+                4,1,1,60.2,2020-01-01 00:01:00,60.0,3,0,3.68\r\n";
+    let r = read(text, &RecordOptions::default()).unwrap();
+    assert_eq!(r.report.columns.time, "Test_Time(s)");
+    assert!(r.report.resampled);
+    // The median step (0.1 s), as the record is short.
+    assert_eq!(r.record.h, 0.1);
+    assert_eq!(r.report.period_source, "chosen");
+    let o = RecordOptions {
+        period: Some(1.0),
+        ..RecordOptions::default()
+    };
+    let r = read(text, &o).unwrap();
+    assert_eq!(r.record.time.len(), 61);
+    // [0, 1): 0 A for 0.1 s, −3 A for 0.9 s.
+    assert!(
+        (r.record.current[0] + 2.7).abs() < 1e-12,
+        "{}",
+        r.record.current[0]
+    );
+    assert!(r.report.resampling_line().unwrap().contains("(--period)"));
+}
+
+#[test]
+fn hostile_exports_give_one_line_naming_what_was_found() {
+    let d = RecordOptions::default();
+    let m = message("Time(s),Voltage(V),Step\n0,3.7,1\n1,3.7,1\n", &d);
+    assert!(
+        m.starts_with("log.csv: row 1: no current column recognised")
+            && m.contains("(header: `Time(s)`, `Voltage(V)`, `Step`)"),
+        "{m}"
+    );
+    let m = message("Time(s),Current(A),Voltage(V)\n0,1,3.7\n1,x,3.7\n", &d);
+    assert_eq!(
+        m,
+        "log.csv: row 3, column `Current(A)`: `x` is not a number"
+    );
+    let m = message("Time(s),Current(A),Voltage(V)\n0,1,3.7\n", &d);
+    assert!(m.contains("1 data rows; at least 2"), "{m}");
+    let m = message(
+        "Time(s),Current(A),Voltage(V)\n5,1,3.7\n4,1,3.7\n3,1,3.7\n",
+        &d,
+    );
+    assert!(
+        m.contains("row 3, column `Time(s)`: time goes back at 2 of 3 rows"),
+        "{m}"
+    );
+    let m = message("Time(s),Current(A),Voltage(V)\n0,1,3.7\n0,1,3.7\n", &d);
+    assert!(m.contains("one time stamp"), "{m}");
+    let m = message("", &d);
+    assert!(m.contains("empty"), "{m}");
+    let m = message("a,b\n1,2\n", &d);
+    assert!(m.contains("row 1:") && m.contains("`a`, `b`"), "{m}");
+    let m = message("Time(s),Current(A),Voltage(V)\n0,1,3.7\n1,1\n", &d);
+    assert!(
+        m.contains("row 3: 2 cells; column `Voltage(V)` is cell 3"),
+        "{m}"
+    );
+    for bad in [0.0, -1.0, f64::NAN, f64::INFINITY] {
+        let o = RecordOptions {
+            period: Some(bad),
+            ..RecordOptions::default()
+        };
+        let e = read("time_s,current_a,voltage_v\n0,1,3\n1,1,3\n", &o)
+            .err()
+            .unwrap();
+        assert_eq!(e.kind(), crate::ErrorKind::Options);
+    }
+    for m in [
+        message("Time(s),Current(A),Voltage(V)\n0,1,3.7\n1\n", &d),
+        message("Time(s),Current(A),Current(A),Voltage(V)\n0,1,1,3.7\n", &d),
+    ] {
+        assert_eq!(m.lines().count(), 1, "{m}");
+    }
+}
+
+#[test]
+fn a_few_rows_out_of_order_are_counted_and_a_preamble_skipped() {
+    let mut text = String::from("Cycler export v2\nCell: A1\n\nTime(s);Current(A);Voltage(V)\n");
+    for k in 0..300 {
+        text += &format!(
+            "{};{};{}\n",
+            k,
+            if k % 20 < 10 { -1 } else { 1 },
+            3.6 + 0.01 * ((k % 20 >= 10) as i32 as f64)
+        );
+        if k == 100 {
+            text += "99.5;0;3.6\n100;0;3.6\n";
+        }
+    }
+    let r = read(&text, &RecordOptions::default()).unwrap();
+    assert_eq!(r.report.header_row, 4);
+    assert_eq!(
+        (
+            r.report.resampling.backward_times,
+            r.report.resampling.duplicate_times
+        ),
+        (1, 1)
+    );
+    assert_eq!(r.record.h, 1.0);
+    assert_eq!(r.record.time.len(), 300);
+    assert!(r.report.sign_warning.is_none());
+    // The same export with the current's sign flipped: said.
+    let o = RecordOptions {
+        current_sign: CurrentSign::DischargePositive,
+        ..RecordOptions::default()
+    };
+    let w = read(&text, &o).unwrap().report.sign_warning.unwrap();
+    assert!(w.contains("--current-sign charge-positive"), "{w}");
+}
+
+#[test]
+fn clock_times_and_gaps_are_reported() {
+    let text = "Record ID,Total Time,Current(mA),Voltage(V)\n\
+                1,0:00:00,0,3.7\n2,0:00:01,-500,3.6\n3,0:00:02,-500,3.6\n4,1:00:02,0,3.7\n5,1:00:03,0,3.7\n";
+    let r = read(text, &RecordOptions::default()).unwrap();
+    assert_eq!(r.report.units.time, Unit::Clock);
+    assert_eq!(
+        r.report.resampling.gaps,
+        vec![Gap {
+            start_s: 2.0,
+            length_s: 3600.0
+        }]
+    );
+    let j = serde_json::to_value(&r.report).unwrap();
+    for key in [
+        "period_s",
+        "rows_merged",
+        "rows_interpolated",
+        "gaps",
+        "duplicate_times",
+        "backward_times",
+    ] {
+        assert!(j.get(key).is_some(), "{key}: {j}");
+    }
+    assert_eq!(j["units"]["current"], "mA");
+}
