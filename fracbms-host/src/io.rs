@@ -205,6 +205,7 @@ pub fn require_finite(path: &Path, c: &Columns, names: &[&str], which: &[usize])
 
 /// A battery record: uniform sample period, current (A, + charging),
 /// terminal voltage (V).
+#[derive(Clone, Debug)]
 pub struct BatteryRecord {
     /// Time of each sample (s).
     pub time: Vec<f64>,

@@ -13,6 +13,7 @@
 //! | [`ocv`] | a cell's OCV curve, capacity and start SOC, checked ([`ocv::OcvSpec`]) |
 //! | [`ocv_extraction`] | the OCV table read from a test: the rests' relaxed voltages or a low-rate charge and discharge, against the counted SOC, the capacity measured |
 //! | [`identify`] | whole-record fits: the Hammerstein system (2S-OP-GI / KT-2S-GI and the prediction-error refinement) and the battery cell (the paper's regression, the output-error refinement, the Butler–Volmer choice) |
+//! | [`predict`] | validation on another record: a fit run on a log's current, RMSE and largest error against the measured voltage |
 //! | [`trust`] | rows rejected before a fit, 95 % intervals and the identifiability verdict |
 //! | [`online`] | the sliding-window cell estimator run over a record ([`online::Tracker`]) |
 //! | [`pack`] | the pack estimator over a pack record, and pack simulation |
@@ -67,6 +68,7 @@ pub mod ocv_extraction;
 pub mod online;
 pub mod pack;
 pub mod plot;
+pub mod predict;
 pub mod presets;
 pub mod progress;
 pub mod reproduce;

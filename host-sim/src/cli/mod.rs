@@ -1,4 +1,5 @@
-//! The command line: `simulate`, `identify`, `online`, `ocv`, `reproduce`.
+//! The command line: `simulate`, `identify`, `online`, `predict`, `ocv`,
+//! `reproduce`.
 //!
 //! Only arguments: each command's module is a table of flags (clap) that
 //! turns them into `fracbms-host`'s options, calls one library function
@@ -7,6 +8,7 @@
 
 mod identify;
 mod online;
+mod predict;
 mod reproduce;
 mod simulate;
 
@@ -38,6 +40,9 @@ enum Command {
     /// Feed a file sample by sample through the sliding-window estimator.
     #[command(subcommand)]
     Online(OnlineCmd),
+    /// Run an identified model on another record and compare.
+    #[command(subcommand)]
+    Predict(PredictCmd),
     /// An OCV table (`soc,ocv_v`) from a test's rests or low-rate branches.
     Ocv(ocv::OcvArgs),
     /// Regenerate the paper's tables and figures as a Markdown report with SVG figures.
@@ -61,6 +66,14 @@ enum IdentifyCmd {
     Hammerstein(identify::IdHammersteinArgs),
     /// R_i, R_ct, Q, α, U_oc from a `time_s,current_a,voltage_v` file.
     Battery(Box<identify::IdBatteryArgs>),
+}
+
+#[derive(Subcommand, Debug)]
+enum PredictCmd {
+    /// The model of `identify battery` on a record's current: writes
+    /// `time_s,current_a,voltage_v,model_v` and prints the RMSE and the
+    /// largest error against the measured voltage.
+    Battery(predict::PredictBatteryArgs),
 }
 
 #[derive(Subcommand, Debug)]
@@ -263,6 +276,7 @@ fn run(cli: Cli) -> Result<()> {
         Command::Identify(IdentifyCmd::Battery(a)) => identify::battery(*a),
         Command::Online(OnlineCmd::Battery(a)) => online::battery(*a),
         Command::Online(OnlineCmd::Pack(a)) => online::pack(a),
+        Command::Predict(PredictCmd::Battery(a)) => predict::battery(a),
         Command::Ocv(a) => ocv::run(a),
         Command::Reproduce(a) => reproduce::run(a),
     }

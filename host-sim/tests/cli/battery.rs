@@ -49,7 +49,7 @@ fn battery_round_trip_recovers_the_cell() {
 
 /// The NMC curve of `simulate battery --ocv nmc`, every 2 % of SOC, as a
 /// `soc,ocv_v` table.
-fn nmc_table(path: &Path) {
+pub(crate) fn nmc_table(path: &Path) {
     let mut t = String::from("soc,ocv_v\n");
     for k in 0..=50 {
         let z = k as f64 / 50.0;

@@ -9,6 +9,7 @@ mod battery;
 mod cycler;
 mod hammerstein;
 mod ocv;
+mod predict;
 mod tracking;
 
 fn bin() -> Command {

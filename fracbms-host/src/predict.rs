@@ -1,0 +1,265 @@
+//! Validation on another record: an identified model run on a log's
+//! current, its voltage beside the measured one.
+//!
+//! It owns reading a fit (the JSON of `identify battery`), the free run on
+//! a new record and the error statistics. It must not fit anything (that
+//! is [`crate::identify`]) nor read records itself ([`crate::cycler`]).
+//!
+//! Conventions: current positive charging (A); the model starts from rest
+//! at the record's first sample; with an OCV table, the SOC is counted from
+//! `--soc0` (or the rested start) and the model's voltage is
+//! `OCV(SOC) + ΔU + R_i·I + a·asinh(I/i₀) + U_p`.
+
+use crate::error::Result;
+use crate::identify::battery::model_voltage;
+use crate::io::{self, BatteryRecord};
+use crate::ocv::{OcvOptions, OcvSpec};
+use crate::{bail, err};
+use estimator_core::battery::CellParameters;
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+
+/// A fit read from the JSON of `identify battery`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Fit {
+    /// The cell; with an OCV table its `u_oc` is the offset ΔU.
+    pub cell: CellParameters<f64>,
+    /// Whether the fit was made against an OCV table (`ocv_offset_v`).
+    pub with_ocv: bool,
+}
+
+/// Reads the JSON of `identify battery` at `path`.
+///
+/// # Errors
+/// [`crate::ErrorKind::Io`] when it cannot be read, [`crate::ErrorKind::Data`]
+/// when it is not that JSON or its cell is not physical.
+pub fn read_fit(path: &Path) -> Result<Fit> {
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| err!(Io, "{}: cannot read ({e})", path.display()))?;
+    let j: serde_json::Value = serde_json::from_str(&text)
+        .map_err(|e| err!(Data, "{}: not JSON ({e})", path.display()))?;
+    let get = |k: &str| {
+        j[k].as_f64().ok_or_else(|| {
+            err!(
+                Data,
+                "{}: no number `{k}` (expected the JSON of identify battery)",
+                path.display()
+            )
+        })
+    };
+    let (bv_a, bv_i0) = match (j["bv_a_v"].as_f64(), j["bv_i0_a"].as_f64()) {
+        (Some(a), Some(i0)) => (a, i0),
+        _ => (0.0, 1.0),
+    };
+    let offset = j["ocv_offset_v"].as_f64();
+    let cell = CellParameters {
+        r_i: get("r_i")?,
+        r_ct: get("r_ct")?,
+        q: get("q")?,
+        alpha: get("alpha")?,
+        u_oc: match offset {
+            Some(d) => d,
+            None => get("u_oc")?,
+        },
+        bv_a,
+        bv_i0,
+    };
+    if !cell.is_physical() {
+        bail!(Data, "{}: the fit's cell is not physical", path.display());
+    }
+    Ok(Fit {
+        cell,
+        with_ocv: offset.is_some(),
+    })
+}
+
+/// How `predict battery` runs: the model file, the OCV and the record.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct PredictOptions {
+    /// The fit: the JSON of `identify battery`.
+    pub model: PathBuf,
+    /// The OCV table, capacity and start SOC (needed when the fit was made
+    /// with a table).
+    pub ocv: OcvOptions,
+    /// How the record is read.
+    pub record: crate::cycler::RecordOptions,
+}
+
+/// The model's voltage beside the record's, and how far apart they are.
+#[derive(Clone, Debug, Serialize)]
+pub struct Prediction {
+    /// RMSE of the model's voltage against the measured one (V), over the
+    /// samples with a finite voltage.
+    pub rmse_v: f64,
+    /// The largest |model − measured| (V).
+    pub max_error_v: f64,
+    /// Where it is (s).
+    pub max_error_time_s: f64,
+    /// Samples compared.
+    pub samples: usize,
+    /// Samples whose voltage was not finite (not compared).
+    pub voltages_skipped: usize,
+    /// Samples whose current was not finite (the one before held).
+    pub currents_held: usize,
+    /// SOC at the start (null without an OCV table).
+    pub soc0: Option<f64>,
+    /// SOC after the last sample (null without an OCV table).
+    pub soc_end: Option<f64>,
+    /// How the record was read.
+    pub record: Option<crate::cycler::RecordReport>,
+    /// The model's voltage at each sample (V).
+    #[serde(skip)]
+    pub model_v: Vec<f64>,
+}
+
+/// Runs `fit` on `rec`'s current (file `path`, named in errors) with the
+/// OCV `ocv` if the fit was made with a table.
+///
+/// # Errors
+/// [`crate::ErrorKind::Options`] when the fit needs an OCV table and none
+/// is given (or the reverse); [`crate::ErrorKind::Data`] for a record that
+/// does not start at rest when its start SOC must be read.
+pub fn predict(
+    path: &Path,
+    rec: &BatteryRecord,
+    fit: &Fit,
+    ocv: Option<&OcvSpec>,
+) -> Result<Prediction> {
+    let mut current = rec.current.clone();
+    let mut currents_held = 0;
+    let mut last = 0.0;
+    for i in &mut current {
+        if i.is_finite() {
+            last = *i;
+        } else {
+            *i = last;
+            currents_held += 1;
+        }
+    }
+    let (model_v, soc0, soc_end) = match (ocv, fit.with_ocv) {
+        (Some(spec), true) => {
+            let held = BatteryRecord {
+                current: current.clone(),
+                ..rec.clone()
+            };
+            let c = spec.resolve(path, &held)?;
+            let mut minus_ocv = vec![0.0; current.len()];
+            let zeros = vec![0.0; current.len()];
+            let end = c
+                .model
+                .overpotentials(rec.h, c.soc0, &current, &zeros, &mut minus_ocv);
+            let up = model_voltage(&fit.cell, rec.h, &current)?;
+            let v = up.iter().zip(&minus_ocv).map(|(m, o)| m - o).collect();
+            (v, Some(c.soc0), Some(end))
+        }
+        (None, false) => (model_voltage(&fit.cell, rec.h, &current)?, None, None),
+        (None, true) => bail!(
+            Options,
+            "the fit was made with an OCV table (its ocv_offset_v): give --ocv and --capacity-ah"
+        ),
+        (Some(_), false) => bail!(
+            Options,
+            "the fit was made without an OCV table (no ocv_offset_v): leave out --ocv"
+        ),
+    };
+    let (mut sum, mut n, mut worst, mut at) = (0.0, 0usize, 0.0f64, 0.0);
+    for ((m, v), t) in model_v.iter().zip(&rec.voltage).zip(&rec.time) {
+        if v.is_finite() {
+            let e = m - v;
+            sum += e * e;
+            n += 1;
+            if e.abs() > worst {
+                worst = e.abs();
+                at = *t;
+            }
+        }
+    }
+    if n == 0 {
+        bail!(Data, "{}: no finite voltage to compare", path.display());
+    }
+    Ok(Prediction {
+        rmse_v: (sum / n as f64).sqrt(),
+        max_error_v: worst,
+        max_error_time_s: at,
+        samples: n,
+        voltages_skipped: rec.voltage.len() - n,
+        currents_held,
+        soc0,
+        soc_end,
+        record: None,
+        model_v,
+    })
+}
+
+/// `predict battery` on the file `input`: reads it, runs the fit of
+/// `o.model` and writes `time_s,current_a,voltage_v,model_v` to `out`.
+///
+/// # Errors
+/// As [`read_fit`], [`crate::cycler::read_record`] and [`predict`]; the
+/// options are checked before the record is read.
+pub fn battery_file(input: &Path, out: &Path, o: &PredictOptions) -> Result<Prediction> {
+    let fit = read_fit(&o.model)?;
+    let spec = OcvSpec::from_options(&o.ocv)?;
+    let read = crate::cycler::read_record(input, &o.record)?;
+    let mut p = predict(input, &read.record, &fit, spec.as_ref())?;
+    let rec = &read.record;
+    io::write_csv(
+        out,
+        &["time_s", "current_a", "voltage_v", "model_v"],
+        rec.time
+            .iter()
+            .zip(&rec.current)
+            .zip(&rec.voltage)
+            .zip(&p.model_v)
+            .map(|(((t, i), v), m)| {
+                [
+                    format!("{t}"),
+                    format!("{i}"),
+                    format!("{v}"),
+                    format!("{m:.9}"),
+                ]
+            }),
+    )?;
+    p.record = Some(read.report);
+    Ok(p)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A fit run on a record its own model made gives that record back.
+    #[test]
+    fn the_model_of_a_record_predicts_it_exactly() {
+        let cell = CellParameters::<f64>::cell_18650();
+        let current: Vec<f64> = (0..600)
+            .map(|k| if (k / 50) % 2 == 0 { -5.0 } else { 2.0 })
+            .collect();
+        let v = model_voltage(&cell, 1.0, &current).unwrap();
+        let rec = BatteryRecord {
+            time: (0..600).map(f64::from).collect(),
+            current,
+            voltage: v,
+            h: 1.0,
+        };
+        let fit = Fit {
+            cell,
+            with_ocv: false,
+        };
+        let p = predict(Path::new("r.csv"), &rec, &fit, None).unwrap();
+        assert!(p.rmse_v < 1e-12 && p.max_error_v < 1e-12, "{}", p.rmse_v);
+        assert_eq!(p.samples, 600);
+        let e = predict(
+            Path::new("r.csv"),
+            &rec,
+            &Fit {
+                cell,
+                with_ocv: true,
+            },
+            None,
+        )
+        .unwrap_err();
+        assert!(e.to_string().contains("give --ocv"), "{e}");
+    }
+}
