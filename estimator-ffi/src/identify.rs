@@ -7,7 +7,9 @@ use std::ffi::c_char;
 use std::path::Path;
 
 use estimator_core::battery::ocv::{OcvModel, OcvTable};
-use fracbms_host::identify::{battery_identify, BatteryMethod, ModelRequest, Refine, MAX_ROWS};
+use fracbms_host::identify::{
+    battery_identify, BatteryMethod, ModelRequest, Refine, MAX_BATTERY_ROWS,
+};
 use fracbms_host::io::{self, BatteryRecord, OCV_POINTS};
 use fracbms_host::ocv::CellOcv;
 
@@ -129,9 +131,9 @@ pub(crate) fn identify(
 ) -> FracbmsCode {
     *out = FracbmsFit::empty();
     let name = Path::new("record");
-    if time.len() > MAX_ROWS {
+    if time.len() > MAX_BATTERY_ROWS {
         out.say(&format!(
-            "record: {} rows; at most {MAX_ROWS} are fitted",
+            "record: {} rows; at most {MAX_BATTERY_ROWS} are fitted",
             time.len()
         ));
         return FracbmsCode::FRACBMS_ERROR_DATA;

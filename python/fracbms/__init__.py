@@ -39,6 +39,7 @@ Example: simulate a cell, then identify it again.
 """
 
 from ._fracbms import (
+    MAX_BATTERY_ROWS,
     MAX_ROWS,
     OnlineCell,
     identify_battery,
@@ -47,6 +48,7 @@ from ._fracbms import (
 )
 
 __all__ = [
+    "MAX_BATTERY_ROWS",
     "MAX_ROWS",
     "OnlineCell",
     "identify_battery",

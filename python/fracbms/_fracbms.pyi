@@ -11,7 +11,10 @@ OcvTable = Tuple[ArrayLike, ArrayLike]
 FloatArray = npt.NDArray[np.float64]
 
 MAX_ROWS: int
-"""Most rows identify_battery and identify_hammerstein take (8192)."""
+"""Most rows identify_hammerstein takes (8192)."""
+
+MAX_BATTERY_ROWS: int
+"""Most rows identify_battery takes (65536)."""
 
 def identify_battery(
     time_s: ArrayLike,

@@ -36,7 +36,7 @@ use fracbms_host::choice::Choice;
 use fracbms_host::identify::hammerstein::HammersteinOptions;
 use fracbms_host::identify::{
     battery_identify_screened, hammerstein_fit, Algorithm, BatteryMethod, HammersteinMethod,
-    ModelRequest, Refine, MAX_ROWS,
+    ModelRequest, Refine, MAX_BATTERY_ROWS, MAX_ROWS,
 };
 use fracbms_host::io::{self, BatteryRecord, Columns};
 use fracbms_host::ocv::{CellOcv, OcvSpec, OcvSpecError};
@@ -154,7 +154,7 @@ fn record(
 /// ----------
 /// time_s, current_a, voltage_v : array_like, 1-D
 ///     Time (s, uniform steps), current (A, positive when charging), terminal
-///     voltage (V). At most `MAX_ROWS` rows.
+///     voltage (V). At most `MAX_BATTERY_ROWS` rows.
 /// ocv : (soc, ocv_v), optional
 ///     The cell's OCV table (SOC in [0, 1] and voltage, both increasing).
 /// capacity_ah : float, optional
@@ -206,9 +206,9 @@ fn identify_battery<'py>(
     let model: ModelRequest = choice("model", model)?;
     let spec = ocv_spec(ocv, capacity_ah, soc0)?;
     let rec = record(&time_s, &current_a, &voltage_v)?;
-    if rec.time.len() > MAX_ROWS {
+    if rec.time.len() > MAX_BATTERY_ROWS {
         return Err(PyValueError::new_err(format!(
-            "{RECORD}: {} rows; at most {MAX_ROWS} are identified (OnlineCell tracks longer records)",
+            "{RECORD}: {} rows; at most {MAX_BATTERY_ROWS} are identified (OnlineCell tracks longer records)",
             rec.time.len()
         )));
     }
@@ -722,5 +722,6 @@ fn _fracbms(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(identify_hammerstein, m)?)?;
     m.add_class::<OnlineCell>()?;
     m.add("MAX_ROWS", MAX_ROWS)?;
+    m.add("MAX_BATTERY_ROWS", MAX_BATTERY_ROWS)?;
     Ok(())
 }

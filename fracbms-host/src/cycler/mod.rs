@@ -77,6 +77,12 @@ pub struct RecordOptions {
     /// Steps longer than this (s) are reported as gaps (default
     /// max(10 periods, 300 s)).
     pub max_gap: Option<f64>,
+    /// The most samples the caller takes (None: no limit). A uniform log
+    /// longer than this is resampled at the period
+    /// [`resample::default_period`] chooses for it; a `period` that gives
+    /// more is refused. A whole-record fit sets [`MAX_SAMPLES`].
+    #[serde(skip)]
+    pub max_samples: Option<usize>,
 }
 
 /// The most samples a non-uniform log is resampled to when no period is
@@ -184,6 +190,7 @@ impl RecordReport {
 }
 
 /// A record read from a cycler export.
+#[derive(Debug)]
 pub struct CyclerRecord {
     /// Time, current (A, + charging), voltage (V) on a uniform period.
     pub record: BatteryRecord,
@@ -509,15 +516,31 @@ fn finish(
         );
     }
     let kept_uniform = resample::uniform(&raw.time, &keep);
+    let span = raw.time[keep[keep.len() - 1]] - raw.time[keep[0]];
+    let limit = o.max_samples.unwrap_or(usize::MAX);
+    let chosen = || {
+        let t: Vec<f64> = keep.iter().map(|&i| raw.time[i]).collect();
+        (
+            resample::default_period(&t, limit.min(MAX_SAMPLES)),
+            "chosen",
+        )
+    };
     let (h, source) = match (o.period, kept_uniform) {
         (Some(h), Some(u)) if (h - u).abs() <= 1e-6 * u => (u, "uniform"),
         (Some(h), _) => (h, "given"),
+        (None, Some(_)) if keep.len() > limit => chosen(),
         (None, Some(u)) => (u, "uniform"),
-        (None, None) => {
-            let t: Vec<f64> = keep.iter().map(|&i| raw.time[i]).collect();
-            (resample::default_period(&t, MAX_SAMPLES), "chosen")
-        }
+        (None, None) => chosen(),
     };
+    // A chosen period keeps within the limit (to one sample, where span/h
+    // is whole); a given one may not.
+    let samples = (span / h) as usize + 1;
+    if source == "given" && samples > limit {
+        bail!(
+            Options,
+            "--period {h}: {samples} samples over the record's {span} s; at most {limit} are taken (a longer period)"
+        );
+    }
     r.gap_threshold_s = o.max_gap.unwrap_or((10.0 * h).max(300.0));
     let resampled = source != "uniform";
     let (time, current, voltage, temperature) = if resampled {

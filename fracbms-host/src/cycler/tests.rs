@@ -187,3 +187,29 @@ fn clock_times_and_gaps_are_reported() {
     }
     assert_eq!(j["units"]["current"], "mA");
 }
+
+/// A whole-record fit takes at most `max_samples`: a longer uniform log
+/// is put on the period chosen for it; a period that gives more is refused.
+#[test]
+fn a_uniform_log_beyond_the_limit_is_put_on_a_longer_period() {
+    let mut t = String::from("time_s,current_a,voltage_v\n");
+    for k in 0..=60_000 {
+        t.push_str(&format!("{},-1,3.6\n", k as f64 / 10.0));
+    }
+    let o = RecordOptions {
+        max_samples: Some(MAX_SAMPLES),
+        ..RecordOptions::default()
+    };
+    let r = read(&t, &o).unwrap();
+    assert_eq!((r.record.h, r.report.period_source), (0.2, "chosen"));
+    assert_eq!(r.record.time.len(), 30_001);
+    // Without a limit (online), it is kept as it is.
+    let r = read(&t, &RecordOptions::default()).unwrap();
+    assert_eq!((r.record.h, r.record.time.len()), (0.1, 60_001));
+    let o = RecordOptions {
+        period: Some(0.05),
+        ..o
+    };
+    let e = read(&t, &o).unwrap_err().to_string();
+    assert!(e.contains("at most 50000"), "{e}");
+}

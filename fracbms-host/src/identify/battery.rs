@@ -5,7 +5,7 @@
 //! `estimator-core`'s; this module drives them in `f64` and reports.
 
 use super::model_choice::{choose_model, refine_fit, ModelChoice};
-use super::{table_row, BatteryMethod, HistoryEntry, ModelRequest, BAT_MEM, MAX_ROWS};
+use super::{table_row, BatteryMethod, HistoryEntry, ModelRequest, BAT_MEM, MAX_BATTERY_ROWS};
 use crate::error::Result;
 use crate::{bail, err, io, trust};
 use estimator_core::battery::output_error::{FitInformation, OutputErrorRefinement};
@@ -192,7 +192,15 @@ pub fn battery_run_with(
         0..=1024 => battery_run_sized::<1024, 1024>,
         1025..=2048 => battery_run_sized::<2048, 2048>,
         2049..=4096 => battery_run_sized::<4096, BAT_MEM>,
-        _ => battery_run_sized::<MAX_ROWS, BAT_MEM>,
+        4097..=8192 => battery_run_sized::<8192, BAT_MEM>,
+        8193..=16384 => battery_run_sized::<16384, BAT_MEM>,
+        16385..=32768 => battery_run_sized::<32768, BAT_MEM>,
+        32769..=MAX_BATTERY_ROWS => battery_run_sized::<MAX_BATTERY_ROWS, BAT_MEM>,
+        n => bail!(
+            Data,
+            "{}: {n} samples; a fit takes at most {MAX_BATTERY_ROWS} (put the record on a longer period: --period)",
+            path.display()
+        ),
     };
     run(path, rec, method, memory, iterations, print_table, refine)
 }
@@ -575,7 +583,8 @@ pub const DEFAULT_ITERATIONS: u32 = 50;
 
 /// What [`battery_file`] read and fitted.
 pub struct BatteryFile {
-    /// The record as read (at most [`super::MAX_ROWS`] rows).
+    /// The record as read (at most [`crate::cycler::MAX_SAMPLES`]
+    /// samples).
     pub record: io::BatteryRecord,
     /// What was read from the file, and how the rows were put on a
     /// uniform period.
@@ -586,8 +595,9 @@ pub struct BatteryFile {
     pub screened: trust::Screened,
 }
 
-/// `identify battery` on the file `input`: reads at most
-/// [`super::MAX_ROWS`] rows (a note on stderr says when it was cut), checks
+/// `identify battery` on the file `input`: reads the whole record (a log
+/// longer than [`crate::cycler::MAX_SAMPLES`] samples is put on a longer
+/// period, as its `record` block says), checks
 /// the options before the file is read where it can, screens the bad rows
 /// and fits as `o` says. With `print_table`, the 2S-OP-GI table of
 /// estimates versus k goes to stdout, as the CLI shows it.
@@ -596,16 +606,13 @@ pub struct BatteryFile {
 /// A file that cannot be read, data or options that are refused, or an
 /// estimator that stops.
 pub fn battery_file(input: &Path, o: &BatteryFitOptions, print_table: bool) -> Result<BatteryFile> {
-    let read = crate::cycler::read_record(input, &o.record)?;
-    let mut rec = read.record;
-    if rec.time.len() > super::MAX_ROWS {
-        for col in [&mut rec.time, &mut rec.current, &mut rec.voltage] {
-            col.truncate(super::MAX_ROWS);
-        }
-    }
-    if let Some(note) = super::truncation_note(input, rec.current.len()) {
-        eprintln!("{note}");
-    }
+    // The whole record: a longer uniform log is put on a longer period.
+    let record = crate::cycler::RecordOptions {
+        max_samples: Some(crate::cycler::MAX_SAMPLES),
+        ..o.record.clone()
+    };
+    let read = crate::cycler::read_record(input, &record)?;
+    let rec = read.record;
     let refine = Refine {
         memory: o.refine_memory,
         ocv_slope: o.ocv_slope,

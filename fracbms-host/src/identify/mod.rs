@@ -24,9 +24,14 @@ use crate::error::Result;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
-/// Most rows `identify` reads (the rest of a longer file is ignored, with a
-/// note; `online` streams files of any length).
+/// Most rows `identify hammerstein` reads (the rest of a longer file is
+/// ignored, with a note; `online` streams files of any length).
 pub const MAX_ROWS: usize = 8192;
+
+/// The longest record (samples) a battery fit takes whole: the estimator
+/// state is sized to the record in steps of powers of two up to this.
+pub const MAX_BATTERY_ROWS: usize = 65_536;
+
 /// Memory capacity of the Hammerstein estimators.
 pub const HAM_MEM: usize = 4096;
 /// Memory capacity of the battery estimators.

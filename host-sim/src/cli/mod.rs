@@ -218,6 +218,7 @@ impl From<&RecordArgs> for RecordOptions {
             current_sign: a.current_sign.into(),
             period: a.period,
             max_gap: a.max_gap,
+            max_samples: None,
         }
     }
 }

@@ -199,3 +199,36 @@ fn a_given_period_keeps_the_charge() {
     );
     assert!(j["rmse_v"].as_f64().unwrap() < 0.02, "{j}");
 }
+
+/// No row cap: a record longer than the old 8 192 rows is fitted whole
+/// (a uniform log longer than 50 000 samples is put on a longer period:
+/// `fracbms-host/src/cycler/tests.rs`).
+#[test]
+fn a_long_record_is_fitted_whole() {
+    let csv = tmp("cycler-long.csv");
+    let o = run(&[
+        "simulate",
+        "battery",
+        "--preset",
+        "cell",
+        "--profile",
+        "hppc",
+        "--length",
+        "10000",
+        "--seed",
+        "4",
+        "--out",
+        s(&csv),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let (o, j) = fit(&csv, &[], "cycler-long.json");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!err.contains("only the first"), "{err}");
+    assert_eq!(j["record"]["samples"], 10000);
+    assert_eq!(j["record"]["period_source"], "uniform");
+    assert!(
+        (j["r_i"].as_f64().unwrap() / 0.020 - 1.0).abs() < 0.02,
+        "{j}"
+    );
+    assert!(j["rmse_v"].as_f64().unwrap() < 1.1e-3, "{j}");
+}
