@@ -14,6 +14,7 @@
 //! | [`ocv_extraction`] | the OCV table read from a test: the rests' relaxed voltages or a low-rate charge and discharge, against the counted SOC, the capacity measured |
 //! | [`identify`] | whole-record fits: the Hammerstein system (2S-OP-GI / KT-2S-GI and the prediction-error refinement) and the battery cell (the paper's regression, the output-error refinement, the Butler–Volmer choice) |
 //! | [`predict`] | validation on another record: a fit run on a log's current, RMSE and largest error against the measured voltage |
+//! | [`map`] | parameter maps: the rows per SOC level and temperature, their CSV, the cell at a SOC, the plot (built by [`identify::map`]) |
 //! | [`trust`] | rows rejected before a fit, 95 % intervals and the identifiability verdict |
 //! | [`online`] | the sliding-window cell estimator run over a record ([`online::Tracker`]) |
 //! | [`pack`] | the pack estimator over a pack record, and pack simulation |
@@ -63,6 +64,7 @@ pub mod cycler;
 pub mod error;
 pub mod identify;
 pub mod io;
+pub mod map;
 pub mod ocv;
 pub mod ocv_extraction;
 pub mod online;

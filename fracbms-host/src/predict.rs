@@ -73,12 +73,45 @@ pub fn read_fit(path: &Path) -> Result<Fit> {
     })
 }
 
+/// The model a prediction runs: a single fit, or a parameter map.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Model {
+    /// The JSON of `identify battery`.
+    Fit(Fit),
+    /// The CSV of `identify battery --map-out`.
+    Map(crate::map::ParameterMap),
+}
+
+/// Reads a model: a map when the file's first line is the map's header
+/// (`temperature_c,soc,…`), else the JSON of a fit.
+///
+/// # Errors
+/// As [`read_fit`] and [`crate::map::ParameterMap::read_csv`].
+pub fn read_model(path: &Path) -> Result<Model> {
+    let head = std::fs::read_to_string(path)
+        .map_err(|e| err!(Io, "{}: cannot read ({e})", path.display()))?;
+    if head.trim_start().starts_with('{') {
+        read_fit(path).map(Model::Fit)
+    } else if head
+        .lines()
+        .next()
+        .is_some_and(|l| l.contains("soc") && l.contains("r_i"))
+    {
+        crate::map::ParameterMap::read_csv(path).map(Model::Map)
+    } else {
+        read_fit(path).map(Model::Fit)
+    }
+}
+
 /// How `predict battery` runs: the model file, the OCV and the record.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
 pub struct PredictOptions {
-    /// The fit: the JSON of `identify battery`.
+    /// The model: the JSON of `identify battery`, or its map CSV.
     pub model: PathBuf,
+    /// The record's temperature (°C) for a map over temperature (default:
+    /// the temperature column's mean, else the map's first temperature).
+    pub temperature_c: Option<f64>,
     /// The OCV table, capacity and start SOC (needed when the fit was made
     /// with a table).
     pub ocv: OcvOptions,
@@ -163,6 +196,46 @@ pub fn predict(
             "the fit was made without an OCV table (no ocv_offset_v): leave out --ocv"
         ),
     };
+    let mut p = errors(path, rec, model_v)?;
+    p.currents_held = currents_held;
+    p.soc0 = soc0;
+    p.soc_end = soc_end;
+    Ok(p)
+}
+
+/// Runs the map `map` on `rec` (file `path`) with the OCV `spec`, at the
+/// map's temperature nearest `t`.
+///
+/// # Errors
+/// As [`predict`].
+pub fn predict_map(
+    path: &Path,
+    rec: &BatteryRecord,
+    map: &crate::map::ParameterMap,
+    spec: &OcvSpec,
+    t: Option<f64>,
+) -> Result<Prediction> {
+    let c = spec.resolve(path, rec)?;
+    let model_v = crate::identify::map::map_voltage(map, rec, &c, t)?;
+    let soc = crate::map::counted_soc(rec, &c);
+    let end = soc.last().copied().unwrap_or(c.soc0)
+        + rec
+            .current
+            .last()
+            .copied()
+            .filter(|i| i.is_finite())
+            .unwrap_or(0.0)
+            * rec.h
+            / (3600.0 * c.model.capacity_ah);
+    let mut p = errors(path, rec, model_v)?;
+    p.soc0 = Some(c.soc0);
+    p.soc_end = Some(end);
+    p.currents_held = rec.current.iter().filter(|i| !i.is_finite()).count();
+    Ok(p)
+}
+
+/// The error statistics of `model_v` against `rec`'s voltage.
+fn errors(path: &Path, rec: &BatteryRecord, model_v: Vec<f64>) -> Result<Prediction> {
     let (mut sum, mut n, mut worst, mut at) = (0.0, 0usize, 0.0f64, 0.0);
     for ((m, v), t) in model_v.iter().zip(&rec.voltage).zip(&rec.time) {
         if v.is_finite() {
@@ -184,9 +257,9 @@ pub fn predict(
         max_error_time_s: at,
         samples: n,
         voltages_skipped: rec.voltage.len() - n,
-        currents_held,
-        soc0,
-        soc_end,
+        currents_held: 0,
+        soc0: None,
+        soc_end: None,
         record: None,
         model_v,
     })
@@ -199,10 +272,27 @@ pub fn predict(
 /// As [`read_fit`], [`crate::cycler::read_record`] and [`predict`]; the
 /// options are checked before the record is read.
 pub fn battery_file(input: &Path, out: &Path, o: &PredictOptions) -> Result<Prediction> {
-    let fit = read_fit(&o.model)?;
+    let model = read_model(&o.model)?;
     let spec = OcvSpec::from_options(&o.ocv)?;
+    if matches!(model, Model::Map(_)) && spec.is_none() {
+        bail!(
+            Options,
+            "a parameter map runs on the OCV table: give --ocv and --capacity-ah"
+        );
+    }
     let read = crate::cycler::read_record(input, &o.record)?;
-    let mut p = predict(input, &read.record, &fit, spec.as_ref())?;
+    let mut p = match (&model, spec.as_ref()) {
+        (Model::Fit(fit), spec) => predict(input, &read.record, fit, spec)?,
+        (Model::Map(map), Some(spec)) => {
+            let t = o.temperature_c.or_else(|| {
+                let col = read.temperature.as_deref()?;
+                let ok: Vec<f64> = col.iter().copied().filter(|x| x.is_finite()).collect();
+                (!ok.is_empty()).then(|| ok.iter().sum::<f64>() / ok.len() as f64)
+            });
+            predict_map(input, &read.record, map, spec, t)?
+        }
+        (Model::Map(_), None) => unreachable!("checked above"),
+    };
     let rec = &read.record;
     io::write_csv(
         out,

@@ -322,7 +322,7 @@ pub fn screen(path: &Path, rec: &BatteryRecord, limits: &Limits) -> Result<Scree
 
 /// The verdict on a fit (JSON `confidence`, `identifiable`,
 /// `identifiable_reason`).
-#[derive(Serialize, Clone, Debug, PartialEq)]
+#[derive(Serialize, serde::Deserialize, Clone, Debug, PartialEq)]
 pub struct Confidence {
     /// 95 % interval of R_i (Ω).
     pub r_i: [f64; 2],

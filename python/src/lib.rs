@@ -33,6 +33,7 @@ use std::path::Path;
 
 use estimator_core::battery::{CellParameters, Start};
 use fracbms_host::choice::Choice;
+use fracbms_host::cycler;
 use fracbms_host::identify::hammerstein::HammersteinOptions;
 use fracbms_host::identify::{
     battery_identify_screened, hammerstein_fit, Algorithm, BatteryMethod, HammersteinMethod,
@@ -126,19 +127,6 @@ fn ocv_spec(
     OcvSpec::new(table, cap, soc0).map_err(said).map(Some)
 }
 
-/// The record of three arrays, checked as `identify battery` checks a file.
-fn record(
-    time_s: &Floats<'_>,
-    current_a: &Floats<'_>,
-    voltage_v: &Floats<'_>,
-) -> PyResult<BatteryRecord> {
-    io::battery_record(
-        Path::new(RECORD),
-        Columns::from_arrays(vec![vec(time_s), vec(current_a), vec(voltage_v)]),
-    )
-    .map_err(value_error)
-}
-
 /// Identify a battery cell from a whole record (`host-sim identify battery --json`).
 ///
 /// Fits the fractional-order cell model: `U_t = U_oc + R_i·I + U_p` with
@@ -153,8 +141,11 @@ fn record(
 /// Parameters
 /// ----------
 /// time_s, current_a, voltage_v : array_like, 1-D
-///     Time (s, uniform steps), current (A, positive when charging), terminal
-///     voltage (V). At most `MAX_BATTERY_ROWS` rows.
+///     Time (s), current (A, positive when charging), terminal voltage (V).
+///     Uneven steps are put on a uniform period as the CLI does (the
+///     current averaged over each period, the voltage at the instants; the
+///     dict's ``record`` says how, docs/cycler.md). At most
+///     `MAX_BATTERY_ROWS` samples.
 /// ocv : (soc, ocv_v), optional
 ///     The cell's OCV table (SOC in [0, 1] and voltage, both increasing).
 /// capacity_ah : float, optional
@@ -205,7 +196,17 @@ fn identify_battery<'py>(
     let method: BatteryMethod = choice("method", method)?;
     let model: ModelRequest = choice("model", model)?;
     let spec = ocv_spec(ocv, capacity_ah, soc0)?;
-    let rec = record(&time_s, &current_a, &voltage_v)?;
+    // Read as the CLI reads a file: a non-uniform time is put on a uniform
+    // period (the dict's `record` says how).
+    let read = cycler::record_from_arrays(
+        Path::new(RECORD),
+        &vec(&time_s),
+        &vec(&current_a),
+        &vec(&voltage_v),
+        &cycler::RecordOptions::default(),
+    )
+    .map_err(value_error)?;
+    let rec = read.record;
     if rec.time.len() > MAX_BATTERY_ROWS {
         return Err(PyValueError::new_err(format!(
             "{RECORD}: {} rows; at most {MAX_BATTERY_ROWS} are identified (OnlineCell tracks longer records)",
@@ -240,7 +241,9 @@ fn identify_battery<'py>(
     if let Some(why) = &r.json.identifiable_reason {
         warn(py, &format!("{RECORD}: the fit is not identifiable: {why}"))?;
     }
-    let d = to_dict(py, &r.json)?;
+    let mut json = r.json;
+    json.record = Some(read.report);
+    let d = to_dict(py, &json)?;
     d.set_item("model_v", PyArray1::from_vec(py, r.model_voltage))?;
     Ok(d)
 }

@@ -75,13 +75,6 @@ def cell_record(host_sim, tmp_path_factory):
 
 
 def cli_json(host_sim, tmp_path, *args):
-    """The CLI's JSON, without the `record` block that says how a file was
-    read (arrays given in memory have none); that block is checked here."""
     out = tmp_path / "out.json"
     host_sim(*args, "--json", out)
-    j = json.loads(out.read_text())
-    record = j.pop("record", None)
-    if args[:2] == ("identify", "battery"):
-        assert record["columns"]["time"] == "time_s", record
-        assert record["samples"] == record["rows_read"] and not record["resampled"]
-    return j
+    return json.loads(out.read_text())

@@ -85,3 +85,22 @@ def test_accepts_lists_and_integer_arrays():
     assert isinstance(v, np.ndarray) and v.dtype == np.float64 and v.shape == (400,)
     fit = fracbms.identify_battery(np.array(t), np.array(i), list(v))
     assert fit["r_i"] == pytest.approx(CELL["r_i"], rel=1e-3)
+
+
+def test_uneven_steps_are_put_on_a_period_as_the_cli_does(host_sim, cell_record, tmp_path):
+    c = read_csv(cell_record)
+    # Drop every fifth row: steps of 1 s and 2 s.
+    keep = np.arange(len(c["time_s"])) % 5 != 3
+    t, i, v = (c[k][keep] for k in ("time_s", "current_a", "voltage_v"))
+    path = tmp_path / "uneven.csv"
+    with open(path, "w") as f:
+        f.write("time_s,current_a,voltage_v\n")
+        for row in zip(t, i, v):
+            f.write(",".join(repr(float(x)) for x in row) + "\n")
+    cli = cli_json(host_sim, tmp_path, "identify", "battery", "--input", path)
+    py = fracbms.identify_battery(t, i, v)
+    py.pop("model_v")
+    assert json.dumps(py, sort_keys=True) == json.dumps(cli, sort_keys=True)
+    r = py["record"]
+    assert r["resampled"] and r["period_s"] == 1.0 and r["period_source"] == "chosen"
+    assert r["rows_interpolated"] > 0 and r["samples"] > len(t)

@@ -43,7 +43,13 @@ impl Role {
     fn tiers(self) -> &'static [&'static [&'static str]] {
         match self {
             Role::Time => &[
-                &["testtime", "totaltime", "elapsedtime", "timetotal"],
+                &[
+                    "testtime",
+                    "totaltime",
+                    "elapsedtime",
+                    "timetotal",
+                    "progtime",
+                ],
                 &["time", "test", "runtime", "t"],
             ],
             Role::Current => &[&[

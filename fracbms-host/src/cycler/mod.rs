@@ -28,6 +28,7 @@
 //! ```
 
 pub mod headers;
+mod mat;
 pub mod resample;
 
 pub use headers::{ColumnMap, Role, Unit};
@@ -77,6 +78,10 @@ pub struct RecordOptions {
     /// Steps longer than this (s) are reported as gaps (default
     /// max(10 periods, 300 s)).
     pub max_gap: Option<f64>,
+    /// In a MAT-file: the struct holding the columns, as a dot path
+    /// (`T25.SoC5.Cell1.data`); default: the one struct whose fields name a
+    /// time, a current and a voltage.
+    pub table: Option<String>,
     /// The most samples the caller takes (None: no limit). A uniform log
     /// longer than this is resampled at the period
     /// [`resample::default_period`] chooses for it; a `period` that gives
@@ -134,6 +139,9 @@ pub struct RecordReport {
     /// A warning when the voltage falls where the current rises at most
     /// current steps: the sign is likely the other one.
     pub sign_warning: Option<String>,
+    /// For a MAT-file: the struct read (its dot path).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub table: Option<String>,
 }
 
 impl RecordReport {
@@ -144,11 +152,14 @@ impl RecordReport {
             (Some(h), Some(u)) => format!(", temperature {}", col(h, u)),
             _ => ", no temperature".to_string(),
         };
+        let at = match &self.table {
+            Some(t) => format!("MAT table `{t}`"),
+            None => format!("row {}", self.header_row + 1),
+        };
         format!(
-            "read {}: {} rows from row {}: time {}, current {} {}, voltage {}{temp}",
+            "read {}: {} rows from {at}: time {}, current {} {}, voltage {}{temp}",
             path.display(),
             self.rows_read,
-            self.header_row + 1,
             col(&self.columns.time, self.units.time),
             col(&self.columns.current, self.units.current),
             self.current_sign.as_str(),
@@ -221,20 +232,14 @@ pub fn read_record_from(
     path: &Path,
     o: &RecordOptions,
 ) -> Result<CyclerRecord> {
-    if let Some(h) = o.period {
-        if !(h.is_finite() && h > 0.0) {
-            bail!(Options, "--period must be positive and finite (got {h})");
-        }
-    }
-    if let Some(g) = o.max_gap {
-        if g.is_nan() || g <= 0.0 {
-            bail!(Options, "--max-gap must be positive (got {g})");
-        }
-    }
+    check_options(o)?;
     let mut bytes = Vec::new();
     reader
         .read_to_end(&mut bytes)
         .io_context(|| format!("{}: cannot read", path.display()))?;
+    if bytes.starts_with(mat::MAGIC) {
+        return mat::read(&bytes, path, o);
+    }
     let (header_row, start, delimiter, choice) = find_header(&bytes, path, &o.columns)?;
     let raw = read_rows(
         &bytes[start..],
@@ -248,6 +253,95 @@ pub fn read_record_from(
 }
 
 /// The columns as read, in SI units, with the spreadsheet row of each.
+/// A record given as arrays (the Python and C faces): read as a file
+/// `time_s,current_a,voltage_v` with its header on row 1 would be, so that
+/// a non-uniform time is put on a uniform period the same way and the
+/// report is the same. `path` names the record in errors.
+///
+/// # Errors
+/// [`crate::ErrorKind::Data`] for arrays of different lengths, a time that
+/// is not finite, fewer than 2 rows, a time going backwards; as
+/// [`read_record_from`] for the options.
+///
+/// ```
+/// use fracbms_host::cycler::{record_from_arrays, RecordOptions};
+/// use std::path::Path;
+///
+/// // 1 s steps with one row missing: put on 1 s, the charge kept.
+/// let t = [0.0, 1.0, 2.0, 4.0, 5.0];
+/// let r = record_from_arrays(Path::new("record"), &t, &[1.0; 5], &[3.7; 5], &RecordOptions::default())?;
+/// assert_eq!(r.record.time, vec![0.0, 1.0, 2.0, 3.0, 4.0, 5.0]);
+/// assert_eq!(r.report.rows_interpolated, 1);
+/// # Ok::<(), fracbms_host::Error>(())
+/// ```
+pub fn record_from_arrays(
+    path: &Path,
+    time: &[f64],
+    current: &[f64],
+    voltage: &[f64],
+    o: &RecordOptions,
+) -> Result<CyclerRecord> {
+    check_options(o)?;
+    if time.len() != current.len() || time.len() != voltage.len() {
+        bail!(
+            Data,
+            "{}: columns time_s, current_a, voltage_v have {}, {}, {} values",
+            path.display(),
+            time.len(),
+            current.len(),
+            voltage.len()
+        );
+    }
+    if let Some(k) = time.iter().position(|t| !t.is_finite()) {
+        bail!(
+            Data,
+            "{}: row {}, column `time_s`: `{}` is not finite",
+            path.display(),
+            k + 2,
+            time[k]
+        );
+    }
+    let s = match o.current_sign {
+        CurrentSign::ChargePositive => 1.0,
+        CurrentSign::DischargePositive => -1.0,
+    };
+    let raw = RawRows {
+        time: time.to_vec(),
+        current: current.iter().map(|i| s * i).collect(),
+        voltage: voltage.to_vec(),
+        temperature: None,
+        rows: (2..time.len() + 2).collect(),
+        clock_time: false,
+    };
+    let chosen = |index: usize, header: &str, unit: Unit| headers::Chosen {
+        index,
+        header: header.to_string(),
+        unit,
+        unit_stated: true,
+    };
+    let choice = ColumnChoice {
+        time: chosen(0, "time_s", Unit::Second),
+        current: chosen(1, "current_a", Unit::Ampere),
+        voltage: chosen(2, "voltage_v", Unit::Volt),
+        temperature: None,
+    };
+    finish(raw, 1, &choice, path, o)
+}
+
+fn check_options(o: &RecordOptions) -> Result<()> {
+    if let Some(h) = o.period {
+        if !(h.is_finite() && h > 0.0) {
+            bail!(Options, "--period must be positive and finite (got {h})");
+        }
+    }
+    if let Some(g) = o.max_gap {
+        if g.is_nan() || g <= 0.0 {
+            bail!(Options, "--max-gap must be positive (got {g})");
+        }
+    }
+    Ok(())
+}
+
 struct RawRows {
     time: Vec<f64>,
     current: Vec<f64>,
@@ -444,10 +538,9 @@ fn read_rows(
         if !t.is_finite() {
             bail!(
                 Data,
-                "{}: row {row}, column `{}`: `{}` is not finite",
+                "{}: row {row}, column `{}`: `{t}` is not finite",
                 path.display(),
                 c.time.header,
-                shown(tx)
             );
         }
         if out.rows.is_empty() && tx.parse::<f64>().is_err() {
@@ -598,6 +691,7 @@ fn finish(
         resampled,
         resampling: r,
         sign_warning,
+        table: None,
     };
     Ok(CyclerRecord {
         record: BatteryRecord {

@@ -53,7 +53,7 @@ pub fn clean(time: &[f64], r: &mut Resampling) -> Vec<usize> {
 
 /// The period a log is resampled at when none is given: the median step,
 /// raised so that the record has at most `max_samples` samples, rounded up
-/// to 1, 2 or 5 × 10ᵏ s. `time` increases strictly (after [`clean`]).
+/// to two significant digits. `time` increases strictly (after [`clean`]).
 pub fn default_period(time: &[f64], max_samples: usize) -> f64 {
     let mut steps: Vec<f64> = time.windows(2).map(|w| w[1] - w[0]).collect();
     if steps.is_empty() {
@@ -62,22 +62,19 @@ pub fn default_period(time: &[f64], max_samples: usize) -> f64 {
     steps.sort_by(f64::total_cmp);
     let median = steps[steps.len() / 2];
     let span = time[time.len() - 1] - time[0];
-    let h = median.max(span / max_samples.max(1) as f64);
+    // span / (max − 1): the samples from the first instant to the last.
+    let h = median.max(span / max_samples.saturating_sub(1).max(1) as f64);
     nice_up(h)
 }
 
-/// The smallest of 1, 2, 5 × 10ᵏ that is ≥ `x` (to 1 ppm).
+/// The smallest number of two significant digits that is ≥ `x` (to
+/// 1 ppm): a log's own step stays as it is (0.1 s, 60 s), a raised one
+/// is rounded up (0.936 s → 0.94 s).
 fn nice_up(x: f64) -> f64 {
-    let k = x.log10().floor();
-    let base = 10f64.powf(k);
-    for m in [1.0, 2.0, 5.0, 10.0] {
-        let v = m * base;
-        if v >= x * (1.0 - 1e-6) {
-            // Decimal steps print as they read (0.1, not 0.100…02).
-            return format!("{v:.12e}").parse().unwrap_or(v);
-        }
-    }
-    10.0 * base
+    let unit = 10f64.powf(x.log10().floor() - 1.0);
+    let v = (x / unit * (1.0 - 1e-6)).ceil() * unit;
+    // Decimal steps print as they read (0.1, not 0.100…02).
+    format!("{v:.12e}").parse().unwrap_or(v)
 }
 
 /// Whether the rows `keep` of `time` are already uniform at their first
@@ -288,9 +285,14 @@ mod tests {
     fn the_default_period_is_the_median_step_within_a_sample_budget() {
         let t: Vec<f64> = (0..1000).map(|k| k as f64 * 0.1).collect();
         assert_eq!(default_period(&t, 50_000), 0.1);
-        assert_eq!(default_period(&t, 100), 1.0);
-        assert_eq!(default_period(&[0.0, 0.3, 0.6], 10), 0.5);
+        assert_eq!(default_period(&t, 100), 1.1);
+        // A 60 s log keeps its 60 s.
+        let t: Vec<f64> = (0..100).map(|k| k as f64 * 60.0).collect();
+        assert_eq!(default_period(&t, 50_000), 60.0);
+        assert_eq!(default_period(&[0.0, 0.3, 0.6], 10), 0.3);
         assert_eq!(nice_up(2.0), 2.0);
-        assert_eq!(nice_up(0.0123), 0.02);
+        assert_eq!(nice_up(0.0123), 0.013);
+        assert_eq!(nice_up(0.1), 0.1);
+        assert_eq!(nice_up(0.936), 0.94);
     }
 }

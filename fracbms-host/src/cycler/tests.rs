@@ -201,8 +201,8 @@ fn a_uniform_log_beyond_the_limit_is_put_on_a_longer_period() {
         ..RecordOptions::default()
     };
     let r = read(&t, &o).unwrap();
-    assert_eq!((r.record.h, r.report.period_source), (0.2, "chosen"));
-    assert_eq!(r.record.time.len(), 30_001);
+    assert_eq!((r.record.h, r.report.period_source), (0.13, "chosen"));
+    assert_eq!(r.record.time.len(), 46_154);
     // Without a limit (online), it is kept as it is.
     let r = read(&t, &RecordOptions::default()).unwrap();
     assert_eq!((r.record.h, r.record.time.len()), (0.1, 60_001));
@@ -212,4 +212,49 @@ fn a_uniform_log_beyond_the_limit_is_put_on_a_longer_period() {
     };
     let e = read(&t, &o).unwrap_err().to_string();
     assert!(e.contains("at most 50000"), "{e}");
+}
+
+fn data(name: &str) -> std::path::PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../data")
+        .join(name)
+}
+
+/// A MAT-file of the Panasonic 18650PF data (a struct `meas` of column
+/// vectors, zlib-compressed) reads as its fields name it.
+#[test]
+fn a_mat_file_struct_reads_as_a_table() {
+    let p = data("panasonic-18650pf/03-27-17_10.29 3423_dis5_10p.mat");
+    let r = read_record(&p, &RecordOptions::default()).unwrap();
+    let rep = &r.report;
+    assert_eq!(rep.table.as_deref(), Some("meas"));
+    assert_eq!(
+        (rep.columns.time.as_str(), rep.columns.current.as_str()),
+        ("Time", "Current")
+    );
+    assert_eq!(
+        rep.columns.temperature.as_deref(),
+        Some("Battery_Temp_degC")
+    );
+    assert_eq!(rep.units.temperature, Some(headers::Unit::Celsius));
+    assert_eq!(rep.rows_read, 203);
+    assert!(rep.summary(&p).contains("from MAT table `meas`"));
+    // Discharge negative, as the data say: no sign warning.
+    assert!(rep.sign_warning.is_none());
+    // A table that is not there, and a file that only starts like one.
+    let o = RecordOptions {
+        table: Some("meas.x".into()),
+        ..RecordOptions::default()
+    };
+    let e = read_record(&p, &o).unwrap_err().to_string();
+    assert!(
+        e.contains("no table `meas.x` (tables of numeric vectors: `meas`)"),
+        "{e}"
+    );
+    let mut junk = mat::MAGIC.to_vec();
+    junk.extend([7u8; 300]);
+    let e = read_record_from(&junk[..], Path::new("j.mat"), &RecordOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(e.starts_with("j.mat: not a readable MAT-file"), "{e}");
 }

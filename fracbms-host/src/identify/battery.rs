@@ -78,11 +78,16 @@ pub struct BatteryJson {
     pub rejected: u32,
     /// The rejected rows by reason.
     pub rejected_rows: trust::RejectedRows,
-    /// For a file: which columns, units and sign were read, and how the
-    /// rows were put on a uniform period (`period_s`, `rows_merged`,
-    /// `rows_interpolated`, `gaps`, …; absent for arrays given in memory).
+    /// Which columns, units and sign were read, and how the rows were put
+    /// on a uniform period (`period_s`, `rows_merged`, `rows_interpolated`,
+    /// `gaps`, …; arrays are read as the columns of a file
+    /// `time_s,current_a,voltage_v` would be).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub record: Option<crate::cycler::RecordReport>,
+    /// With `--map-out`: the parameter map's levels and the whole-record
+    /// RMSE of the map model beside the single fit's (absent otherwise).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub map: Option<crate::map::MapJson>,
 }
 
 /// What `identify battery` computed, for the plots and the report.
@@ -371,6 +376,7 @@ fn battery_run_sized<const N: usize, const MEM: usize>(
             rejected: 0,
             rejected_rows: trust::RejectedRows::default(),
             record: None,
+            map: None,
         },
         cell,
         paper_track: track,
@@ -593,6 +599,8 @@ pub struct BatteryFile {
     pub result: BatteryResult,
     /// The rows rejected and substituted.
     pub screened: trust::Screened,
+    /// The temperature column (°C) on the record's samples, if any.
+    pub temperature: Option<Vec<f64>>,
 }
 
 /// `identify battery` on the file `input`: reads the whole record (a log
@@ -638,6 +646,7 @@ pub fn battery_file(input: &Path, o: &BatteryFitOptions, print_table: bool) -> R
         report: read.report,
         result,
         screened,
+        temperature: read.temperature,
     })
 }
 

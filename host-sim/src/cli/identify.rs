@@ -4,6 +4,7 @@ use super::{AlgorithmArg, BatteryMethodArg, HammersteinMethodArg, ModelArg, Reco
 use anyhow::{Context, Result};
 use fracbms_host::identify::battery::{self as battery_fit, BatteryFitOptions};
 use fracbms_host::identify::hammerstein::{self as hammerstein_fit, HammersteinOptions};
+use fracbms_host::map::MapOptions;
 use fracbms_host::ocv::OcvOptions;
 use fracbms_host::{io, plot};
 use std::path::PathBuf;
@@ -123,6 +124,28 @@ pub struct IdBatteryArgs {
     /// Write Figures 8–11 for this file (SVG) into this directory.
     #[arg(long)]
     pub plot: Option<PathBuf>,
+    /// Also a parameter map: the record split at its SOC levels (the rests
+    /// between pulse groups, or --soc-bins), each level fitted with its
+    /// intervals and model choice; one row per level:
+    /// `temperature_c,soc,r_i,r_ct,q,alpha,bv_a_v,bv_i0_a,ocv_offset_v,rmse_v,identifiable,…`.
+    /// Needs --ocv and --capacity-ah. With it, --fit-out is the map
+    /// model's free run (parameters by SOC) over the whole record.
+    #[arg(long)]
+    pub map_out: Option<PathBuf>,
+    /// An SVG of the map: R_i, R_ct, Q, α against SOC with 95 % intervals.
+    #[arg(long, requires = "map_out")]
+    pub map_plot: Option<PathBuf>,
+    /// Split the record into this many equal bins of the counted SOC (a
+    /// record without rests) instead of at its rests.
+    #[arg(long, requires = "map_out")]
+    pub soc_bins: Option<usize>,
+    /// The shortest rest (s) that separates two SOC levels.
+    #[arg(long, default_value_t = 600.0)]
+    pub min_rest: f64,
+    /// The record's temperature (°C) for the map's `temperature_c`
+    /// (default: the temperature column's mean over each level, or empty).
+    #[arg(long)]
+    pub temperature_c: Option<f64>,
 }
 
 /// The cell's open-circuit voltage curve and state of charge.
@@ -203,7 +226,19 @@ pub(super) fn battery(a: IdBatteryArgs) -> Result<()> {
         current_limit: a.current_limit,
         record: (&a.record).into(),
     };
-    let f = battery_fit::battery_file(&a.input, &o, true)?;
+    let (f, map) = match &a.map_out {
+        Some(_) => {
+            let m = MapOptions {
+                min_rest_s: a.min_rest,
+                soc_bins: a.soc_bins,
+                temperature_c: a.temperature_c,
+                ..MapOptions::default()
+            };
+            let (f, map) = fracbms_host::identify::map::battery_file(&a.input, &o, &m, true)?;
+            (f, Some(map))
+        }
+        None => (battery_fit::battery_file(&a.input, &o, true)?, None),
+    };
     super::print_record(&a.input, &f.report);
     let (rec, r, sc) = (&f.record, &f.result, &f.screened);
     if let Some(w) = sc.warning(&a.input) {
@@ -240,8 +275,31 @@ pub(super) fn battery(a: IdBatteryArgs) -> Result<()> {
             d * 1e3
         );
     }
+    if let (Some(m), Some(p)) = (&map, &a.map_out) {
+        let rows = &m.map.rows;
+        println!(
+            "map: {} levels, SOC {:.3}–{:.3} ({} not identifiable); whole-record RMSE: map {:.2} mV, single fit {:.2} mV",
+            rows.len(),
+            rows[0].soc,
+            rows[rows.len() - 1].soc,
+            rows.iter().filter(|r| !r.identifiable).count(),
+            m.rmse_v * 1e3,
+            j.rmse_v * 1e3
+        );
+        for why in &m.skipped {
+            eprintln!("warning: {}: {why}", a.input.display());
+        }
+        m.map.write_csv(p)?;
+        eprintln!("wrote {}", p.display());
+        if let Some(svg) = &a.map_plot {
+            fracbms_host::map::plot(svg, &m.map)?;
+            eprintln!("wrote {}", svg.display());
+        }
+    }
     if let Some(p) = &a.fit_out {
-        battery_fit::write_fit_csv(p, rec, &r.model_voltage)?;
+        // With a map, the map model's free run.
+        let model_v = map.as_ref().map_or(&r.model_voltage, |m| &m.model_v);
+        battery_fit::write_fit_csv(p, rec, model_v)?;
         eprintln!("wrote {}", p.display());
     }
     if let Some(p) = &a.json {

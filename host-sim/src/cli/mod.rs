@@ -205,6 +205,11 @@ pub struct RecordArgs {
     /// Report steps longer than this (s) as gaps (default max(10 periods, 300 s)).
     #[arg(long)]
     pub max_gap: Option<f64>,
+    /// In a MAT-file: the struct holding the columns, as a dot path
+    /// (`T25.SoC5.Cell1.data`); default: the one struct whose fields name a
+    /// time, a current and a voltage.
+    #[arg(long)]
+    pub table: Option<String>,
 }
 
 fn parse_columns(s: &str) -> std::result::Result<ColumnMap, String> {
@@ -218,6 +223,7 @@ impl From<&RecordArgs> for RecordOptions {
             current_sign: a.current_sign.into(),
             period: a.period,
             max_gap: a.max_gap,
+            table: a.table.clone(),
             max_samples: None,
         }
     }

@@ -10,9 +10,15 @@ use std::path::PathBuf;
 /// `predict battery`.
 #[derive(clap::Args, Debug)]
 pub struct PredictBatteryArgs {
-    /// The identified model: the JSON of `identify battery`.
+    /// The identified model: the JSON of `identify battery`, or the map CSV
+    /// of `identify battery --map-out` (parameters by the counted SOC; needs
+    /// --ocv).
     #[arg(long)]
     pub model: PathBuf,
+    /// The record's temperature (°C) for a map over temperature (default:
+    /// the temperature column's mean, else the map's first temperature).
+    #[arg(long)]
+    pub temperature_c: Option<f64>,
     /// The record to validate on: a record or a cycler export
     /// (docs/cycler.md).
     #[arg(long)]
@@ -33,6 +39,7 @@ pub struct PredictBatteryArgs {
 pub(super) fn battery(a: PredictBatteryArgs) -> Result<()> {
     let o = PredictOptions {
         model: a.model.clone(),
+        temperature_c: a.temperature_c,
         ocv: (&a.ocv).into(),
         record: (&a.record).into(),
     };

@@ -8,8 +8,10 @@ mod bad_data;
 mod battery;
 mod cycler;
 mod hammerstein;
+mod map;
 mod ocv;
 mod predict;
+mod real;
 mod tracking;
 
 fn bin() -> Command {

@@ -1,0 +1,240 @@
+//! MATLAB MAT-files (level 5, as `save -v7` writes them, compressed or
+//! not): a struct of equal-length column vectors, as cycler logs saved
+//! from MATLAB are (`meas.Time`, `meas.Current`, `meas.Voltage`, …).
+//!
+//! It owns finding the struct (the table) and its columns; the columns are
+//! then chosen by their field names exactly as a CSV header's cells are
+//! ([`super::headers::choose`]) and the rows go through the same
+//! [`super::finish`]. Parsing is `matrw`'s; it must not touch the rows'
+//! meaning.
+
+use super::headers::{self, ColumnChoice};
+use super::{finish, CurrentSign, CyclerRecord, RawRows, RecordOptions};
+use crate::error::Result;
+use crate::{bail, err};
+use matrw::{MatVariable, MatlabType};
+use std::path::Path;
+
+/// The first bytes of a level-5 MAT-file.
+pub(super) const MAGIC: &[u8] = b"MATLAB 5.0 MAT-file";
+
+/// How deep structs are searched for a table.
+const MAX_DEPTH: usize = 8;
+
+/// A struct whose fields include numeric vectors: its dot path and those
+/// vectors (name, values).
+struct Table {
+    path: String,
+    columns: Vec<(String, Vec<f64>)>,
+}
+
+/// The numbers of a numeric vector (`n×1` or `1×n`, n ≥ 2), as f64.
+fn vector(v: &MatVariable) -> Option<Vec<f64>> {
+    let MatVariable::NumericArray(a) = v else {
+        return None;
+    };
+    if a.value_cmp.is_some() || a.dim.len() != 2 || a.dim.iter().min() != Some(&1) {
+        return None;
+    }
+    let x: Vec<f64> = match &a.value {
+        MatlabType::F64(x) => x.clone(),
+        MatlabType::F32(x) => x.iter().map(|&v| f64::from(v)).collect(),
+        MatlabType::U8(x) => x.iter().map(|&v| f64::from(v)).collect(),
+        MatlabType::I8(x) => x.iter().map(|&v| f64::from(v)).collect(),
+        MatlabType::U16(x) => x.iter().map(|&v| f64::from(v)).collect(),
+        MatlabType::I16(x) => x.iter().map(|&v| f64::from(v)).collect(),
+        MatlabType::U32(x) => x.iter().map(|&v| f64::from(v)).collect(),
+        MatlabType::I32(x) => x.iter().map(|&v| f64::from(v)).collect(),
+        MatlabType::U64(x) => x.iter().map(|&v| v as f64).collect(),
+        MatlabType::I64(x) => x.iter().map(|&v| v as f64).collect(),
+        _ => return None,
+    };
+    (x.len() >= 2).then_some(x)
+}
+
+/// Every struct (and the file's top level) that holds numeric vectors.
+fn tables(prefix: &str, fields: Vec<(String, &MatVariable)>, depth: usize, out: &mut Vec<Table>) {
+    let columns: Vec<(String, Vec<f64>)> = fields
+        .iter()
+        .filter_map(|(name, v)| vector(v).map(|x| (name.clone(), x)))
+        .collect();
+    if !columns.is_empty() {
+        out.push(Table {
+            path: if prefix.is_empty() {
+                "(top level)".to_string()
+            } else {
+                prefix.to_string()
+            },
+            columns,
+        });
+    }
+    if depth >= MAX_DEPTH {
+        return;
+    }
+    for (name, v) in fields {
+        if let MatVariable::Structure(s) = v {
+            let path = if prefix.is_empty() {
+                name.clone()
+            } else {
+                format!("{prefix}.{name}")
+            };
+            let inner = s.value.iter().map(|(k, v)| (k.clone(), v)).collect();
+            tables(&path, inner, depth + 1, out);
+        }
+    }
+}
+
+/// Reads a MAT-file's table as [`super::read_record_from`] reads a CSV.
+pub(super) fn read(bytes: &[u8], path: &Path, o: &RecordOptions) -> Result<CyclerRecord> {
+    // A parser of a binary format must not take the process down with it.
+    let parsed = std::panic::catch_unwind(|| matrw::load_matfile_from_u8(bytes));
+    let file = match parsed {
+        Ok(Ok(f)) => f,
+        Ok(Err(matrw::MatrwError::MatFile73Error)) => bail!(
+            Data,
+            "{}: a MAT-file v7.3 (HDF5) is not read; save it with `save(…, '-v7')`",
+            path.display()
+        ),
+        Ok(Err(e)) => bail!(Data, "{}: not a readable MAT-file ({e})", path.display()),
+        Err(_) => bail!(Data, "{}: not a readable MAT-file", path.display()),
+    };
+    let top: Vec<(String, &MatVariable)> = file.iter().map(|(k, v)| (k.clone(), v)).collect();
+    let mut found = vec![];
+    tables("", top, 0, &mut found);
+    let listed = |t: &[&Table]| {
+        let mut s: Vec<String> = t.iter().take(6).map(|t| format!("`{}`", t.path)).collect();
+        if t.len() > 6 {
+            s.push(format!("… ({} in all)", t.len()));
+        }
+        s.join(", ")
+    };
+    let (table, choice) = match &o.table {
+        Some(want) => {
+            let Some(t) = found.iter().find(|t| &t.path == want) else {
+                bail!(
+                    Data,
+                    "{}: no table `{want}` (tables of numeric vectors: {})",
+                    path.display(),
+                    listed(&found.iter().collect::<Vec<_>>())
+                );
+            };
+            let names: Vec<String> = t.columns.iter().map(|c| c.0.clone()).collect();
+            let c = headers::choose(&names, &o.columns).map_err(|e| {
+                err!(
+                    Data,
+                    "{}: table `{}`: {e} (fields: {})",
+                    path.display(),
+                    t.path,
+                    super::listed(&names)
+                )
+            })?;
+            (t, c)
+        }
+        None => {
+            let fits: Vec<(&Table, ColumnChoice)> = found
+                .iter()
+                .filter_map(|t| {
+                    let names: Vec<String> = t.columns.iter().map(|c| c.0.clone()).collect();
+                    headers::choose(&names, &o.columns).ok().map(|c| (t, c))
+                })
+                .collect();
+            match fits.len() {
+                1 => fits.into_iter().next().expect("one"),
+                0 => {
+                    let Some(first) = found.first() else {
+                        bail!(
+                            Data,
+                            "{}: the MAT-file holds no numeric vectors",
+                            path.display()
+                        );
+                    };
+                    let names: Vec<String> = first.columns.iter().map(|c| c.0.clone()).collect();
+                    let e = headers::choose(&names, &o.columns)
+                        .err()
+                        .map(|e| e.to_string());
+                    bail!(
+                        Data,
+                        "{}: table `{}`: {} (fields: {}; other tables: {})",
+                        path.display(),
+                        first.path,
+                        e.unwrap_or_default(),
+                        super::listed(&names),
+                        listed(&found.iter().skip(1).collect::<Vec<_>>())
+                    )
+                }
+                n => bail!(
+                    Data,
+                    "{}: {n} tables fit: {}; name one with --table PATH",
+                    path.display(),
+                    listed(&fits.iter().map(|f| f.0).collect::<Vec<_>>())
+                ),
+            }
+        }
+    };
+    let col = |i: usize| &table.columns[i].1;
+    let n = col(choice.time.index).len();
+    for ch in [&choice.current, &choice.voltage] {
+        if col(ch.index).len() != n {
+            bail!(
+                Data,
+                "{}: table `{}`: `{}` has {} values, `{}` {n}",
+                path.display(),
+                table.path,
+                ch.header,
+                col(ch.index).len(),
+                choice.time.header
+            );
+        }
+    }
+    let s = match o.current_sign {
+        CurrentSign::ChargePositive => 1.0,
+        CurrentSign::DischargePositive => -1.0,
+    };
+    let si = |ch: &headers::Chosen, k: f64| ch.unit.to_si(k);
+    let temperature = match &choice.temperature {
+        Some(ch) if col(ch.index).len() == n => {
+            Some(col(ch.index).iter().map(|&x| si(ch, x)).collect())
+        }
+        Some(ch) => bail!(
+            Data,
+            "{}: table `{}`: the temperature `{}` has {} values, the time {n}; name another with --columns temperature=COL, or temperature=none",
+            path.display(),
+            table.path,
+            ch.header,
+            col(ch.index).len()
+        ),
+        None => None,
+    };
+    let time: Vec<f64> = col(choice.time.index)
+        .iter()
+        .map(|&x| si(&choice.time, x))
+        .collect();
+    if let Some(k) = time.iter().position(|t| !t.is_finite()) {
+        bail!(
+            Data,
+            "{}: table `{}`, row {}, column `{}`: `{}` is not finite",
+            path.display(),
+            table.path,
+            k + 1,
+            choice.time.header,
+            time[k]
+        );
+    }
+    let raw = RawRows {
+        time,
+        current: col(choice.current.index)
+            .iter()
+            .map(|&x| s * si(&choice.current, x))
+            .collect(),
+        voltage: col(choice.voltage.index)
+            .iter()
+            .map(|&x| si(&choice.voltage, x))
+            .collect(),
+        temperature,
+        rows: (1..=n).collect(),
+        clock_time: false,
+    };
+    let mut r = finish(raw, 0, &choice, path, o)?;
+    r.report.table = Some(table.path.clone());
+    Ok(r)
+}

@@ -1,0 +1,368 @@
+//! Building a parameter map: a record split at its SOC levels, each part
+//! fitted by the whole-record fit of [`super::battery`] with its intervals
+//! and model choice, and the map model's voltage over a record.
+//!
+//! It owns the split ([`levels`]), the per-level fits ([`build_map`]), the
+//! `--map-out` run ([`battery_file`]) and the map model ([`map_voltage`]).
+//! The map's data and CSV are [`crate::map`]'s.
+//!
+//! The map model's voltage at a sample is the linear interpolation in SOC,
+//! between the two levels around the counted SOC, of the voltages of the
+//! two levels' models, each run over the whole record from rest (exact for
+//! R_i, ΔU and the OCV, which enter linearly; a gain-scheduled blend for
+//! the polarization).
+
+use super::battery::{battery_identify_screened, model_voltage, Refine};
+use super::BatteryMethod;
+use crate::error::Result;
+use crate::io::BatteryRecord;
+use crate::map::{bracket as map_bracket, counted_soc, MapJson, MapOptions, MapRow, ParameterMap};
+use crate::ocv::{CellOcv, OcvSpec};
+use crate::trust::Limits;
+use crate::{bail, err};
+use std::path::Path;
+
+/// A part of a record: samples `start..end`, its SOC level.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Level {
+    /// First sample.
+    pub start: usize,
+    /// One past the last.
+    pub end: usize,
+    /// The level's SOC.
+    pub soc: f64,
+}
+
+/// Splits `rec` into its SOC levels: between its rests of at least
+/// `o.min_rest_s` (each part from `o.lead_s` before its pulses to the end
+/// of the rest after them), or into `o.soc_bins` equal bins of the counted
+/// SOC.
+pub fn levels(rec: &BatteryRecord, soc: &[f64], o: &MapOptions) -> Vec<Level> {
+    let n = rec.current.len();
+    if let Some(bins) = o.soc_bins {
+        let (lo, hi) = soc
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &z| {
+                (a.min(z), b.max(z))
+            });
+        let width = (hi - lo) / bins.max(1) as f64;
+        if width.is_nan() || width <= 0.0 {
+            return vec![];
+        }
+        let bin = |z: f64| (((z - lo) / width) as usize).min(bins - 1);
+        let mut out: Vec<Level> = vec![];
+        let mut start = 0;
+        for k in 1..=n {
+            if k == n || bin(soc[k]) != bin(soc[start]) {
+                let b = bin(soc[start]);
+                out.push(Level {
+                    start,
+                    end: k,
+                    soc: lo + (b as f64 + 0.5) * width,
+                });
+                start = k;
+            }
+        }
+        return out;
+    }
+    let big = rec
+        .current
+        .iter()
+        .filter(|x| x.is_finite())
+        .fold(0.0f64, |m, x| m.max(x.abs()));
+    let at_rest = |i: f64| i.abs() <= 0.01 * big;
+    // Long rests: (first, one past the last).
+    let mut rests = vec![];
+    let mut k = 0;
+    while k < n {
+        if !at_rest(rec.current[k]) {
+            k += 1;
+            continue;
+        }
+        let s = k;
+        while k < n && at_rest(rec.current[k]) {
+            k += 1;
+        }
+        if (k - s) as f64 * rec.h >= o.min_rest_s {
+            rests.push((s, k));
+        }
+    }
+    let lead = (o.lead_s / rec.h).round() as usize;
+    let mut out = vec![];
+    // Pulses before the first rest, if any.
+    if let Some(&(s, _)) = rests.first() {
+        if s > 0 {
+            out.push(Level {
+                start: 0,
+                end: rests[0].1,
+                soc: soc[0],
+            });
+        }
+    }
+    for (j, &(s, e)) in rests.iter().enumerate() {
+        let end = rests.get(j + 1).map_or(n, |r| r.1);
+        if end <= e {
+            continue;
+        }
+        let start = e.saturating_sub(lead).max(s);
+        out.push(Level {
+            start,
+            end,
+            soc: soc[e.min(n - 1)],
+        });
+    }
+    out
+}
+
+/// What [`build_map`] made: the map, the levels it could not fit, and the
+/// map model's voltage over the record.
+#[derive(Clone, Debug)]
+pub struct MapFit {
+    /// The map (one temperature).
+    pub map: ParameterMap,
+    /// Levels not fitted, and why.
+    pub skipped: Vec<String>,
+    /// The map model's voltage over the whole record.
+    pub model_v: Vec<f64>,
+    /// Its RMSE against the record (V).
+    pub rmse_v: f64,
+}
+
+/// Builds the map of `rec` (file `path`): splits it into levels, fits each
+/// with `ocv` (the OCV table is needed: each level's SOC moves), and runs
+/// the map model over the whole record.
+///
+/// # Errors
+/// [`crate::ErrorKind::Data`] when no level can be fitted, or the start
+/// SOC cannot be read; [`crate::ErrorKind::Options`] for a bad split.
+#[allow(clippy::too_many_arguments)]
+pub fn build_map(
+    path: &Path,
+    rec: &BatteryRecord,
+    temperature: Option<&[f64]>,
+    limits: &Limits,
+    ocv: &OcvSpec,
+    method: BatteryMethod,
+    iterations: u32,
+    refine: Refine,
+    o: &MapOptions,
+) -> Result<MapFit> {
+    if !(o.min_rest_s.is_finite() && o.min_rest_s > 0.0) {
+        bail!(
+            Options,
+            "--min-rest must be positive (got {})",
+            o.min_rest_s
+        );
+    }
+    if o.soc_bins == Some(0) {
+        bail!(Options, "--soc-bins must be at least 1");
+    }
+    let whole = ocv.resolve(path, rec)?;
+    let soc = counted_soc(rec, &whole);
+    let parts = levels(rec, &soc, o);
+    if parts.is_empty() {
+        bail!(
+            Data,
+            "{}: no SOC levels: no rests of at least {} s between pulses (give --soc-bins N)",
+            path.display(),
+            o.min_rest_s
+        );
+    }
+    let mut rows = vec![];
+    let mut skipped = vec![];
+    for p in &parts {
+        let part = BatteryRecord {
+            time: rec.time[p.start..p.end].to_vec(),
+            current: rec.current[p.start..p.end].to_vec(),
+            voltage: rec.voltage[p.start..p.end].to_vec(),
+            h: rec.h,
+        };
+        let spec = OcvSpec {
+            model: ocv.model,
+            soc0: Some(soc[p.start].clamp(0.0, 1.0)),
+        };
+        let at = format!(
+            "level at SOC {:.3} ({} s to {} s)",
+            p.soc,
+            part.time[0],
+            part.time[part.time.len() - 1]
+        );
+        let fit = battery_identify_screened(
+            path,
+            &part,
+            limits,
+            Some(&spec),
+            method,
+            None,
+            iterations,
+            false,
+            refine,
+        );
+        let (r, _) = match fit {
+            Ok(x) => x,
+            Err(e) => {
+                skipped.push(format!("{at}: {e}"));
+                continue;
+            }
+        };
+        let j = &r.json;
+        let t = o.temperature_c.or_else(|| {
+            let col = &temperature?[p.start..p.end];
+            let ok: Vec<f64> = col.iter().copied().filter(|x| x.is_finite()).collect();
+            (!ok.is_empty()).then(|| ok.iter().sum::<f64>() / ok.len() as f64)
+        });
+        rows.push(MapRow {
+            temperature_c: t,
+            soc: p.soc,
+            r_i: j.r_i,
+            r_ct: j.r_ct,
+            q: j.q,
+            alpha: j.alpha,
+            bv_a_v: j.bv_a_v,
+            bv_i0_a: j.bv_i0_a,
+            ocv_offset_v: j.ocv_offset_v.unwrap_or(0.0),
+            rmse_v: j.rmse_v,
+            identifiable: j.identifiable,
+            identifiable_reason: j.identifiable_reason.clone(),
+            confidence: j.confidence.clone(),
+            start_s: part.time[0],
+            end_s: part.time[part.time.len() - 1],
+            samples: part.time.len(),
+        });
+    }
+    if rows.is_empty() {
+        bail!(
+            Data,
+            "{}: none of {} SOC levels could be fitted ({})",
+            path.display(),
+            parts.len(),
+            skipped.join("; ")
+        );
+    }
+    let mut map = ParameterMap { rows };
+    map.sort();
+    let model_v = map_voltage(&map, rec, &whole, None)?;
+    let rmse_v = rmse(&model_v, &rec.voltage);
+    Ok(MapFit {
+        map,
+        skipped,
+        model_v,
+        rmse_v,
+    })
+}
+
+/// `identify battery --map-out` on the file `input`: the whole-record fit
+/// of [`crate::identify::battery::battery_file`], then the map of the
+/// record, in the fit's JSON (`map`) too. The OCV options are checked
+/// before the file is read.
+///
+/// # Errors
+/// As [`crate::identify::battery::battery_file`] and [`build_map`];
+/// [`crate::ErrorKind::Options`] without an OCV table.
+pub fn battery_file(
+    input: &Path,
+    o: &crate::identify::battery::BatteryFitOptions,
+    m: &MapOptions,
+    print_table: bool,
+) -> Result<(crate::identify::battery::BatteryFile, MapFit)> {
+    let Some(spec) = OcvSpec::from_options(&o.ocv)? else {
+        bail!(
+            Options,
+            "a parameter map needs --ocv and --capacity-ah (each level's SOC moves; `host-sim ocv` reads the table from the test)"
+        );
+    };
+    let mut f = crate::identify::battery::battery_file(input, o, print_table)?;
+    let limits = Limits::checked(o.voltage_min, o.voltage_max, o.current_limit)?;
+    let refine = Refine {
+        memory: o.refine_memory,
+        ocv_slope: o.ocv_slope,
+        model: crate::identify::battery::model_for(o.model, o.method),
+    };
+    let map = build_map(
+        input,
+        &f.record,
+        f.temperature.as_deref(),
+        &limits,
+        &spec,
+        o.method,
+        o.iterations
+            .unwrap_or(crate::identify::battery::DEFAULT_ITERATIONS),
+        refine,
+        m,
+    )?;
+    f.result.json.map = Some(MapJson {
+        levels: map.map.rows.clone(),
+        skipped: map.skipped.clone(),
+        map_rmse_v: map.rmse_v,
+        single_rmse_v: f.result.json.rmse_v,
+    });
+    Ok((f, map))
+}
+
+/// RMSE over the samples with a finite voltage.
+pub fn rmse(model: &[f64], measured: &[f64]) -> f64 {
+    let (s, n) = model
+        .iter()
+        .zip(measured)
+        .filter(|(_, v)| v.is_finite())
+        .fold((0.0, 0usize), |(s, n), (m, v)| {
+            (s + (m - v) * (m - v), n + 1)
+        });
+    (s / n.max(1) as f64).sqrt()
+}
+
+/// The map model's voltage over `rec` with the OCV `c`, at the map's
+/// temperature nearest `t`: each level's
+/// model run over the whole record, blended linearly in the counted
+/// SOC between the two levels around it (module docs).
+///
+/// # Errors
+/// [`crate::ErrorKind::Data`] for an empty map or a level whose cell is
+/// not physical.
+pub fn map_voltage(
+    map: &ParameterMap,
+    rec: &BatteryRecord,
+    c: &CellOcv,
+    t: Option<f64>,
+) -> Result<Vec<f64>> {
+    let rows = map.slice(t);
+    if rows.is_empty() {
+        bail!(Data, "the parameter map has no levels");
+    }
+    let soc = counted_soc(rec, c);
+    let current: Vec<f64> = rec
+        .current
+        .iter()
+        .map(|i| if i.is_finite() { *i } else { 0.0 })
+        .collect();
+    let mut minus_ocv = vec![0.0; current.len()];
+    let zeros = vec![0.0; current.len()];
+    c.model
+        .overpotentials(rec.h, c.soc0, &current, &zeros, &mut minus_ocv);
+    let runs = rows
+        .iter()
+        .map(|r| {
+            let cell = r.cell();
+            if !cell.is_physical() {
+                return Err(err!(
+                    Data,
+                    "the map's level at SOC {} is not a physical cell",
+                    r.soc
+                ));
+            }
+            model_voltage(&cell, rec.h, &current)
+        })
+        .collect::<Result<Vec<Vec<f64>>>>()?;
+    Ok((0..current.len())
+        .map(|k| {
+            // The SOC after sample k's charge, as the OCV is taken.
+            let z = soc[k] + current[k] * rec.h / (3600.0 * c.model.capacity_ah);
+            let (j, w) = map_bracket(&rows, z).unwrap_or((0, 0.0));
+            let j1 = (j + 1).min(rows.len() - 1);
+            runs[j][k] + w * (runs[j1][k] - runs[j][k]) - minus_ocv[k]
+        })
+        .collect())
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,197 @@
+use super::*;
+use crate::io::HostOcvTable;
+use crate::ocv::OcvSpec;
+use estimator_core::battery::profile::ocv_nmc;
+use estimator_core::battery::CellParameters;
+
+const CAP: f64 = 2.5;
+
+fn truth(level: usize) -> CellParameters<f64> {
+    // R_i rises as the cell empties; R_ct and α move too.
+    let x = level as f64;
+    CellParameters {
+        r_i: 0.020 + 0.004 * x,
+        r_ct: 0.012 + 0.002 * x,
+        q: 600.0,
+        alpha: 0.70 + 0.02 * x,
+        u_oc: 0.0,
+        bv_a: 0.0,
+        bv_i0: 1.0,
+    }
+}
+
+fn spec(soc0: Option<f64>) -> OcvSpec {
+    let z: Vec<f64> = (0..=50).map(|k| k as f64 / 50.0).collect();
+    let v: Vec<f64> = z.iter().map(|&z| ocv_nmc::<f64>(z)).collect();
+    OcvSpec::new(HostOcvTable::new(&z, &v).unwrap(), CAP, soc0).unwrap()
+}
+
+/// An HPPC-like record at 1 s: a 640 s rest, then per level 60 s of rest,
+/// ±5 A pulses of 10 s, a 0.25 A·h discharge and a 640 s rest, each level
+/// simulated from rest with its own cell; noise 0.5 mV.
+fn hppc(levels: usize) -> BatteryRecord {
+    let mut current = vec![0.0; 640];
+    let mut voltage = vec![ocv_nmc::<f64>(0.95); 640];
+    let mut z = 0.95;
+    let mut seed = 12345u64;
+    let mut noise = || {
+        seed = seed
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        ((seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5) * 0.5e-3 * 12f64.sqrt()
+    };
+    for v in &mut voltage {
+        *v += noise();
+    }
+    for level in 0..levels {
+        let mut i = vec![0.0; 60];
+        for _ in 0..3 {
+            i.extend([-5.0; 10]);
+            i.extend([0.0; 40]);
+            i.extend([5.0; 10]);
+            i.extend([0.0; 40]);
+        }
+        i.extend([-2.5; 360]);
+        i.extend([0.0; 640]);
+        let cell = truth(level);
+        let up = model_voltage(&cell, 1.0, &i).unwrap();
+        for (k, &ik) in i.iter().enumerate() {
+            z += ik / 3600.0 / CAP;
+            current.push(ik);
+            voltage.push(ocv_nmc::<f64>(z) + up[k] + noise());
+        }
+    }
+    let n = current.len();
+    BatteryRecord {
+        time: (0..n).map(|k| k as f64).collect(),
+        current,
+        voltage,
+        h: 1.0,
+    }
+}
+
+#[test]
+fn the_levels_are_the_parts_between_the_rests() {
+    let rec = hppc(3);
+    let c = spec(Some(0.95)).resolve(Path::new("r"), &rec).unwrap();
+    let soc = counted_soc(&rec, &c);
+    let l = levels(&rec, &soc, &MapOptions::default());
+    assert_eq!(l.len(), 3, "{l:?}");
+    // Level k: from 60 s before its pulses to the end of the rest after.
+    let block = 60 + 300 + 360 + 640;
+    for (k, p) in l.iter().enumerate() {
+        assert_eq!(p.start, 640 + k * block, "{k}");
+        assert_eq!(
+            p.end,
+            (640 + (k + 1) * block + 60).min(rec.time.len()),
+            "{k}"
+        );
+        assert!((p.soc - (0.95 - 0.1 * k as f64)).abs() < 1e-9, "{}", p.soc);
+    }
+    let bins = levels(
+        &rec,
+        &soc,
+        &MapOptions {
+            soc_bins: Some(4),
+            ..MapOptions::default()
+        },
+    );
+    assert_eq!(bins.len(), 4);
+    assert_eq!(
+        bins.iter().map(|b| b.end - b.start).sum::<usize>(),
+        rec.time.len()
+    );
+}
+
+/// Each level's fit recovers its cell; the map model fits the whole record
+/// closer than one fit of it; the CSV reads back.
+#[test]
+fn a_map_recovers_each_level_and_beats_one_fit() {
+    // The estimators need the worker's stack.
+    crate::worker::on_worker(|| {
+        map_recovers_each_level_and_beats_one_fit();
+        Ok::<_, crate::Error>(())
+    })
+    .unwrap();
+}
+
+fn map_recovers_each_level_and_beats_one_fit() {
+    let rec = hppc(4);
+    let limits = Limits::checked(None, None, None).unwrap();
+    let refine = Refine {
+        model: crate::identify::ModelRequest::Linear,
+        ..Refine::default()
+    };
+    let s = spec(Some(0.95));
+    let m = build_map(
+        Path::new("r"),
+        &rec,
+        None,
+        &limits,
+        &s,
+        BatteryMethod::Refined,
+        50,
+        refine,
+        &MapOptions::default(),
+    )
+    .unwrap();
+    assert!(m.skipped.is_empty(), "{:?}", m.skipped);
+    assert_eq!(m.map.rows.len(), 4);
+    for (k, r) in m.map.rows.iter().rev().enumerate() {
+        let t = truth(k);
+        assert!(
+            (r.r_i / t.r_i - 1.0).abs() < 0.03,
+            "{k}: r_i {} vs {}",
+            r.r_i,
+            t.r_i
+        );
+        assert!(
+            (r.r_ct / t.r_ct - 1.0).abs() < 0.15,
+            "{k}: r_ct {} vs {}",
+            r.r_ct,
+            t.r_ct
+        );
+        assert!(
+            (r.alpha - t.alpha).abs() < 0.06,
+            "{k}: alpha {} vs {}",
+            r.alpha,
+            t.alpha
+        );
+        assert!(r.rmse_v < 0.7e-3, "{k}: {}", r.rmse_v);
+    }
+    let (one, _) = battery_identify_screened(
+        Path::new("r"),
+        &rec,
+        &limits,
+        Some(&s),
+        BatteryMethod::Refined,
+        None,
+        50,
+        false,
+        refine,
+    )
+    .unwrap();
+    assert!(
+        m.rmse_v < 0.8 * one.json.rmse_v,
+        "map {} vs one fit {}",
+        m.rmse_v,
+        one.json.rmse_v
+    );
+
+    let p = std::env::temp_dir().join(format!("fracbms-map-{}.csv", std::process::id()));
+    m.map.write_csv(&p).unwrap();
+    let back = ParameterMap::read_csv(&p).unwrap();
+    assert_eq!(back.rows.len(), 4);
+    for (a, b) in back.rows.iter().zip(&m.map.rows) {
+        assert_eq!(
+            (a.soc, a.r_i, a.alpha, a.identifiable),
+            (b.soc, b.r_i, b.alpha, b.identifiable)
+        );
+        assert_eq!(a.confidence, b.confidence);
+    }
+    // The cell between two levels is between their cells.
+    let (lo, hi) = (&m.map.rows[1], &m.map.rows[2]);
+    let mid = m.map.cell_at(0.5 * (lo.soc + hi.soc), None).unwrap();
+    assert!((mid.r_i - 0.5 * (lo.r_i + hi.r_i)).abs() < 1e-12);
+    let _ = std::fs::remove_file(&p);
+}

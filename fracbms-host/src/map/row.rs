@@ -1,0 +1,128 @@
+//! A parameter map's row, its columns and the options of its split: plain
+//! data, shared with the JSON of `identify battery` (which must not
+//! depend on how a map is built).
+
+use crate::trust::Confidence;
+use estimator_core::battery::CellParameters;
+use serde::{Deserialize, Serialize};
+
+/// The map's CSV columns, in order (the contract's eleven first).
+pub const MAP_COLUMNS: [&str; 22] = [
+    "temperature_c",
+    "soc",
+    "r_i",
+    "r_ct",
+    "q",
+    "alpha",
+    "bv_a_v",
+    "bv_i0_a",
+    "ocv_offset_v",
+    "rmse_v",
+    "identifiable",
+    "r_i_lo",
+    "r_i_hi",
+    "r_ct_lo",
+    "r_ct_hi",
+    "q_lo",
+    "q_hi",
+    "alpha_lo",
+    "alpha_hi",
+    "start_s",
+    "end_s",
+    "samples",
+];
+
+/// How a record is split into SOC levels.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct MapOptions {
+    /// Split at the rests of at least this long (s) between pulse groups.
+    pub min_rest_s: f64,
+    /// Or split the counted SOC range into this many equal bins (a record
+    /// without rests: a drive cycle).
+    pub soc_bins: Option<usize>,
+    /// The temperature of the record (°C); default: the mean of its
+    /// temperature column over each level, or unknown.
+    pub temperature_c: Option<f64>,
+    /// Seconds of the rest before a level's pulses that its part starts
+    /// with (the model starts from rest there).
+    pub lead_s: f64,
+}
+
+impl Default for MapOptions {
+    fn default() -> Self {
+        MapOptions {
+            min_rest_s: 600.0,
+            soc_bins: None,
+            temperature_c: None,
+            lead_s: 60.0,
+        }
+    }
+}
+
+/// One level of a map: where it is and what was fitted there.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct MapRow {
+    /// Temperature (°C), if known.
+    pub temperature_c: Option<f64>,
+    /// SOC where the level's pulses start.
+    pub soc: f64,
+    /// R_i (Ω).
+    pub r_i: f64,
+    /// R_ct (Ω).
+    pub r_ct: f64,
+    /// Q (F·s^(α−1)).
+    pub q: f64,
+    /// α.
+    pub alpha: f64,
+    /// Butler–Volmer a (V), null for a linear level.
+    pub bv_a_v: Option<f64>,
+    /// Butler–Volmer i₀ (A), null for a linear level.
+    pub bv_i0_a: Option<f64>,
+    /// The offset ΔU the level's model adds to OCV(SOC) (V).
+    pub ocv_offset_v: f64,
+    /// The level's free-run RMSE over its part (V).
+    pub rmse_v: f64,
+    /// The level's fit can be trusted (docs/trust.md).
+    pub identifiable: bool,
+    /// Why not (null when identifiable).
+    #[serde(default)]
+    pub identifiable_reason: Option<String>,
+    /// 95 % intervals (null when the information matrix is singular).
+    #[serde(default)]
+    pub confidence: Option<Confidence>,
+    /// The part's first sample's time (s).
+    pub start_s: f64,
+    /// Its last sample's time (s).
+    pub end_s: f64,
+    /// Its samples.
+    pub samples: usize,
+}
+
+impl MapRow {
+    /// The level's cell, its `u_oc` the offset ΔU.
+    pub fn cell(&self) -> CellParameters<f64> {
+        CellParameters {
+            r_i: self.r_i,
+            r_ct: self.r_ct,
+            q: self.q,
+            alpha: self.alpha,
+            u_oc: self.ocv_offset_v,
+            bv_a: self.bv_a_v.unwrap_or(0.0),
+            bv_i0: self.bv_i0_a.unwrap_or(1.0),
+        }
+    }
+}
+
+/// The map in the JSON of `identify battery`.
+#[derive(Serialize, Debug, Clone)]
+pub struct MapJson {
+    /// One per SOC level, as the map's CSV rows (with the reasons).
+    pub levels: Vec<MapRow>,
+    /// Levels that could not be fitted, and why.
+    pub skipped: Vec<String>,
+    /// The map model's RMSE over the whole record (V).
+    pub map_rmse_v: f64,
+    /// The single fit's RMSE over the whole record (V).
+    pub single_rmse_v: f64,
+}
