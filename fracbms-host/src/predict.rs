@@ -214,10 +214,11 @@ pub fn predict_map(
     map: &crate::map::ParameterMap,
     spec: &OcvSpec,
     t: Option<f64>,
+    gaps: &[crate::cycler::resample::Gap],
 ) -> Result<Prediction> {
     let c = spec.resolve(path, rec)?;
-    let model_v = crate::identify::map::map_voltage(map, rec, &c, t)?;
-    let soc = crate::map::counted_soc(rec, &c);
+    let model_v = crate::identify::map::map_voltage(map, rec, &c, t, gaps)?;
+    let soc = crate::map::counted_soc(rec, &c, gaps);
     let end = soc.last().copied().unwrap_or(c.soc0)
         + rec
             .current
@@ -289,7 +290,14 @@ pub fn battery_file(input: &Path, out: &Path, o: &PredictOptions) -> Result<Pred
                 let ok: Vec<f64> = col.iter().copied().filter(|x| x.is_finite()).collect();
                 (!ok.is_empty()).then(|| ok.iter().sum::<f64>() / ok.len() as f64)
             });
-            predict_map(input, &read.record, map, spec, t)?
+            predict_map(
+                input,
+                &read.record,
+                map,
+                spec,
+                t,
+                &read.report.resampling.gaps,
+            )?
         }
         (Model::Map(_), None) => unreachable!("checked above"),
     };

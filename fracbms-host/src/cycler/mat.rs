@@ -125,7 +125,7 @@ pub(super) fn read(bytes: &[u8], path: &Path, o: &RecordOptions) -> Result<Cycle
                     "{}: table `{}`: {e} (fields: {})",
                     path.display(),
                     t.path,
-                    super::listed(&names)
+                    super::text::listed(&names)
                 )
             })?;
             (t, c)
@@ -158,7 +158,7 @@ pub(super) fn read(bytes: &[u8], path: &Path, o: &RecordOptions) -> Result<Cycle
                         path.display(),
                         first.path,
                         e.unwrap_or_default(),
-                        super::listed(&names),
+                        super::text::listed(&names),
                         listed(&found.iter().skip(1).collect::<Vec<_>>())
                     )
                 }

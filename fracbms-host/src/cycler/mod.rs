@@ -30,14 +30,15 @@
 pub mod headers;
 mod mat;
 pub mod resample;
+mod text;
 
 pub use headers::{ColumnMap, Role, Unit};
 pub use resample::{Gap, Resampling};
 
+use crate::bail;
 use crate::error::{IoContext, Result};
-use crate::io::{shown, BatteryRecord, LineCounter};
-use crate::{bail, err};
-use headers::{ChoiceError, Chosen, ColumnChoice};
+use crate::io::BatteryRecord;
+use headers::ColumnChoice;
 use serde::{Deserialize, Serialize};
 use std::io::Read;
 use std::path::Path;
@@ -209,6 +210,65 @@ pub struct CyclerRecord {
     pub temperature: Option<Vec<f64>>,
     /// What was read, and what was done to the rows.
     pub report: RecordReport,
+    /// The log's own rows (time order, duplicates and backward rows
+    /// dropped; SI, the sign applied), before the uniform period: a part
+    /// of the record can be put on a finer period than the whole
+    /// ([`CyclerRecord::part`]).
+    pub rows: BatteryRecord,
+}
+
+impl CyclerRecord {
+    /// The log's rows from `t0` to `t1` (s) on their own uniform period
+    /// ([`part_of`]).
+    pub fn part(&self, t0: f64, t1: f64, max_samples: usize) -> BatteryRecord {
+        part_of(&self.rows, self.record.h, t0, t1, max_samples)
+    }
+}
+
+/// A log's `rows` from `t0` to `t1` (s) on their own uniform period: the
+/// median step there, raised to keep within `max_samples` (as
+/// [`resample::default_period`] chooses), at most `h_max`; the current
+/// charge-preserving, the voltage at the instants, as a whole record's.
+/// Empty when fewer than two rows fall in the range.
+pub fn part_of(
+    rows: &BatteryRecord,
+    h_max: f64,
+    t0: f64,
+    t1: f64,
+    max_samples: usize,
+) -> BatteryRecord {
+    let keep: Vec<usize> = (0..rows.time.len())
+        .filter(|&i| rows.time[i] >= t0 && rows.time[i] <= t1)
+        .collect();
+    if keep.len() < 2 {
+        return BatteryRecord {
+            time: vec![],
+            current: vec![],
+            voltage: vec![],
+            h: h_max,
+        };
+    }
+    let t: Vec<f64> = keep.iter().map(|&i| rows.time[i]).collect();
+    let h = resample::default_period(&t, max_samples).min(h_max);
+    let mut scratch = Resampling {
+        gap_threshold_s: f64::INFINITY,
+        ..Resampling::default()
+    };
+    let u = resample::to_uniform(
+        &rows.time,
+        &rows.current,
+        &rows.voltage,
+        None,
+        &keep,
+        h,
+        &mut scratch,
+    );
+    BatteryRecord {
+        time: u.time,
+        current: u.current,
+        voltage: u.voltage,
+        h,
+    }
 }
 
 /// Reads a cycler export (CSV, or tab- or semicolon-separated text) as `o`
@@ -240,8 +300,8 @@ pub fn read_record_from(
     if bytes.starts_with(mat::MAGIC) {
         return mat::read(&bytes, path, o);
     }
-    let (header_row, start, delimiter, choice) = find_header(&bytes, path, &o.columns)?;
-    let raw = read_rows(
+    let (header_row, start, delimiter, choice) = text::find_header(&bytes, path, &o.columns)?;
+    let raw = text::read_rows(
         &bytes[start..],
         header_row,
         delimiter,
@@ -271,7 +331,7 @@ pub fn read_record_from(
 /// let t = [0.0, 1.0, 2.0, 4.0, 5.0];
 /// let r = record_from_arrays(Path::new("record"), &t, &[1.0; 5], &[3.7; 5], &RecordOptions::default())?;
 /// assert_eq!(r.record.time, vec![0.0, 1.0, 2.0, 3.0, 4.0, 5.0]);
-/// assert_eq!(r.report.rows_interpolated, 1);
+/// assert_eq!(r.report.resampling.rows_interpolated, 1);
 /// # Ok::<(), fracbms_host::Error>(())
 /// ```
 pub fn record_from_arrays(
@@ -349,220 +409,6 @@ struct RawRows {
     temperature: Option<Vec<f64>>,
     rows: Vec<usize>,
     clock_time: bool,
-}
-
-type HeaderFound = (usize, usize, u8, ColumnChoice);
-
-/// The header line: the first of the first lines whose cells (split at
-/// `,`, tab or `;`) name the columns. Returns its row, the byte after it,
-/// the delimiter and the choice.
-fn find_header(bytes: &[u8], path: &Path, map: &ColumnMap) -> Result<HeaderFound> {
-    let mut first: Option<(usize, Vec<String>, ChoiceError)> = None;
-    let mut at = 0usize;
-    let mut row = 0usize;
-    while at < bytes.len() && row < HEADER_SEARCH_LINES {
-        row += 1;
-        let end = bytes[at..]
-            .iter()
-            .position(|&c| c == b'\n' || c == b'\r')
-            .map_or(bytes.len(), |p| at + p);
-        let line = &bytes[at..end];
-        // The next line starts after "\n", "\r\n" or a lone "\r".
-        let mut next = end;
-        if next < bytes.len() && bytes[next] == b'\r' {
-            next += 1;
-        }
-        if next < bytes.len() && bytes[next] == b'\n' {
-            next += 1;
-        }
-        let line = line.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(line);
-        if !line.iter().all(u8::is_ascii_whitespace) {
-            let mut best: Option<(Vec<String>, ChoiceError)> = None;
-            for delimiter in [b',', b'\t', b';'] {
-                let cells = split_line(line, delimiter);
-                match headers::choose(&cells, map) {
-                    Ok(choice) => return Ok((row, next, delimiter, choice)),
-                    Err(e @ ChoiceError::Ambiguous { .. }) => {
-                        bail!(
-                            Data,
-                            "{}: row {row}: {e} (header: {})",
-                            path.display(),
-                            listed(&cells)
-                        )
-                    }
-                    Err(e) => {
-                        if best.as_ref().is_none_or(|(c, _)| cells.len() > c.len()) {
-                            best = Some((cells, e));
-                        }
-                    }
-                }
-            }
-            if first
-                .as_ref()
-                .is_none_or(|(_, c, _)| best.as_ref().is_some_and(|(b, _)| b.len() > c.len()))
-            {
-                first = Some(match best {
-                    Some((c, e)) => (row, c, e),
-                    None => (
-                        row,
-                        split_line(line, b','),
-                        ChoiceError::Missing {
-                            role: Role::Time,
-                            asked: None,
-                        },
-                    ),
-                });
-            }
-        }
-        at = next;
-    }
-    match first {
-        Some((row, cells, e)) => bail!(
-            Data,
-            "{}: row {row}: {e} (header: {})",
-            path.display(),
-            listed(&cells)
-        ),
-        None => bail!(Data, "{}: the file is empty", path.display()),
-    }
-}
-
-/// The cells of one line, unquoted and trimmed.
-fn split_line(line: &[u8], delimiter: u8) -> Vec<String> {
-    let mut rdr = csv::ReaderBuilder::new()
-        .has_headers(false)
-        .delimiter(delimiter)
-        .flexible(true)
-        .from_reader(line);
-    let mut rec = csv::ByteRecord::new();
-    match rdr.read_byte_record(&mut rec) {
-        Ok(true) => rec
-            .iter()
-            .map(|c| String::from_utf8_lossy(c).trim().to_string())
-            .collect(),
-        _ => Vec::new(),
-    }
-}
-
-/// A header as an error lists it: at most 24 cells, each quoted.
-fn listed(cells: &[String]) -> String {
-    let mut s: Vec<String> = cells
-        .iter()
-        .take(24)
-        .map(|c| format!("`{}`", shown(c)))
-        .collect();
-    if cells.len() > 24 {
-        s.push(format!("… ({} columns)", cells.len()));
-    }
-    s.join(", ")
-}
-
-/// The data rows below the header, the chosen columns parsed and
-/// converted to SI (°C for the temperature).
-fn read_rows(
-    data: &[u8],
-    header_row: usize,
-    delimiter: u8,
-    c: &ColumnChoice,
-    path: &Path,
-    sign: CurrentSign,
-) -> Result<RawRows> {
-    let mut lines = LineCounter::new(data);
-    let mut rdr = csv::ReaderBuilder::new()
-        .has_headers(false)
-        .delimiter(delimiter)
-        .flexible(true)
-        .trim(csv::Trim::All)
-        .from_reader(data);
-    let mut out = RawRows {
-        time: Vec::new(),
-        current: Vec::new(),
-        voltage: Vec::new(),
-        temperature: c.temperature.as_ref().map(|_| Vec::new()),
-        rows: Vec::new(),
-        clock_time: false,
-    };
-    let s = match sign {
-        CurrentSign::ChargePositive => 1.0,
-        CurrentSign::DischargePositive => -1.0,
-    };
-    let mut rec = csv::ByteRecord::new();
-    loop {
-        let row = match rdr.read_byte_record(&mut rec) {
-            Ok(false) => break,
-            Ok(true) => header_row + lines.row(rec.position()),
-            Err(e) => bail!(
-                Data,
-                "{}: row {}: malformed CSV ({e})",
-                path.display(),
-                header_row + lines.row(e.position())
-            ),
-        };
-        let cell = |ch: &Chosen| -> Result<&str> {
-            let b = rec.get(ch.index).ok_or_else(|| {
-                err!(
-                    Data,
-                    "{}: row {row}: {} cells; column `{}` is cell {}",
-                    path.display(),
-                    rec.len(),
-                    ch.header,
-                    ch.index + 1
-                )
-            })?;
-            std::str::from_utf8(b).map_err(|_| {
-                err!(
-                    Data,
-                    "{}: row {row}, column `{}`: not UTF-8 text",
-                    path.display(),
-                    ch.header
-                )
-            })
-        };
-        let not_a_number = |ch: &Chosen, x: &str| {
-            err!(
-                Data,
-                "{}: row {row}, column `{}`: `{}` is not a number",
-                path.display(),
-                ch.header,
-                shown(x)
-            )
-        };
-        let number = |ch: &Chosen| -> Result<f64> {
-            let x = cell(ch)?;
-            x.parse::<f64>()
-                .map(|v| ch.unit.to_si(v))
-                .map_err(|_| not_a_number(ch, x))
-        };
-        let tx = cell(&c.time)?;
-        let t = headers::parse_time(tx, c.time.unit).ok_or_else(|| not_a_number(&c.time, tx))?;
-        if !t.is_finite() {
-            bail!(
-                Data,
-                "{}: row {row}, column `{}`: `{t}` is not finite",
-                path.display(),
-                c.time.header,
-            );
-        }
-        if out.rows.is_empty() && tx.parse::<f64>().is_err() {
-            out.clock_time = true;
-        }
-        out.time.push(t);
-        out.current.push(s * number(&c.current)?);
-        out.voltage.push(number(&c.voltage)?);
-        if let (Some(ch), Some(v)) = (&c.temperature, out.temperature.as_mut()) {
-            // An empty temperature cell is a missing reading, not an error.
-            let x = cell(ch)?;
-            v.push(if x.is_empty() {
-                f64::NAN
-            } else {
-                x.parse::<f64>()
-                    .map(|v| ch.unit.to_si(v))
-                    .map_err(|_| not_a_number(ch, x))?
-            });
-        }
-        out.rows.push(row);
-    }
-    Ok(out)
 }
 
 /// Cleans the rows, decides the period and resamples when needed.
@@ -693,6 +539,13 @@ fn finish(
         sign_warning,
         table: None,
     };
+    let pick = |col: &[f64]| keep.iter().map(|&i| col[i]).collect::<Vec<f64>>();
+    let rows = BatteryRecord {
+        time: pick(&raw.time),
+        current: pick(&raw.current),
+        voltage: pick(&raw.voltage),
+        h,
+    };
     Ok(CyclerRecord {
         record: BatteryRecord {
             time,
@@ -702,6 +555,7 @@ fn finish(
         },
         temperature,
         report,
+        rows,
     })
 }
 

@@ -601,6 +601,9 @@ pub struct BatteryFile {
     pub screened: trust::Screened,
     /// The temperature column (°C) on the record's samples, if any.
     pub temperature: Option<Vec<f64>>,
+    /// The log's own rows before the uniform period
+    /// ([`crate::cycler::CyclerRecord::rows`]).
+    pub rows: io::BatteryRecord,
 }
 
 /// `identify battery` on the file `input`: reads the whole record (a log
@@ -647,6 +650,7 @@ pub fn battery_file(input: &Path, o: &BatteryFitOptions, print_table: bool) -> R
         result,
         screened,
         temperature: read.temperature,
+        rows: read.rows,
     })
 }
 

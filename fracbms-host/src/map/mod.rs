@@ -10,6 +10,7 @@
 //! charging), temperature in °C; a level's SOC is the counted SOC where its
 //! pulses start (the end of the rest before them).
 
+use crate::cycler::resample::Gap;
 use crate::error::Result;
 use crate::io::BatteryRecord;
 use crate::ocv::CellOcv;
@@ -30,17 +31,42 @@ pub struct ParameterMap {
     pub rows: Vec<MapRow>,
 }
 
-/// SOC before each sample's charge, from `c.soc0`.
-pub fn counted_soc(rec: &BatteryRecord, c: &CellOcv) -> Vec<f64> {
+/// SOC before each sample's charge: counted from `c.soc0`, and after
+/// each of the record's `gaps` read again from the rested voltage through
+/// the inverse OCV where the record resumes at rest (the charge of a gap
+/// is unknown: a pulse test logged without its discharges between levels).
+pub fn counted_soc(rec: &BatteryRecord, c: &CellOcv, gaps: &[Gap]) -> Vec<f64> {
+    let n = rec.current.len();
     let mut z = c.soc0;
-    rec.current
-        .iter()
-        .map(|&i| {
-            let before = z;
-            if i.is_finite() {
-                z += i * rec.h / (3600.0 * c.model.capacity_ah);
+    let mut out = Vec::with_capacity(n);
+    let mut next_gap = 0;
+    for k in 0..n {
+        // The first sample at or after a gap's end: anchor there.
+        while next_gap < gaps.len()
+            && rec.time[k] >= gaps[next_gap].start_s + gaps[next_gap].length_s
+        {
+            if let Ok(at_rest) = c.model.soc_at_rest(&rec.current[k..], &rec.voltage[k..]) {
+                z = at_rest;
             }
-            before
+            next_gap += 1;
+        }
+        out.push(z);
+        let i = rec.current[k];
+        if i.is_finite() {
+            z += i * rec.h / (3600.0 * c.model.capacity_ah);
+        }
+    }
+    out
+}
+
+/// Which samples lie inside one of `gaps` (made up by the resampling: no
+/// row of the log is there).
+pub fn in_gaps(rec: &BatteryRecord, gaps: &[Gap]) -> Vec<bool> {
+    rec.time
+        .iter()
+        .map(|&t| {
+            gaps.iter()
+                .any(|g| t > g.start_s && t < g.start_s + g.length_s)
         })
         .collect()
 }

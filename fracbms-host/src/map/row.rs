@@ -42,11 +42,15 @@ pub struct MapOptions {
     /// without rests: a drive cycle).
     pub soc_bins: Option<usize>,
     /// The temperature of the record (°C); default: the mean of its
-    /// temperature column over each level, or unknown.
+    /// temperature column over the record (to 0.1 °C), or unknown.
     pub temperature_c: Option<f64>,
     /// Seconds of the rest before a level's pulses that its part starts
     /// with (the model starts from rest there).
     pub lead_s: f64,
+    /// The most samples a level is fitted on: a level is put on its own
+    /// period from the log's rows (the median step there, raised to keep
+    /// within this), finer than the whole record's where the log is.
+    pub level_samples: usize,
 }
 
 impl Default for MapOptions {
@@ -56,6 +60,7 @@ impl Default for MapOptions {
             soc_bins: None,
             temperature_c: None,
             lead_s: 60.0,
+            level_samples: 8192,
         }
     }
 }
@@ -121,8 +126,9 @@ pub struct MapJson {
     pub levels: Vec<MapRow>,
     /// Levels that could not be fitted, and why.
     pub skipped: Vec<String>,
-    /// The map model's RMSE over the whole record (V).
+    /// The map model's RMSE over the whole record (V), over the log's own
+    /// samples (not those made up inside gaps).
     pub map_rmse_v: f64,
-    /// The single fit's RMSE over the whole record (V).
+    /// The single fit's RMSE over the same samples (V).
     pub single_rmse_v: f64,
 }

@@ -143,7 +143,8 @@ pub struct IdBatteryArgs {
     #[arg(long, default_value_t = 600.0)]
     pub min_rest: f64,
     /// The record's temperature (°C) for the map's `temperature_c`
-    /// (default: the temperature column's mean over each level, or empty).
+    /// (default: the temperature column's mean over the record to 0.1 °C,
+    /// or empty).
     #[arg(long)]
     pub temperature_c: Option<f64>,
 }

@@ -14,9 +14,12 @@
 
 use super::battery::{battery_identify_screened, model_voltage, Refine};
 use super::BatteryMethod;
+use crate::cycler::resample::Gap;
 use crate::error::Result;
 use crate::io::BatteryRecord;
-use crate::map::{bracket as map_bracket, counted_soc, MapJson, MapOptions, MapRow, ParameterMap};
+use crate::map::{
+    bracket as map_bracket, counted_soc, in_gaps, MapJson, MapOptions, MapRow, ParameterMap,
+};
 use crate::ocv::{CellOcv, OcvSpec};
 use crate::trust::Limits;
 use crate::{bail, err};
@@ -37,8 +40,45 @@ pub struct Level {
 /// `o.min_rest_s` (each part from `o.lead_s` before its pulses to the end
 /// of the rest after them), or into `o.soc_bins` equal bins of the counted
 /// SOC.
-pub fn levels(rec: &BatteryRecord, soc: &[f64], o: &MapOptions) -> Vec<Level> {
+pub fn levels(rec: &BatteryRecord, soc: &[f64], o: &MapOptions, gap: &[bool]) -> Vec<Level> {
     let n = rec.current.len();
+    if gap.iter().any(|&g| g) {
+        // Each stretch between gaps apart: no level spans a gap.
+        let mut out = vec![];
+        let mut k = 0;
+        while k < n {
+            if gap[k] {
+                k += 1;
+                continue;
+            }
+            let a = k;
+            while k < n && !gap[k] {
+                k += 1;
+            }
+            let part = BatteryRecord {
+                time: rec.time[a..k].to_vec(),
+                current: rec.current[a..k].to_vec(),
+                voltage: rec.voltage[a..k].to_vec(),
+                h: rec.h,
+            };
+            let mut inner = levels(&part, &soc[a..k], o, &vec![false; k - a]);
+            if inner.is_empty() {
+                // A stretch without a long rest: one level.
+                inner.push(Level {
+                    start: 0,
+                    end: k - a,
+                    soc: soc[a],
+                });
+            }
+            let moving = |l: &Level| part.current[l.start..l.end].iter().any(|i| *i != 0.0);
+            out.extend(inner.into_iter().filter(moving).map(|l| Level {
+                start: l.start + a,
+                end: l.end + a,
+                soc: l.soc,
+            }));
+        }
+        return out;
+    }
     if let Some(bins) = o.soc_bins {
         let (lo, hi) = soc
             .iter()
@@ -146,6 +186,8 @@ pub fn build_map(
     iterations: u32,
     refine: Refine,
     o: &MapOptions,
+    gaps: &[Gap],
+    log: Option<&BatteryRecord>,
 ) -> Result<MapFit> {
     if !(o.min_rest_s.is_finite() && o.min_rest_s > 0.0) {
         bail!(
@@ -158,8 +200,8 @@ pub fn build_map(
         bail!(Options, "--soc-bins must be at least 1");
     }
     let whole = ocv.resolve(path, rec)?;
-    let soc = counted_soc(rec, &whole);
-    let parts = levels(rec, &soc, o);
+    let soc = counted_soc(rec, &whole, gaps);
+    let parts = levels(rec, &soc, o, &in_gaps(rec, gaps));
     if parts.is_empty() {
         bail!(
             Data,
@@ -168,15 +210,32 @@ pub fn build_map(
             o.min_rest_s
         );
     }
+    // One temperature for the record's levels (they are one slice of a
+    // map over temperature): the given one, or the temperature column's
+    // mean to 0.1 °C.
+    let record_t = o.temperature_c.or_else(|| {
+        let ok: Vec<f64> = temperature?
+            .iter()
+            .copied()
+            .filter(|x| x.is_finite())
+            .collect();
+        (!ok.is_empty()).then(|| (ok.iter().sum::<f64>() / ok.len() as f64 * 10.0).round() / 10.0)
+    });
     let mut rows = vec![];
     let mut skipped = vec![];
     for p in &parts {
-        let part = BatteryRecord {
+        // The level at the log's own resolution where it is finer than the
+        // whole record's (within o.level_samples), else as resampled.
+        let (t0, t1) = (rec.time[p.start], rec.time[p.end - 1]);
+        let fine = log
+            .map(|r| crate::cycler::part_of(r, rec.h, t0, t1, o.level_samples))
+            .filter(|f| f.time.len() >= 2 && f.h < rec.h);
+        let part = fine.unwrap_or_else(|| BatteryRecord {
             time: rec.time[p.start..p.end].to_vec(),
             current: rec.current[p.start..p.end].to_vec(),
             voltage: rec.voltage[p.start..p.end].to_vec(),
             h: rec.h,
-        };
+        });
         let spec = OcvSpec {
             model: ocv.model,
             soc0: Some(soc[p.start].clamp(0.0, 1.0)),
@@ -206,11 +265,7 @@ pub fn build_map(
             }
         };
         let j = &r.json;
-        let t = o.temperature_c.or_else(|| {
-            let col = &temperature?[p.start..p.end];
-            let ok: Vec<f64> = col.iter().copied().filter(|x| x.is_finite()).collect();
-            (!ok.is_empty()).then(|| ok.iter().sum::<f64>() / ok.len() as f64)
-        });
+        let t = record_t;
         rows.push(MapRow {
             temperature_c: t,
             soc: p.soc,
@@ -241,8 +296,8 @@ pub fn build_map(
     }
     let mut map = ParameterMap { rows };
     map.sort();
-    let model_v = map_voltage(&map, rec, &whole, None)?;
-    let rmse_v = rmse(&model_v, &rec.voltage);
+    let model_v = map_voltage(&map, rec, &whole, None, gaps)?;
+    let rmse_v = rmse(&model_v, &rec.voltage, &in_gaps(rec, gaps));
     Ok(MapFit {
         map,
         skipped,
@@ -289,23 +344,31 @@ pub fn battery_file(
             .unwrap_or(crate::identify::battery::DEFAULT_ITERATIONS),
         refine,
         m,
+        &f.report.resampling.gaps,
+        Some(&f.rows),
     )?;
     f.result.json.map = Some(MapJson {
         levels: map.map.rows.clone(),
         skipped: map.skipped.clone(),
         map_rmse_v: map.rmse_v,
-        single_rmse_v: f.result.json.rmse_v,
+        single_rmse_v: rmse(
+            &f.result.model_voltage,
+            &f.record.voltage,
+            &in_gaps(&f.record, &f.report.resampling.gaps),
+        ),
     });
     Ok((f, map))
 }
 
-/// RMSE over the samples with a finite voltage.
-pub fn rmse(model: &[f64], measured: &[f64]) -> f64 {
+/// RMSE over the samples with a finite voltage that are the log's (not
+/// made up inside a gap: `gap[k]`).
+pub fn rmse(model: &[f64], measured: &[f64], gap: &[bool]) -> f64 {
     let (s, n) = model
         .iter()
         .zip(measured)
-        .filter(|(_, v)| v.is_finite())
-        .fold((0.0, 0usize), |(s, n), (m, v)| {
+        .zip(gap)
+        .filter(|((_, v), g)| v.is_finite() && !**g)
+        .fold((0.0, 0usize), |(s, n), ((m, v), _)| {
             (s + (m - v) * (m - v), n + 1)
         });
     (s / n.max(1) as f64).sqrt()
@@ -324,12 +387,13 @@ pub fn map_voltage(
     rec: &BatteryRecord,
     c: &CellOcv,
     t: Option<f64>,
+    gaps: &[Gap],
 ) -> Result<Vec<f64>> {
     let rows = map.slice(t);
     if rows.is_empty() {
         bail!(Data, "the parameter map has no levels");
     }
-    let soc = counted_soc(rec, c);
+    let soc = counted_soc(rec, c, gaps);
     let current: Vec<f64> = rec
         .current
         .iter()

@@ -74,8 +74,13 @@ fn hppc(levels: usize) -> BatteryRecord {
 fn the_levels_are_the_parts_between_the_rests() {
     let rec = hppc(3);
     let c = spec(Some(0.95)).resolve(Path::new("r"), &rec).unwrap();
-    let soc = counted_soc(&rec, &c);
-    let l = levels(&rec, &soc, &MapOptions::default());
+    let soc = counted_soc(&rec, &c, &[]);
+    let l = levels(
+        &rec,
+        &soc,
+        &MapOptions::default(),
+        &vec![false; rec.time.len()],
+    );
     assert_eq!(l.len(), 3, "{l:?}");
     // Level k: from 60 s before its pulses to the end of the rest after.
     let block = 60 + 300 + 360 + 640;
@@ -95,6 +100,7 @@ fn the_levels_are_the_parts_between_the_rests() {
             soc_bins: Some(4),
             ..MapOptions::default()
         },
+        &vec![false; rec.time.len()],
     );
     assert_eq!(bins.len(), 4);
     assert_eq!(
@@ -133,6 +139,8 @@ fn map_recovers_each_level_and_beats_one_fit() {
         50,
         refine,
         &MapOptions::default(),
+        &[],
+        None,
     )
     .unwrap();
     assert!(m.skipped.is_empty(), "{:?}", m.skipped);
