@@ -38,6 +38,16 @@ pub fn read_fit(path: &Path) -> Result<Fit> {
         .map_err(|e| err!(Io, "{}: cannot read ({e})", path.display()))?;
     let j: serde_json::Value = serde_json::from_str(&text)
         .map_err(|e| err!(Data, "{}: not JSON ({e})", path.display()))?;
+    fit_from_json(&j, path)
+}
+
+/// A fit from the JSON value of `identify battery` (the Python face's
+/// dict); `path` names it in errors.
+///
+/// # Errors
+/// [`crate::ErrorKind::Data`] when a number is missing or the cell is not
+/// physical.
+pub fn fit_from_json(j: &serde_json::Value, path: &Path) -> Result<Fit> {
     let get = |k: &str| {
         j[k].as_f64().ok_or_else(|| {
             err!(

@@ -7,6 +7,9 @@ files, so that a notebook gets what the CLI prints for the same data.
 - :func:`identify_battery` fits the fractional cell model (R_i, R_ct, Q, α,
   U_oc; optionally a Butler–Volmer term and an OCV curve) to a whole record:
   ``host-sim identify battery --json``.
+- :func:`predict_battery` runs an identified model (or its parameter map,
+  ``identify_battery(..., map=True)``) on another record: ``host-sim
+  predict battery``.
 - :func:`simulate_battery` gives the terminal voltage of a cell over a
   current record, from rest.
 - :class:`OnlineCell` tracks the parameters over a sliding window, sample by
@@ -17,7 +20,7 @@ files, so that a notebook gets what the CLI prints for the same data.
 
 Conventions, stated once: current in A, **positive when charging** (PyBaMM
 and PyBOP count discharge positive: pass ``-current``); voltages in V; time
-in s on a uniform grid; Q in F·s^(α−1); state of charge in [0, 1]; an OCV
+in s (uneven steps are put on a uniform grid as the CLI does); Q in F·s^(α−1); state of charge in [0, 1]; an OCV
 table is a pair ``(soc, ocv_v)`` of increasing arrays.
 
 Errors are raised as ``ValueError`` with the CLI's one-line messages; the
@@ -44,6 +47,7 @@ from ._fracbms import (
     OnlineCell,
     identify_battery,
     identify_hammerstein,
+    predict_battery,
     simulate_battery,
 )
 
@@ -53,6 +57,7 @@ __all__ = [
     "OnlineCell",
     "identify_battery",
     "identify_hammerstein",
+    "predict_battery",
     "simulate_battery",
 ]
 __version__ = "0.1.0"

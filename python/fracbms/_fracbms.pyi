@@ -28,6 +28,9 @@ def identify_battery(
     model: Literal["auto", "linear", "butler-volmer"] = "auto",
     iterations: int = 50,
     memory: Optional[int] = None,
+    map: bool = False,
+    soc_bins: Optional[int] = None,
+    min_rest: float = 600.0,
 ) -> dict[str, Any]:
     """Identify a battery cell from a whole record: the keys of
     ``host-sim identify battery --json`` (r_i, r_ct, q, alpha, u_oc, model,
@@ -116,3 +119,18 @@ def identify_hammerstein(
     """Identify a fractional-order Hammerstein system: the keys of
     ``host-sim identify hammerstein --json`` (a, b, c, gamma, alpha,
     theta_products, cost, paper_cost, refine_*, history, ...)."""
+
+
+def predict_battery(
+    time_s: ArrayLike,
+    current_a: ArrayLike,
+    voltage_v: ArrayLike,
+    *,
+    model: dict[str, Any],
+    ocv: Optional[OcvTable] = None,
+    capacity_ah: Optional[float] = None,
+    soc0: Optional[float] = None,
+) -> dict[str, Any]:
+    """Run the model of identify_battery (its dict, or its ``map``) on
+    another record: ``host-sim predict battery``'s errors plus ``model_v``."""
+    ...

@@ -42,6 +42,7 @@ use fracbms_host::identify::{
 use fracbms_host::io::{self, BatteryRecord, Columns};
 use fracbms_host::ocv::{CellOcv, OcvSpec, OcvSpecError};
 use fracbms_host::online::{Precision, TrackOptions, TrackRow, Tracker};
+use fracbms_host::predict;
 use fracbms_host::simulate::{battery_voltage, OcvCurve};
 use fracbms_host::trust::Limits;
 use fracbms_host::worker::on_worker;
@@ -159,6 +160,12 @@ fn ocv_spec(
 ///     Iterations of 2S-OP-GI (the paper method, or the refinement's start).
 /// memory : int, optional
 ///     Memory M of the paper regression (default 256).
+/// map : bool
+///     Also the parameter map (``identify battery --map-out``): the record
+///     split at its rests of at least ``min_rest`` s (or into ``soc_bins``
+///     SOC bins), each level fitted; the dict's ``map`` holds the levels
+///     (the map CSV's columns), the levels skipped and the whole-record
+///     RMSE of the map model beside the single fit's. Needs ``ocv``.
 ///
 /// Returns
 /// -------
@@ -177,7 +184,8 @@ fn ocv_spec(
 #[pyfunction]
 #[pyo3(signature = (
     time_s, current_a, voltage_v, *, ocv = None, capacity_ah = None, soc0 = None,
-    method = "refined", model = "auto", iterations = 50, memory = None
+    method = "refined", model = "auto", iterations = 50, memory = None,
+    map = false, soc_bins = None, min_rest = 600.0
 ))]
 #[allow(clippy::too_many_arguments)]
 fn identify_battery<'py>(
@@ -192,10 +200,18 @@ fn identify_battery<'py>(
     model: &str,
     iterations: u32,
     memory: Option<usize>,
+    map: bool,
+    soc_bins: Option<usize>,
+    min_rest: f64,
 ) -> PyResult<Bound<'py, PyDict>> {
     let method: BatteryMethod = choice("method", method)?;
     let model: ModelRequest = choice("model", model)?;
     let spec = ocv_spec(ocv, capacity_ah, soc0)?;
+    if map && spec.is_none() {
+        return Err(PyValueError::new_err(
+            "map=True needs ocv and capacity_ah (each level's SOC moves)",
+        ));
+    }
     // Read as the CLI reads a file: a non-uniform time is put on a uniform
     // period (the dict's `record` says how).
     let read = cycler::record_from_arrays(
@@ -242,9 +258,137 @@ fn identify_battery<'py>(
         warn(py, &format!("{RECORD}: the fit is not identifiable: {why}"))?;
     }
     let mut json = r.json;
+    if let (true, Some(spec)) = (map, spec.as_ref()) {
+        let gaps = read.report.resampling.gaps.clone();
+        let o = fracbms_host::map::MapOptions {
+            min_rest_s: min_rest,
+            soc_bins,
+            ..fracbms_host::map::MapOptions::default()
+        };
+        let m = py
+            .detach(|| {
+                on_worker(|| {
+                    fracbms_host::identify::map::build_map(
+                        name,
+                        &rec,
+                        None,
+                        &Limits::default(),
+                        spec,
+                        method,
+                        iterations,
+                        refine,
+                        &o,
+                        &gaps,
+                        Some(&read.rows),
+                    )
+                })
+            })
+            .map_err(value_error)?;
+        for why in &m.skipped {
+            warn(py, &format!("{RECORD}: {why}"))?;
+        }
+        let gap = fracbms_host::map::in_gaps(&rec, &gaps);
+        json.map = Some(fracbms_host::map::MapJson {
+            levels: m.map.rows,
+            skipped: m.skipped,
+            map_rmse_v: m.rmse_v,
+            single_rmse_v: fracbms_host::identify::map::rmse(&r.model_voltage, &rec.voltage, &gap),
+        });
+    }
     json.record = Some(read.report);
     let d = to_dict(py, &json)?;
     d.set_item("model_v", PyArray1::from_vec(py, r.model_voltage))?;
+    Ok(d)
+}
+
+/// Run an identified model on another record (`host-sim predict battery`).
+///
+/// The model of `identify_battery` (its dict), or its parameter map (the
+/// dict's ``map``, from ``identify_battery(..., map=True)``), run on the
+/// record's current from rest; its voltage beside the measured one.
+///
+/// Parameters
+/// ----------
+/// time_s, current_a, voltage_v : array_like, 1-D
+///     The record to validate on (uneven steps put on a uniform period as
+///     ``identify_battery`` does).
+/// model : dict
+///     The dict of ``identify_battery``, or its ``map``.
+/// ocv, capacity_ah, soc0 :
+///     As for ``identify_battery``; needed when the model was fitted with
+///     an OCV table, and for a map.
+///
+/// Returns
+/// -------
+/// dict
+///     ``rmse_v``, ``max_error_v``, ``max_error_time_s``, ``samples``,
+///     ``voltages_skipped``, ``currents_held``, ``soc0``, ``soc_end``,
+///     ``record``, and ``model_v`` (numpy array, V).
+///
+/// Examples
+/// --------
+/// >>> import numpy as np, fracbms
+/// >>> t = np.arange(600.0); i = np.where((t // 50) % 2 == 0, -2.0, 1.0)
+/// >>> cell = dict(r_i=0.02, r_ct=0.015, q=500.0, alpha=0.7, u_oc=3.7)
+/// >>> v = fracbms.simulate_battery(t, i, **cell)
+/// >>> p = fracbms.predict_battery(t, i, v, model=cell)
+/// >>> bool(p["rmse_v"] < 1e-9)
+/// True
+#[pyfunction]
+#[pyo3(signature = (time_s, current_a, voltage_v, *, model, ocv=None, capacity_ah=None, soc0=None))]
+#[allow(clippy::too_many_arguments)]
+fn predict_battery<'py>(
+    py: Python<'py>,
+    time_s: Floats<'py>,
+    current_a: Floats<'py>,
+    voltage_v: Floats<'py>,
+    model: Bound<'py, PyDict>,
+    ocv: Option<(Floats<'py>, Floats<'py>)>,
+    capacity_ah: Option<f64>,
+    soc0: Option<f64>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let spec = ocv_spec(ocv, capacity_ah, soc0)?;
+    let text: String = py
+        .import("json")?
+        .call_method1("dumps", (model,))?
+        .extract()?;
+    let j: serde_json::Value = serde_json::from_str(&text)
+        .map_err(|e| PyValueError::new_err(format!("model: not a fit ({e})")))?;
+    let name = Path::new(RECORD);
+    let read = cycler::record_from_arrays(
+        name,
+        &vec(&time_s),
+        &vec(&current_a),
+        &vec(&voltage_v),
+        &cycler::RecordOptions::default(),
+    )
+    .map_err(value_error)?;
+    let gaps = read.report.resampling.gaps.clone();
+    let mut p = if let Some(levels) = j.get("levels") {
+        let rows: Vec<fracbms_host::map::MapRow> = serde_json::from_value(levels.clone())
+            .map_err(|e| PyValueError::new_err(format!("model: not a map ({e})")))?;
+        let mut map = fracbms_host::map::ParameterMap { rows };
+        map.sort();
+        let spec = spec.ok_or_else(|| {
+            PyValueError::new_err("a parameter map runs on the OCV table: give ocv and capacity_ah")
+        })?;
+        predict::predict_map(name, &read.record, &map, &spec, None, &gaps)
+    } else {
+        let fit = predict::fit_from_json(&j, Path::new("model")).map_err(value_error)?;
+        predict::predict(name, &read.record, &fit, spec.as_ref())
+    }
+    .map_err(|e| {
+        // The CLI's flags are keywords here.
+        let m = e
+            .to_string()
+            .replace("give --ocv and --capacity-ah", "give ocv and capacity_ah")
+            .replace("leave out --ocv", "leave out ocv");
+        PyValueError::new_err(m)
+    })?;
+    p.record = Some(read.report);
+    let model_v = std::mem::take(&mut p.model_v);
+    let d = to_dict(py, &p)?;
+    d.set_item("model_v", PyArray1::from_vec(py, model_v))?;
     Ok(d)
 }
 
@@ -721,6 +865,7 @@ fn identify_hammerstein<'py>(
 #[pymodule]
 fn _fracbms(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(identify_battery, m)?)?;
+    m.add_function(wrap_pyfunction!(predict_battery, m)?)?;
     m.add_function(wrap_pyfunction!(simulate_battery, m)?)?;
     m.add_function(wrap_pyfunction!(identify_hammerstein, m)?)?;
     m.add_class::<OnlineCell>()?;

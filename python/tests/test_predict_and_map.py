@@ -1,0 +1,89 @@
+"""predict_battery and identify_battery(map=True): the CLI's `predict
+battery` and `identify battery --map-out` on arrays."""
+
+import json
+
+import numpy as np
+import pytest
+
+import fracbms
+from conftest import CELL, REPO, cli_json, read_csv
+
+OCV = REPO / "data" / "own-model" / "nmc-ocv.csv"
+
+
+def ocv_table():
+    c = read_csv(OCV)
+    return c["soc"], c["ocv_v"]
+
+
+def hppc(path):
+    """Four levels of ±4 A pulses and a 0.2 A·h discharge, 700 s rests, on
+    the NMC curve (2.5 A·h from SOC 0.9)."""
+    i = [0.0] * 700
+    for _ in range(4):
+        for _ in range(2):
+            i += [-4.0] * 10 + [0.0] * 40 + [4.0] * 10 + [0.0] * 40
+        i += [-2.0] * 360 + [0.0] * 700
+    i = np.array(i)
+    t = np.arange(float(len(i)))
+    soc, ocv = ocv_table()
+    z = 0.9 + np.concatenate(([0.0], np.cumsum(i)[:-1])) / 3600.0 / 2.5
+    z_after = z + i / 3600.0 / 2.5
+    v = fracbms.simulate_battery(t, i, **{k: CELL[k] for k in ("r_i", "r_ct", "q", "alpha")},
+                                 u_oc=0.0) + np.interp(z_after, soc, ocv)
+    v = v + 0.5e-3 * np.sin(0.7 * t)
+    with open(path, "w") as f:
+        f.write("time_s,current_a,voltage_v\n")
+        for row in zip(t, i, v):
+            f.write(",".join(repr(float(x)) for x in row) + "\n")
+    return t, i, v
+
+
+def test_the_map_equals_the_cli(host_sim, tmp_path):
+    path = tmp_path / "hppc.csv"
+    t, i, v = hppc(path)
+    cli = cli_json(host_sim, tmp_path, "identify", "battery", "--input", path, "--ocv", OCV,
+                   "--capacity-ah", "2.5", "--soc0", "0.9", "--model", "linear",
+                   "--map-out", tmp_path / "map.csv")
+    py = fracbms.identify_battery(t, i, v, ocv=ocv_table(), capacity_ah=2.5, soc0=0.9,
+                                  model="linear", map=True)
+    py.pop("model_v")
+    assert json.dumps(py["map"], sort_keys=True) == json.dumps(cli["map"], sort_keys=True)
+    levels = py["map"]["levels"]
+    assert len(levels) == 4
+    for level in levels:
+        assert level["r_i"] == pytest.approx(CELL["r_i"], rel=0.05)
+    # One cell at every level: the map model is as good as the one fit
+    # (both at the 0.35 mV noise), not better.
+    assert py["map"]["map_rmse_v"] <= py["map"]["single_rmse_v"] * 1.05
+    with pytest.raises(ValueError, match="map=True needs ocv"):
+        fracbms.identify_battery(t, i, v, map=True)
+
+
+def test_predict_equals_the_cli_for_a_fit_and_a_map(host_sim, tmp_path):
+    path = tmp_path / "hppc.csv"
+    t, i, v = hppc(path)
+    fit = fracbms.identify_battery(t, i, v, ocv=ocv_table(), capacity_ah=2.5, soc0=0.9,
+                                   model="linear", map=True)
+    fit.pop("model_v")
+    fit_json = tmp_path / "fit.json"
+    fit_json.write_text(json.dumps(fit))
+    for model, model_file in ((fit, fit_json), (fit["map"], None)):
+        if model_file is None:
+            model_file = tmp_path / "map.csv"
+            host_sim("identify", "battery", "--input", path, "--ocv", OCV, "--capacity-ah", "2.5",
+                     "--soc0", "0.9", "--model", "linear", "--map-out", model_file)
+        cli = cli_json(host_sim, tmp_path, "predict", "battery", "--model", model_file,
+                       "--input", path, "--ocv", OCV, "--capacity-ah", "2.5", "--soc0", "0.9",
+                       "--out", tmp_path / "pred.csv")
+        py = fracbms.predict_battery(t, i, v, model=model, ocv=ocv_table(), capacity_ah=2.5,
+                                     soc0=0.9)
+        model_v = py.pop("model_v")
+        for k in ("rmse_v", "max_error_v", "samples", "soc0"):
+            assert py[k] == pytest.approx(cli[k], rel=1e-9), k
+        np.testing.assert_allclose(model_v, read_csv(tmp_path / "pred.csv")["model_v"],
+                                   rtol=0, atol=1e-8)
+        assert py["rmse_v"] < 2e-3
+    with pytest.raises(ValueError, match="give ocv and capacity_ah"):
+        fracbms.predict_battery(t, i, v, model=fit)
