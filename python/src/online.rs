@@ -1,0 +1,290 @@
+//! `OnlineCell`: the sliding-window estimator of one cell, sample by sample
+//! (`host-sim online battery`), over `fracbms_host::online::Tracker`.
+
+use super::*;
+
+/// The online estimator of one cell (`host-sim online battery`).
+///
+/// A sliding window of `window` samples with a Grünwald–Letnikov memory of
+/// `memory` samples, refitted after every sample as the firmware does: the
+/// paper's 2S-OP-GI to start, then the output-error refinement. Feed it one
+/// sample at a time with `push` or a record at once with `run`; a bad sample
+/// (non-finite, out of range, a spike) is rejected, substituted and counted,
+/// never raised, and the last good estimate is kept.
+///
+/// Parameters
+/// ----------
+/// window : {64, 128, 256, 512, 1024}
+///     Window length L.
+/// memory : int
+///     Short memory M, 1 to L − 8.
+/// h : float
+///     Sample period (s).
+/// ocv : (soc, ocv_v), optional
+///     The cell's OCV table; with `capacity_ah` (needed). The start SOC is
+///     `soc0`, or read from the first rested samples.
+/// capacity_ah : float, optional
+///     Capacity (A·h) for coulomb counting.
+/// soc0 : float, optional
+///     SOC before the first sample.
+/// method : {"refined", "paper"}
+/// model : {"auto", "linear", "butler-volmer"}
+///     `"auto"` is linear (no prior here).
+/// precision : {"f64", "f32"}
+///     `"f32"` runs the firmware's arithmetic.
+/// start : {"from-data", "at-rest"}
+/// iterations_per_sample : int
+/// tail : bool
+///     The short-memory correction (docs/pack.md).
+///
+/// Raises
+/// ------
+/// ValueError
+///     A window or memory the estimator does not take, a bad OCV table or
+///     keyword.
+#[pyclass(module = "fracbms")]
+pub(crate) struct OnlineCell {
+    tracker: Tracker,
+    /// Sample period (s).
+    h: f64,
+    /// Samples pushed.
+    pushed: u64,
+    /// The curve, while the start SOC is still to be read (a `run` from
+    /// the start reads it from the record's rested start, as the CLI).
+    unresolved: Option<OcvSpec>,
+    window: usize,
+    memory: usize,
+}
+
+/// One numeric column of a track row.
+type Column = fn(&TrackRow) -> Option<f64>;
+
+/// The numeric columns of a track row under the names of `online battery
+/// --out` (`None`: the CSV's empty cell): `push`'s dict and `run`'s arrays.
+const TRACK_NUMBERS: [(&str, Column); 11] = [
+    ("time_s", |r| Some(r.t)),
+    ("r_i", |r| r.estimate.map(|p| p.r_i)),
+    ("r_ct", |r| r.estimate.map(|p| p.r_ct)),
+    ("q", |r| r.estimate.map(|p| p.q)),
+    ("alpha", |r| r.estimate.map(|p| p.alpha)),
+    ("u_oc", |r| r.estimate.map(|p| p.u_oc)),
+    ("soc", |r| r.soc),
+    ("ocv_offset_v", |r| r.ocv_offset),
+    ("bv_a_v", |r| butler_volmer(r).map(|p| p.bv_a)),
+    ("bv_i0_a", |r| butler_volmer(r).map(|p| p.bv_i0)),
+    ("predicted_v", |r| r.predicted),
+];
+
+/// The estimate of a row when it has the Butler–Volmer term.
+fn butler_volmer(r: &TrackRow) -> Option<CellParameters<f64>> {
+    r.estimate.filter(|p| p.is_butler_volmer())
+}
+
+/// A track row as `push` returns it.
+fn row_dict<'py>(py: Python<'py>, r: &TrackRow) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    for (k, f) in TRACK_NUMBERS {
+        d.set_item(k, f(r))?;
+    }
+    d.set_item("status", r.status)?;
+    d.set_item("rejected", r.rejected)?;
+    Ok(d)
+}
+
+#[pymethods]
+impl OnlineCell {
+    #[new]
+    #[pyo3(signature = (
+        window = 256, memory = 64, h = 1.0, ocv = None, capacity_ah = None, *, soc0 = None,
+        method = "refined", model = "auto", precision = "f64", start = "from-data",
+        iterations_per_sample = 1, tail = false
+    ))]
+    #[allow(clippy::too_many_arguments)]
+    fn new(
+        py: Python<'_>,
+        window: usize,
+        memory: usize,
+        h: f64,
+        ocv: Option<(Floats<'_>, Floats<'_>)>,
+        capacity_ah: Option<f64>,
+        soc0: Option<f64>,
+        method: &str,
+        model: &str,
+        precision: &str,
+        start: &str,
+        iterations_per_sample: u16,
+        tail: bool,
+    ) -> PyResult<Self> {
+        if !(h.is_finite() && h > 0.0) {
+            return Err(PyValueError::new_err(format!(
+                "h={h}: must be finite and positive"
+            )));
+        }
+        let method: BatteryMethod = choice("method", method)?;
+        let model: ModelRequest = choice("model", model)?;
+        let precision: Precision = choice("precision", precision)?;
+        let start: Start = choice("start", start)?;
+        let spec = ocv_spec(ocv, capacity_ah, soc0)?;
+        let cell = spec.map(|s| CellOcv {
+            model: s.model,
+            soc0: s.soc0.unwrap_or(f64::NAN),
+        });
+        let o = TrackOptions {
+            window,
+            memory,
+            iterations_per_sample,
+            method,
+            precision,
+            start,
+            prior: None,
+            cell: cell.as_ref(),
+            model,
+            tail,
+        };
+        let tracker = py
+            .detach(|| on_worker(|| Tracker::new(&o, h, spec.and_then(|s| s.soc0))))
+            .map_err(|e| {
+                // The CLI's flags are this class's keywords.
+                PyValueError::new_err(
+                    format!("{e:#}")
+                        .replace("--memory ", "memory=")
+                        .replace("--window ", "window="),
+                )
+            })?;
+        Ok(Self {
+            tracker,
+            h,
+            pushed: 0,
+            unresolved: spec.filter(|s| s.soc0.is_none()),
+            window,
+            memory,
+        })
+    }
+
+    /// Feed one sample: current (A, positive when charging) and voltage (V).
+    ///
+    /// Returns None while the window is filling, else a dict: `time_s`
+    /// (`k·h`), `r_i`, `r_ct`, `q`, `alpha`, `u_oc` (None until the first
+    /// physical estimate), `status` (`"starting"`, `"tracking"`, or why the
+    /// estimate is held: `"not_excited"`, `"held"`, `"unphysical"`,
+    /// `"at_bound"`, `"slow_relaxation"`, `"ocv_implausible"`), `soc`,
+    /// `ocv_offset_v`, `bv_a_v`, `bv_i0_a`, `predicted_v` (this sample's
+    /// voltage predicted from the estimate before it) and `rejected` (None,
+    /// `"non_finite"`, `"out_of_range"` or `"spike"`). Never raises on data.
+    fn push<'py>(
+        &mut self,
+        py: Python<'py>,
+        current_a: f64,
+        voltage_v: f64,
+    ) -> PyResult<Option<Bound<'py, PyDict>>> {
+        // From here on the core reads the start SOC from the stream.
+        self.unresolved = None;
+        let t = self.pushed as f64 * self.h;
+        let r = self.tracker.push(t, current_a, voltage_v);
+        self.pushed += 1;
+        if r.status == "filling" {
+            return Ok(None);
+        }
+        row_dict(py, &r).map(Some)
+    }
+
+    /// Feed a whole record; return the track as a dict of numpy arrays.
+    ///
+    /// The columns of `host-sim online battery --out`: `time_s`, `r_i`,
+    /// `r_ct`, `q`, `alpha`, `u_oc`, `status`, `soc`, `ocv_offset_v`,
+    /// `bv_a_v`, `bv_i0_a`, `predicted_v` (NaN where the CSV is empty), plus
+    /// `rejected` (`""` for an accepted sample). On a fresh cell with an OCV
+    /// table and no `soc0`, the start SOC is read from the record's rested
+    /// start, as the CLI reads it (a ValueError when it does not start at
+    /// rest). Goes on from the samples pushed before.
+    fn run<'py>(
+        &mut self,
+        py: Python<'py>,
+        current_a: Floats<'py>,
+        voltage_v: Floats<'py>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let cols = Columns::from_arrays(vec![vec(&current_a), vec(&voltage_v)]);
+        io::same_lengths(Path::new(RECORD), &cols, &["current_a", "voltage_v"])
+            .map_err(value_error)?;
+        let [current, voltage]: [Vec<f64>; 2] = cols
+            .data
+            .try_into()
+            .map_err(|_| PyValueError::new_err("internal error: two columns expected"))?;
+        if let Some(spec) = self.unresolved.take() {
+            // A fresh cell with a curve and no soc0: as `online battery`,
+            // the start SOC from the record's rested start.
+            let rec = BatteryRecord {
+                time: (0..current.len()).map(|k| k as f64 * self.h).collect(),
+                current: current.clone(),
+                voltage: voltage.clone(),
+                h: self.h,
+            };
+            let c = spec.resolve(Path::new(RECORD), &rec).map_err(|e| {
+                self.unresolved = Some(spec);
+                value_error(e)
+            })?;
+            self.tracker.set_state_of_charge(c.soc0);
+        }
+        let (h, first) = (self.h, self.pushed);
+        let tracker = &mut self.tracker;
+        let rows: Vec<TrackRow> = py.detach(|| {
+            current
+                .iter()
+                .zip(&voltage)
+                .enumerate()
+                .map(|(k, (&i, &v))| tracker.push((first + k as u64) as f64 * h, i, v))
+                .collect()
+        });
+        self.pushed += rows.len() as u64;
+        let d = PyDict::new(py);
+        for (k, f) in TRACK_NUMBERS {
+            let column: Vec<f64> = rows.iter().map(|r| f(r).unwrap_or(f64::NAN)).collect();
+            d.set_item(k, PyArray1::from_vec(py, column))?;
+        }
+        let np = py.import("numpy")?;
+        let strings = |f: &dyn Fn(&TrackRow) -> &'static str| -> PyResult<Bound<'py, PyAny>> {
+            let list: Vec<&str> = rows.iter().map(f).collect();
+            np.call_method1("array", (list, "U16"))
+        };
+        d.set_item("status", strings(&|r| r.status)?)?;
+        d.set_item("rejected", strings(&|r| r.rejected.unwrap_or(""))?)?;
+        Ok(d)
+    }
+
+    /// Samples offered so far.
+    #[getter]
+    fn samples(&self) -> u64 {
+        self.tracker.summary().samples
+    }
+
+    /// Samples rejected (and substituted) so far.
+    #[getter]
+    fn rejected(&self) -> u32 {
+        self.tracker.summary().rejected
+    }
+
+    /// The window length L.
+    #[getter]
+    fn window(&self) -> usize {
+        self.window
+    }
+
+    /// The short memory M.
+    #[getter]
+    fn memory(&self) -> usize {
+        self.memory
+    }
+
+    /// The sample period (s).
+    #[getter]
+    fn h(&self) -> f64 {
+        self.h
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "OnlineCell(window={}, memory={}, h={}, samples={})",
+            self.window, self.memory, self.h, self.pushed
+        )
+    }
+}
