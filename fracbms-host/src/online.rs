@@ -475,34 +475,8 @@ pub fn read_prior(
     prior_alpha_sigma: f64,
     prior_noise_mv: f64,
 ) -> Result<Prior<f64>> {
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| err!(Io, "{}: cannot read ({e})", path.display()))?;
-    let j: serde_json::Value = serde_json::from_str(&text)
-        .map_err(|e| err!(Data, "{}: not JSON ({e})", path.display()))?;
-    let get = |k: &str| {
-        j[k].as_f64().ok_or_else(|| {
-            err!(
-                Data,
-                "{}: no number `{k}` (expected the JSON of identify battery)",
-                path.display()
-            )
-        })
-    };
-    // A linear fit has null (or, from before the Butler–Volmer model, no)
-    // bv_a_v and bv_i0_a.
-    let (bv_a, bv_i0) = match (j["bv_a_v"].as_f64(), j["bv_i0_a"].as_f64()) {
-        (Some(x), Some(i0)) => (x, i0),
-        _ => (0.0, 1.0),
-    };
-    let center = CellParameters {
-        r_i: get("r_i")?,
-        r_ct: get("r_ct")?,
-        q: get("q")?,
-        alpha: get("alpha")?,
-        u_oc: get("u_oc")?,
-        bv_a,
-        bv_i0,
-    };
+    let j = crate::identify::battery::read_json_file(path)?;
+    let (center, _) = crate::identify::battery::cell_from_json(&j, path)?;
     if !(prior_factor.is_finite() && prior_factor > 1.0) {
         bail!(Options, "--prior-factor {}: must be above 1", prior_factor);
     }

@@ -34,11 +34,7 @@ pub struct Fit {
 /// [`crate::ErrorKind::Io`] when it cannot be read, [`crate::ErrorKind::Data`]
 /// when it is not that JSON or its cell is not physical.
 pub fn read_fit(path: &Path) -> Result<Fit> {
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| err!(Io, "{}: cannot read ({e})", path.display()))?;
-    let j: serde_json::Value = serde_json::from_str(&text)
-        .map_err(|e| err!(Data, "{}: not JSON ({e})", path.display()))?;
-    fit_from_json(&j, path)
+    fit_from_json(&crate::identify::battery::read_json_file(path)?, path)
 }
 
 /// A fit from the JSON value of `identify battery` (the Python face's
@@ -48,32 +44,10 @@ pub fn read_fit(path: &Path) -> Result<Fit> {
 /// [`crate::ErrorKind::Data`] when a number is missing or the cell is not
 /// physical.
 pub fn fit_from_json(j: &serde_json::Value, path: &Path) -> Result<Fit> {
-    let get = |k: &str| {
-        j[k].as_f64().ok_or_else(|| {
-            err!(
-                Data,
-                "{}: no number `{k}` (expected the JSON of identify battery)",
-                path.display()
-            )
-        })
-    };
-    let (bv_a, bv_i0) = match (j["bv_a_v"].as_f64(), j["bv_i0_a"].as_f64()) {
-        (Some(a), Some(i0)) => (a, i0),
-        _ => (0.0, 1.0),
-    };
-    let offset = j["ocv_offset_v"].as_f64();
-    let cell = CellParameters {
-        r_i: get("r_i")?,
-        r_ct: get("r_ct")?,
-        q: get("q")?,
-        alpha: get("alpha")?,
-        u_oc: match offset {
-            Some(d) => d,
-            None => get("u_oc")?,
-        },
-        bv_a,
-        bv_i0,
-    };
+    let (mut cell, offset) = crate::identify::battery::cell_from_json(j, path)?;
+    if let Some(d) = offset {
+        cell.u_oc = d;
+    }
     if !cell.is_physical() {
         bail!(Data, "{}: the fit's cell is not physical", path.display());
     }
@@ -276,6 +250,76 @@ fn errors(path: &Path, rec: &BatteryRecord, model_v: Vec<f64>) -> Result<Predict
     })
 }
 
+/// The model of a JSON value: a map when it has `levels` (the `map` of
+/// `identify battery`), else a fit; `path` names it in errors.
+///
+/// # Errors
+/// [`crate::ErrorKind::Data`] when it is neither.
+pub fn model_from_json(j: &serde_json::Value, path: &Path) -> Result<Model> {
+    match j.get("levels") {
+        Some(levels) => {
+            let rows: Vec<crate::map::MapRow> = serde_json::from_value(levels.clone())
+                .map_err(|e| err!(Data, "{}: not a parameter map ({e})", path.display()))?;
+            let mut map = crate::map::ParameterMap { rows };
+            map.sort();
+            Ok(Model::Map(map))
+        }
+        None => fit_from_json(j, path).map(Model::Fit),
+    }
+}
+
+/// A map runs on the OCV table: refused without one (before a record is
+/// read).
+///
+/// # Errors
+/// [`crate::ErrorKind::Options`] for a map without `spec`.
+pub fn check_model_ocv(model: &Model, spec: Option<&OcvSpec>) -> Result<()> {
+    if matches!(model, Model::Map(_)) && spec.is_none() {
+        bail!(
+            Options,
+            "a parameter map runs on the OCV table: give --ocv and --capacity-ah"
+        );
+    }
+    Ok(())
+}
+
+/// Runs `model` on the record `read` (file `path`): a fit by [`predict`],
+/// a map by [`predict_map`] at the temperature `t` (default: the record's
+/// temperature column's mean); the report of the reading attached.
+///
+/// # Errors
+/// As [`predict`], [`predict_map`] and [`check_model_ocv`].
+pub fn run_model(
+    path: &Path,
+    read: &crate::cycler::CyclerRecord,
+    model: &Model,
+    spec: Option<&OcvSpec>,
+    t: Option<f64>,
+) -> Result<Prediction> {
+    check_model_ocv(model, spec)?;
+    let mut p = match (model, spec) {
+        (Model::Fit(fit), spec) => predict(path, &read.record, fit, spec)?,
+        (Model::Map(map), Some(spec)) => {
+            let t = t.or_else(|| {
+                let col = read.temperature.as_deref()?;
+                let ok: Vec<f64> = col.iter().copied().filter(|x| x.is_finite()).collect();
+                (!ok.is_empty()).then(|| ok.iter().sum::<f64>() / ok.len() as f64)
+            });
+            predict_map(
+                path,
+                &read.record,
+                map,
+                spec,
+                t,
+                &read.report.resampling.gaps,
+            )?
+        }
+        (Model::Map(_), None) => bail!(Internal, "a map without an OCV table"),
+    };
+    p.record = Some(read.report.clone());
+    Ok(p)
+}
+
 /// `predict battery` on the file `input`: reads it, runs the fit of
 /// `o.model` and writes `time_s,current_a,voltage_v,model_v` to `out`.
 ///
@@ -285,32 +329,9 @@ fn errors(path: &Path, rec: &BatteryRecord, model_v: Vec<f64>) -> Result<Predict
 pub fn battery_file(input: &Path, out: &Path, o: &PredictOptions) -> Result<Prediction> {
     let model = read_model(&o.model)?;
     let spec = OcvSpec::from_options(&o.ocv)?;
-    if matches!(model, Model::Map(_)) && spec.is_none() {
-        bail!(
-            Options,
-            "a parameter map runs on the OCV table: give --ocv and --capacity-ah"
-        );
-    }
+    check_model_ocv(&model, spec.as_ref())?;
     let read = crate::cycler::read_record(input, &o.record)?;
-    let mut p = match (&model, spec.as_ref()) {
-        (Model::Fit(fit), spec) => predict(input, &read.record, fit, spec)?,
-        (Model::Map(map), Some(spec)) => {
-            let t = o.temperature_c.or_else(|| {
-                let col = read.temperature.as_deref()?;
-                let ok: Vec<f64> = col.iter().copied().filter(|x| x.is_finite()).collect();
-                (!ok.is_empty()).then(|| ok.iter().sum::<f64>() / ok.len() as f64)
-            });
-            predict_map(
-                input,
-                &read.record,
-                map,
-                spec,
-                t,
-                &read.report.resampling.gaps,
-            )?
-        }
-        (Model::Map(_), None) => unreachable!("checked above"),
-    };
+    let p = run_model(input, &read, &model, spec.as_ref(), o.temperature_c)?;
     let rec = &read.record;
     io::write_csv(
         out,
@@ -329,7 +350,6 @@ pub fn battery_file(input: &Path, out: &Path, o: &PredictOptions) -> Result<Pred
                 ]
             }),
     )?;
-    p.record = Some(read.report);
     Ok(p)
 }
 

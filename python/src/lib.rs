@@ -291,13 +291,7 @@ fn identify_battery<'py>(
         for why in &m.skipped {
             warn(py, &format!("{RECORD}: {why}"))?;
         }
-        let gap = fracbms_host::map::in_gaps(&rec, &gaps);
-        json.map = Some(fracbms_host::map::MapJson {
-            levels: m.map.rows,
-            skipped: m.skipped,
-            map_rmse_v: m.rmse_v,
-            single_rmse_v: fracbms_host::identify::map::rmse(&r.model_voltage, &rec.voltage, &gap),
-        });
+        json.map = Some(m.json(&rec, &r.model_voltage, &gaps));
     }
     json.record = Some(read.report);
     let d = to_dict(py, &json)?;
@@ -367,21 +361,8 @@ fn predict_battery<'py>(
         &cycler::RecordOptions::default(),
     )
     .map_err(value_error)?;
-    let gaps = read.report.resampling.gaps.clone();
-    let mut p = if let Some(levels) = j.get("levels") {
-        let rows: Vec<fracbms_host::map::MapRow> = serde_json::from_value(levels.clone())
-            .map_err(|e| PyValueError::new_err(format!("model: not a map ({e})")))?;
-        let mut map = fracbms_host::map::ParameterMap { rows };
-        map.sort();
-        let spec = spec.ok_or_else(|| {
-            PyValueError::new_err("a parameter map runs on the OCV table: give ocv and capacity_ah")
-        })?;
-        predict::predict_map(name, &read.record, &map, &spec, None, &gaps)
-    } else {
-        let fit = predict::fit_from_json(&j, Path::new("model")).map_err(value_error)?;
-        predict::predict(name, &read.record, &fit, spec.as_ref())
-    }
-    .map_err(|e| {
+    let model = predict::model_from_json(&j, Path::new("model")).map_err(value_error)?;
+    let mut p = predict::run_model(name, &read, &model, spec.as_ref(), None).map_err(|e| {
         // The CLI's flags are keywords here.
         let m = e
             .to_string()
@@ -389,7 +370,6 @@ fn predict_battery<'py>(
             .replace("leave out --ocv", "leave out ocv");
         PyValueError::new_err(m)
     })?;
-    p.record = Some(read.report);
     let model_v = std::mem::take(&mut p.model_v);
     let d = to_dict(py, &p)?;
     d.set_item("model_v", PyArray1::from_vec(py, model_v))?;

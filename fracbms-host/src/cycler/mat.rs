@@ -9,7 +9,7 @@
 //! meaning.
 
 use super::headers::{self, ColumnChoice};
-use super::{finish, CurrentSign, CyclerRecord, RawRows, RecordOptions};
+use super::{finish, CyclerRecord, RawRows, RecordOptions};
 use crate::error::Result;
 use crate::{bail, err};
 use matrw::{MatVariable, MatlabType};
@@ -186,10 +186,7 @@ pub(super) fn read(bytes: &[u8], path: &Path, o: &RecordOptions) -> Result<Cycle
             );
         }
     }
-    let s = match o.current_sign {
-        CurrentSign::ChargePositive => 1.0,
-        CurrentSign::DischargePositive => -1.0,
-    };
+    let s = o.current_sign.factor();
     let si = |ch: &headers::Chosen, k: f64| ch.unit.to_si(k);
     let temperature = match &choice.temperature {
         Some(ch) if col(ch.index).len() == n => {

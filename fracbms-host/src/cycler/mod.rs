@@ -62,6 +62,15 @@ impl CurrentSign {
             CurrentSign::DischargePositive => "discharge-positive",
         }
     }
+
+    /// What an export's current is multiplied by to read positive
+    /// charging: 1 or −1.
+    pub fn factor(self) -> f64 {
+        match self {
+            CurrentSign::ChargePositive => 1.0,
+            CurrentSign::DischargePositive => -1.0,
+        }
+    }
 }
 
 /// How a record is read: the columns, the current's sign, the period.
@@ -361,10 +370,7 @@ pub fn record_from_arrays(
             time[k]
         );
     }
-    let s = match o.current_sign {
-        CurrentSign::ChargePositive => 1.0,
-        CurrentSign::DischargePositive => -1.0,
-    };
+    let s = o.current_sign.factor();
     let raw = RawRows {
         time: time.to_vec(),
         current: current.iter().map(|i| s * i).collect(),

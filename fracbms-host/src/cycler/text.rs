@@ -140,10 +140,7 @@ pub(super) fn read_rows(
         rows: Vec::new(),
         clock_time: false,
     };
-    let s = match sign {
-        CurrentSign::ChargePositive => 1.0,
-        CurrentSign::DischargePositive => -1.0,
-    };
+    let s = sign.factor();
     let mut rec = csv::ByteRecord::new();
     loop {
         let row = match rdr.read_byte_record(&mut rec) {

@@ -90,6 +90,55 @@ pub struct BatteryJson {
     pub map: Option<crate::map::MapJson>,
 }
 
+/// The cell of a JSON value of `identify battery` (a file's, or the
+/// Python face's dict), with `u_oc` as written, and its `ocv_offset_v` when
+/// the fit was made against an OCV table; `path` names it in errors. A
+/// linear fit has null (or, from before the Butler–Volmer model, no)
+/// `bv_a_v` and `bv_i0_a`.
+///
+/// # Errors
+/// [`crate::ErrorKind::Data`] when one of the numbers is missing.
+pub fn cell_from_json(
+    j: &serde_json::Value,
+    path: &Path,
+) -> Result<(CellParameters<f64>, Option<f64>)> {
+    let get = |k: &str| {
+        j[k].as_f64().ok_or_else(|| {
+            err!(
+                Data,
+                "{}: no number `{k}` (expected the JSON of identify battery)",
+                path.display()
+            )
+        })
+    };
+    let (bv_a, bv_i0) = match (j["bv_a_v"].as_f64(), j["bv_i0_a"].as_f64()) {
+        (Some(a), Some(i0)) => (a, i0),
+        _ => (0.0, 1.0),
+    };
+    let cell = CellParameters {
+        r_i: get("r_i")?,
+        r_ct: get("r_ct")?,
+        q: get("q")?,
+        alpha: get("alpha")?,
+        u_oc: get("u_oc")?,
+        bv_a,
+        bv_i0,
+    };
+    Ok((cell, j["ocv_offset_v"].as_f64()))
+}
+
+/// Reads a JSON file (the JSON of `identify battery`, as `--prior` and
+/// `predict battery --model` take it).
+///
+/// # Errors
+/// [`crate::ErrorKind::Io`] when it cannot be read, [`crate::ErrorKind::Data`]
+/// when it is not JSON.
+pub fn read_json_file(path: &Path) -> Result<serde_json::Value> {
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| err!(Io, "{}: cannot read ({e})", path.display()))?;
+    serde_json::from_str(&text).map_err(|e| err!(Data, "{}: not JSON ({e})", path.display()))
+}
+
 /// What `identify battery` computed, for the plots and the report.
 pub struct BatteryResult {
     /// The JSON summary.

@@ -258,10 +258,26 @@ value_enum! {
 pub fn main() -> i32 {
     let cli = match Cli::try_parse() {
         Ok(c) => c,
-        Err(e) => {
-            let code = if e.use_stderr() { 2 } else { 0 };
+        Err(e) if !e.use_stderr() => {
+            // --help, --version.
             let _ = e.print();
-            return code;
+            return 0;
+        }
+        Err(e) => {
+            // A bad flag is one line, as bad data are (clap adds a usage
+            // hint below it; `--help` shows the flags).
+            let text = e.render().to_string();
+            let said: Vec<&str> = text
+                .lines()
+                .map(str::trim)
+                .filter(|l| {
+                    !l.is_empty()
+                        && !l.starts_with("Usage:")
+                        && !l.starts_with("For more information")
+                })
+                .collect();
+            eprintln!("{} (see --help)", said.join(" "));
+            return 2;
         }
     };
     match fracbms_host::worker::on_worker(move || run(cli)) {

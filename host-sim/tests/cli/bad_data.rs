@@ -90,6 +90,13 @@ fn malformed_files_give_one_line_errors() {
         s(&tmp("x.csv")),
     ]);
     assert_eq!(o.status.code(), Some(2), "clap usage error");
+    // One line, with the values it takes.
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(err.trim_end().lines().count(), 1, "{err}");
+    assert!(
+        err.contains("--preset") && err.contains("possible values"),
+        "{err}"
+    );
 }
 
 /// A malformed OCV table is one line naming the file and the row.

@@ -347,17 +347,27 @@ pub fn battery_file(
         &f.report.resampling.gaps,
         Some(&f.rows),
     )?;
-    f.result.json.map = Some(MapJson {
-        levels: map.map.rows.clone(),
-        skipped: map.skipped.clone(),
-        map_rmse_v: map.rmse_v,
-        single_rmse_v: rmse(
-            &f.result.model_voltage,
-            &f.record.voltage,
-            &in_gaps(&f.record, &f.report.resampling.gaps),
-        ),
-    });
+    f.result.json.map = Some(map.json(
+        &f.record,
+        &f.result.model_voltage,
+        &f.report.resampling.gaps,
+    ));
     Ok((f, map))
+}
+
+impl MapFit {
+    /// The map in the JSON of `identify battery`: its levels, those
+    /// skipped, and the whole-record RMSE of the map model beside that of
+    /// the single fit `single_v`, over `rec`'s own samples (not inside
+    /// `gaps`).
+    pub fn json(&self, rec: &BatteryRecord, single_v: &[f64], gaps: &[Gap]) -> MapJson {
+        MapJson {
+            levels: self.map.rows.clone(),
+            skipped: self.skipped.clone(),
+            map_rmse_v: self.rmse_v,
+            single_rmse_v: rmse(single_v, &rec.voltage, &in_gaps(rec, gaps)),
+        }
+    }
 }
 
 /// RMSE over the samples with a finite voltage that are the log's (not
