@@ -137,6 +137,7 @@ impl OnlineCell {
             precision,
             start,
             prior: None,
+            prior_map: None,
             cell: cell.as_ref(),
             model,
             tail,

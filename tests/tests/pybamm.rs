@@ -131,6 +131,7 @@ fn sliding_window() {
                     cell: with_table.then_some(&c),
                     ..online::TrackOptions::new(256, 64)
                 },
+                None,
                 |r| {
                     rows.push(r);
                     Ok(())

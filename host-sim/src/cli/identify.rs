@@ -142,6 +142,11 @@ pub struct IdBatteryArgs {
     /// The shortest rest (s) that separates two SOC levels.
     #[arg(long, default_value_t = 600.0)]
     pub min_rest: f64,
+    /// Also write each level's record as fitted into this folder
+    /// (`level-NN.csv`, `ocv.csv`, `levels.json`), for an independent fit
+    /// (`bench/reference_map.py`).
+    #[arg(long, requires = "map_out")]
+    pub levels_out: Option<PathBuf>,
     /// The record's temperature (°C) for the map's `temperature_c`
     /// (default: the temperature column's mean over the record to 0.1 °C,
     /// or empty).
@@ -292,6 +297,18 @@ pub(super) fn battery(a: IdBatteryArgs) -> Result<()> {
         }
         m.map.write_csv(p)?;
         eprintln!("wrote {}", p.display());
+        if let Some(dir) = &a.levels_out {
+            let spec = fracbms_host::ocv::OcvSpec::from_options(&o.ocv)?
+                .ok_or_else(|| fracbms_host::err!(Options, "--levels-out needs --ocv"))?;
+            fracbms_host::identify::map::write_levels(
+                dir,
+                m,
+                &spec,
+                &clap::ValueEnum::to_possible_value(&a.model)
+                    .map_or_else(String::new, |v| v.get_name().to_string()),
+            )?;
+            eprintln!("wrote {} levels into {}", m.parts.len(), dir.display());
+        }
         if let Some(svg) = &a.map_plot {
             fracbms_host::map::plot(svg, &m.map)?;
             eprintln!("wrote {}", svg.display());

@@ -38,7 +38,11 @@ pub struct OnlineBatteryArgs {
     #[arg(long, value_enum, default_value = "from-data")]
     pub start: StartArg,
     /// A prior on R_i, R_ct, Q and α: the JSON of `identify battery` (e.g.
-    /// of a characterization record of the same cell). The window's fit
+    /// of a characterization record of the same cell), or a parameter map
+    /// (`MAP.csv`, the `--map-out` of `identify battery`; needs --ocv and
+    /// --capacity-ah): the prior is then the map's cell at the counted SOC
+    /// and at the temperature column's value, if any (levels that are not
+    /// identifiable are left out, with a warning). The window's fit
     /// is then maximum a posteriori: the data where they are informative,
     /// the prior where a window is too short to tell (the refinement starts
     /// at the prior, without the paper method's start-up).
@@ -142,7 +146,7 @@ pub(super) fn battery(a: OnlineBatteryArgs) -> Result<()> {
         method: a.method.into(),
         precision: a.precision.into(),
         start: a.start.into(),
-        prior: a.prior,
+        prior: a.prior.clone(),
         prior_factor: a.prior_factor,
         prior_alpha_sigma: a.prior_alpha_sigma,
         prior_noise_mv: a.prior_noise_mv,
@@ -153,6 +157,12 @@ pub(super) fn battery(a: OnlineBatteryArgs) -> Result<()> {
     };
     let r = online_track::battery_file(&a.input, &a.out, &o)?;
     super::print_record(&a.input, &r.record);
+    if let (Some((line, left_out)), Some(p)) = (&r.prior_map, &a.prior) {
+        eprintln!("{}: {line}", p.display());
+        for why in left_out {
+            eprintln!("warning: {}: {why}", p.display());
+        }
+    }
     let s = r.summary;
     eprintln!(
         "wrote {} ({} samples, {} rejected, {:.0} samples/s, model {})",

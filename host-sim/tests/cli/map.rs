@@ -171,6 +171,53 @@ fn an_hppc_export_gives_a_map_that_beats_one_fit() {
     let p = read_json(&pj)["rmse_v"].as_f64().unwrap();
     assert!((p / map_rmse - 1.0).abs() < 1e-9, "{p} vs {map_rmse}");
 
+    // Each level's record for an independent fit.
+    let ldir = tmp("map-levels");
+    let _ = std::fs::remove_dir_all(&ldir);
+    let o = run(&[
+        "identify",
+        "battery",
+        "--input",
+        s(&log),
+        "--ocv",
+        s(&ocv),
+        "--capacity-ah",
+        "2.5",
+        "--soc0",
+        "0.95",
+        "--model",
+        "linear",
+        "--map-out",
+        s(&tmp("map-again.csv")),
+        "--levels-out",
+        s(&ldir),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let lj = read_json(&ldir.join("levels.json"));
+    let parts = lj["levels"].as_array().unwrap();
+    assert_eq!(parts.len(), 5);
+    assert_eq!(lj["capacity_ah"], 2.5);
+    for (p, l) in parts.iter().zip(levels.iter().rev()) {
+        let csv = std::fs::read_to_string(ldir.join(p["file"].as_str().unwrap())).unwrap();
+        assert!(csv.starts_with("time_s,current_a,voltage_v\n"));
+        assert_eq!(
+            csv.lines().count() - 1,
+            p["samples"].as_u64().unwrap() as usize
+        );
+        // The level's record is the one its map row was fitted on.
+        assert_eq!(p["start_s"], l["start_s"]);
+        assert_eq!(p["samples"], l["samples"]);
+        assert_eq!(p["fitted"], true);
+    }
+    let table = std::fs::read_to_string(ldir.join("ocv.csv")).unwrap();
+    assert_eq!(
+        table,
+        std::fs::read_to_string(&ocv).unwrap().replace("\r", "")
+    );
+
+    // The map as the online prior: it follows the counted SOC.
+    online_with_the_map(&log, &ocv, &map, &json);
+
     // A map without an OCV table: one line.
     let o = run(&[
         "identify",
@@ -184,6 +231,106 @@ fn an_hppc_export_gives_a_map_that_beats_one_fit() {
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(
         err.contains("needs --ocv") && err.trim_end().lines().count() == 1,
+        "{err}"
+    );
+}
+
+/// `online battery --prior MAP.csv` on the export: the prior is the map's
+/// cell at the counted SOC, so under a tight prior the published R_i is
+/// the map's at the SOC, where the single fit's prior stays put; a map none
+/// of whose levels is identifiable is refused in one line.
+fn online_with_the_map(log: &Path, ocv: &Path, map: &Path, fit: &Path) {
+    let track = tmp("map-online.csv");
+    let args = |prior: &Path, out: &Path| {
+        run(&[
+            "online",
+            "battery",
+            "--input",
+            s(log),
+            "--ocv",
+            s(ocv),
+            "--capacity-ah",
+            "2.5",
+            "--soc0",
+            "0.95",
+            "--prior",
+            s(prior),
+            // A tight prior: the published cell is the prior's centre
+            // nearly, so the track shows where the prior sits.
+            "--prior-factor",
+            "1.02",
+            "--prior-alpha-sigma",
+            "0.005",
+            "--out",
+            s(out),
+        ])
+    };
+    // |R_i/map R_i(SOC) − 1| over the published samples of a track.
+    let m = fracbms_host::map::ParameterMap::read_csv(map).unwrap();
+    let deviations = |text: &str| {
+        let head: Vec<&str> = text.lines().next().unwrap().split(',').collect();
+        let col = |name: &str| head.iter().position(|c| *c == name).unwrap();
+        let (ri, soc, status) = (col("r_i"), col("soc"), col("status"));
+        let mut errs = vec![];
+        for line in text.lines().skip(1) {
+            let f: Vec<&str> = line.split(',').collect();
+            if f[status] != "tracking" {
+                continue;
+            }
+            let (Ok(r), Ok(z)) = (f[ri].parse::<f64>(), f[soc].parse::<f64>()) else {
+                continue;
+            };
+            errs.push((r / m.cell_at(z, None).unwrap().r_i - 1.0).abs());
+        }
+        errs.sort_by(f64::total_cmp);
+        errs
+    };
+    let o = args(map, &track);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    assert!(err.contains("prior from the map: 5 levels"), "{err}");
+    let with_map = deviations(&std::fs::read_to_string(&track).unwrap());
+    // The same with the single whole-record fit as the prior.
+    let single_track = tmp("map-online-single.csv");
+    let o = args(fit, &single_track);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let with_fit = deviations(&std::fs::read_to_string(&single_track).unwrap());
+    let q = |e: &[f64], p: usize| e[e.len() * p / 100];
+    eprintln!(
+        "published {} / {}: |R_i/map − 1| median {:.3} / {:.3}, 90th {:.3} / {:.3} (map prior / single-fit prior)",
+        with_map.len(),
+        with_fit.len(),
+        q(&with_map, 50),
+        q(&with_fit, 50),
+        q(&with_map, 90),
+        q(&with_fit, 90)
+    );
+    assert!(with_map.len() > 1000, "{} published", with_map.len());
+    // With the map, R_i sits on the map's value at the counted SOC (90 %
+    // within 1 %); one fit's prior cannot follow it (the cell's R_i moves
+    // by 2.2× over the test).
+    assert!(q(&with_map, 90) < 0.01, "90th {}", q(&with_map, 90));
+    assert!(q(&with_fit, 50) > 0.1, "median {}", q(&with_fit, 50));
+
+    // Not one level identifiable: refused, in one line.
+    let bad = tmp("map-none-identifiable.csv");
+    let t = std::fs::read_to_string(map).unwrap();
+    let mut lines = t.lines();
+    let header = lines.next().unwrap();
+    let k = header.split(',').position(|c| c == "identifiable").unwrap();
+    let mut out = format!("{header}\n");
+    for l in lines {
+        let mut f: Vec<&str> = l.split(',').collect();
+        f[k] = "false";
+        out.push_str(&f.join(","));
+        out.push('\n');
+    }
+    std::fs::write(&bad, out).unwrap();
+    let o = args(&bad, &tmp("map-online-bad.csv"));
+    assert_eq!(o.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("no level of the map can be a prior") && err.trim_end().lines().count() == 1,
         "{err}"
     );
 }

@@ -166,6 +166,24 @@ pub struct MapFit {
     pub model_v: Vec<f64>,
     /// Its RMSE against the record (V).
     pub rmse_v: f64,
+    /// Each level's own record, as fitted (skipped levels too), in time
+    /// order: what [`write_levels`] writes for an independent fit.
+    pub parts: Vec<LevelPart>,
+}
+
+/// One level's record as its fit saw it.
+#[derive(Clone, Debug)]
+pub struct LevelPart {
+    /// The uniform record of the level.
+    pub record: BatteryRecord,
+    /// The level's SOC (the map row's `soc`).
+    pub soc: f64,
+    /// The SOC before the record's first row's charge.
+    pub soc0: f64,
+    /// The record's temperature (°C), if known.
+    pub temperature_c: Option<f64>,
+    /// Whether the level has a row in the map.
+    pub fitted: bool,
 }
 
 /// Builds the map of `rec` (file `path`): splits it into levels, fits each
@@ -223,6 +241,7 @@ pub fn build_map(
     });
     let mut rows = vec![];
     let mut skipped = vec![];
+    let mut kept = vec![];
     for p in &parts {
         // The level at the log's own resolution where it is finer than the
         // whole record's (within o.level_samples), else as resampled.
@@ -257,6 +276,14 @@ pub fn build_map(
             false,
             refine,
         );
+        let fitted = fit.is_ok();
+        kept.push(LevelPart {
+            record: part.clone(),
+            soc: p.soc,
+            soc0: soc[p.start].clamp(0.0, 1.0),
+            temperature_c: record_t,
+            fitted,
+        });
         let (r, _) = match fit {
             Ok(x) => x,
             Err(e) => {
@@ -303,6 +330,68 @@ pub fn build_map(
         skipped,
         model_v,
         rmse_v,
+        parts: kept,
+    })
+}
+
+/// Writes each level of `fit` for an independent fit into the folder
+/// `dir` (made if missing): `level-NN.csv` (`time_s,current_a,voltage_v`,
+/// the level's uniform record), `ocv.csv` (`soc,ocv_v`, the table used)
+/// and `levels.json` (the capacity, `model`, and per level its `file`,
+/// `soc`, `soc0`, `temperature_c`, `start_s`, `end_s`, `samples`,
+/// `fitted`). `bench/reference_map.py` reads it.
+///
+/// # Errors
+/// [`crate::ErrorKind::Io`] when a file cannot be written.
+pub fn write_levels(dir: &Path, fit: &MapFit, ocv: &OcvSpec, model: &str) -> Result<()> {
+    std::fs::create_dir_all(dir).map_err(|e| err!(Io, "cannot make {}: {e}", dir.display()))?;
+    let t = &ocv.model.table;
+    crate::io::write_csv(
+        &dir.join("ocv.csv"),
+        &["soc", "ocv_v"],
+        t.soc_points()
+            .iter()
+            .zip(t.ocv_points())
+            .map(|(z, v)| [z.to_string(), v.to_string()]),
+    )?;
+    let mut levels = vec![];
+    for (k, p) in fit.parts.iter().enumerate() {
+        let file = format!("level-{:02}.csv", k + 1);
+        let r = &p.record;
+        crate::io::write_csv(
+            &dir.join(&file),
+            &["time_s", "current_a", "voltage_v"],
+            (0..r.time.len()).map(|j| {
+                [
+                    r.time[j].to_string(),
+                    r.current[j].to_string(),
+                    r.voltage[j].to_string(),
+                ]
+            }),
+        )?;
+        levels.push(serde_json::json!({
+            "file": file,
+            "soc": p.soc,
+            "soc0": p.soc0,
+            "temperature_c": p.temperature_c,
+            "start_s": r.time[0],
+            "end_s": r.time[r.time.len() - 1],
+            "samples": r.time.len(),
+            "h": r.h,
+            "fitted": p.fitted,
+        }));
+    }
+    let doc = serde_json::json!({
+        "capacity_ah": ocv.model.capacity_ah,
+        "model": model,
+        "levels": levels,
+    });
+    let text = serde_json::to_string_pretty(&doc)
+        .map_err(|e| err!(Io, "cannot write levels.json: {e}"))?;
+    crate::io::write_atomic(&dir.join("levels.json"), |w| {
+        w.write_all(text.as_bytes())
+            .and_then(|_| w.write_all(b"\n"))
+            .map_err(|e| err!(Io, "cannot write levels.json: {e}"))
     })
 }
 

@@ -15,6 +15,10 @@ use estimator_core::Real;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
+pub use prior::{read_prior, read_prior_source, PriorMap, PriorSource};
+
+mod prior;
+
 /// Floating-point precision of an online estimator.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
@@ -86,6 +90,9 @@ pub struct TrackOptions<'a> {
     pub start: Start,
     /// A prior from a characterization fit (MAP window fits).
     pub prior: Option<&'a Prior<f64>>,
+    /// A prior that follows the counted SOC and the temperature: a
+    /// parameter map's cell there (in place of `prior`).
+    pub prior_map: Option<&'a PriorMap>,
     /// The cell's OCV curve, capacity and start SOC.
     pub cell: Option<&'a CellOcv>,
     /// The cell model (`auto`: the prior's, linear without one).
@@ -107,6 +114,7 @@ impl TrackOptions<'_> {
             precision: Precision::F64,
             start: Start::FromData,
             prior: None,
+            prior_map: None,
             cell: None,
             model: ModelRequest::Linear,
             tail: false,
@@ -119,8 +127,9 @@ impl TrackOptions<'_> {
         match self.model {
             ModelRequest::Linear => CellModel::Linear,
             ModelRequest::ButlerVolmer => CellModel::ButlerVolmer,
-            ModelRequest::Auto => match self.prior {
-                Some(p) if p.center.is_butler_volmer() => CellModel::ButlerVolmer,
+            ModelRequest::Auto => match (self.prior, self.prior_map) {
+                (_, Some(m)) if m.is_butler_volmer() => CellModel::ButlerVolmer,
+                (Some(p), None) if p.center.is_butler_volmer() => CellModel::ButlerVolmer,
                 _ => CellModel::Linear,
             },
         }
@@ -130,12 +139,10 @@ impl TrackOptions<'_> {
     pub(crate) fn settings<T: Real>(&self, h: f64) -> Result<OnlineSettings<T, OCV_POINTS>> {
         let mut s = OnlineSettings::new(T::lit(h), self.memory, CellParameters::cell_18650());
         s.battery.start = self.start;
-        s.battery.prior = self.prior.map(|p| Prior {
-            center: p.center.cast(),
-            log_sigma: T::lit(p.log_sigma),
-            alpha_sigma: T::lit(p.alpha_sigma),
-            noise_v: T::lit(p.noise_v),
-        });
+        let first = self
+            .prior_map
+            .map(|m| m.prior_at(self.cell.map(|c| c.soc0), None));
+        s.battery.prior = first.as_ref().or(self.prior).map(cast_prior);
         s.battery.model = self.cell_model();
         s.battery.tail = self.tail;
         s.iterations_per_sample = self.iterations_per_sample;
@@ -161,11 +168,22 @@ impl TrackOptions<'_> {
     }
 }
 
+fn cast_prior<T: Real>(p: &Prior<f64>) -> Prior<T> {
+    Prior {
+        center: p.center.cast(),
+        log_sigma: T::lit(p.log_sigma),
+        alpha_sigma: T::lit(p.alpha_sigma),
+        noise_v: T::lit(p.noise_v),
+    }
+}
+
 /// Runs the online estimator over a record as `o` says, calling `sink`
-/// after every sample.
+/// after every sample. With `o.prior_map`, `temperature` (°C, one per
+/// sample) picks the map's temperature.
 pub fn track(
     rec: &io::BatteryRecord,
     o: &TrackOptions,
+    temperature: Option<&[f64]>,
     mut sink: impl FnMut(TrackRow) -> Result<()>,
 ) -> Result<TrackSummary> {
     let mut cell = Tracker::new(o, rec.h, o.cell.map(|c| c.soc0))?;
@@ -177,6 +195,9 @@ pub fn track(
         .zip(&rec.voltage)
         .enumerate()
     {
+        if let Some(t) = temperature.and_then(|x| x.get(k)) {
+            cell.set_temperature(*t);
+        }
         sink(cell.push(t, i, v))?;
         if k % 256 == 0 {
             pb.set_position(k as u64);
@@ -191,6 +212,11 @@ pub fn track(
 /// [`track`] (`online battery`), and what the Python `OnlineCell` holds.
 pub struct Tracker {
     cell: Box<dyn Step>,
+    /// The map the prior follows, the temperature now, and the SOC and
+    /// temperature the prior was last taken at.
+    map: Option<PriorMap>,
+    temperature: Option<f64>,
+    taken_at: (f64, Option<f64>),
 }
 
 /// [`Tracker`]'s estimator behind one type for every window and precision.
@@ -198,6 +224,8 @@ trait Step: Send + Sync {
     fn push(&mut self, t: f64, current: f64, voltage: f64) -> TrackRow;
     fn summary(&self) -> TrackSummary;
     fn set_state_of_charge(&mut self, soc: f64);
+    fn state_of_charge(&self) -> Option<f64>;
+    fn set_prior(&mut self, p: &Prior<f64>);
 }
 
 /// The core's single-cell estimator with its settings.
@@ -241,6 +269,14 @@ impl<T: Real + Send + Sync, const N: usize> Step for Sized<T, N> {
         self.est.set_state_of_charge(T::lit(soc));
     }
 
+    fn state_of_charge(&self) -> Option<f64> {
+        self.est.state_of_charge().map(|z| z.to_f64())
+    }
+
+    fn set_prior(&mut self, p: &Prior<f64>) {
+        self.s.battery.prior = Some(cast_prior(p));
+    }
+
     fn summary(&self) -> TrackSummary {
         let c = self.est.counts();
         TrackSummary {
@@ -272,13 +308,47 @@ impl Tracker {
             Precision::F64 => sized(o.settings::<f64>(h)?, soc0, window)?,
             Precision::F32 => sized(o.settings::<f32>(h)?, soc0, window)?,
         };
-        Ok(Self { cell })
+        Ok(Self {
+            cell,
+            map: o.prior_map.cloned(),
+            temperature: None,
+            taken_at: (f64::NAN, None),
+        })
+    }
+
+    /// The cell's temperature now (°C): the map's temperature the prior is
+    /// taken at (with a map prior; a non-finite value is ignored).
+    pub fn set_temperature(&mut self, t: f64) {
+        if t.is_finite() {
+            self.temperature = Some(t);
+        }
+    }
+
+    /// With a map prior: the prior at the counted SOC and the temperature
+    /// now, taken again when the SOC has moved by 0.001 or the temperature
+    /// by 0.5 °C.
+    fn follow_map(&mut self) {
+        let (Some(m), Some(z)) = (&self.map, self.cell.state_of_charge()) else {
+            return;
+        };
+        let (z0, t0) = self.taken_at;
+        let moved_t = match (self.temperature, t0) {
+            (Some(a), Some(b)) => (a - b).abs() >= 0.5,
+            (a, b) => a.is_some() != b.is_some(),
+        };
+        if (z - z0).abs() < 1e-3 && !moved_t {
+            return;
+        }
+        let p = m.prior_at(Some(z), self.temperature);
+        self.cell.set_prior(&p);
+        self.taken_at = (z, self.temperature);
     }
 
     /// Feeds the sample at time `t` (s): current (A, positive when
     /// charging) and terminal voltage (V). Never fails: a bad sample is
     /// rejected, counted and substituted by the core.
     pub fn push(&mut self, t: f64, current: f64, voltage: f64) -> TrackRow {
+        self.follow_map();
         self.cell.push(t, current, voltage)
     }
 
@@ -379,6 +449,9 @@ pub struct OnlineReport {
     pub model: CellModel,
     /// What was read from the file.
     pub record: crate::cycler::RecordReport,
+    /// With a map prior: one line on the levels it follows, and the levels
+    /// left out with why.
+    pub prior_map: Option<(String, Vec<String>)>,
 }
 
 /// The header of the track CSV `online battery` writes.
@@ -397,14 +470,28 @@ pub fn battery_file(input: &Path, out: &Path, o: &OnlineBatteryOptions) -> Resul
     let read = crate::cycler::read_record(input, &o.record)?;
     let rec = read.record;
     let cell = crate::ocv::resolve(&o.ocv, input, &rec)?;
-    let prior = match &o.prior {
-        Some(p) => Some(read_prior(
+    let source = match &o.prior {
+        Some(p) => Some(read_prior_source(
             p,
             o.prior_factor,
             o.prior_alpha_sigma,
             o.prior_noise_mv,
         )?),
         None => None,
+    };
+    let (prior, prior_map) = match &source {
+        Some(PriorSource::Fit(p)) => (Some(p), None),
+        Some(PriorSource::Map(m)) => {
+            if cell.is_none() {
+                bail!(
+                    Options,
+                    "--prior {}: a parameter map needs --ocv and --capacity-ah (its prior follows the counted SOC)",
+                    o.prior.as_deref().unwrap_or(Path::new("")).display()
+                );
+            }
+            (None, Some(m))
+        }
+        None => (None, None),
     };
     let memory = o.memory.unwrap_or(o.window / 4);
     let f = |x: f64| format!("{x:.9e}");
@@ -416,7 +503,8 @@ pub fn battery_file(input: &Path, out: &Path, o: &OnlineBatteryOptions) -> Resul
         method: o.method,
         precision: o.precision,
         start: o.start,
-        prior: prior.as_ref(),
+        prior,
+        prior_map,
         cell: cell.as_ref(),
         model: o.model,
         tail: o.tail,
@@ -425,7 +513,7 @@ pub fn battery_file(input: &Path, out: &Path, o: &OnlineBatteryOptions) -> Resul
         let mut res = Ok(TrackSummary::default());
         io::write_atomic(out, |w| {
             writeln!(w, "{TRACK_HEADER}")?;
-            res = track(&rec, &t, |r| {
+            res = track(&rec, &t, read.temperature.as_deref(), |r| {
                 let bv = r.estimate.filter(|p| p.is_butler_volmer());
                 match r.estimate {
                     Some(p) => writeln!(
@@ -464,34 +552,6 @@ pub fn battery_file(input: &Path, out: &Path, o: &OnlineBatteryOptions) -> Resul
         seconds: t0.elapsed().as_secs_f64(),
         model: t.cell_model(),
         record: read.report,
+        prior_map: prior_map.map(|m| (m.describe(), m.left_out.clone())),
     })
-}
-
-/// Reads a prior: `path` is the JSON of `identify battery` (`--prior
-/// FIT.json`), the spreads are those of the `--prior-*` flags.
-pub fn read_prior(
-    path: &Path,
-    prior_factor: f64,
-    prior_alpha_sigma: f64,
-    prior_noise_mv: f64,
-) -> Result<Prior<f64>> {
-    let j = crate::identify::battery::read_json_file(path)?;
-    let (center, _) = crate::identify::battery::cell_from_json(&j, path)?;
-    if !(prior_factor.is_finite() && prior_factor > 1.0) {
-        bail!(Options, "--prior-factor {}: must be above 1", prior_factor);
-    }
-    let p = Prior {
-        center,
-        log_sigma: prior_factor.ln(),
-        alpha_sigma: prior_alpha_sigma,
-        noise_v: prior_noise_mv * 1e-3,
-    };
-    if !p.is_valid() {
-        bail!(
-            Data,
-            "{}: the prior is not physical, or a --prior-* spread is not positive",
-            path.display()
-        );
-    }
-    Ok(p)
 }

@@ -1,0 +1,204 @@
+//! The online estimator's prior (`online battery --prior`): one
+//! characterization fit (the JSON of `identify battery`), or a parameter
+//! map whose cell at the counted SOC and the temperature is the prior's
+//! centre as the cell moves.
+//!
+//! It owns reading either file and the map's prior at a state. It must not
+//! run the estimator (that is [`super::Tracker`], which takes the prior
+//! again as the SOC moves) nor build maps ([`crate::identify::map`]).
+
+use crate::error::Result;
+use crate::map::ParameterMap;
+use crate::{bail, err};
+use estimator_core::battery::Prior;
+use std::path::Path;
+
+/// Where the prior comes from.
+#[derive(Clone, Debug)]
+pub enum PriorSource {
+    /// One fit: the same prior at every state.
+    Fit(Prior<f64>),
+    /// A parameter map: the prior follows the SOC and temperature.
+    Map(PriorMap),
+}
+
+/// A parameter map as a prior: its identifiable, physical levels, and the
+/// `--prior-*` spreads around the cell interpolated between them.
+#[derive(Clone, Debug)]
+pub struct PriorMap {
+    /// The levels kept (identifiable and physical).
+    pub map: ParameterMap,
+    /// Levels left out, each with why.
+    pub left_out: Vec<String>,
+    /// Standard deviation of `ln R_i`, `ln R_ct`, `ln Q`.
+    pub log_sigma: f64,
+    /// Standard deviation of α.
+    pub alpha_sigma: f64,
+    /// The residual level σ_v (V) the window's data are weighed at.
+    pub noise_v: f64,
+}
+
+impl PriorMap {
+    /// The map `map` as a prior with these spreads: levels that are not
+    /// identifiable, or not a physical cell, are left out (their
+    /// parameters are not what the data say), and named in `left_out`.
+    ///
+    /// # Errors
+    /// [`crate::ErrorKind::Data`] when no level is left, or the spreads
+    /// are not positive.
+    pub fn new(map: &ParameterMap, log_sigma: f64, alpha_sigma: f64, noise_v: f64) -> Result<Self> {
+        let mut kept = ParameterMap::default();
+        let mut left_out = vec![];
+        for r in &map.rows {
+            let at = match r.temperature_c {
+                Some(t) => format!("level at SOC {:.3}, {t} °C", r.soc),
+                None => format!("level at SOC {:.3}", r.soc),
+            };
+            if !r.cell().is_physical() {
+                left_out.push(format!("{at}: not a physical cell"));
+            } else if !r.identifiable {
+                left_out.push(format!(
+                    "{at}: not identifiable ({})",
+                    r.identifiable_reason
+                        .as_deref()
+                        .unwrap_or("no reason given")
+                ));
+            } else {
+                kept.rows.push(r.clone());
+            }
+        }
+        if kept.rows.is_empty() {
+            bail!(
+                Data,
+                "no level of the map can be a prior ({})",
+                left_out.join("; ")
+            );
+        }
+        kept.sort();
+        let p = PriorMap {
+            map: kept,
+            left_out,
+            log_sigma,
+            alpha_sigma,
+            noise_v,
+        };
+        if !p.prior_at(None, None).is_valid() {
+            bail!(Data, "a --prior-* spread is not positive");
+        }
+        Ok(p)
+    }
+
+    /// The prior at SOC `z` and temperature `t` (°C): the map's cell there
+    /// (each parameter linear in SOC between the levels around `z`, at the
+    /// temperature nearest `t`). Without a SOC, the middle level's.
+    pub fn prior_at(&self, z: Option<f64>, t: Option<f64>) -> Prior<f64> {
+        let rows = self.map.slice(t);
+        let z = z
+            .filter(|z| z.is_finite())
+            .unwrap_or_else(|| rows[rows.len() / 2].soc);
+        // A map of kept rows is never empty (new), so cell_at is some.
+        let center = self.map.cell_at(z, t).unwrap_or_else(|| rows[0].cell());
+        Prior {
+            center,
+            log_sigma: self.log_sigma,
+            alpha_sigma: self.alpha_sigma,
+            noise_v: self.noise_v,
+        }
+    }
+
+    /// One line: the levels the prior follows.
+    pub fn describe(&self) -> String {
+        let r = &self.map.rows;
+        let temps: Vec<String> = {
+            let mut t: Vec<Option<f64>> = r.iter().map(|x| x.temperature_c).collect();
+            t.dedup();
+            t.iter()
+                .map(|t| t.map_or_else(|| "unknown".to_string(), |t| format!("{t} °C")))
+                .collect()
+        };
+        format!(
+            "prior from the map: {} levels, SOC {:.3}–{:.3}, temperature {} ({} left out)",
+            r.len(),
+            r.iter().map(|x| x.soc).fold(f64::INFINITY, f64::min),
+            r.iter().map(|x| x.soc).fold(f64::NEG_INFINITY, f64::max),
+            temps.join(", "),
+            self.left_out.len()
+        )
+    }
+
+    /// Whether every kept level has the Butler–Volmer term (then `auto`
+    /// fits it online).
+    pub fn is_butler_volmer(&self) -> bool {
+        self.map.rows.iter().all(|r| r.cell().is_butler_volmer())
+    }
+}
+
+/// Reads the prior of `--prior PATH`: a `.csv` is a parameter map (the
+/// `--map-out` of `identify battery`), anything else the JSON of
+/// `identify battery`; the spreads are those of the `--prior-*` flags.
+///
+/// # Errors
+/// A file that cannot be read, a prior that is not physical, a spread that
+/// is not positive.
+pub fn read_prior_source(
+    path: &Path,
+    prior_factor: f64,
+    prior_alpha_sigma: f64,
+    prior_noise_mv: f64,
+) -> Result<PriorSource> {
+    let is_csv = path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("csv"));
+    if !is_csv {
+        return read_prior(path, prior_factor, prior_alpha_sigma, prior_noise_mv)
+            .map(PriorSource::Fit);
+    }
+    check_factor(prior_factor)?;
+    let map = ParameterMap::read_csv(path)?;
+    PriorMap::new(
+        &map,
+        prior_factor.ln(),
+        prior_alpha_sigma,
+        prior_noise_mv * 1e-3,
+    )
+    .map(PriorSource::Map)
+    .map_err(|e| err!(Data, "{}: {}", path.display(), e.message()))
+}
+
+fn check_factor(prior_factor: f64) -> Result<()> {
+    if !(prior_factor.is_finite() && prior_factor > 1.0) {
+        bail!(Options, "--prior-factor {}: must be above 1", prior_factor);
+    }
+    Ok(())
+}
+
+/// Reads a prior: `path` is the JSON of `identify battery` (`--prior
+/// FIT.json`), the spreads are those of the `--prior-*` flags.
+///
+/// # Errors
+/// A file that cannot be read, a prior that is not physical, a spread that
+/// is not positive.
+pub fn read_prior(
+    path: &Path,
+    prior_factor: f64,
+    prior_alpha_sigma: f64,
+    prior_noise_mv: f64,
+) -> Result<Prior<f64>> {
+    let j = crate::identify::battery::read_json_file(path)?;
+    let (center, _) = crate::identify::battery::cell_from_json(&j, path)?;
+    check_factor(prior_factor)?;
+    let p = Prior {
+        center,
+        log_sigma: prior_factor.ln(),
+        alpha_sigma: prior_alpha_sigma,
+        noise_v: prior_noise_mv * 1e-3,
+    };
+    if !p.is_valid() {
+        bail!(
+            Data,
+            "{}: the prior is not physical, or a --prior-* spread is not positive",
+            path.display()
+        );
+    }
+    Ok(p)
+}
