@@ -433,7 +433,7 @@ fn low_rate(
     match (charge, discharge) {
         (Some(c), Some(d)) => {
             let (lo, hi) = (span(c).0.max(span(d).0), span(c).1.min(span(d).1));
-            let pts: Vec<(f64, f64)> = grid(lo, hi)
+            let mut pts: Vec<(f64, f64)> = grid(lo, hi)
                 .into_iter()
                 .filter_map(|z| Some((z, 0.5 * (at(c, z)? + at(d, z)?))))
                 .collect();
@@ -443,6 +443,28 @@ fn low_rate(
                     "{}: the low-rate charge and discharge share no SOC range",
                     path.display()
                 );
+            }
+            // Beyond the shared range (a charge without its CV phase stops
+            // short of full), the one branch there, moved onto the mean by
+            // the median half-gap (IR drop and hysteresis) over the shared
+            // range: not the gap at its edge, where the branch that stops
+            // is already rising to its cut-off.
+            let mut half: Vec<f64> = grid(lo, hi)
+                .into_iter()
+                .filter_map(|z| Some(0.5 * (at(c, z)? - at(d, z)?)))
+                .collect();
+            half.sort_by(f64::total_cmp);
+            let g = half[half.len() / 2];
+            let (first, last) = (pts[0].0, pts[pts.len() - 1].0);
+            let (all_lo, all_hi) = (span(c).0.min(span(d).0), span(c).1.max(span(d).1));
+            for z in grid(all_lo, all_hi) {
+                if (first..=last).contains(&z) {
+                    continue;
+                }
+                let beyond = at(d, z).map(|v| v + g).or_else(|| at(c, z).map(|v| v - g));
+                if let Some(v) = beyond {
+                    pts.push((z, v));
+                }
             }
             Ok((pts, vec![branch(c, 0.0), branch(d, 0.0)]))
         }
@@ -600,6 +622,43 @@ mod tests {
         let x = extract_ocv(Path::new("t.csv"), &rec, &o).unwrap();
         assert_eq!(x.branches.len(), 2);
         assert!(x.soc.len() > 90, "{}", x.soc.len());
+        for (z, v) in x.soc.iter().zip(&x.ocv_v) {
+            assert!((v - ocv(*z)).abs() < 2e-4, "{z}: {v} vs {}", ocv(*z));
+        }
+    }
+
+    #[test]
+    fn a_charge_that_stops_short_is_extended_by_the_discharge() {
+        // C/20 discharge from full to empty, then a C/20 charge that stops
+        // at SOC 0.85 (no CV phase); R = 20 mΩ and a ±5 mV hysteresis.
+        let h = 60.0;
+        let (mut t, mut i, mut v) = (vec![], vec![], vec![]);
+        let mut z = 1.0;
+        for (k, cur) in std::iter::repeat_n(-0.25, 1200)
+            .chain(std::iter::repeat_n(0.25, 1020))
+            .enumerate()
+        {
+            t.push(k as f64 * h);
+            i.push(cur);
+            v.push(ocv(z) + 0.02 * cur + 0.005 * cur.signum());
+            z += cur * h / 3600.0 / 5.0;
+        }
+        let rec = BatteryRecord {
+            time: t,
+            current: i,
+            voltage: v,
+            h,
+        };
+        let o = OcvExtractionOptions {
+            from: OcvSource::LowRate,
+            capacity_ah: Some(5.0),
+            soc0: Some(1.0),
+            ..OcvExtractionOptions::default()
+        };
+        let x = extract_ocv(Path::new("t.csv"), &rec, &o).unwrap();
+        // The table reaches full from the discharge, on the mean curve.
+        assert!(x.soc[x.soc.len() - 1] > 0.99, "{:?}", x.soc.last());
+        assert!(x.soc[0] < 0.01, "{:?}", x.soc.first());
         for (z, v) in x.soc.iter().zip(&x.ocv_v) {
             assert!((v - ocv(*z)).abs() < 2e-4, "{z}: {v} vs {}", ocv(*z));
         }

@@ -107,7 +107,7 @@ pub struct PredictOptions {
 #[derive(Clone, Debug, Serialize)]
 pub struct Prediction {
     /// RMSE of the model's voltage against the measured one (V), over the
-    /// samples with a finite voltage.
+    /// samples with a finite voltage that are the log's (not inside a gap).
     pub rmse_v: f64,
     /// The largest |model − measured| (V).
     pub max_error_v: f64,
@@ -117,6 +117,9 @@ pub struct Prediction {
     pub samples: usize,
     /// Samples whose voltage was not finite (not compared).
     pub voltages_skipped: usize,
+    /// Samples inside the record's gaps (made up by the resampling; not
+    /// compared).
+    pub samples_in_gaps: usize,
     /// Samples whose current was not finite (the one before held).
     pub currents_held: usize,
     /// SOC at the start (null without an OCV table).
@@ -180,7 +183,7 @@ pub fn predict(
             "the fit was made without an OCV table (no ocv_offset_v): leave out --ocv"
         ),
     };
-    let mut p = errors(path, rec, model_v)?;
+    let mut p = errors(path, rec, model_v, &[])?;
     p.currents_held = currents_held;
     p.soc0 = soc0;
     p.soc_end = soc_end;
@@ -212,17 +215,23 @@ pub fn predict_map(
             .unwrap_or(0.0)
             * rec.h
             / (3600.0 * c.model.capacity_ah);
-    let mut p = errors(path, rec, model_v)?;
+    let mut p = errors(path, rec, model_v, &crate::map::in_gaps(rec, gaps))?;
     p.soc0 = Some(c.soc0);
     p.soc_end = Some(end);
     p.currents_held = rec.current.iter().filter(|i| !i.is_finite()).count();
     Ok(p)
 }
 
-/// The error statistics of `model_v` against `rec`'s voltage.
-fn errors(path: &Path, rec: &BatteryRecord, model_v: Vec<f64>) -> Result<Prediction> {
+/// The error statistics of `model_v` against `rec`'s voltage, over the
+/// samples that are the log's: not those made up inside a gap (`gap[k]`;
+/// an empty `gap`: none).
+fn errors(path: &Path, rec: &BatteryRecord, model_v: Vec<f64>, gap: &[bool]) -> Result<Prediction> {
     let (mut sum, mut n, mut worst, mut at) = (0.0, 0usize, 0.0f64, 0.0);
-    for ((m, v), t) in model_v.iter().zip(&rec.voltage).zip(&rec.time) {
+    let in_gap = gap.iter().filter(|g| **g).count();
+    for (k, ((m, v), t)) in model_v.iter().zip(&rec.voltage).zip(&rec.time).enumerate() {
+        if gap.get(k).copied().unwrap_or(false) {
+            continue;
+        }
         if v.is_finite() {
             let e = m - v;
             sum += e * e;
@@ -241,7 +250,8 @@ fn errors(path: &Path, rec: &BatteryRecord, model_v: Vec<f64>) -> Result<Predict
         max_error_v: worst,
         max_error_time_s: at,
         samples: n,
-        voltages_skipped: rec.voltage.len() - n,
+        voltages_skipped: rec.voltage.len() - n - in_gap,
+        samples_in_gaps: in_gap,
         currents_held: 0,
         soc0: None,
         soc_end: None,
@@ -298,7 +308,18 @@ pub fn run_model(
 ) -> Result<Prediction> {
     check_model_ocv(model, spec)?;
     let mut p = match (model, spec) {
-        (Model::Fit(fit), spec) => predict(path, &read.record, fit, spec)?,
+        (Model::Fit(fit), spec) => {
+            // Compared over the log's own samples, as a map is.
+            let mut p = predict(path, &read.record, fit, spec)?;
+            let gap = crate::map::in_gaps(&read.record, &read.report.resampling.gaps);
+            let e = errors(path, &read.record, std::mem::take(&mut p.model_v), &gap)?;
+            Prediction {
+                currents_held: p.currents_held,
+                soc0: p.soc0,
+                soc_end: p.soc_end,
+                ..e
+            }
+        }
         (Model::Map(map), Some(spec)) => {
             let t = t.or_else(|| {
                 let col = read.temperature.as_deref()?;

@@ -498,10 +498,6 @@ pub fn map_voltage(
         .iter()
         .map(|i| if i.is_finite() { *i } else { 0.0 })
         .collect();
-    let mut minus_ocv = vec![0.0; current.len()];
-    let zeros = vec![0.0; current.len()];
-    c.model
-        .overpotentials(rec.h, c.soc0, &current, &zeros, &mut minus_ocv);
     let runs = rows
         .iter()
         .map(|r| {
@@ -522,7 +518,9 @@ pub fn map_voltage(
             let z = soc[k] + current[k] * rec.h / (3600.0 * c.model.capacity_ah);
             let (j, w) = map_bracket(&rows, z).unwrap_or((0, 0.0));
             let j1 = (j + 1).min(rows.len() - 1);
-            runs[j][k] + w * (runs[j1][k] - runs[j][k]) - minus_ocv[k]
+            // The OCV at the same SOC, read again after each gap (as the
+            // levels are placed), not counted through it.
+            runs[j][k] + w * (runs[j1][k] - runs[j][k]) + c.model.table.ocv(z)
         })
         .collect())
 }
