@@ -320,7 +320,7 @@ fn identify_battery<'py>(
 /// -------
 /// dict
 ///     ``rmse_v``, ``max_error_v``, ``max_error_time_s``, ``samples``,
-///     ``voltages_skipped``, ``currents_held``, ``soc0``, ``soc_end``,
+///     ``voltages_skipped``, ``samples_in_gaps``, ``currents_held``, ``soc0``, ``soc_end``,
 ///     ``record``, and ``model_v`` (numpy array, V).
 ///
 /// Examples
