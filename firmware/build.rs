@@ -16,6 +16,10 @@
 //! * Reads the prior's centre (`FRACBMS_PRIOR=r_i,r_ct,q,alpha[,bv_a,bv_i0]`)
 //!   and the cell model (`FRACBMS_MODEL=linear|butler-volmer`), the
 //!   short-memory correction (`FRACBMS_TAIL=0|1`).
+//! * Reads the parameter map (`FRACBMS_MAP`, the `--map-out` CSV of
+//!   `host-sim identify battery`), keeps its identifiable levels, checks
+//!   them with the core's `ParameterMap` in `f32` and writes them as a
+//!   `static` table (flash): the prior then follows the map.
 //! * For `target_os = "none"` only: puts `memory.x` (which includes
 //!   `fracbms-board.x`) and the board's map as `fracbms-board.x` on the link
 //!   path and passes `-Tlink.x` and `-Tdefmt.x`.
@@ -179,6 +183,99 @@ fn ocv_table(path: &Path) -> (Vec<f32>, Vec<f32>) {
     (soc, ocv)
 }
 
+/// Reads the parameter map `path` (the `--map-out` CSV of `host-sim
+/// identify battery`), keeps its identifiable levels (each level left out
+/// is one `cargo:warning`), sorts them and checks them in `f32` with the
+/// core's own [`ParameterMap`](estimator_core::battery::map::ParameterMap).
+/// Returns the levels as Rust expressions.
+fn parameter_map(path: &Path) -> Vec<String> {
+    use estimator_core::battery::map::{MapLevel, ParameterMap};
+    use estimator_core::battery::CellParameters;
+    let (mut rd, headers) = open_csv(path);
+    let find = |name: &str| headers.iter().position(|h| h.trim() == name);
+    let need = [
+        "temperature_c",
+        "soc",
+        "r_i",
+        "r_ct",
+        "q",
+        "alpha",
+        "bv_a_v",
+        "bv_i0_a",
+        "ocv_offset_v",
+        "identifiable",
+    ];
+    let cols: Vec<usize> = need
+        .iter()
+        .map(|n| {
+            find(n).unwrap_or_else(|| {
+                fail(format!(
+                    "{}: no column {n} (a map has {}; found {})",
+                    path.display(),
+                    need.join(","),
+                    headers.iter().collect::<Vec<_>>().join(",")
+                ))
+            })
+        })
+        .collect();
+    let mut levels: Vec<MapLevel<f32>> = Vec::new();
+    for (k, rec) in rd.records().enumerate() {
+        let row = k + 2;
+        let rec = rec.unwrap_or_else(|e| fail(format!("{}: row {row}: {e}", path.display())));
+        let v = |j: usize| cell(path, row, need[j], rec.get(cols[j]).unwrap_or(""));
+        let identifiable = rec.get(cols[9]).unwrap_or("").trim();
+        let t = v(0);
+        let bv_a = v(6);
+        let level = MapLevel {
+            temperature_c: (!t.is_nan()).then_some(t),
+            soc: v(1),
+            cell: CellParameters {
+                r_i: v(2),
+                r_ct: v(3),
+                q: v(4),
+                alpha: v(5),
+                u_oc: if v(8).is_nan() { 0.0 } else { v(8) },
+                // A linear level: no Butler–Volmer term.
+                bv_a: if bv_a.is_nan() { 0.0 } else { bv_a },
+                bv_i0: if bv_a.is_nan() { 1.0 } else { v(7) },
+            },
+        };
+        if identifiable != "true" {
+            println!(
+                "cargo:warning={}: row {row} (SOC {}) left out: not identifiable",
+                path.display(),
+                level.soc
+            );
+        } else if !level.cell.is_physical() {
+            println!(
+                "cargo:warning={}: row {row} (SOC {}) left out: not a physical cell",
+                path.display(),
+                level.soc
+            );
+        } else {
+            levels.push(level);
+        }
+    }
+    let key = |l: &MapLevel<f32>| l.temperature_c.unwrap_or(f32::NEG_INFINITY);
+    levels.sort_by(|a, b| key(a).total_cmp(&key(b)).then(a.soc.total_cmp(&b.soc)));
+    if let Err(e) = ParameterMap::new(&levels) {
+        fail(format!(
+            "{}: {e} (identifiable levels, in f32)",
+            path.display()
+        ))
+    }
+    levels
+        .iter()
+        .map(|l| {
+            let c = &l.cell;
+            format!(
+                "estimator_core::battery::map::MapLevel {{ temperature_c: {:?}, soc: {:?}, cell: estimator_core::battery::CellParameters {{ r_i: {:?}, r_ct: {:?}, q: {:?}, alpha: {:?}, u_oc: {:?}, bv_a: {:?}, bv_i0: {:?} }} }}",
+                l.temperature_c, l.soc, c.r_i, c.r_ct, c.q, c.alpha, c.u_oc, c.bv_a, c.bv_i0
+            )
+        })
+        .collect()
+}
+
 fn main() {
     let manifest = PathBuf::from(env::var("CARGO_MANIFEST_DIR").expect("cargo sets this"));
     let out = PathBuf::from(env::var("OUT_DIR").expect("cargo sets this"));
@@ -305,6 +402,20 @@ fn main() {
             v[0], v[1], v[2], v[3], v[4], v[5]
         )
     };
+    // The parameter map (FRACBMS_MAP=map.csv, from `host-sim identify
+    // battery --map-out` through `cargo xtask qemu --map`): the prior
+    // follows the cell at the counted SOC and the sampled temperature.
+    let map_path = var("FRACBMS_MAP", "");
+    let map = if map_path.trim().is_empty() {
+        Vec::new()
+    } else {
+        if prior != "None" {
+            fail("FRACBMS_MAP and FRACBMS_PRIOR: give one prior, a map or a fit".into());
+        }
+        let p = PathBuf::from(&map_path);
+        println!("cargo:rerun-if-changed={}", p.display());
+        parameter_map(&p)
+    };
     let model = match var("FRACBMS_MODEL", "linear").as_str() {
         "linear" => "Linear",
         "butler-volmer" => "ButlerVolmer",
@@ -370,6 +481,9 @@ fn main() {
          /// The prior's centre `[R_i, R_ct, Q, α, a, i₀]` (`FRACBMS_PRIOR`; `None`: no\n\
          /// prior; `a = 0` for a linear one).\n\
          pub const PRIOR: Option<[f32; 6]> = {prior};\n\
+         /// The parameter map's identifiable levels (`FRACBMS_MAP`; empty: no map),\n\
+         /// sorted by temperature, then SOC (flash).\n\
+         pub static MAP: [estimator_core::battery::map::MapLevel<f32>; {m}] = [{map_list}];\n\
          /// The short-memory correction: the taps beyond the memory\n\
          /// (`FRACBMS_TAIL=1`, `BatterySettings::tail`).\n\
          pub const TAIL: bool = {tail};\n\
@@ -382,7 +496,9 @@ fn main() {
         } else {
             format!("{capacity_ah:?}")
         },
-        n = ocv_soc.len()
+        n = ocv_soc.len(),
+        m = map.len(),
+        map_list = map.join(", "),
     );
     fs::write(out.join("config.rs"), cfg).expect("write config.rs");
     let mut bin = Vec::with_capacity((12 + 4 * replay_cells) * records.len());

@@ -208,6 +208,14 @@ fn one_cell_result(task: &ConfiguredTask, samples: u64, all: bool) -> bool {
             if e.is_butler_volmer() {
                 defmt::println!("BV bv_a_v={=f32} bv_i0_a={=f32}", e.bv_a, e.bv_i0);
             }
+            if let Some(p) = task.map_prior() {
+                defmt::println!(
+                    "MAP levels={=usize} prior_r_i={=f32} prior_r_ct={=f32}",
+                    config::MAP.len(),
+                    p.center.r_i,
+                    p.center.r_ct
+                );
+            }
             if !e.is_physical() {
                 defmt::error!("check failed: the final estimate is not physical");
             }

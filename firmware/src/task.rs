@@ -24,6 +24,7 @@
 //! `cargo xtask panic-sites` lists them (docs/panic-paths.md).
 
 use crate::sampler::{PackReading, SampleError};
+use estimator_core::battery::map::{MapFollower, ParameterMap};
 use estimator_core::battery::ocv::{OcvModel, OcvTable};
 use estimator_core::battery::online::{CellState, Method, OnlineSettings, SampleCounts};
 use estimator_core::battery::pack::{PackEstimator, PackHealth, PackReport, PackSettings};
@@ -50,6 +51,11 @@ pub struct TaskSettings {
     /// Plausible temperature range (°C); outside it (or NaN) the sample is
     /// still used (temperature is not in the model) but counted.
     pub temperature_range: (f32, f32),
+    /// A parameter map the prior follows (`FRACBMS_MAP`): the map's cell at
+    /// the pack's mean counted SOC and the sampled temperature is the
+    /// prior's centre ([`Prior::new`]'s spreads), taken again as the core's
+    /// [`MapFollower`] says. It takes the place of `pack.cell.battery.prior`.
+    pub map: Option<ParameterMap<'static, f32>>,
 }
 
 impl TaskSettings {
@@ -94,6 +100,8 @@ impl TaskSettings {
             stuck_after: 4,
             stuck_current_span: 0.5,
             temperature_range: (-40.0, 85.0),
+            // build.rs checked the same f32 levels with the same code.
+            map: ParameterMap::new(&crate::config::MAP).ok(),
         }
     }
 }
@@ -162,6 +170,9 @@ pub struct EstimatorTask<const N: usize, const MEM: usize, const C: usize> {
     faults: FaultCounts,
     runs: [Run; C],
     volts: [f32; C],
+    /// The map's prior now, and where it was taken.
+    map_prior: Option<Prior<f32>>,
+    follower: MapFollower<f32>,
 }
 
 impl<const N: usize, const MEM: usize, const C: usize> EstimatorTask<N, MEM, C> {
@@ -173,6 +184,8 @@ impl<const N: usize, const MEM: usize, const C: usize> EstimatorTask<N, MEM, C> 
             faults: FaultCounts::default(),
             runs: [None; C],
             volts: [f32::NAN; C],
+            map_prior: None,
+            follower: MapFollower::new(),
         })
     }
 
@@ -189,6 +202,7 @@ impl<const N: usize, const MEM: usize, const C: usize> EstimatorTask<N, MEM, C> 
         sample: Result<PackReading, SampleError>,
         volts: &[f32],
     ) -> Option<TaskReport> {
+        let temperature = sample.as_ref().map_or(f32::NAN, |x| x.temperature_c);
         let (current, fault) = match sample {
             Err(SampleError::EndOfStream) => return None,
             Err(e) => {
@@ -204,11 +218,46 @@ impl<const N: usize, const MEM: usize, const C: usize> EstimatorTask<N, MEM, C> 
             Ok(x) => (x.current_a, self.check(s, &x, volts)),
         };
         // Cannot fail: the task holds one voltage per cell.
-        let core = self
-            .pack
-            .push(&s.pack, current, &self.volts)
-            .unwrap_or_default();
+        let core = match self.follow_map(s, temperature) {
+            Some(prior) => {
+                let mut pack = s.pack;
+                pack.cell.battery.prior = Some(prior);
+                self.pack.push(&pack, current, &self.volts)
+            }
+            None => self.pack.push(&s.pack, current, &self.volts),
+        }
+        .unwrap_or_default();
         Some(TaskReport { core, fault })
+    }
+
+    /// With a map: the prior at the pack's mean counted SOC (the middle
+    /// level's before any SOC is known) and `temperature` (NaN: the last
+    /// one), taken again when either moved by its step.
+    fn follow_map(&mut self, s: &TaskSettings, temperature: f32) -> Option<Prior<f32>> {
+        let map = s.map.as_ref()?;
+        let (mut sum, mut n) = (0.0f32, 0u32);
+        for k in 0..C {
+            if let Some(z) = self.pack.cell(k).and_then(|c| c.state_of_charge()) {
+                sum += z;
+                n += 1;
+            }
+        }
+        let soc = if n > 0 { sum / n as f32 } else { f32::NAN };
+        if let Some(mut cell) = self.follower.follow(map, soc, temperature) {
+            if s.pack.cell.ocv.is_none() {
+                // The map's u_oc is an offset from the OCV curve; without
+                // a curve the start's own U_oc stands.
+                cell.u_oc = s.pack.cell.initial.u_oc;
+            }
+            self.map_prior = Some(Prior::new(cell));
+        }
+        self.map_prior
+    }
+
+    /// The map's prior now (its centre is the map's cell at the SOC and
+    /// temperature it was last taken at), if the task follows a map.
+    pub fn map_prior(&self) -> Option<Prior<f32>> {
+        self.map_prior
     }
 
     /// Stuck-voltage checks of every cell and the temperature check of a

@@ -354,6 +354,106 @@ fn qemu_firmware_with_table_and_prior_tracks_a_dfn_drive_cycle() {
     assert_agree(&fw, &host);
 }
 
+/// A parameter map built in (`cargo xtask qemu --map MAP.csv`): on the
+/// DFN drive cycle (Chen2020, 3000 s, from SOC 0.9), a map of two levels
+/// around the HPPC fit of the same cell (R_i ×1.3 at SOC 0.9 and ×0.7 at
+/// SOC 0.5, R_ct the other way) and a level not identifiable, which is
+/// left out. The firmware's prior ends at the map's cell at the final
+/// counted SOC, between the levels; the firmware (f32) ends where
+/// `host-sim online battery --prior MAP.csv` (f64, the same map followed by
+/// the same rule) ends, within the stated tolerance.
+#[test]
+fn qemu_firmware_follows_a_parameter_map() {
+    let ocv = root().join("data/pybamm/chen2020-ocv.csv");
+    let hppc = root().join("data/pybamm/chen2020-hppc.csv");
+    let drive = root().join("data/pybamm/chen2020-drive.csv");
+    let cap = "5.153198";
+    let fit = tmp("chen2020-hppc-fit-for-map.json");
+    let s = |p: &Path| p.to_str().unwrap().to_owned();
+    host_sim(&[
+        "identify",
+        "battery",
+        "--input",
+        &s(&hppc),
+        "--ocv",
+        &s(&ocv),
+        "--capacity-ah",
+        cap,
+        "--model",
+        "linear",
+        "--json",
+        &s(&fit),
+    ]);
+    let j: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&fit).unwrap()).unwrap();
+    let map = tmp("chen2020-map.csv");
+    let level = |soc: f64, ri: f64, rct: f64, identifiable: bool| {
+        format!(
+            ",{soc},{},{},{},{},,,0,0.001,{identifiable}\n",
+            f(&j, "r_i") * ri,
+            f(&j, "r_ct") * rct,
+            f(&j, "q"),
+            f(&j, "alpha")
+        )
+    };
+    std::fs::write(
+        &map,
+        format!(
+            "temperature_c,soc,r_i,r_ct,q,alpha,bv_a_v,bv_i0_a,ocv_offset_v,rmse_v,identifiable\n{}{}{}",
+            level(0.5, 0.7, 1.3, true),
+            level(0.7, 5.0, 5.0, false),
+            level(0.9, 1.3, 0.7, true)
+        ),
+    )
+    .unwrap();
+    let track = tmp("chen2020-drive-map-track.csv");
+    host_sim(&[
+        "online",
+        "battery",
+        "--input",
+        &s(&drive),
+        "--window",
+        "256",
+        "--memory",
+        "64",
+        "--start",
+        "at-rest",
+        "--ocv",
+        &s(&ocv),
+        "--capacity-ah",
+        cap,
+        "--prior",
+        &s(&map),
+        "--out",
+        &s(&track),
+    ]);
+    let host = last_estimate(&track);
+    let fw = firmware(
+        &drive,
+        &["--ocv", &s(&ocv), "--capacity-ah", cap, "--map", &s(&map)],
+    );
+    eprintln!("firmware {fw}\nhost-sim {host}");
+    assert_eq!(fw["samples"].as_u64(), Some(3000), "{fw}");
+    assert_eq!(fw["map_levels"].as_u64(), Some(2), "{fw}");
+    let z = f(&fw, "soc");
+    assert!((z - f(&host, "soc")).abs() < 1e-4, "{fw} {host}");
+    assert!(z > 0.5 && z < 0.9, "{fw}");
+    // The prior's centre is the map's cell at the SOC it was last taken at
+    // (within 0.001 of the final SOC).
+    let m = fracbms_host::map::ParameterMap::read_csv(&map).unwrap();
+    let kept = fracbms_host::map::ParameterMap {
+        rows: m.rows.into_iter().filter(|r| r.identifiable).collect(),
+    };
+    for (key, want) in [
+        ("map_prior_r_i", kept.cell_at(z, None).unwrap().r_i),
+        ("map_prior_r_ct", kept.cell_at(z, None).unwrap().r_ct),
+    ] {
+        let r = (f(&fw, key) / want - 1.0).abs();
+        assert!(r < 2e-3, "{key}: firmware {fw}, map at SOC {z}: {want}");
+    }
+    assert_agree(&fw, &host);
+}
+
 /// The Butler–Volmer model built in (`--model butler-volmer`): a record of
 /// our own nonlinear cell (a = 25 mV, i₀ = 1.5 A, pulses from −6 A to
 /// +4 A, 1000 s, σ = 1 mV). The firmware (f32, QEMU, window 256, memory 64)

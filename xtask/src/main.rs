@@ -139,8 +139,14 @@ struct QemuArgs {
     capacity_ah: Option<f64>,
     /// A prior on R_i, R_ct, Q and α (and a, i₀ of a Butler–Volmer fit):
     /// the JSON of `host-sim identify battery` (built into the image).
-    #[arg(long)]
+    #[arg(long, conflicts_with = "map")]
     prior: Option<PathBuf>,
+    /// A parameter map (the `--map-out` CSV of `host-sim identify battery`)
+    /// built into the image as a const table: the prior follows the map's
+    /// cell at the counted SOC and the sampled temperature. Levels not
+    /// identifiable are left out (one warning each).
+    #[arg(long)]
+    map: Option<PathBuf>,
     /// The cell model built into the image: `linear` or `butler-volmer`
     /// (R_i + a·asinh(I/i₀) + R_ct‖CPE).
     #[arg(long, value_parser = ["linear", "butler-volmer"], default_value = "linear")]
@@ -285,6 +291,13 @@ fn build(a: &QemuArgs) -> Result<PathBuf> {
                 .join(",")
         }
     };
+    let map = match &a.map {
+        Some(p) => Some(
+            p.canonicalize()
+                .with_context(|| format!("{}: cannot open", p.display()))?,
+        ),
+        None => None,
+    };
     match (&a.ocv, a.capacity_ah) {
         (Some(_), None) => bail!("--ocv needs --capacity-ah (the cell's capacity in A·h)"),
         (None, Some(_)) => bail!("--capacity-ah goes with --ocv FILE.csv"),
@@ -309,6 +322,7 @@ fn build(a: &QemuArgs) -> Result<PathBuf> {
         .env("FRACBMS_BENCH", if a.bench { "1" } else { "0" })
         .env("FRACBMS_OCV", ocv.as_deref().unwrap_or(Path::new("")))
         .env("FRACBMS_PRIOR", &prior)
+        .env("FRACBMS_MAP", map.as_deref().unwrap_or(Path::new("")))
         .env("FRACBMS_MODEL", &a.model)
         .env("FRACBMS_TAIL", if a.tail { "1" } else { "0" })
         .env(
@@ -500,6 +514,15 @@ fn qemu(a: &QemuArgs) -> Result<()> {
             out.insert(key.into(), number(&s, "SOC", key)?);
         }
     }
+    if a.map.is_some() {
+        for (key, name) in [
+            ("levels", "map_levels"),
+            ("prior_r_i", "map_prior_r_i"),
+            ("prior_r_ct", "map_prior_r_ct"),
+        ] {
+            out.insert(name.into(), number(&s, "MAP", key)?);
+        }
+    }
     out.insert("model".into(), a.model.clone().into());
     for key in ["bv_a_v", "bv_i0_a"] {
         let v = if s.contains_key("BV") {
@@ -543,6 +566,7 @@ fn bench_target(b: &BenchArgs) -> Result<()> {
         ocv: None,
         capacity_ah: None,
         prior: None,
+        map: None,
         model: b.model.clone(),
         tail: b.tail,
         bench: true,

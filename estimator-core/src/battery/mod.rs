@@ -29,6 +29,8 @@
 //! * [`output_error`] — ours: a Levenberg–Marquardt output-error refinement
 //!   that fits the simulated voltage to the measured one
 //!   ([`output_error::OutputErrorRefinement`]).
+//! * [`map`] — parameter maps: the cell per SOC level and temperature, and
+//!   the cell between levels ([`map::ParameterMap::cell_at`]).
 //! * [`ocv`] — the OCV curve `OCV(SOC)` (a piecewise-linear table), coulomb
 //!   counting, and the overpotential `U_t − OCV(SOC)` the estimators fit
 //!   when the curve is known (`U_oc` becomes a small offset `ΔU`).
@@ -46,6 +48,7 @@
 //!   [`online`]'s. Imports run one way: `online` → `pack` → `tracker`, never
 //!   back.
 
+pub mod map;
 pub mod ocv;
 pub mod online;
 pub mod output_error;

@@ -15,6 +15,7 @@ use crate::error::Result;
 use crate::io::BatteryRecord;
 use crate::ocv::CellOcv;
 use crate::trust::Confidence;
+use estimator_core::battery::map::{MapLevel, ParameterMap as CoreMap};
 use estimator_core::battery::CellParameters;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
@@ -106,23 +107,30 @@ impl ParameterMap {
             .collect()
     }
 
+    /// The levels as the core's [`MapLevel`]s, sorted as the core's map
+    /// wants them (temperature, unknown first, then SOC).
+    pub fn levels(&self) -> Vec<MapLevel<f64>> {
+        let mut m = self.clone();
+        m.sort();
+        m.rows
+            .iter()
+            .map(|r| MapLevel {
+                temperature_c: r.temperature_c,
+                soc: r.soc,
+                cell: r.cell(),
+            })
+            .collect()
+    }
+
     /// The cell at SOC `z` (temperature nearest `t`): each parameter
     /// linear in SOC between the two levels around `z`, held beyond the
-    /// first and the last.
+    /// first and the last; the middle level's for a non-finite `z`. The
+    /// core's [`CoreMap::cell_at`], the firmware's and the C ABI's.
+    /// `None` for an empty map or one with a level that is not physical.
     pub fn cell_at(&self, z: f64, t: Option<f64>) -> Option<CellParameters<f64>> {
-        let rows = self.slice(t);
-        let (j, w) = bracket(&rows, z)?;
-        let (a, b) = (rows[j].cell(), rows[(j + 1).min(rows.len() - 1)].cell());
-        let mix = |x: f64, y: f64| x + w * (y - x);
-        Some(CellParameters {
-            r_i: mix(a.r_i, b.r_i),
-            r_ct: mix(a.r_ct, b.r_ct),
-            q: mix(a.q, b.q),
-            alpha: mix(a.alpha, b.alpha),
-            u_oc: mix(a.u_oc, b.u_oc),
-            bv_a: mix(a.bv_a, b.bv_a),
-            bv_i0: mix(a.bv_i0, b.bv_i0),
-        })
+        let levels = self.levels();
+        let m = CoreMap::new(&levels).ok()?;
+        Some(m.cell_at(z, t))
     }
 }
 

@@ -7,6 +7,7 @@ use crate::io::OCV_POINTS;
 use crate::ocv::CellOcv;
 use crate::{bail, err};
 use crate::{io, progress};
+use estimator_core::battery::map::MapFollower;
 use estimator_core::battery::ocv::OcvModel;
 use estimator_core::battery::online::{CellEstimator, Method, OnlineSettings, Rejection};
 use estimator_core::battery::output_error::RefinementWork;
@@ -212,11 +213,11 @@ pub fn track(
 /// [`track`] (`online battery`), and what the Python `OnlineCell` holds.
 pub struct Tracker {
     cell: Box<dyn Step>,
-    /// The map the prior follows, the temperature now, and the SOC and
-    /// temperature the prior was last taken at.
+    /// The map the prior follows, the temperature now, and where the
+    /// prior was last taken (the core's follower, as in the firmware).
     map: Option<PriorMap>,
     temperature: Option<f64>,
-    taken_at: (f64, Option<f64>),
+    follower: MapFollower<f64>,
 }
 
 /// [`Tracker`]'s estimator behind one type for every window and precision.
@@ -312,7 +313,7 @@ impl Tracker {
             cell,
             map: o.prior_map.cloned(),
             temperature: None,
-            taken_at: (f64::NAN, None),
+            follower: MapFollower::new(),
         })
     }
 
@@ -326,22 +327,16 @@ impl Tracker {
 
     /// With a map prior: the prior at the counted SOC and the temperature
     /// now, taken again when the SOC has moved by 0.001 or the temperature
-    /// by 0.5 °C.
+    /// by 0.5 °C (the core's [`MapFollower`]; nothing before the SOC is
+    /// known: the prior of [`TrackOptions::settings`] stands).
     fn follow_map(&mut self) {
         let (Some(m), Some(z)) = (&self.map, self.cell.state_of_charge()) else {
             return;
         };
-        let (z0, t0) = self.taken_at;
-        let moved_t = match (self.temperature, t0) {
-            (Some(a), Some(b)) => (a - b).abs() >= 0.5,
-            (a, b) => a.is_some() != b.is_some(),
-        };
-        if (z - z0).abs() < 1e-3 && !moved_t {
-            return;
+        let t = self.temperature.unwrap_or(f64::NAN);
+        if let Some(c) = m.follow(&mut self.follower, z, t) {
+            self.cell.set_prior(&c);
         }
-        let p = m.prior_at(Some(z), self.temperature);
-        self.cell.set_prior(&p);
-        self.taken_at = (z, self.temperature);
     }
 
     /// Feeds the sample at time `t` (s): current (A, positive when

@@ -10,7 +10,8 @@
 use crate::error::Result;
 use crate::map::ParameterMap;
 use crate::{bail, err};
-use estimator_core::battery::Prior;
+use estimator_core::battery::map::{MapFollower, MapLevel, ParameterMap as CoreMap};
+use estimator_core::battery::{CellParameters, Prior};
 use std::path::Path;
 
 /// Where the prior comes from.
@@ -36,6 +37,8 @@ pub struct PriorMap {
     pub alpha_sigma: f64,
     /// The residual level σ_v (V) the window's data are weighed at.
     pub noise_v: f64,
+    /// The kept levels as the core's (checked: never empty, physical).
+    levels: Vec<MapLevel<f64>>,
 }
 
 impl PriorMap {
@@ -76,6 +79,7 @@ impl PriorMap {
         }
         kept.sort();
         let p = PriorMap {
+            levels: kept.levels(),
             map: kept,
             left_out,
             log_sigma,
@@ -88,22 +92,38 @@ impl PriorMap {
         Ok(p)
     }
 
-    /// The prior at SOC `z` and temperature `t` (°C): the map's cell there
-    /// (each parameter linear in SOC between the levels around `z`, at the
-    /// temperature nearest `t`). Without a SOC, the middle level's.
-    pub fn prior_at(&self, z: Option<f64>, t: Option<f64>) -> Prior<f64> {
-        let rows = self.map.slice(t);
-        let z = z
-            .filter(|z| z.is_finite())
-            .unwrap_or_else(|| rows[rows.len() / 2].soc);
-        // A map of kept rows is never empty (new), so cell_at is some.
-        let center = self.map.cell_at(z, t).unwrap_or_else(|| rows[0].cell());
+    /// The core's map over the kept levels (`None` only if a field was
+    /// changed after [`PriorMap::new`] to a level the core refuses).
+    fn core(&self) -> Option<CoreMap<'_, f64>> {
+        CoreMap::new(&self.levels).ok()
+    }
+
+    /// The prior around `center` with the map's spreads.
+    fn around(&self, center: CellParameters<f64>) -> Prior<f64> {
         Prior {
             center,
             log_sigma: self.log_sigma,
             alpha_sigma: self.alpha_sigma,
             noise_v: self.noise_v,
         }
+    }
+
+    /// The prior at SOC `z` and temperature `t` (°C): the map's cell there
+    /// (each parameter linear in SOC between the levels around `z`, at the
+    /// temperature nearest `t`). Without a SOC, the middle level's.
+    pub fn prior_at(&self, z: Option<f64>, t: Option<f64>) -> Prior<f64> {
+        let z = z.unwrap_or(f64::NAN);
+        let center = self
+            .core()
+            .map_or_else(|| self.map.rows[0].cell(), |m| m.cell_at(z, t));
+        self.around(center)
+    }
+
+    /// The prior at SOC `z` and temperature `t` (°C, NaN: unknown) when
+    /// `follower` says the state has moved enough since it was last taken.
+    pub fn follow(&self, follower: &mut MapFollower<f64>, z: f64, t: f64) -> Option<Prior<f64>> {
+        let m = self.core()?;
+        follower.follow(&m, z, t).map(|c| self.around(c))
     }
 
     /// One line: the levels the prior follows.
