@@ -28,6 +28,11 @@
 #define FRACBMS_OCV_POINTS_MAX 128
 
 /**
+ * Largest parameter map the C interface takes (levels).
+ */
+#define FRACBMS_MAP_LEVELS_MAX 64
+
+/**
  * What a call did: `FRACBMS_OK`, or why it did nothing.
  */
 enum FracbmsCode
@@ -83,6 +88,12 @@ enum FracbmsCode
    * Whole-record identification failed.
    */
   FRACBMS_ERROR_FIT = -10,
+  /**
+   * A parameter map is empty, longer than `FRACBMS_MAP_LEVELS_MAX`, not
+   * sorted by temperature then SOC, or a level is not finite or not a
+   * physical cell.
+   */
+  FRACBMS_ERROR_MAP = -11,
 };
 #ifndef __cplusplus
 #if __STDC_VERSION__ >= 202311L
@@ -539,6 +550,27 @@ typedef struct FracbmsFit {
 } FracbmsFit;
 #endif
 
+/**
+ * One level of a parameter map (a row of `host-sim identify battery
+ * --map-out` whose `identifiable` is true): the cell fitted at a SOC and a
+ * temperature.
+ */
+typedef struct FracbmsMapLevel {
+  /**
+   * Temperature (°C); NaN when unknown.
+   */
+  float temperature_c;
+  /**
+   * State of charge in `[0, 1]`.
+   */
+  float soc;
+  /**
+   * The cell there (`u_oc`: the map's `ocv_offset_v`; a linear level has
+   * `bv_a = 0`, `bv_i0 = 1`).
+   */
+  struct FracbmsParameters parameters;
+} FracbmsMapLevel;
+
 #ifdef __cplusplus
 extern "C" {
 #endif // __cplusplus
@@ -727,6 +759,57 @@ FracbmsCode fracbms_identify_battery(const double *time_s,
                                      const struct FracbmsIdentifyOptions *options,
                                      struct FracbmsFit *fit);
 #endif
+
+/**
+ * Writes to `out` the map's cell at `soc` and the temperature nearest
+ * `temperature_c` (NaN: unknown): each parameter linear in SOC between
+ * the two levels around `soc`, held beyond the first and the last (a NaN
+ * `soc`: the middle level's). `levels` holds `n_levels` levels (at most
+ * `FRACBMS_MAP_LEVELS_MAX`) sorted by temperature (unknown first), then
+ * SOC; `FRACBMS_ERROR_MAP` otherwise.
+ *
+ * # Safety
+ * `levels` is null or points to `n_levels` readable levels; `out` is null
+ * or valid for a write.
+ */
+FracbmsCode fracbms_map_cell_at(const struct FracbmsMapLevel *levels,
+                                uint16_t n_levels,
+                                float soc,
+                                float temperature_c,
+                                struct FracbmsParameters *out);
+
+/**
+ * Sets a cell's prior: the window fit is then maximum a posteriori around
+ * `center` (the core's default spreads: a factor 2 on R_i, R_ct and Q at
+ * one sigma, 0.1 on α, the data weighed at 0.1 V). A null `center` clears
+ * the prior. `FRACBMS_ERROR_SETTINGS` for a centre that is not a physical
+ * cell. It holds until changed (by this call or `fracbms_cell_follow_map`).
+ *
+ * # Safety
+ * `cell` as in `fracbms_cell_push`; `center` is null or valid for a read.
+ */
+FracbmsCode fracbms_cell_set_prior(struct FracbmsCell *cell,
+                                   const struct FracbmsParameters *center);
+
+/**
+ * Lets a cell's prior follow a parameter map: call it before each
+ * `fracbms_cell_push` with the cell's temperature (°C; NaN: the last one
+ * given). The prior's centre is the map's cell at the cell's counted SOC
+ * (with an OCV table; the middle level's without a SOC) and that
+ * temperature, taken again when the SOC has moved by 0.001 or the
+ * temperature by 0.5 °C since it was last taken (then `*taken` is true),
+ * with the spreads of `fracbms_cell_set_prior`. The map is read during
+ * the call only. Without an OCV table a level's `u_oc` is not used.
+ *
+ * # Safety
+ * `cell` as in `fracbms_cell_push`; `levels` as in `fracbms_map_cell_at`;
+ * `taken` is null or valid for a write.
+ */
+FracbmsCode fracbms_cell_follow_map(struct FracbmsCell *cell,
+                                    const struct FracbmsMapLevel *levels,
+                                    uint16_t n_levels,
+                                    float temperature_c,
+                                    bool *taken);
 
 #ifdef __cplusplus
 }  // extern "C"

@@ -61,14 +61,17 @@ use estimator_core::battery::pack::PackSettings;
 
 #[cfg(not(target_os = "none"))]
 mod identify;
+mod map;
 mod state;
 mod types;
 
 #[cfg(not(target_os = "none"))]
 pub use identify::{FracbmsFit, FracbmsIdentifyOptions};
+pub use map::{fracbms_cell_follow_map, fracbms_cell_set_prior, fracbms_map_cell_at};
 pub use types::{
-    FracbmsCode, FracbmsEstimate, FracbmsMethod, FracbmsModel, FracbmsParameters, FracbmsRejection,
-    FracbmsSettings, FracbmsStatus, FRACBMS_OCV_POINTS_MAX,
+    FracbmsCode, FracbmsEstimate, FracbmsMapLevel, FracbmsMethod, FracbmsModel, FracbmsParameters,
+    FracbmsRejection, FracbmsSettings, FracbmsStatus, FRACBMS_MAP_LEVELS_MAX,
+    FRACBMS_OCV_POINTS_MAX,
 };
 
 use state::{CellOp, PackOp, PackOut};
@@ -431,6 +434,7 @@ pub extern "C" fn fracbms_code_message(code: i32) -> *const c_char {
         FRACBMS_ERROR_CELL_COUNT,
         FRACBMS_ERROR_DATA,
         FRACBMS_ERROR_FIT,
+        FRACBMS_ERROR_MAP,
     ];
     let Some(code) = all.into_iter().find(|c| *c as i32 == code) else {
         return c"unknown code".as_ptr();
@@ -447,6 +451,7 @@ pub extern "C" fn fracbms_code_message(code: i32) -> *const c_char {
         FRACBMS_ERROR_CELL_COUNT => c"cell count or index out of range",
         FRACBMS_ERROR_DATA => c"the record is unusable",
         FRACBMS_ERROR_FIT => c"the fit failed",
+        FRACBMS_ERROR_MAP => c"the parameter map is invalid",
     };
     m.as_ptr()
 }

@@ -6,8 +6,10 @@
 
 use core::mem::{align_of, size_of};
 
+use estimator_core::battery::map::{MapFollower, ParameterMap};
 use estimator_core::battery::online::{CellEstimator, CellState, SampleReport};
 use estimator_core::battery::pack::{PackEstimator, PackSettings};
+use estimator_core::battery::Prior;
 
 use crate::types::{
     FracbmsCode, FracbmsEstimate, FracbmsParameters, Settings, FRACBMS_OCV_POINTS_MAX,
@@ -33,6 +35,8 @@ pub(crate) struct CellSlot<const N: usize, const MEM: usize> {
     header: Header,
     settings: Settings,
     cell: CellEstimator<f32, N, MEM>,
+    /// Where a followed map's prior was last taken.
+    follower: MapFollower<f32>,
 }
 
 /// A pack in caller memory (room for `CELLS` cells).
@@ -198,6 +202,7 @@ unsafe fn cell_init<const N: usize, const MEM: usize>(
         },
         settings,
         cell,
+        follower: MapFollower::new(),
     };
     // SAFETY: the caller checked size and alignment; `write` does not read
     // or drop what was there.
@@ -240,13 +245,17 @@ unsafe fn header(state: *const u8, magic: u32) -> Result<Header, FracbmsCode> {
 }
 
 /// What can be done to a cell.
-pub(crate) enum CellOp {
+pub(crate) enum CellOp<'a> {
     /// Push a sample.
     Push(f32, f32),
     /// Read the estimate.
     Read,
     /// Set the state of charge.
     SetSoc(f32),
+    /// Set (or clear) the prior.
+    SetPrior(Option<Prior<f32>>),
+    /// Follow a map at this temperature; whether the prior was taken again.
+    FollowMap(ParameterMap<'a, f32>, f32, &'a mut bool),
 }
 
 /// Runs `op` on a cell made by `init`.
@@ -254,8 +263,14 @@ pub(crate) enum CellOp {
 /// # Safety
 /// `state` is null or a state made by `fracbms_cell_init`, not used
 /// elsewhere during the call.
-pub(crate) unsafe fn cell_op(state: *mut u8, op: CellOp) -> Result<FracbmsEstimate, FracbmsCode> {
-    unsafe fn run<const N: usize, const MEM: usize>(state: *mut u8, op: CellOp) -> FracbmsEstimate {
+pub(crate) unsafe fn cell_op(
+    state: *mut u8,
+    op: CellOp<'_>,
+) -> Result<FracbmsEstimate, FracbmsCode> {
+    unsafe fn run<const N: usize, const MEM: usize>(
+        state: *mut u8,
+        op: CellOp<'_>,
+    ) -> FracbmsEstimate {
         // SAFETY: the header named this layout; the caller guarantees
         // exclusive access.
         let slot = unsafe { &mut *state.cast::<CellSlot<N, MEM>>() };
@@ -264,6 +279,24 @@ pub(crate) unsafe fn cell_op(state: *mut u8, op: CellOp) -> Result<FracbmsEstima
             CellOp::Read => None,
             CellOp::SetSoc(z) => {
                 slot.cell.set_state_of_charge(z);
+                None
+            }
+            CellOp::SetPrior(p) => {
+                slot.settings.battery.prior = p;
+                None
+            }
+            CellOp::FollowMap(map, t, taken) => {
+                let z = slot.cell.state_of_charge().unwrap_or(f32::NAN);
+                *taken = false;
+                if let Some(mut c) = slot.follower.follow(&map, z, t) {
+                    if slot.settings.ocv.is_none() {
+                        // The map's u_oc is an offset from the OCV curve;
+                        // without a curve the start's own U_oc stands.
+                        c.u_oc = slot.settings.initial.u_oc;
+                    }
+                    slot.settings.battery.prior = Some(Prior::new(c));
+                    *taken = true;
+                }
                 None
             }
         };

@@ -351,3 +351,164 @@ fn whole_record_identification_is_the_clis() {
         "record: row 12, column `voltage_v`: not a finite number (NaN)"
     );
 }
+
+/// A map of three levels around the 18650 cell (R_i 15, 20, 30 mΩ at SOC
+/// 0.2, 0.5, 0.8; unknown temperature).
+fn map_levels() -> Vec<FracbmsMapLevel> {
+    [(0.2, 0.015), (0.5, 0.020), (0.8, 0.030)]
+        .iter()
+        .map(|&(soc, r_i)| FracbmsMapLevel {
+            temperature_c: f32::NAN,
+            soc,
+            parameters: CellParameters {
+                r_i,
+                u_oc: 0.001,
+                ..CellParameters::<f32>::cell_18650()
+            }
+            .into(),
+        })
+        .collect()
+}
+
+#[test]
+fn a_map_through_the_abi_is_the_cores() {
+    use estimator_core::battery::map::{MapFollower, MapLevel, ParameterMap};
+    use estimator_core::battery::ocv::{OcvModel, OcvTable};
+    use estimator_core::battery::Prior;
+    let levels = map_levels();
+    let core_levels: Vec<MapLevel<f32>> = levels.iter().map(|&l| l.into()).collect();
+    let map = ParameterMap::new(&core_levels).unwrap();
+    let mut out = FracbmsParameters::default();
+    for (soc, t) in [(0.35, f32::NAN), (0.9, 25.0), (f32::NAN, f32::NAN)] {
+        assert_eq!(
+            unsafe { fracbms_map_cell_at(levels.as_ptr(), 3, soc, t, &mut out) },
+            FRACBMS_OK
+        );
+        assert_eq!(
+            out,
+            map.cell_at(soc, (!t.is_nan()).then_some(t)).into(),
+            "{soc}"
+        );
+    }
+    assert!((out.r_i - 0.020).abs() < 1e-9, "NaN SOC: the middle level");
+    // Misuse: null, unsorted, too long, empty, not physical.
+    let null = std::ptr::null();
+    assert_eq!(
+        unsafe { fracbms_map_cell_at(null, 3, 0.5, 25.0, &mut out) },
+        FRACBMS_ERROR_NULL
+    );
+    let lv = levels.as_ptr();
+    let null_out = std::ptr::null_mut();
+    assert_eq!(
+        unsafe { fracbms_map_cell_at(lv, 3, 0.5, 25.0, null_out) },
+        FRACBMS_ERROR_NULL
+    );
+    let mut bad = levels.clone();
+    bad.swap(0, 2);
+    assert_eq!(
+        unsafe { fracbms_map_cell_at(bad.as_ptr(), 3, 0.5, 25.0, &mut out) },
+        FRACBMS_ERROR_MAP
+    );
+    let long = vec![levels[0]; FRACBMS_MAP_LEVELS_MAX + 1];
+    assert_eq!(
+        unsafe { fracbms_map_cell_at(long.as_ptr(), long.len() as u16, 0.5, 25.0, &mut out) },
+        FRACBMS_ERROR_MAP
+    );
+    assert_eq!(
+        unsafe { fracbms_map_cell_at(lv, 0, 0.5, 25.0, &mut out) },
+        FRACBMS_ERROR_MAP
+    );
+    let mut bad = levels.clone();
+    bad[1].parameters.r_ct = -1.0;
+    assert_eq!(
+        unsafe { fracbms_map_cell_at(bad.as_ptr(), 3, 0.5, 25.0, &mut out) },
+        FRACBMS_ERROR_MAP
+    );
+
+    // A cell with an OCV table following the map through the ABI is the
+    // core's estimator following it with the core's follower, bit for bit.
+    let text = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../data/own-model/nmc-ocv.csv"
+    ))
+    .unwrap();
+    let (zs, vs): (Vec<f32>, Vec<f32>) = text
+        .lines()
+        .skip(1)
+        .map(|l| {
+            let f: Vec<f32> = l.split(',').map(|x| x.parse().unwrap()).collect();
+            (f[0], f[1])
+        })
+        .unzip();
+    let mut s = defaults();
+    s.ocv_soc = zs.as_ptr();
+    s.ocv_v = vs.as_ptr();
+    s.ocv_points = zs.len() as u16;
+    s.capacity_ah = 0.5;
+    let (mut size, mut align) = (0, 0);
+    unsafe { fracbms_cell_size(256, 64, &mut size, &mut align) };
+    let mut mem = memory(size);
+    let mut cell = std::ptr::null_mut();
+    assert_eq!(
+        unsafe { fracbms_cell_init(mem.as_mut_ptr().cast(), size, &s, &mut cell) },
+        FRACBMS_OK
+    );
+    assert_eq!(
+        unsafe { fracbms_cell_set_state_of_charge(cell, 0.7) },
+        FRACBMS_OK
+    );
+    let curve: OcvModel<f32, FRACBMS_OCV_POINTS_MAX> =
+        OcvModel::new(OcvTable::new(&zs, &vs).unwrap(), 0.5).unwrap();
+    let mut cs = OnlineSettings::new(1.0, 64, CellParameters::<f32>::cell_18650());
+    cs.battery.start = Start::AtRest;
+    let mut cs = cs.with_curve(Some(curve));
+    let mut reference = Box::new(CellEstimator::<f32, 256, 64>::new(&cs).unwrap());
+    reference.set_state_of_charge(0.7);
+    let mut follower = MapFollower::new();
+    let (i, v) = record();
+    let (mut taken_count, mut e) = (0, MaybeUninit::<FracbmsEstimate>::uninit());
+    let temperature = |k: usize| if k < 500 { 25.0 } else { f32::NAN };
+    for (k, (&i, &v)) in i.iter().zip(&v).enumerate() {
+        let mut taken = false;
+        assert_eq!(
+            unsafe { fracbms_cell_follow_map(cell, lv, 3, temperature(k), &mut taken) },
+            FRACBMS_OK
+        );
+        let z = reference.state_of_charge().unwrap();
+        let expect = follower.follow(&map, z, temperature(k));
+        assert_eq!(taken, expect.is_some(), "sample {k}");
+        if let Some(c) = expect {
+            cs.battery.prior = Some(Prior::new(c));
+            taken_count += 1;
+        }
+        unsafe { fracbms_cell_push(cell, i, v, e.as_mut_ptr()) };
+        let r = reference.push(&cs, i, v);
+        assert_eq!(unsafe { e.assume_init() }.status, r.status.into());
+    }
+    let e = unsafe { e.assume_init() };
+    assert_eq!(e.parameters, reference.estimate().unwrap().into());
+    assert_eq!(e.state_of_charge, reference.state_of_charge().unwrap());
+    // The SOC moved through the map: the prior was taken again and again.
+    let moved = (e.state_of_charge - 0.7).abs();
+    assert!(
+        taken_count > 10 && moved > 0.05,
+        "{taken_count} takes, SOC moved {moved}"
+    );
+    // A prior set by hand, then cleared.
+    let center = FracbmsParameters::from(CellParameters::<f32>::cell_18650());
+    assert_eq!(unsafe { fracbms_cell_set_prior(cell, &center) }, FRACBMS_OK);
+    let mut bad = center;
+    bad.q = f32::NAN;
+    assert_eq!(
+        unsafe { fracbms_cell_set_prior(cell, &bad) },
+        FRACBMS_ERROR_SETTINGS
+    );
+    assert_eq!(
+        unsafe { fracbms_cell_set_prior(cell, std::ptr::null()) },
+        FRACBMS_OK
+    );
+    assert_eq!(
+        unsafe { fracbms_cell_set_prior(std::ptr::null_mut(), &center) },
+        FRACBMS_ERROR_NULL
+    );
+}

@@ -1,6 +1,7 @@
 """Type stubs of the extension module ``fracbms._fracbms`` (re-exported by
 ``fracbms``). The full docstrings are the module's own (``help(fracbms.X)``)."""
 
+import os
 from typing import Any, Literal, Optional, Sequence, Tuple, Union
 
 import numpy as np
@@ -76,15 +77,28 @@ class OnlineCell:
         start: Literal["from-data", "at-rest"] = "from-data",
         iterations_per_sample: int = 1,
         tail: bool = False,
+        prior: Optional[Union[str, os.PathLike[str]]] = None,
+        prior_factor: float = 2.0,
+        prior_alpha_sigma: float = 0.1,
+        prior_noise_mv: float = 100.0,
     ) -> None: ...
-    def push(self, current_a: float, voltage_v: float) -> Optional[dict[str, Any]]:
+    def push(
+        self, current_a: float, voltage_v: float, temperature_c: Optional[float] = None
+    ) -> Optional[dict[str, Any]]:
         """Feed one sample; the estimate and ``status`` after it (None while
         the window is filling). Never raises on data: a bad sample is
-        rejected (``rejected``) and the last good estimate kept."""
-    def run(self, current_a: ArrayLike, voltage_v: ArrayLike) -> dict[str, np.ndarray]:
+        rejected (``rejected``) and the last good estimate kept.
+        ``temperature_c`` picks a map prior's temperature."""
+    def run(
+        self,
+        current_a: ArrayLike,
+        voltage_v: ArrayLike,
+        temperature_c: Optional[ArrayLike] = None,
+    ) -> dict[str, np.ndarray]:
         """Feed a whole record; the columns of ``host-sim online battery
         --out`` as numpy arrays (NaN where the CSV is empty), plus
-        ``rejected``."""
+        ``rejected``. ``temperature_c`` (one per sample) picks a map prior's
+        temperature."""
     @property
     def samples(self) -> int:
         """Samples offered so far."""

@@ -42,7 +42,9 @@ use fracbms_host::identify::{
 };
 use fracbms_host::io::{self, BatteryRecord, Columns};
 use fracbms_host::ocv::{CellOcv, OcvSpec, OcvSpecError};
-use fracbms_host::online::{Precision, TrackOptions, TrackRow, Tracker};
+use fracbms_host::online::{
+    read_prior_source, Precision, PriorSource, TrackOptions, TrackRow, Tracker,
+};
 use fracbms_host::predict;
 use fracbms_host::simulate::{battery_voltage, OcvCurve};
 use fracbms_host::trust::Limits;

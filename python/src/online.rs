@@ -29,7 +29,16 @@ use super::*;
 ///     SOC before the first sample.
 /// method : {"refined", "paper"}
 /// model : {"auto", "linear", "butler-volmer"}
-///     `"auto"` is linear (no prior here).
+///     `"auto"` is the prior's model, linear without a prior.
+/// prior : str or path, optional
+///     The window fit's prior (``online battery --prior``): the JSON of
+///     ``identify battery`` (one fit), or a parameter map CSV
+///     (``identify battery --map-out``), whose cell at the counted SOC (and
+///     at the temperature given to ``push``/``run``) is the prior's centre as
+///     the cell moves; levels not identifiable are left out.
+/// prior_factor, prior_alpha_sigma, prior_noise_mv : float
+///     The prior's spreads (``--prior-factor``, ``--prior-alpha-sigma``,
+///     ``--prior-noise-mv``).
 /// precision : {"f64", "f32"}
 ///     `"f32"` runs the firmware's arithmetic.
 /// start : {"from-data", "at-rest"}
@@ -97,7 +106,8 @@ impl OnlineCell {
     #[pyo3(signature = (
         window = 256, memory = 64, h = 1.0, ocv = None, capacity_ah = None, *, soc0 = None,
         method = "refined", model = "auto", precision = "f64", start = "from-data",
-        iterations_per_sample = 1, tail = false
+        iterations_per_sample = 1, tail = false, prior = None, prior_factor = 2.0,
+        prior_alpha_sigma = 0.1, prior_noise_mv = 100.0
     ))]
     #[allow(clippy::too_many_arguments)]
     fn new(
@@ -114,6 +124,10 @@ impl OnlineCell {
         start: &str,
         iterations_per_sample: u16,
         tail: bool,
+        prior: Option<std::path::PathBuf>,
+        prior_factor: f64,
+        prior_alpha_sigma: f64,
+        prior_noise_mv: f64,
     ) -> PyResult<Self> {
         if !(h.is_finite() && h > 0.0) {
             return Err(PyValueError::new_err(format!(
@@ -129,6 +143,17 @@ impl OnlineCell {
             model: s.model,
             soc0: s.soc0.unwrap_or(f64::NAN),
         });
+        let source = prior
+            .map(|p| read_prior_source(&p, prior_factor, prior_alpha_sigma, prior_noise_mv))
+            .transpose()
+            .map_err(value_error)?;
+        if let Some(PriorSource::Map(m)) = &source {
+            for why in &m.left_out {
+                let msg = CString::new(format!("prior map: {why} (left out)"))
+                    .map_err(|e| PyValueError::new_err(e.to_string()))?;
+                PyErr::warn(py, &py.get_type::<PyUserWarning>(), &msg, 1)?;
+            }
+        }
         let o = TrackOptions {
             window,
             memory,
@@ -136,8 +161,14 @@ impl OnlineCell {
             method,
             precision,
             start,
-            prior: None,
-            prior_map: None,
+            prior: match &source {
+                Some(PriorSource::Fit(p)) => Some(p),
+                _ => None,
+            },
+            prior_map: match &source {
+                Some(PriorSource::Map(m)) => Some(m),
+                _ => None,
+            },
             cell: cell.as_ref(),
             model,
             tail,
@@ -172,12 +203,19 @@ impl OnlineCell {
     /// `ocv_offset_v`, `bv_a_v`, `bv_i0_a`, `predicted_v` (this sample's
     /// voltage predicted from the estimate before it) and `rejected` (None,
     /// `"non_finite"`, `"out_of_range"` or `"spike"`). Never raises on data.
+    /// `temperature_c` (°C) picks a map prior's temperature (a non-finite
+    /// value is ignored).
+    #[pyo3(signature = (current_a, voltage_v, temperature_c = None))]
     fn push<'py>(
         &mut self,
         py: Python<'py>,
         current_a: f64,
         voltage_v: f64,
+        temperature_c: Option<f64>,
     ) -> PyResult<Option<Bound<'py, PyDict>>> {
+        if let Some(t) = temperature_c {
+            self.tracker.set_temperature(t);
+        }
         // From here on the core reads the start SOC from the stream.
         self.unresolved = None;
         let t = self.pushed as f64 * self.h;
@@ -197,13 +235,26 @@ impl OnlineCell {
     /// `rejected` (`""` for an accepted sample). On a fresh cell with an OCV
     /// table and no `soc0`, the start SOC is read from the record's rested
     /// start, as the CLI reads it (a ValueError when it does not start at
-    /// rest). Goes on from the samples pushed before.
+    /// rest). Goes on from the samples pushed before. `temperature_c` (°C,
+    /// one per sample) picks a map prior's temperature.
+    #[pyo3(signature = (current_a, voltage_v, temperature_c = None))]
     fn run<'py>(
         &mut self,
         py: Python<'py>,
         current_a: Floats<'py>,
         voltage_v: Floats<'py>,
+        temperature_c: Option<Floats<'py>>,
     ) -> PyResult<Bound<'py, PyDict>> {
+        let temperature = temperature_c.as_ref().map(vec);
+        if let Some(t) = &temperature {
+            if t.len() != current_a.as_array().len() {
+                return Err(PyValueError::new_err(format!(
+                    "temperature_c has {} values, current_a {}",
+                    t.len(),
+                    current_a.as_array().len()
+                )));
+            }
+        }
         let cols = Columns::from_arrays(vec![vec(&current_a), vec(&voltage_v)]);
         io::same_lengths(Path::new(RECORD), &cols, &["current_a", "voltage_v"])
             .map_err(value_error)?;
@@ -233,7 +284,12 @@ impl OnlineCell {
                 .iter()
                 .zip(&voltage)
                 .enumerate()
-                .map(|(k, (&i, &v))| tracker.push((first + k as u64) as f64 * h, i, v))
+                .map(|(k, (&i, &v))| {
+                    if let Some(t) = temperature.as_ref().and_then(|t| t.get(k)) {
+                        tracker.set_temperature(*t);
+                    }
+                    tracker.push((first + k as u64) as f64 * h, i, v)
+                })
                 .collect()
         });
         self.pushed += rows.len() as u64;

@@ -87,3 +87,28 @@ def test_predict_equals_the_cli_for_a_fit_and_a_map(host_sim, tmp_path):
         assert py["rmse_v"] < 2e-3
     with pytest.raises(ValueError, match="give ocv and capacity_ah"):
         fracbms.predict_battery(t, i, v, model=fit)
+
+
+def test_online_with_a_map_prior_equals_the_cli(host_sim, tmp_path):
+    """OnlineCell(prior=MAP.csv) runs `online battery --prior MAP.csv`: the
+    prior follows the map's cell at the counted SOC; a map prior under a
+    tight spread holds R_i at the map's value there."""
+    from test_online import assert_same_track, cli_track
+    path = tmp_path / "hppc.csv"
+    t, i, v = hppc(path)
+    map_csv = tmp_path / "map.csv"
+    host_sim("identify", "battery", "--input", path, "--ocv", OCV, "--capacity-ah", "2.5",
+             "--soc0", "0.9", "--model", "linear", "--map-out", map_csv)
+    tight = ("--prior-factor", "1.02", "--prior-alpha-sigma", "0.005")
+    cli = cli_track(host_sim, path, tmp_path, "--ocv", OCV, "--capacity-ah", "2.5", "--soc0",
+                    "0.9", "--prior", map_csv, *tight)
+    cell = fracbms.OnlineCell(ocv=ocv_table(), capacity_ah=2.5, soc0=0.9, prior=str(map_csv),
+                              prior_factor=1.02, prior_alpha_sigma=0.005)
+    py = cell.run(i, v, temperature_c=np.full(len(i), 25.0))
+    assert_same_track(py, cli)
+    tracking = py["status"] == "tracking"
+    assert tracking.sum() > 1000
+    # The map's levels all hold the same cell: R_i stays at it.
+    np.testing.assert_allclose(py["r_i"][tracking], CELL["r_i"], rtol=0.05)
+    with pytest.raises(ValueError, match="no-such-map.csv"):
+        fracbms.OnlineCell(prior=str(tmp_path / "no-such-map.csv"))
