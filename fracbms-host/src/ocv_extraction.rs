@@ -592,19 +592,20 @@ mod tests {
         }
     }
 
-    #[test]
-    fn a_low_rate_pair_averages_out_the_drop() {
-        // C/20 discharge then charge of a 5 A·h cell, R = 20 mΩ.
+    /// A C/20 discharge of a 5 A·h cell from full to empty, then a C/20
+    /// charge of `charge_steps` minutes (1200: back to full); R = 20 mΩ and
+    /// a hysteresis of ±`hysteresis_v`. Its low-rate OCV, from SOC 1.
+    fn low_rate_test(charge_steps: usize, hysteresis_v: f64) -> OcvExtraction {
         let h = 60.0;
         let (mut t, mut i, mut v) = (vec![], vec![], vec![]);
         let mut z = 1.0;
         for (k, cur) in std::iter::repeat_n(-0.25, 1200)
-            .chain(std::iter::repeat_n(0.25, 1200))
+            .chain(std::iter::repeat_n(0.25, charge_steps))
             .enumerate()
         {
             t.push(k as f64 * h);
             i.push(cur);
-            v.push(ocv(z) + 0.02 * cur);
+            v.push(ocv(z) + 0.02 * cur + hysteresis_v * f64::signum(cur));
             z += cur * h / 3600.0 / 5.0;
         }
         let rec = BatteryRecord {
@@ -619,7 +620,12 @@ mod tests {
             soc0: Some(1.0),
             ..OcvExtractionOptions::default()
         };
-        let x = extract_ocv(Path::new("t.csv"), &rec, &o).unwrap();
+        extract_ocv(Path::new("t.csv"), &rec, &o).unwrap()
+    }
+
+    #[test]
+    fn a_low_rate_pair_averages_out_the_drop() {
+        let x = low_rate_test(1200, 0.0);
         assert_eq!(x.branches.len(), 2);
         assert!(x.soc.len() > 90, "{}", x.soc.len());
         for (z, v) in x.soc.iter().zip(&x.ocv_v) {
@@ -629,33 +635,8 @@ mod tests {
 
     #[test]
     fn a_charge_that_stops_short_is_extended_by_the_discharge() {
-        // C/20 discharge from full to empty, then a C/20 charge that stops
-        // at SOC 0.85 (no CV phase); R = 20 mΩ and a ±5 mV hysteresis.
-        let h = 60.0;
-        let (mut t, mut i, mut v) = (vec![], vec![], vec![]);
-        let mut z = 1.0;
-        for (k, cur) in std::iter::repeat_n(-0.25, 1200)
-            .chain(std::iter::repeat_n(0.25, 1020))
-            .enumerate()
-        {
-            t.push(k as f64 * h);
-            i.push(cur);
-            v.push(ocv(z) + 0.02 * cur + 0.005 * cur.signum());
-            z += cur * h / 3600.0 / 5.0;
-        }
-        let rec = BatteryRecord {
-            time: t,
-            current: i,
-            voltage: v,
-            h,
-        };
-        let o = OcvExtractionOptions {
-            from: OcvSource::LowRate,
-            capacity_ah: Some(5.0),
-            soc0: Some(1.0),
-            ..OcvExtractionOptions::default()
-        };
-        let x = extract_ocv(Path::new("t.csv"), &rec, &o).unwrap();
+        // The charge stops at SOC 0.85 (no CV phase); ±5 mV hysteresis.
+        let x = low_rate_test(1020, 0.005);
         // The table reaches full from the discharge, on the mean curve.
         assert!(x.soc[x.soc.len() - 1] > 0.99, "{:?}", x.soc.last());
         assert!(x.soc[0] < 0.01, "{:?}", x.soc.first());

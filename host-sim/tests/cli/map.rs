@@ -95,6 +95,9 @@ fn an_hppc_export_gives_a_map_that_beats_one_fit() {
         tmp("map-fit.csv"),
         tmp("map.svg"),
     );
+    // Each level's record for an independent fit, written by the same run.
+    let ldir = tmp("map-levels");
+    let _ = std::fs::remove_dir_all(&ldir);
     let o = run(&[
         "identify",
         "battery",
@@ -116,6 +119,8 @@ fn an_hppc_export_gives_a_map_that_beats_one_fit() {
         s(&fit_out),
         "--json",
         s(&json),
+        "--levels-out",
+        s(&ldir),
     ]);
     let stdout = String::from_utf8_lossy(&o.stdout);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
@@ -171,28 +176,7 @@ fn an_hppc_export_gives_a_map_that_beats_one_fit() {
     let p = read_json(&pj)["rmse_v"].as_f64().unwrap();
     assert!((p / map_rmse - 1.0).abs() < 1e-9, "{p} vs {map_rmse}");
 
-    // Each level's record for an independent fit.
-    let ldir = tmp("map-levels");
-    let _ = std::fs::remove_dir_all(&ldir);
-    let o = run(&[
-        "identify",
-        "battery",
-        "--input",
-        s(&log),
-        "--ocv",
-        s(&ocv),
-        "--capacity-ah",
-        "2.5",
-        "--soc0",
-        "0.95",
-        "--model",
-        "linear",
-        "--map-out",
-        s(&tmp("map-again.csv")),
-        "--levels-out",
-        s(&ldir),
-    ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    // Each level's record, as its row was fitted.
     let lj = read_json(&ldir.join("levels.json"));
     let parts = lj["levels"].as_array().unwrap();
     assert_eq!(parts.len(), 5);
