@@ -7,7 +7,10 @@
 //!   further than `max(spike_sigmas·σ, spike_floor)` from the fitted model
 //!   is *rejected*, with the online estimator's rules and defaults
 //!   ([`OnlineSettings`]); σ is the residuals' robust scale (1.4826 × their
-//!   median absolute deviation), since one spike inflates an RMSE. The time
+//!   median absolute deviation), since one spike inflates an RMSE. A spike
+//!   is short: the row must also be that far from the median residual of
+//!   its neighbours ([`SPIKE_RUN`] rows either side), so a run of rows the
+//!   model misses alike (model error at a pulse edge) stays. The time
 //!   base stays intact: a rejected row keeps its place with a substitute, as
 //!   online (its current when plausible, else the last plausible one; its
 //!   voltage interpolated from its good neighbours for the first fit, the
@@ -41,6 +44,10 @@ use std::path::Path;
 pub const Z95: f64 = 1.959964;
 /// Most refits after rejecting rows.
 pub const MAX_SPIKE_PASSES: usize = 6;
+/// The longest run of rows that can be a spike: a row is judged against
+/// the median residual of the rows this far either side
+/// ([`Screened::find_spikes`]).
+pub const SPIKE_RUN: usize = 3;
 
 /// Two successive fits agree to 10⁻⁴ (relative on R_i, R_ct, Q; absolute on
 /// α): the substitutes no longer move the fit.
@@ -192,46 +199,67 @@ impl Screened {
 
     /// Marks the accepted rows whose measured voltage is a spike against
     /// `model` (see the module docs); returns how many new ones.
+    ///
+    /// A spike is short: its residual is beyond the limit both from zero
+    /// and from the median of the accepted residuals within
+    /// [`SPIKE_RUN`] rows either side (a Hampel identifier on the
+    /// residuals). A run of more than [`SPIKE_RUN`] rows that the model
+    /// misses alike is model error (the first fit at a pulse edge, a
+    /// cycler's interpolated relaxation), not bad data: rejecting it would
+    /// take away the rows that could correct the model.
     pub fn find_spikes(&mut self, model: &[f64], limits: &Limits) -> usize {
-        let res: Vec<f64> = self
+        let res: Vec<Option<f64>> = self
             .measured
             .iter()
             .zip(model)
             .zip(&self.rejected)
-            .filter(|(_, r)| r.is_none())
-            .map(|((v, m), _)| v - m)
+            .map(|((v, m), r)| r.is_none().then_some(v - m))
             .collect();
-        let sigma = robust_scale(&res);
+        let accepted: Vec<f64> = res.iter().flatten().copied().collect();
+        let sigma = robust_scale(&accepted);
         if !sigma.is_finite() {
             return 0;
         }
         let limit = (limits.spike_sigmas * sigma).max(limits.spike_floor);
-        let mut new = 0;
-        for ((r, &v), &m) in self.rejected.iter_mut().zip(&self.measured).zip(model) {
-            if r.is_none() && (v - m).abs() > limit {
-                *r = Some(Rejection::Spike);
-                new += 1;
+        let mut spikes = Vec::new();
+        let mut window = Vec::with_capacity(2 * SPIKE_RUN + 1);
+        for (k, r) in res.iter().enumerate() {
+            let Some(r) = *r else { continue };
+            if r.is_nan() || r.abs() <= limit {
+                continue;
+            }
+            window.clear();
+            let lo = k.saturating_sub(SPIKE_RUN);
+            let hi = (k + SPIKE_RUN + 1).min(res.len());
+            window.extend(res[lo..hi].iter().flatten().copied());
+            if (r - median(&mut window)).abs() > limit {
+                spikes.push(k);
             }
         }
-        new
+        for &k in &spikes {
+            self.rejected[k] = Some(Rejection::Spike);
+        }
+        spikes.len()
+    }
+}
+
+/// The median of `v` (sorted in place); NaN for no data.
+fn median(v: &mut [f64]) -> f64 {
+    if v.is_empty() {
+        return f64::NAN;
+    }
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        (v[n / 2 - 1] + v[n / 2]) / 2.0
     }
 }
 
 /// 1.4826 × the median absolute deviation from the median (the normal σ
 /// of clean residuals, unmoved by a few outliers). NaN for no data.
 fn robust_scale(x: &[f64]) -> f64 {
-    fn median(v: &mut [f64]) -> f64 {
-        if v.is_empty() {
-            return f64::NAN;
-        }
-        v.sort_by(f64::total_cmp);
-        let n = v.len();
-        if n % 2 == 1 {
-            v[n / 2]
-        } else {
-            (v[n / 2 - 1] + v[n / 2]) / 2.0
-        }
-    }
     let mut v = x.to_vec();
     let med = median(&mut v);
     let mut dev: Vec<f64> = x.iter().map(|r| (r - med).abs()).collect();
@@ -501,5 +529,39 @@ impl Limits {
             );
         }
         Ok(limits)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// An isolated spike and a short burst are rejected; a run of rows the
+    /// model misses alike (longer than `SPIKE_RUN`) is model error and stays.
+    #[test]
+    fn a_spike_is_short_and_a_long_misfit_is_not_one() {
+        let n = 200;
+        let model = vec![3.7; n];
+        let mut voltage: Vec<f64> = (0..n)
+            .map(|k| 3.7 + 1e-3 * ((k % 7) as f64 - 3.0))
+            .collect();
+        voltage[20] += 0.3;
+        for v in &mut voltage[60..63] {
+            *v -= 0.3;
+        }
+        for v in &mut voltage[100..110] {
+            *v += 0.3;
+        }
+        let rec = BatteryRecord {
+            time: (0..n).map(|k| k as f64).collect(),
+            current: vec![1.0; n],
+            voltage,
+            h: 1.0,
+        };
+        let mut sc = screen(Path::new("t.csv"), &rec, &Limits::default()).unwrap();
+        let new = sc.find_spikes(&model, &Limits::default());
+        let spikes: Vec<usize> = (0..n).filter(|&k| sc.rejected[k].is_some()).collect();
+        assert_eq!(spikes, vec![20, 60, 61, 62]);
+        assert_eq!(new, 4);
     }
 }
