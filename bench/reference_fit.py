@@ -120,12 +120,15 @@ def rc_polarization(i, h, r, tau):
     return up
 
 
-def fit_cpe(i, y, h):
+def fit_cpe(i, y, h, keep=None):
     """The constant-phase model y = dU + R_i I + U_p; p = ln R_i, ln R_ct,
     ln Q, alpha, dU. U_p is cpe_branch (cpe_polarization as a convolution,
     O(n log n)); the finite-difference Jacobian moves one coordinate at a
     time, so the branches of the last few (R_ct, Q, alpha) are kept: moving
-    R_i or dU costs no branch."""
+    R_i or dU costs no branch. ``keep`` (a boolean mask, default every row):
+    the rows the residuals are taken over; the model runs on every row's
+    current."""
+    keep = np.ones(len(y), bool) if keep is None else np.asarray(keep, bool)
     branches = {}
 
     def model(p):
@@ -139,7 +142,7 @@ def fit_cpe(i, y, h):
         return du + r_i * i + up
 
     # A rough total resistance from the data: y ~ dU + R I.
-    r_tot = max(abs(np.polyfit(i, y, 1)[0]), 1e-4)
+    r_tot = max(abs(np.polyfit(i[keep], y[keep], 1)[0]), 1e-4)
     best = None
     minima = []
     for alpha in [0.3, 0.5, 0.7, 0.9, 1.0]:
@@ -148,10 +151,11 @@ def fit_cpe(i, y, h):
                 r_i = r_tot / (1.0 + ratio)
                 r_ct = r_tot - r_i
                 q = relax**alpha / r_ct
-                x0 = [math.log(r_i), math.log(r_ct), math.log(q), min(alpha, 0.999), float(np.mean(y - r_tot * i))]
+                x0 = [math.log(r_i), math.log(r_ct), math.log(q), min(alpha, 0.999),
+                      float(np.mean((y - r_tot * i)[keep]))]
                 try:
                     res = least_squares(
-                        lambda p: model(p) - y,
+                        lambda p: (model(p) - y)[keep],
                         x0,
                         bounds=([-20, -20, -20, 0.05, -np.inf], [5, 5, 30, 1.0, np.inf]),
                         x_scale=[1, 1, 1, 0.1, 0.01],
@@ -183,7 +187,7 @@ def fit_rc(i, y, h, pairs):
             out = out + rc_polarization(i, h, math.exp(p[2 + 2 * k]), math.exp(p[3 + 2 * k]))
         return out
 
-    r_tot = max(abs(np.polyfit(i, y, 1)[0]), 1e-4)
+    r_tot = max(abs(np.polyfit(i[keep], y[keep], 1)[0]), 1e-4)
     best = None
     taus = [[3.0], [30.0], [300.0]] if pairs == 1 else [[3.0, 60.0], [10.0, 300.0], [1.0, 30.0]]
     for tau in taus:
@@ -257,7 +261,7 @@ def multistart(resid, starts, lo, hi, x_scale, max_nfev=200):
 def grid_starts(i, y, picks):
     """A few (alpha, relaxation s, R_ct/R_i) starts of fit_cpe's grid as
     (label, R_i, R_ct, Q, alpha, dU)."""
-    r_tot = max(abs(np.polyfit(i, y, 1)[0]), 1e-4)
+    r_tot = max(abs(np.polyfit(i[keep], y[keep], 1)[0]), 1e-4)
     out = []
     for alpha, relax, ratio in picks:
         r_i = r_tot / (1.0 + ratio)
@@ -397,7 +401,7 @@ def fit_rc1_bv(i, y, h, rc1):
         i0, r_i = k * i_rms, rc1["r_i"] / 2.0
         starts.append(({"from": "rc1", "i0_over_i_rms": k},
                        [rc1["ocv_offset_v"], ln(r_i), ln(rc1["r_1"]), ln(rc1["tau_1_s"]), ln(i0 * r_i), ln(i0)]))
-    r_tot = max(abs(np.polyfit(i, y, 1)[0]), 1e-4)
+    r_tot = max(abs(np.polyfit(i[keep], y[keep], 1)[0]), 1e-4)
     for tau in [3.0, 30.0, 300.0]:
         starts.append(({"tau_1_s": tau, "i0_over_i_rms": 1.0},
                        [float(np.mean(y - r_tot * i)), ln(r_tot / 4), ln(r_tot / 2), ln(tau), ln(i_rms * r_tot / 4),

@@ -149,6 +149,16 @@ def fit_dir(folder, models="cpe"):
         rec.update({"h": h, "soc_end": float(soc[-1]), "model": name})
         rec.update({k: best.get(k) for k in PARAMS})
         rec["rmse_v"] = best["rmse_v"]
+        # The same reference over the rows our fit kept (levels.json's
+        # `rejected`, the rows its rmse_v leaves out): the comparison on the
+        # same data.
+        rej = [k for k in lv.get("rejected") or [] if 0 <= k < len(t)]
+        rec["rejected"] = rej
+        if rej:
+            keep = np.ones(len(t), bool)
+            keep[rej] = False
+            same = rf.fit_cpe(i, y, h, keep)
+            rec["same_rows"] = {k: same[k] for k in ("rmse_v", "r_i", "r_ct", "q", "alpha", "ocv_offset_v")}
         rec["winning_start"] = best["winning_start"]
         rec["local_minima_rmse_v"] = best["local_minima_rmse_v"]
         if models == "auto":
@@ -235,8 +245,9 @@ def compare(doc, rows, folder):
     cap = float(doc["capacity_ah"])
     lines = [
         "| level | SOC | samples | ours, fitted rows (mV) | ours, every row (mV) | ref. (mV) | ours / ref., every row "
-        "| R_i ours / ref. (mOhm) | alpha ours / ref. | identifiable |",
-        "|---|---|---|---|---|---|---|---|---|---|",
+        "| R_i ours / ref. (mOhm) | alpha ours / ref. | identifiable | rows ours rejects | ref. on our rows (mV) "
+        "| ours / ref., our rows |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     used = set()
     for lv in doc["levels"]:
@@ -256,9 +267,15 @@ def compare(doc, rows, folder):
         every = "" if ours is None else f"{1e3 * ours:.3f}"
         head += f"| {1e3 * fitted:.3f} | {every} "
         if ref and ours is not None:
+            # Over the rows our fit kept: our rmse_v against the reference
+            # refitted on them (the every-row fit when none was rejected).
+            same = lv.get("same_rows") or {"rmse_v": lv["rmse_v"]}
+            tail = (f"| {len(lv.get('rejected') or [])} | {1e3 * same['rmse_v']:.3f} "
+                    f"| {fitted / same['rmse_v'] if same['rmse_v'] > 0 else math.inf:.3f} |")
             lines.append(head + f"| {ref_rmse} | {ours / lv['rmse_v'] if lv['rmse_v'] > 0 else math.inf:.3f} "
                                 f"| {1e3 * float(r['r_i']):.3f} / {1e3 * lv['r_i']:.3f} "
-                                f"| {float(r['alpha']):.3f} / {lv['alpha']:.3f} | {r.get('identifiable', '')} |")
+                                f"| {float(r['alpha']):.3f} / {lv['alpha']:.3f} | {r.get('identifiable', '')} "
+                         + tail)
         else:
             lines.append(head + f"| {ref_rmse} | | {1e3 * float(r['r_i']):.3f} / "
                                 f"| {float(r['alpha']):.3f} / | {r.get('identifiable', '')} |")

@@ -45,6 +45,7 @@ impl ParameterMap {
                     r.start_s.to_string(),
                     r.end_s.to_string(),
                     r.samples.to_string(),
+                    r.identifiable_reason.clone().unwrap_or_default(),
                 ]
             }),
         )
@@ -146,7 +147,9 @@ impl ParameterMap {
                 ocv_offset_v: num(idx[8], "ocv_offset_v")?,
                 rmse_v: num(idx[9], "rmse_v")?,
                 identifiable,
-                identifiable_reason: None,
+                identifiable_reason: extra("identifiable_reason")
+                    .map(|i| cell(i).to_owned())
+                    .filter(|x| !x.is_empty()),
                 confidence,
                 start_s: opt_named("start_s")?.unwrap_or(f64::NAN),
                 end_s: opt_named("end_s")?.unwrap_or(f64::NAN),

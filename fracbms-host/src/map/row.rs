@@ -7,7 +7,7 @@ use estimator_core::battery::CellParameters;
 use serde::{Deserialize, Serialize};
 
 /// The map's CSV columns, in order (the contract's eleven first).
-pub const MAP_COLUMNS: [&str; 22] = [
+pub const MAP_COLUMNS: [&str; 23] = [
     "temperature_c",
     "soc",
     "r_i",
@@ -30,6 +30,7 @@ pub const MAP_COLUMNS: [&str; 22] = [
     "start_s",
     "end_s",
     "samples",
+    "identifiable_reason",
 ];
 
 /// How a record is split into SOC levels.

@@ -13,3 +13,42 @@ fn a_bad_map_file_is_one_line() {
     assert!(e.contains("row 2, column `q`: `abc`"), "{e}");
     let _ = std::fs::remove_file(&p);
 }
+
+/// A map written and read back keeps its rows, the reason of a level that
+/// is not identifiable included (commas and all), so `online --prior` can
+/// say why it leaves the level out.
+#[test]
+fn a_map_round_trips_with_its_reasons() {
+    let p = std::env::temp_dir().join(format!("fracbms-map-rt-{}.csv", std::process::id()));
+    let row = |soc: f64, reason: Option<&str>| MapRow {
+        temperature_c: Some(25.0),
+        soc,
+        r_i: 0.02,
+        r_ct: 0.015,
+        q: 500.0,
+        alpha: 0.7,
+        bv_a_v: None,
+        bv_i0_a: None,
+        ocv_offset_v: 0.001,
+        rmse_v: 0.002,
+        identifiable: reason.is_none(),
+        identifiable_reason: reason.map(str::to_owned),
+        confidence: None,
+        start_s: 0.0,
+        end_s: 100.0,
+        samples: 101,
+    };
+    let why = "R_i: its 95 % interval spans more than a factor 2 either way, [0.0003, 0.14] Ω";
+    let map = ParameterMap {
+        rows: vec![row(0.2, Some(why)), row(0.8, None)],
+    };
+    map.write_csv(&p).unwrap();
+    let back = ParameterMap::read_csv(&p).unwrap();
+    let _ = std::fs::remove_file(&p);
+    assert_eq!(back.rows.len(), 2);
+    assert_eq!(back.rows[0].identifiable_reason.as_deref(), Some(why));
+    assert!(!back.rows[0].identifiable);
+    assert_eq!(back.rows[1].identifiable_reason, None);
+    assert!(back.rows[1].identifiable);
+    assert_eq!(back.rows[1].samples, 101);
+}

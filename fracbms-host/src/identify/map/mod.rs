@@ -184,6 +184,9 @@ pub struct LevelPart {
     pub temperature_c: Option<f64>,
     /// Whether the level has a row in the map.
     pub fitted: bool,
+    /// The samples of `record` its fit rejected (indices from 0): the
+    /// rows its `rmse_v` leaves out.
+    pub rejected: Vec<usize>,
 }
 
 /// Builds the map of `rec` (file `path`): splits it into levels, fits each
@@ -277,12 +280,21 @@ pub fn build_map(
             refine,
         );
         let fitted = fit.is_ok();
+        let rejected = fit.as_ref().map_or_else(
+            |_| vec![],
+            |(_, sc)| {
+                (sc.rejected.iter().enumerate())
+                    .filter_map(|(k, r)| r.map(|_| k))
+                    .collect()
+            },
+        );
         kept.push(LevelPart {
             record: part.clone(),
             soc: p.soc,
             soc0: soc[p.start].clamp(0.0, 1.0),
             temperature_c: record_t,
             fitted,
+            rejected,
         });
         let (r, _) = match fit {
             Ok(x) => x,
@@ -339,7 +351,8 @@ pub fn build_map(
 /// the level's uniform record), `ocv.csv` (`soc,ocv_v`, the table used)
 /// and `levels.json` (the capacity, `model`, and per level its `file`,
 /// `soc`, `soc0`, `temperature_c`, `start_s`, `end_s`, `samples`,
-/// `fitted`). `bench/reference_map.py` reads it.
+/// `fitted`, `rejected`: the samples its fit rejected, from 0).
+/// `bench/reference_map.py` reads it.
 ///
 /// # Errors
 /// [`crate::ErrorKind::Io`] when a file cannot be written.
@@ -379,6 +392,7 @@ pub fn write_levels(dir: &Path, fit: &MapFit, ocv: &OcvSpec, model: &str) -> Res
             "samples": r.time.len(),
             "h": r.h,
             "fitted": p.fitted,
+            "rejected": p.rejected,
         }));
     }
     let doc = serde_json::json!({
