@@ -470,19 +470,22 @@ fn low_rate(
         }
         (Some(r), None) | (None, Some(r)) => {
             // The IR drop: the voltage step where the branch's current
-            // starts, over that current.
-            let (a, _) = r;
-            let ir = if a > 0 {
-                let di = rec.current[a] - rec.current[a - 1];
-                let dv = rec.voltage[a] - rec.voltage[a - 1];
-                if di != 0.0 && dv.is_finite() {
-                    (dv / di).max(0.0) * rec.current[a]
-                } else {
-                    0.0
-                }
-            } else {
-                0.0
+            // starts, over that current; where the record starts inside the
+            // branch (no step to see), the step where it ends.
+            let (a, b) = r;
+            let step = |k: usize| {
+                let di = rec.current[k] - rec.current[k - 1];
+                let dv = rec.voltage[k] - rec.voltage[k - 1];
+                (di != 0.0 && dv.is_finite()).then(|| (dv / di).max(0.0) * rec.current[a])
             };
+            let ir = if a > 0 {
+                step(a)
+            } else if b < rec.current.len() {
+                step(b)
+            } else {
+                None
+            }
+            .unwrap_or(0.0);
             let (lo, hi) = span(r);
             let pts = grid(lo, hi)
                 .into_iter()
@@ -621,6 +624,46 @@ mod tests {
             ..OcvExtractionOptions::default()
         };
         extract_ocv(Path::new("t.csv"), &rec, &o).unwrap()
+    }
+
+    /// A record that starts inside its C/20 discharge (no rest before it)
+    /// takes the IR drop from the step where the discharge ends.
+    #[test]
+    fn a_branch_without_its_start_takes_the_drop_where_it_ends() {
+        let h = 60.0;
+        let (mut t, mut i, mut v) = (vec![], vec![], vec![]);
+        let mut z = 1.0;
+        for (k, cur) in std::iter::repeat_n(-0.25, 1200)
+            .chain(std::iter::repeat_n(0.0, 30))
+            .enumerate()
+        {
+            t.push(k as f64 * h);
+            i.push(cur);
+            v.push(ocv(z) + 0.02 * cur);
+            z += cur * h / 3600.0 / 5.0;
+        }
+        let rec = BatteryRecord {
+            time: t,
+            current: i,
+            voltage: v,
+            h,
+        };
+        let o = OcvExtractionOptions {
+            from: OcvSource::LowRate,
+            capacity_ah: Some(5.0),
+            soc0: Some(1.0),
+            ..OcvExtractionOptions::default()
+        };
+        let x = extract_ocv(Path::new("t.csv"), &rec, &o).unwrap();
+        assert_eq!(x.branches.len(), 1);
+        // R·I = 0.02 Ω · −0.25 A, within the OCV's move over the one step
+        // the drop is read across (ΔSOC 0.25·60/3600/5, slope ≤ 1 V).
+        let move_v = 0.25 * 60.0 / 3600.0 / 5.0 * 1.0;
+        let ir = x.branches[0].ir_drop_v;
+        assert!((ir + 0.005).abs() <= move_v, "{ir}");
+        for (z, v) in x.soc.iter().zip(&x.ocv_v) {
+            assert!((v - ocv(*z)).abs() <= move_v, "{z}: {v} vs {}", ocv(*z));
+        }
     }
 
     #[test]
