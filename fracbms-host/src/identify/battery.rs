@@ -58,6 +58,9 @@ pub struct BatteryJson {
     pub iterations: u32,
     /// Converged.
     pub converged: bool,
+    /// Why the refinement stopped: `converged` or `iteration_limit`; null
+    /// with `--method paper`.
+    pub stop: Option<&'static str>,
     /// Per-iteration cost of 2S-OP-GI.
     pub history: Vec<HistoryEntry>,
     /// The fit can be trusted: no reason against it holds (see
@@ -301,6 +304,7 @@ fn battery_run_sized<const N: usize, const MEM: usize>(
     let mut history = Vec::new();
     let mut track = Vec::new();
     let mut converged = false;
+    let mut stop = None;
     if print_table {
         println!(
             "{:>5} {:>10} {:>10} {:>10} {:>8} {:>9} {:>12}",
@@ -398,6 +402,7 @@ fn battery_run_sized<const N: usize, const MEM: usize>(
             let bounds = [so.alpha_min, so.alpha_max];
             if refine.model == ModelRequest::Linear {
                 converged = lin.converged;
+                stop = Some(lin.stop.as_str());
                 let info = lin.oe.information(&so, &*win).ok();
                 (lin.cell, Some(lin.rmse), info, bounds)
             } else {
@@ -405,6 +410,7 @@ fn battery_run_sized<const N: usize, const MEM: usize>(
                     choose_model(&so, &lin, &win, &rec.current, refine.model).map_err(ctx)?;
                 iters += fit.iterations;
                 converged = fit.converged;
+                stop = Some(fit.stop.as_str());
                 choice = Some(why);
                 let sf = BatterySettings {
                     model: if fit.cell.is_butler_volmer() {
@@ -443,6 +449,7 @@ fn battery_run_sized<const N: usize, const MEM: usize>(
             rmse_v,
             iterations: iters,
             converged,
+            stop,
             history,
             identifiable: false,
             identifiable_reason: None,

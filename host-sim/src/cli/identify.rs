@@ -252,8 +252,20 @@ pub(super) fn battery(a: IdBatteryArgs) -> Result<()> {
     }
     let j = &r.json;
     println!(
-        "{}: R_i = {:.6} Ω, R_ct = {:.6} Ω, Q = {:.3}, alpha = {:.4}, U_oc = {:.5} V, rmse = {:.3e} V ({} iterations, converged: {})",
-        j.method, j.r_i, j.r_ct, j.q, j.alpha, j.u_oc, j.rmse_v, j.iterations, j.converged
+        "{}: R_i = {:.6} Ω, R_ct = {:.6} Ω, Q = {:.3}, alpha = {:.4}, U_oc = {:.5} V, rmse = {:.3e} V ({} iterations, converged: {}{})",
+        j.method,
+        j.r_i,
+        j.r_ct,
+        j.q,
+        j.alpha,
+        j.u_oc,
+        j.rmse_v,
+        j.iterations,
+        j.converged,
+        match j.stop {
+            Some("iteration_limit") => "; stopped at the iteration limit",
+            _ => "",
+        }
     );
     match &j.confidence {
         Some(c) => println!(

@@ -63,6 +63,15 @@
 //! relaxation time `τ^(1/α)` exceeds ten fitted windows are refused: such a
 //! branch is not identifiable from the window, and `R_ct` could otherwise
 //! run away along it.
+//!
+//! Bounds are held, not crept up to. A resistance below 10⁻⁶ of
+//! `R_i + R_ct` is at its bound 0 (its logarithm has none), and α at
+//! `alpha_min` or `alpha_max` is at its bound: where the step would push
+//! such a coordinate further out, it is held and the step is solved again
+//! over the others. Without this a boundary optimum (R_i → 0 on a measured
+//! pulse, α → 1) never converged: each step was clamped to one unit of
+//! `ln R_i` while the other coordinates crawled, and a whole-record fit
+//! ran out of its 200 iterations at R_i ≈ 10⁻⁸⁹ Ω.
 
 use super::simulate::{cpe_filter, cpe_filter_pair, history};
 use super::{current_std, BatterySettings, CellModel, CellParameters, Prior, Start};

@@ -28,6 +28,9 @@ pub(super) const LAMBDA0: f64 = 1e-3;
 pub(super) const COST_RESOLUTION: f64 = 100.0;
 /// Longest relaxation time `τ^(1/α)` a trial may have, in fitted windows.
 pub(super) const MAX_RELAXATION_WINDOWS: f64 = 10.0;
+/// A resistance below this fraction of `R_i + R_ct` is at its bound 0: a
+/// step that would lower it further holds it instead.
+pub(super) const RESISTANCE_FLOOR: f64 = 1e-6;
 
 impl<T: Real, const N: usize, const MEM: usize> OutputErrorRefinement<T, N, MEM> {
     /// The damped step `(A + λ·diag A)⁻¹ b` from the estimate, judged.
@@ -44,9 +47,38 @@ impl<T: Real, const N: usize, const MEM: usize> OutputErrorRefinement<T, N, MEM>
         for (k, row) in m.iter_mut().enumerate() {
             row[k] = a[k][k] * (T::one() + self.lambda) + T::min_positive_value().sqrt();
         }
-        let Some(dx) = solve_fitted(&m, b, s.model == CellModel::ButlerVolmer) else {
+        let kinetic = s.model == CellModel::ButlerVolmer;
+        let Some(mut dx) = solve_fitted(&m, b, kinetic) else {
             return Proposal::Singular;
         };
+        // Active bounds: a resistance already negligible beside the other
+        // (its logarithm has no bound, so the search would slide it down
+        // for ever, one clamped step at a time, while the rest crawls),
+        // and α at a bound, where the step would push them further out,
+        // are held; the step is solved again over the other coordinates.
+        let floor = T::lit(RESISTANCE_FLOOR) * (p.r_i + p.r_ct);
+        let held = [
+            p.r_i <= floor && dx[0] < T::zero(),
+            p.r_ct <= floor && dx[1] < T::zero(),
+            false,
+            (p.alpha >= s.alpha_max && dx[3] > T::zero())
+                || (p.alpha <= s.alpha_min && dx[3] < T::zero()),
+        ];
+        if held.iter().any(|&h| h) {
+            let mut bh = *b;
+            for (k, _) in held.iter().enumerate().filter(|(_, &h)| h) {
+                for row in m.iter_mut() {
+                    row[k] = T::zero();
+                }
+                m[k] = [T::zero(); COLUMNS];
+                m[k][k] = T::one();
+                bh[k] = T::zero();
+            }
+            let Some(d) = solve_fitted(&m, &bh, kinetic) else {
+                return Proposal::Singular;
+            };
+            dx = d;
+        }
         let max_log = T::lit(MAX_LOG_STEP);
         let clamp = |x: T| x.max(-max_log).min(max_log);
         let trial = CellParameters {
