@@ -187,7 +187,7 @@ def fit_rc(i, y, h, pairs):
             out = out + rc_polarization(i, h, math.exp(p[2 + 2 * k]), math.exp(p[3 + 2 * k]))
         return out
 
-    r_tot = max(abs(np.polyfit(i[keep], y[keep], 1)[0]), 1e-4)
+    r_tot = max(abs(np.polyfit(i, y, 1)[0]), 1e-4)
     best = None
     taus = [[3.0], [30.0], [300.0]] if pairs == 1 else [[3.0, 60.0], [10.0, 300.0], [1.0, 30.0]]
     for tau in taus:
@@ -261,7 +261,7 @@ def multistart(resid, starts, lo, hi, x_scale, max_nfev=200):
 def grid_starts(i, y, picks):
     """A few (alpha, relaxation s, R_ct/R_i) starts of fit_cpe's grid as
     (label, R_i, R_ct, Q, alpha, dU)."""
-    r_tot = max(abs(np.polyfit(i[keep], y[keep], 1)[0]), 1e-4)
+    r_tot = max(abs(np.polyfit(i, y, 1)[0]), 1e-4)
     out = []
     for alpha, relax, ratio in picks:
         r_i = r_tot / (1.0 + ratio)
@@ -401,7 +401,7 @@ def fit_rc1_bv(i, y, h, rc1):
         i0, r_i = k * i_rms, rc1["r_i"] / 2.0
         starts.append(({"from": "rc1", "i0_over_i_rms": k},
                        [rc1["ocv_offset_v"], ln(r_i), ln(rc1["r_1"]), ln(rc1["tau_1_s"]), ln(i0 * r_i), ln(i0)]))
-    r_tot = max(abs(np.polyfit(i[keep], y[keep], 1)[0]), 1e-4)
+    r_tot = max(abs(np.polyfit(i, y, 1)[0]), 1e-4)
     for tau in [3.0, 30.0, 300.0]:
         starts.append(({"tau_1_s": tau, "i0_over_i_rms": 1.0},
                        [float(np.mean(y - r_tot * i)), ln(r_tot / 4), ln(r_tot / 2), ln(tau), ln(i_rms * r_tot / 4),

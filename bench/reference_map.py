@@ -157,8 +157,14 @@ def fit_dir(folder, models="cpe"):
         if rej:
             keep = np.ones(len(t), bool)
             keep[rej] = False
-            same = rf.fit_cpe(i, y, h, keep)
-            rec["same_rows"] = {k: same[k] for k in ("rmse_v", "r_i", "r_ct", "q", "alpha", "ocv_offset_v")}
+            try:
+                if keep.sum() < 6:
+                    raise ValueError(f"{keep.sum()} rows kept")
+                same = rf.fit_cpe(i, y, h, keep)
+                rec["same_rows"] = {k: same[k] for k in ("rmse_v", "r_i", "r_ct", "q", "alpha", "ocv_offset_v")}
+            except (ValueError, TypeError, np.linalg.LinAlgError) as e:
+                rec["same_rows_error"] = str(e)
+                print(f"{lv['file']}: no fit on the rows ours kept ({e})")
         rec["winning_start"] = best["winning_start"]
         rec["local_minima_rmse_v"] = best["local_minima_rmse_v"]
         if models == "auto":

@@ -229,8 +229,13 @@ impl Screened {
                 continue;
             }
             window.clear();
-            let lo = k.saturating_sub(SPIKE_RUN);
-            let hi = (k + SPIKE_RUN + 1).min(res.len());
+            // A full window of 2·SPIKE_RUN + 1 rows, moved inwards at the
+            // record's ends.
+            let width = 2 * SPIKE_RUN + 1;
+            let lo = k
+                .saturating_sub(SPIKE_RUN)
+                .min(res.len().saturating_sub(width));
+            let hi = (lo + width).min(res.len());
             window.extend(res[lo..hi].iter().flatten().copied());
             if (r - median(&mut window)).abs() > limit {
                 spikes.push(k);
@@ -536,8 +541,9 @@ impl Limits {
 mod tests {
     use super::*;
 
-    /// An isolated spike and a short burst are rejected; a run of rows the
-    /// model misses alike (longer than `SPIKE_RUN`) is model error and stays.
+    /// An isolated spike and short bursts (one at the record's start) are
+    /// rejected; a run of rows the model misses alike (longer than
+    /// `SPIKE_RUN`) is model error and stays.
     #[test]
     fn a_spike_is_short_and_a_long_misfit_is_not_one() {
         let n = 200;
@@ -546,6 +552,10 @@ mod tests {
             .map(|k| 3.7 + 1e-3 * ((k % 7) as f64 - 3.0))
             .collect();
         voltage[20] += 0.3;
+        // A burst at the record's first rows: the window moves inwards.
+        for v in &mut voltage[0..3] {
+            *v += 0.2;
+        }
         for v in &mut voltage[60..63] {
             *v -= 0.3;
         }
@@ -561,7 +571,7 @@ mod tests {
         let mut sc = screen(Path::new("t.csv"), &rec, &Limits::default()).unwrap();
         let new = sc.find_spikes(&model, &Limits::default());
         let spikes: Vec<usize> = (0..n).filter(|&k| sc.rejected[k].is_some()).collect();
-        assert_eq!(spikes, vec![20, 60, 61, 62]);
-        assert_eq!(new, 4);
+        assert_eq!(spikes, vec![0, 1, 2, 20, 60, 61, 62]);
+        assert_eq!(new, 7);
     }
 }

@@ -377,17 +377,25 @@ fn battery_run_sized<const N: usize, const MEM: usize>(
             // Several starts, the best fit kept: the paper's estimate (when
             // it is physical) and the rough ones from the data alone. On a
             // measured pulse they can end in different basins (the LG M50
-            // at 10 °C, SOC 0.2: 36 mV from the even split, 16 mV from the
-            // charge-transfer one; docs/real-cells.md).
+            // at 10 °C, SOC 0.2: 36 mV from the even split, 3.4 mV from the
+            // charge-transfer one; docs/real-cells.md). A start whose
+            // search fails is passed over; the fit fails only when all do.
             let paper = gi
                 .cell()
                 .filter(|c| c.alpha >= so.alpha_min && c.alpha <= so.alpha_max);
             let mut lin: Option<Fit<N, MEM>> = None;
+            let mut failed = None;
             for start in paper
                 .into_iter()
                 .chain(rough_starts(&rec.current, &rec.voltage))
             {
-                let fit = refine_fit::<N, MEM>(&so, start, &win).map_err(ctx)?;
+                let fit = match refine_fit::<N, MEM>(&so, start, &win) {
+                    Ok(f) => f,
+                    Err(e) => {
+                        failed = Some(e);
+                        continue;
+                    }
+                };
                 iters += fit.iterations;
                 // Strictly better by more than rounding: an earlier start
                 // wins a tie.
@@ -398,7 +406,11 @@ fn battery_run_sized<const N: usize, const MEM: usize>(
                     lin = Some(fit);
                 }
             }
-            let mut lin = lin.expect("at least the rough starts");
+            let mut lin = match (lin, failed) {
+                (Some(l), _) => l,
+                (None, Some(e)) => return Err(ctx(e)),
+                (None, None) => unreachable!("at least the rough starts are tried"),
+            };
             let bounds = [so.alpha_min, so.alpha_max];
             if refine.model == ModelRequest::Linear {
                 converged = lin.converged;

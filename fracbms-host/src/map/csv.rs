@@ -58,8 +58,11 @@ impl ParameterMap {
     /// [`crate::ErrorKind::Io`] or [`crate::ErrorKind::Data`] (a missing
     /// column, a cell that is not a number, no rows), naming the row.
     pub fn read_csv(path: &Path) -> Result<Self> {
+        // Flexible: maps written before a column was added, joined by rows
+        // with newer ones, have rows one cell shorter.
         let mut rdr = csv::ReaderBuilder::new()
             .trim(csv::Trim::All)
+            .flexible(true)
             .from_path(path)
             .map_err(|e| err!(Io, "{}: cannot read ({e})", path.display()))?;
         let headers = rdr

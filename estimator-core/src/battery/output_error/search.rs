@@ -56,25 +56,35 @@ impl<T: Real, const N: usize, const MEM: usize> OutputErrorRefinement<T, N, MEM>
         // for ever, one clamped step at a time, while the rest crawls),
         // and α at a bound, where the step would push them further out,
         // are held; the step is solved again over the other coordinates.
+        // Held coordinates only grow, so this settles within as many
+        // rounds as there are boundable ones (R_i, R_ct, α).
         let floor = T::lit(RESISTANCE_FLOOR) * (p.r_i + p.r_ct);
-        let held = [
-            p.r_i <= floor && dx[0] < T::zero(),
-            p.r_ct <= floor && dx[1] < T::zero(),
-            false,
-            (p.alpha >= s.alpha_max && dx[3] > T::zero())
-                || (p.alpha <= s.alpha_min && dx[3] < T::zero()),
-        ];
-        if held.iter().any(|&h| h) {
+        let mut held = [false; 4];
+        for _ in 0..3 {
+            let out = [
+                p.r_i <= floor && dx[0] < T::zero(),
+                p.r_ct <= floor && dx[1] < T::zero(),
+                false,
+                (p.alpha >= s.alpha_max && dx[3] > T::zero())
+                    || (p.alpha <= s.alpha_min && dx[3] < T::zero()),
+            ];
+            if !out.iter().zip(&held).any(|(&o, &h)| o && !h) {
+                break;
+            }
+            for (h, o) in held.iter_mut().zip(out) {
+                *h = *h || o;
+            }
+            let mut mh = m;
             let mut bh = *b;
             for (k, _) in held.iter().enumerate().filter(|(_, &h)| h) {
-                for row in m.iter_mut() {
+                for row in mh.iter_mut() {
                     row[k] = T::zero();
                 }
-                m[k] = [T::zero(); COLUMNS];
-                m[k][k] = T::one();
+                mh[k] = [T::zero(); COLUMNS];
+                mh[k][k] = T::one();
                 bh[k] = T::zero();
             }
-            let Some(d) = solve_fitted(&m, &bh, kinetic) else {
+            let Some(d) = solve_fitted(&mh, &bh, kinetic) else {
                 return Proposal::Singular;
             };
             dx = d;
