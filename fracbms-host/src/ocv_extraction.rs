@@ -599,16 +599,27 @@ mod tests {
     /// charge of `charge_steps` minutes (1200: back to full); R = 20 mΩ and
     /// a hysteresis of ±`hysteresis_v`. Its low-rate OCV, from SOC 1.
     fn low_rate_test(charge_steps: usize, hysteresis_v: f64) -> OcvExtraction {
+        low_rate_record(0.25, charge_steps, hysteresis_v)
+    }
+
+    /// The discharge of [`low_rate_test`], then `after_steps` minutes at
+    /// `after_a` (A; 0 for a rest, whose voltage is the OCV).
+    fn low_rate_record(after_a: f64, after_steps: usize, hysteresis_v: f64) -> OcvExtraction {
         let h = 60.0;
         let (mut t, mut i, mut v) = (vec![], vec![], vec![]);
         let mut z = 1.0;
         for (k, cur) in std::iter::repeat_n(-0.25, 1200)
-            .chain(std::iter::repeat_n(0.25, charge_steps))
+            .chain(std::iter::repeat_n(after_a, after_steps))
             .enumerate()
         {
+            let hysteresis = if cur == 0.0 {
+                0.0
+            } else {
+                hysteresis_v * f64::signum(cur)
+            };
             t.push(k as f64 * h);
             i.push(cur);
-            v.push(ocv(z) + 0.02 * cur + hysteresis_v * f64::signum(cur));
+            v.push(ocv(z) + 0.02 * cur + hysteresis);
             z += cur * h / 3600.0 / 5.0;
         }
         let rec = BatteryRecord {
@@ -630,31 +641,7 @@ mod tests {
     /// takes the IR drop from the step where the discharge ends.
     #[test]
     fn a_branch_without_its_start_takes_the_drop_where_it_ends() {
-        let h = 60.0;
-        let (mut t, mut i, mut v) = (vec![], vec![], vec![]);
-        let mut z = 1.0;
-        for (k, cur) in std::iter::repeat_n(-0.25, 1200)
-            .chain(std::iter::repeat_n(0.0, 30))
-            .enumerate()
-        {
-            t.push(k as f64 * h);
-            i.push(cur);
-            v.push(ocv(z) + 0.02 * cur);
-            z += cur * h / 3600.0 / 5.0;
-        }
-        let rec = BatteryRecord {
-            time: t,
-            current: i,
-            voltage: v,
-            h,
-        };
-        let o = OcvExtractionOptions {
-            from: OcvSource::LowRate,
-            capacity_ah: Some(5.0),
-            soc0: Some(1.0),
-            ..OcvExtractionOptions::default()
-        };
-        let x = extract_ocv(Path::new("t.csv"), &rec, &o).unwrap();
+        let x = low_rate_record(0.0, 30, 0.0);
         assert_eq!(x.branches.len(), 1);
         // R·I = 0.02 Ω · −0.25 A, within the OCV's move over the one step
         // the drop is read across (ΔSOC 0.25·60/3600/5, slope ≤ 1 V).
