@@ -12,6 +12,7 @@
 //! | [`io`] | CSV records and OCV tables in, CSV and JSON out (atomic writes), one-line errors that name the file, row and column |
 //! | [`ocv`] | a cell's OCV curve, capacity and start SOC, checked ([`ocv::OcvSpec`]) |
 //! | [`ocv_extraction`] | the OCV table read from a test: the rests' relaxed voltages or a low-rate charge and discharge, against the counted SOC, the capacity measured |
+//! | [`branch`] | the constant-phase recursion of whole-record fits solved exactly by FFT in O(N log N), with the full memory |
 //! | [`identify`] | whole-record fits: the Hammerstein system (2S-OP-GI / KT-2S-GI and the prediction-error refinement) and the battery cell (the paper's regression, the output-error refinement, the Butler–Volmer choice) |
 //! | [`predict`] | validation on another record: a fit run on a log's current, RMSE and largest error against the measured voltage |
 //! | [`map`] | parameter maps: the rows per SOC level and temperature, their CSV, the cell at a SOC, the plot (built by [`identify::map`]) |
@@ -59,6 +60,7 @@
 
 #![deny(missing_docs)]
 
+pub mod branch;
 pub mod choice;
 pub mod cycler;
 pub mod error;

@@ -48,6 +48,7 @@
 //!   [`online`]'s. Imports run one way: `online` → `pack` → `tracker`, never
 //!   back.
 
+pub mod branch;
 pub mod map;
 pub mod ocv;
 pub mod online;

@@ -90,15 +90,7 @@ impl<T: Real, const MEM: usize> GlWeights<T, MEM> {
         self.len = len;
         self.ln_h = h.ln();
         self.scale = (-alpha * self.ln_h).exp();
-        self.w[0] = T::one();
-        self.dw[0] = T::zero();
-        let a1 = alpha + T::one();
-        for j in 1..len {
-            let jj = T::lit(j as f64);
-            let r = T::one() - a1 / jj;
-            self.w[j] = self.w[j - 1] * r;
-            self.dw[j] = self.dw[j - 1] * r - self.w[j - 1] / jj;
-        }
+        fill_weights(alpha, &mut self.w[..len], &mut self.dw[..len]);
         Ok(())
     }
 
@@ -286,6 +278,33 @@ impl<T: Real, const MEM: usize> GlWeights<T, MEM> {
             out[l] = d;
             dout[l] = dd;
         });
+    }
+}
+
+/// Fills `w` with the Grünwald–Letnikov weights `w_j = (−1)^j·C(α, j)` and
+/// `dw` with their order derivatives `∂w_j/∂α`, over the shorter of the two
+/// (the recursion of [`GlWeights`], for callers that keep their weights
+/// elsewhere, e.g. on a host's heap).
+///
+/// ```
+/// let (mut w, mut dw) = ([0.0; 3], [0.0; 3]);
+/// estimator_core::frac::fill_weights(0.5, &mut w, &mut dw);
+/// assert_eq!(w, [1.0, -0.5, -0.125]);
+/// assert_eq!(dw[1], -1.0);
+/// ```
+pub fn fill_weights<T: Real>(alpha: T, w: &mut [T], dw: &mut [T]) {
+    let len = w.len().min(dw.len());
+    if len == 0 {
+        return;
+    }
+    w[0] = T::one();
+    dw[0] = T::zero();
+    let a1 = alpha + T::one();
+    for j in 1..len {
+        let jj = T::lit(j as f64);
+        let r = T::one() - a1 / jj;
+        w[j] = w[j - 1] * r;
+        dw[j] = dw[j - 1] * r - w[j - 1] / jj;
     }
 }
 

@@ -4,15 +4,14 @@
 //! screening and verdict of [`crate::trust`]. The estimators are
 //! `estimator-core`'s; this module drives them in `f64` and reports.
 
-use super::model_choice::{choose_model, refine_fit, Fit, ModelChoice};
+use super::model_choice::{choose_model, refine_fit, Fit, ModelChoice, Refinement};
 use super::{table_row, BatteryMethod, HistoryEntry, ModelRequest, BAT_MEM, MAX_BATTERY_ROWS};
+use crate::branch::FftBranch;
 use crate::error::Result;
 use crate::{bail, err, io, trust};
-use estimator_core::battery::output_error::{FitInformation, OutputErrorRefinement};
+use estimator_core::battery::output_error::FitInformation;
 use estimator_core::battery::regression::PaperRegressionGi;
-use estimator_core::battery::simulate::simulate;
 use estimator_core::battery::{BatterySettings, CellModel, CellParameters};
-use estimator_core::frac::GlWeights;
 use estimator_core::window::SampleWindow;
 use serde::Serialize;
 use std::path::Path;
@@ -159,13 +158,22 @@ pub struct BatteryResult {
     pub alpha_bounds: [f64; 2],
 }
 
-/// Simulates `cell` over a current record from rest (memory ≤ 4096).
+/// Simulates `cell` over a current record from rest, with the full memory
+/// (by FFT, [`crate::branch`]).
+///
+/// # Errors
+/// A non-physical cell, a bad period or a NaN/∞ current.
 pub fn model_voltage(cell: &CellParameters<f64>, h: f64, current: &[f64]) -> Result<Vec<f64>> {
-    let mem = current.len().clamp(1, BAT_MEM);
-    let mut w = Box::new(GlWeights::<f64, BAT_MEM>::new(cell.alpha, h, mem)?);
-    let (mut up, mut v) = (vec![0.0; current.len()], vec![0.0; current.len()]);
-    simulate(cell, &mut w, current, |_| cell.u_oc, &mut up, &mut v)?;
-    Ok(v)
+    if !(cell.is_physical() && h.is_finite() && h > 0.0) {
+        bail!(
+            Data,
+            "cannot simulate the cell {cell:?} at the period {h} s"
+        );
+    }
+    if current.iter().any(|i| !i.is_finite()) {
+        bail!(Data, "cannot simulate a current with NaN or ∞ samples");
+    }
+    Ok(FftBranch::default().simulate(cell, h, current))
 }
 
 fn rmse(a: &[f64], b: &[f64]) -> f64 {
@@ -179,7 +187,7 @@ fn rmse(a: &[f64], b: &[f64]) -> f64 {
 /// τ^α = 30 s^α. (A third start near a pure constant-phase element,
 /// R_ct = 1000 R, was tried: the refinement does not move from it, the
 /// gradient in ln R_ct vanishing there.)
-fn rough_starts(current: &[f64], voltage: &[f64]) -> [CellParameters<f64>; 2] {
+pub fn rough_starts(current: &[f64], voltage: &[f64]) -> [CellParameters<f64>; 2] {
     let n = current.len() as f64;
     let mi = current.iter().sum::<f64>() / n;
     let mv = voltage.iter().sum::<f64>() / n;
@@ -233,7 +241,7 @@ pub fn battery_run(
 /// Options of the output-error refinement.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct Refine {
-    /// Memory (default: the whole record, at most [`BAT_MEM`]).
+    /// Memory (default: the whole record).
     pub memory: Option<usize>,
     /// Fit the OCV slope.
     pub ocv_slope: bool,
@@ -260,7 +268,9 @@ pub fn battery_run_with(
         4097..=8192 => battery_run_sized::<8192, BAT_MEM>,
         8193..=16384 => battery_run_sized::<16384, BAT_MEM>,
         16385..=32768 => battery_run_sized::<32768, BAT_MEM>,
-        32769..=MAX_BATTERY_ROWS => battery_run_sized::<MAX_BATTERY_ROWS, BAT_MEM>,
+        32769..=65536 => battery_run_sized::<65536, BAT_MEM>,
+        65537..=131072 => battery_run_sized::<131072, BAT_MEM>,
+        131073..=MAX_BATTERY_ROWS => battery_run_sized::<MAX_BATTERY_ROWS, BAT_MEM>,
         n => bail!(
             Data,
             "{}: {n} samples; a fit takes at most {MAX_BATTERY_ROWS} (put the record on a longer period: --period)",
@@ -270,8 +280,9 @@ pub fn battery_run_with(
     run(path, rec, method, memory, iterations, print_table, refine)
 }
 
-/// [`battery_run_with`] for records of at most `N` rows, memories up to
-/// `MEM = min(N, BAT_MEM)`.
+/// [`battery_run_with`] for records of at most `N` rows: the paper's
+/// regression with memories up to `MEM = min(N, BAT_MEM)`, the refinement
+/// with any memory up to the whole record.
 fn battery_run_sized<const N: usize, const MEM: usize>(
     path: &Path,
     rec: &io::BatteryRecord,
@@ -356,20 +367,19 @@ fn battery_run_sized<const N: usize, const MEM: usize>(
             })?;
             // The information of the output-error criterion at the paper's
             // estimate (for its intervals; nothing is refitted).
-            let si = BatterySettings::new(rec.h, n.min(BAT_MEM));
-            let info = OutputErrorRefinement::<f64, N, MEM>::new(&si, cell)
+            let si = BatterySettings::new(rec.h, n);
+            let info = Refinement::<N>::new(&si, cell)
                 .and_then(|mut oe| oe.information(&si, &*win))
                 .ok();
             // The RMSE of the model voltage, computed below.
             (cell, None, info, [si.alpha_min, si.alpha_max])
         }
         BatteryMethod::Refined => {
-            let rm = refine.memory.unwrap_or(n.min(BAT_MEM));
-            if rm == 0 || rm > BAT_MEM.min(n) {
+            let rm = refine.memory.unwrap_or(n);
+            if rm == 0 || rm > n {
                 bail!(
                     Options,
-                    "--refine-memory {rm}: must be in 1..={} for {n} rows",
-                    BAT_MEM.min(n)
+                    "--refine-memory {rm}: must be in 1..={n} for {n} rows"
                 );
             }
             let mut so = BatterySettings::new(rec.h, rm);
@@ -383,13 +393,13 @@ fn battery_run_sized<const N: usize, const MEM: usize>(
             let paper = gi
                 .cell()
                 .filter(|c| c.alpha >= so.alpha_min && c.alpha <= so.alpha_max);
-            let mut lin: Option<Fit<N, MEM>> = None;
+            let mut lin: Option<Fit<N>> = None;
             let mut failed = None;
             for start in paper
                 .into_iter()
                 .chain(rough_starts(&rec.current, &rec.voltage))
             {
-                let fit = match refine_fit::<N, MEM>(&so, start, &win) {
+                let fit = match refine_fit::<N>(&so, start, &win) {
                     Ok(f) => f,
                     Err(e) => {
                         failed = Some(e);
@@ -658,8 +668,7 @@ pub struct BatteryFitOptions {
     pub memory: Option<usize>,
     /// Iterations of 2S-OP-GI (default 50).
     pub iterations: Option<u32>,
-    /// Memory of the refinement (default: the whole record, at most
-    /// [`BAT_MEM`]).
+    /// Memory of the refinement (default: the whole record).
     pub refine_memory: Option<usize>,
     /// Fit an OCV slope dU_oc/dq (without an OCV curve).
     pub ocv_slope: bool,
@@ -684,8 +693,7 @@ pub const DEFAULT_ITERATIONS: u32 = 50;
 
 /// What [`battery_file`] read and fitted.
 pub struct BatteryFile {
-    /// The record as read (at most [`crate::cycler::MAX_SAMPLES`]
-    /// samples).
+    /// The record as read (at most [`MAX_BATTERY_ROWS`] samples).
     pub record: io::BatteryRecord,
     /// What was read from the file, and how the rows were put on a
     /// uniform period.
@@ -702,8 +710,9 @@ pub struct BatteryFile {
 }
 
 /// `identify battery` on the file `input`: reads the whole record (a log
-/// longer than [`crate::cycler::MAX_SAMPLES`] samples is put on a longer
-/// period, as its `record` block says), checks
+/// longer than [`MAX_BATTERY_ROWS`] samples is put on a longer period, a
+/// non-uniform one resampled to at most [`crate::cycler::MAX_SAMPLES`]
+/// unless `--period` says otherwise, as its `record` block says), checks
 /// the options before the file is read where it can, screens the bad rows
 /// and fits as `o` says. With `print_table`, the 2S-OP-GI table of
 /// estimates versus k goes to stdout, as the CLI shows it.
@@ -714,7 +723,7 @@ pub struct BatteryFile {
 pub fn battery_file(input: &Path, o: &BatteryFitOptions, print_table: bool) -> Result<BatteryFile> {
     // The whole record: a longer uniform log is put on a longer period.
     let record = crate::cycler::RecordOptions {
-        max_samples: Some(crate::cycler::MAX_SAMPLES),
+        max_samples: Some(MAX_BATTERY_ROWS),
         ..o.record.clone()
     };
     let read = crate::cycler::read_record(input, &record)?;

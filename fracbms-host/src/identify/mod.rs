@@ -30,12 +30,16 @@ use std::path::Path;
 pub const MAX_ROWS: usize = 8192;
 
 /// The longest record (samples) a battery fit takes whole: the estimator
-/// state is sized to the record in steps of powers of two up to this.
-pub const MAX_BATTERY_ROWS: usize = 65_536;
+/// state is sized to the record in steps of powers of two up to this. The
+/// refinement's memory is the whole record ([`crate::branch`]: `O(N log N)`
+/// per pass).
+pub const MAX_BATTERY_ROWS: usize = 262_144;
 
 /// Memory capacity of the Hammerstein estimators.
 pub const HAM_MEM: usize = 4096;
-/// Memory capacity of the battery estimators.
+/// Memory capacity of the paper's battery regression (2S-OP-GI, the start
+/// of the refinement; its cost is `O(N·M)`). The refinement's memory is the
+/// whole record.
 pub const BAT_MEM: usize = 4096;
 
 /// The paper's algorithm of a Hammerstein fit (its paper stage).

@@ -4,6 +4,7 @@
 //! parameters identified, a lower BIC), with the reason in one sentence.
 
 use super::ModelRequest;
+use crate::branch::FftBranch;
 use estimator_core::battery::output_error::{OutputErrorRefinement, COLUMN_NAMES};
 use estimator_core::battery::{BatterySettings, CellModel, CellParameters};
 use estimator_core::window::SampleWindow;
@@ -80,9 +81,13 @@ impl FitStop {
 /// Most iterations of one whole-record refinement.
 pub const MAX_REFINE_ITERATIONS: usize = 200;
 
+/// The whole-record refinement of a record of at most `N` rows: the full
+/// memory, the recursion solved by FFT ([`crate::branch`]).
+pub(super) type Refinement<const N: usize> = OutputErrorRefinement<f64, N, N, FftBranch>;
+
 /// A whole-record output-error fit and how it ended.
-pub(super) struct Fit<const N: usize, const MEM: usize> {
-    pub(super) oe: Box<OutputErrorRefinement<f64, N, MEM>>,
+pub(super) struct Fit<const N: usize> {
+    pub(super) oe: Box<Refinement<N>>,
     pub(super) cell: CellParameters<f64>,
     pub(super) rmse: f64,
     pub(super) iterations: u32,
@@ -92,12 +97,12 @@ pub(super) struct Fit<const N: usize, const MEM: usize> {
 
 /// Refines `start` over the window until converged or
 /// [`MAX_REFINE_ITERATIONS`] have run.
-pub(super) fn refine_fit<const N: usize, const MEM: usize>(
+pub(super) fn refine_fit<const N: usize>(
     s: &BatterySettings<f64>,
     start: CellParameters<f64>,
     win: &SampleWindow<f64, N>,
-) -> std::result::Result<Fit<N, MEM>, estimator_core::Error> {
-    let mut oe = Box::new(OutputErrorRefinement::<f64, N, MEM>::new(s, start)?);
+) -> std::result::Result<Fit<N>, estimator_core::Error> {
+    let mut oe = Box::new(Refinement::<N>::new(s, start)?);
     let (mut rmse, mut iterations) = (f64::NAN, 0);
     let mut stop = FitStop::IterationLimit;
     for _ in 0..MAX_REFINE_ITERATIONS {
@@ -119,28 +124,114 @@ pub(super) fn refine_fit<const N: usize, const MEM: usize>(
     })
 }
 
+/// One whole-record refinement from one start, as each of
+/// `identify battery`'s starts runs: what [`refine_from_start`] returns.
+#[derive(Clone, Copy, Debug)]
+pub struct SingleFit {
+    /// The estimate.
+    pub cell: CellParameters<f64>,
+    /// Free-run RMSE over the record (V).
+    pub rmse_v: f64,
+    /// Iterations run.
+    pub iterations: u32,
+    /// How it ended.
+    pub stop: FitStop,
+}
+
+/// Refines `start` over a whole record (current `i`, voltage `v`, period
+/// `h`; at most [`super::MAX_BATTERY_ROWS`] rows) with the full memory and
+/// the model of `start` (Butler–Volmer when `start.bv_a > 0`), until
+/// converged or [`MAX_REFINE_ITERATIONS`]: one of `identify battery`'s
+/// starts, without the paper's regression, the other starts or the model
+/// choice (for benchmarks, and for a start of one's own).
+///
+/// # Errors
+/// A record too long, a non-physical start, or an estimator error.
+///
+/// ```
+/// use estimator_core::battery::CellParameters;
+/// use fracbms_host::identify::model_choice::refine_from_start;
+/// use fracbms_host::simulate::{battery_voltage, OcvCurve};
+///
+/// let cell = CellParameters::cell_18650();
+/// let i: Vec<f64> = (0..600).map(|l| if (l / 40) % 2 == 0 { 3.0 } else { -1.0 }).collect();
+/// let v = battery_voltage(&cell, &i, 1.0, OcvCurve::Constant)?.clean;
+/// let start = CellParameters { r_i: 0.01, r_ct: 0.03, q: 300.0, alpha: 0.6, ..cell };
+/// let fit = fracbms_host::worker::on_worker(|| refine_from_start(1.0, &i, &v, start))?;
+/// assert!((fit.cell.r_ct / cell.r_ct - 1.0).abs() < 1e-6);
+/// # Ok::<(), fracbms_host::Error>(())
+/// ```
+pub fn refine_from_start(
+    h: f64,
+    i: &[f64],
+    v: &[f64],
+    start: CellParameters<f64>,
+) -> crate::error::Result<SingleFit> {
+    // Not inlined: the arms' frames would merge into one of the largest
+    // size (tens of MB of stack probed on every call).
+    #[inline(never)]
+    fn sized<const N: usize>(
+        h: f64,
+        i: &[f64],
+        v: &[f64],
+        start: CellParameters<f64>,
+    ) -> crate::error::Result<SingleFit> {
+        let ctx = |e: estimator_core::Error| crate::err!(Estimator, "{e}");
+        let mut win = Box::new(SampleWindow::<f64, N>::new());
+        for (&a, &b) in i.iter().zip(v) {
+            win.push(a, b).map_err(ctx)?;
+        }
+        let s = BatterySettings {
+            model: if start.is_butler_volmer() {
+                CellModel::ButlerVolmer
+            } else {
+                CellModel::Linear
+            },
+            ..BatterySettings::new(h, i.len().min(v.len()).max(1))
+        };
+        let f = refine_fit::<N>(&s, start, &win).map_err(ctx)?;
+        Ok(SingleFit {
+            cell: f.cell,
+            rmse_v: f.rmse,
+            iterations: f.iterations,
+            stop: f.stop,
+        })
+    }
+    match i.len().min(v.len()) {
+        0..=1024 => sized::<1024>(h, i, v, start),
+        1025..=8192 => sized::<8192>(h, i, v, start),
+        8193..=65536 => sized::<65536>(h, i, v, start),
+        65537..=super::MAX_BATTERY_ROWS => sized::<{ super::MAX_BATTERY_ROWS }>(h, i, v, start),
+        n => crate::bail!(
+            Data,
+            "{n} samples; a fit takes at most {}",
+            super::MAX_BATTERY_ROWS
+        ),
+    }
+}
+
 /// The Butler–Volmer fit from the linear one `lin` (the best of starts
 /// with i₀ at 0.1, 0.3 and 1 times the largest current), and the model
 /// `requested` (`butler-volmer` or `auto`) publishes, with the reason.
-pub(super) fn choose_model<const N: usize, const MEM: usize>(
+pub(super) fn choose_model<const N: usize>(
     s: &BatterySettings<f64>,
-    lin: &Fit<N, MEM>,
+    lin: &Fit<N>,
     win: &SampleWindow<f64, N>,
     current: &[f64],
     requested: ModelRequest,
-) -> std::result::Result<(Fit<N, MEM>, ModelChoice), estimator_core::Error> {
+) -> std::result::Result<(Fit<N>, ModelChoice), estimator_core::Error> {
     let sb = BatterySettings {
         model: CellModel::ButlerVolmer,
         ..*s
     };
     let i_max = current.iter().fold(0.0f64, |m, i| m.max(i.abs())).max(1e-6);
-    let mut best: Option<Fit<N, MEM>> = None;
+    let mut best: Option<Fit<N>> = None;
     let mut iterations = 0;
     for f in [0.1, 0.3, 1.0] {
         let start = lin.cell.with_butler_volmer(f * i_max);
         // A start that does not run (e.g. not excited) is skipped; the
         // linear fit ran on the same window, so one of them does.
-        let Ok(fit) = refine_fit::<N, MEM>(&sb, start, win) else {
+        let Ok(fit) = refine_fit::<N>(&sb, start, win) else {
             continue;
         };
         iterations += fit.iterations;
@@ -313,7 +404,7 @@ mod tests {
             alpha: 0.7,
             ..truth
         };
-        let fit = refine_fit::<N, N>(&s, start, &win).unwrap();
+        let fit = refine_fit::<N>(&s, start, &win).unwrap();
         let c = fit.cell;
         assert_eq!(
             fit.stop,

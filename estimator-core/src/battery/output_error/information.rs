@@ -3,7 +3,9 @@
 
 use super::*;
 
-impl<T: Real, const N: usize, const MEM: usize> OutputErrorRefinement<T, N, MEM> {
+impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
+    OutputErrorRefinement<T, N, MEM, K>
+{
     /// The Gauss–Newton information of the window at the estimate (for
     /// standard errors and model choice): the data's `JᵀJ` over `x`, its
     /// cost and rows, and which columns `s` fits. One sensitivity pass,
@@ -34,6 +36,7 @@ impl<T: Real, const N: usize, const MEM: usize> OutputErrorRefinement<T, N, MEM>
         } else {
             self.stalled = None;
             simulate_window(
+                &mut self.solver,
                 &self.w,
                 &data,
                 &self.p,

@@ -73,7 +73,8 @@
 //! `ln R_i` while the other coordinates crawled, and a whole-record fit
 //! ran out of its 200 iterations at R_i ≈ 10⁻⁸⁹ Ω.
 
-use super::simulate::{cpe_filter, cpe_filter_pair, history};
+use super::branch::{BranchSolver, GlRecursion};
+use super::simulate::history;
 use super::{current_std, BatterySettings, CellModel, CellParameters, Prior, Start};
 use crate::error::Error;
 use crate::frac::GlWeights;
@@ -157,7 +158,10 @@ pub struct RefinementWork {
 }
 
 /// The output-error Levenberg–Marquardt refinement for a window of capacity
-/// `N` and memory capacity `MEM`; about `13·N` scalars of state.
+/// `N` and memory capacity `MEM`; about `13·N` scalars of state. `K` solves
+/// the constant-phase recursion ([`super::branch`]): the direct
+/// [`GlRecursion`] by default; a host's `O(N log N)` solver for
+/// whole-record fits with the full memory.
 ///
 /// ```
 /// use estimator_core::battery::{
@@ -190,8 +194,10 @@ pub struct RefinementWork {
 /// assert!((p.alpha - truth.alpha).abs() < 1e-6);
 /// ```
 #[derive(Clone, Debug)]
-pub struct OutputErrorRefinement<T, const N: usize, const MEM: usize> {
+pub struct OutputErrorRefinement<T, const N: usize, const MEM: usize, K = GlRecursion> {
     p: CellParameters<T>,
+    /// Solves the recursion of the simulation and the sensitivities.
+    solver: K,
     lambda: T,
     k: u32,
     w: GlWeights<T, MEM>,
@@ -251,7 +257,9 @@ impl<T: Copy> RefinementState<T> {
         self.work
     }
 }
-impl<T: Real, const N: usize, const MEM: usize> OutputErrorRefinement<T, N, MEM> {
+impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
+    OutputErrorRefinement<T, N, MEM, K>
+{
     /// A refinement started from `start` (usually the paper method's
     /// estimate, or a cell's datasheet values).
     ///
@@ -268,6 +276,7 @@ impl<T: Real, const N: usize, const MEM: usize> OutputErrorRefinement<T, N, MEM>
         }
         Ok(Self {
             p: start,
+            solver: K::default(),
             lambda: T::lit(LAMBDA0),
             k: 0,
             w: GlWeights::new(start.alpha, s.h, s.memory)?,

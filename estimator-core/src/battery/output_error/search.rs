@@ -32,7 +32,9 @@ pub(super) const MAX_RELAXATION_WINDOWS: f64 = 10.0;
 /// step that would lower it further holds it instead.
 pub(super) const RESISTANCE_FLOOR: f64 = 1e-6;
 
-impl<T: Real, const N: usize, const MEM: usize> OutputErrorRefinement<T, N, MEM> {
+impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
+    OutputErrorRefinement<T, N, MEM, K>
+{
     /// The damped step `(A + λ·diag A)⁻¹ b` from the estimate, judged.
     pub(super) fn propose(
         &self,
@@ -205,6 +207,7 @@ impl<T: Real, const N: usize, const MEM: usize> OutputErrorRefinement<T, N, MEM>
             self.linear = None;
             self.work.simulations = self.work.simulations.wrapping_add(1);
             simulate_window(
+                &mut self.solver,
                 &self.w,
                 &data,
                 &self.p,
@@ -292,6 +295,7 @@ impl<T: Real, const N: usize, const MEM: usize> OutputErrorRefinement<T, N, MEM>
             self.work.simulations = self.work.simulations.wrapping_add(1);
             self.work.trials = self.work.trials.wrapping_add(1);
             let c = simulate_window(
+                &mut self.solver,
                 &self.w,
                 &data,
                 &trial,

@@ -54,7 +54,9 @@ impl<T: Real> Linearization<T> {
         a
     }
 }
-impl<T: Real, const N: usize, const MEM: usize> OutputErrorRefinement<T, N, MEM> {
+impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
+    OutputErrorRefinement<T, N, MEM, K>
+{
     /// The sensitivities of `U_p` to every parameter, for the simulation
     /// held in `up` and `e`; with `tail`, of the model with the taps beyond
     /// the memory ([`BatterySettings::tail`]).
@@ -100,8 +102,8 @@ impl<T: Real, const N: usize, const MEM: usize> OutputErrorRefinement<T, N, MEM>
         // its weights' derivatives too: h^(−α)·Σ_k ∂C_k/∂α·Z_k(l − M) over
         // the simulation.
         let dup = &mut self.trial;
-        self.w
-            .for_each_weight_derivative(&self.up[..n], warm..n, |l, d| dup[l] = d);
+        self.solver
+            .weight_derivative(&self.w, &self.up[..n], warm..n, |l, d| dup[l] = d);
         if let Some((t, dc)) = &tails {
             let mut z = z_up;
             for (l, dl) in dup.iter_mut().enumerate().take(n).skip(warm) {
@@ -142,7 +144,7 @@ impl<T: Real, const N: usize, const MEM: usize> OutputErrorRefinement<T, N, MEM>
                 zero,
                 rct_q,
             ),
-            None => cpe_filter_pair(
+            None => self.solver.filter_pair(
                 wts,
                 a,
                 warm,
@@ -159,7 +161,9 @@ impl<T: Real, const N: usize, const MEM: usize> OutputErrorRefinement<T, N, MEM>
                 Some((t, _)) => {
                     cpe_filter_tail(wts, a, warm, &mut self.s_a[..n], t, order, |_, _, _| {})
                 }
-                None => cpe_filter(wts, a, warm, &mut self.s_a[..n], order, |_, _, _| {}),
+                None => self
+                    .solver
+                    .filter(wts, a, warm, &mut self.s_a[..n], order, |_, _, _| {}),
             }
             self.s_ri[..n].fill(T::zero());
             self.s_uoc[..n].fill(T::zero());
@@ -184,7 +188,7 @@ impl<T: Real, const N: usize, const MEM: usize> OutputErrorRefinement<T, N, MEM>
                 *sa = -da;
                 *si = -di;
             }
-            cpe_filter_pair(
+            self.solver.filter_pair(
                 wts,
                 a,
                 warm,
@@ -213,7 +217,7 @@ impl<T: Real, const N: usize, const MEM: usize> OutputErrorRefinement<T, N, MEM>
                 z_ri,
                 order_ri,
             ),
-            None => cpe_filter_pair(
+            None => self.solver.filter_pair(
                 wts,
                 a,
                 warm,
@@ -236,7 +240,7 @@ impl<T: Real, const N: usize, const MEM: usize> OutputErrorRefinement<T, N, MEM>
                     z_beta,
                     free,
                 ),
-                None => cpe_filter_pair(
+                None => self.solver.filter_pair(
                     wts,
                     a,
                     warm,
@@ -256,7 +260,7 @@ impl<T: Real, const N: usize, const MEM: usize> OutputErrorRefinement<T, N, MEM>
                     |_| T::zero(),
                     |_, _, _| {},
                 ),
-                None => cpe_filter(
+                None => self.solver.filter(
                     wts,
                     a,
                     warm,

@@ -2,6 +2,7 @@
 //! the memory) and its cost.
 
 use super::*;
+use crate::battery::simulate::{cpe_filter, cpe_filter_pair};
 
 /// Root mean square of a slice (0 for an empty one).
 pub(super) fn rms<T: Real>(x: &[T]) -> T {
@@ -169,6 +170,7 @@ pub(super) fn cpe_filter_pair_tail<T: Real>(
 /// ½Σr² over the fitted samples `warm..`. `e` receives
 /// `E(l) = Σ_{j≥0} w_j·U_p(l − j)` for the fitted samples.
 pub(super) fn simulate_window<T: Real, const MEM: usize>(
+    solver: &mut impl BranchSolver<T>,
     w: &GlWeights<T, MEM>,
     data: &WindowData<'_, T>,
     p: &CellParameters<T>,
@@ -209,7 +211,7 @@ pub(super) fn simulate_window<T: Real, const MEM: usize>(
                 |l, x, h| e[l] = x + h,
             );
         }
-        None => cpe_filter(
+        None => solver.filter(
             w.weights(),
             a,
             warm,

@@ -22,7 +22,7 @@ fn predicted<const N: usize, const MEM: usize>(
         tail: tail_context(s, oe.past.as_ref()),
     };
     let (mut up, mut e) = (vec![0.0; n], vec![0.0; n]);
-    simulate_window(&w, &data, p, beta, &mut up, &mut e);
+    simulate_window(&mut GlRecursion, &w, &data, p, beta, &mut up, &mut e);
     (0..n)
         .map(|l| p.u_oc - beta * oe.c[l] + p.static_voltage(oe.i[l]) + up[l])
         .collect()
@@ -345,7 +345,15 @@ fn jacobian_equals_finite_differences() {
             warm: oe.warm,
             tail: tail_context(&s, oe.past.as_ref()),
         };
-        simulate_window(&oe.w, &data, &p, oe.beta, &mut oe.up[..n], &mut oe.e[..n]);
+        simulate_window(
+            &mut GlRecursion,
+            &oe.w,
+            &data,
+            &p,
+            oe.beta,
+            &mut oe.up[..n],
+            &mut oe.e[..n],
+        );
         oe.sensitivities(true, s.model == CellModel::ButlerVolmer, s.uses_tail());
         // Central differences in x = [ln R_i, ln R_ct, ln Q, α, U_oc, β,
         // ln a, ln i₀].
@@ -467,7 +475,15 @@ fn jacobian_with_the_tail_equals_finite_differences() {
         warm: oe.warm,
         tail: tail_context(&s, oe.past.as_ref()),
     };
-    simulate_window(&oe.w, &data, &p, oe.beta, &mut oe.up[..n], &mut oe.e[..n]);
+    simulate_window(
+        &mut GlRecursion,
+        &oe.w,
+        &data,
+        &p,
+        oe.beta,
+        &mut oe.up[..n],
+        &mut oe.e[..n],
+    );
     oe.sensitivities(true, false, true);
     // The tail changes the simulation: the test sees it.
     let mut plain = s;

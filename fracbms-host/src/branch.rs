@@ -1,0 +1,365 @@
+//! The constant-phase branch solved exactly in `O(N log N)`: the host's
+//! [`BranchSolver`] for whole-record fits with the full memory.
+//!
+//! The recursion `(1 + a)·x(l) = drive(l) − a·Σ_{j=1}^{M−1} w_j·x(l − j)`
+//! is the convolution `d ∗ x = drive` with `d = δ + a·w`. Its solution from
+//! a history `x[..warm]` is `x = g ∗ f` over the rows `l ≥ warm`, with
+//! `g = 1/d` the power series of the inverse (its first `N` coefficients,
+//! by Newton's iteration `g ← g + g·(1 − d·g)` on FFTs of doubling size)
+//! and `f = drive − a·(w ∗ x_history)`. Every convolution is a real FFT of
+//! a power-of-two size at least `2N` ([`realfft`]), so none wraps: the
+//! values are those of the direct recursion
+//! ([`estimator_core::battery::branch::GlRecursion`]) up to rounding
+//! (test: within 1e−9 of the largest value, to 65 536 rows).
+//!
+//! The spectra of `w`, `∂w/∂α` and `g` are kept while the order, `a` and
+//! the window are unchanged (one refinement iteration changes them once
+//! per trial). Below [`DIRECT_TAPS`] taps the direct recursion is cheaper
+//! and is used instead. This module owns the transforms only; the model,
+//! the search and the weights are `estimator-core`'s.
+//!
+//! ```
+//! use estimator_core::battery::branch::{BranchSolver, GlRecursion};
+//! use estimator_core::frac::GlWeights;
+//! use fracbms_host::branch::FftBranch;
+//!
+//! const N: usize = 2000;
+//! let w = GlWeights::<f64, N>::new(0.6, 1.0, N).unwrap();
+//! let drive = |l: usize| if (l / 100) % 2 == 0 { 1.0 } else { -1.0 };
+//! let (mut direct, mut fast) = (vec![0.0; N], vec![0.0; N]);
+//! GlRecursion.filter(w.weights(), 3.0, 0, &mut direct, drive, |_, _, _| {});
+//! FftBranch::default().filter(w.weights(), 3.0, 0, &mut fast, drive, |_, _, _| {});
+//! let worst = direct.iter().zip(&fast).fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+//! assert!(worst < 1e-12);
+//! ```
+
+use std::fmt;
+use std::ops::Range;
+
+use estimator_core::battery::branch::{BranchSolver, GlRecursion};
+use estimator_core::battery::CellParameters;
+use estimator_core::frac::{fill_weights, GlWeights};
+use realfft::num_complex::Complex;
+use realfft::RealFftPlanner;
+
+/// The transform planner (it keeps the plans of the sizes used).
+type Planner = RealFftPlanner<f64>;
+
+/// Below this many taps (`min(M, N)`) the direct recursion is used: it is
+/// cheaper than three transforms there.
+pub const DIRECT_TAPS: usize = 128;
+
+/// Spectra of one sequence at one transform size, and the sequence they
+/// are of (the key: a spectrum is reused only for the same values).
+#[derive(Default)]
+struct Spectrum {
+    of: Vec<f64>,
+    size: usize,
+    hat: Vec<Complex<f64>>,
+}
+
+/// The FFT solver of the constant-phase recursion (see the module docs).
+/// It holds transform plans and the spectra of the last weights; a clone
+/// starts with none (they are a cache).
+#[derive(Default)]
+pub struct FftBranch {
+    t: Transforms,
+    /// Working spectra and sequences.
+    spec: Vec<Complex<f64>>,
+    fx: Vec<f64>,
+    fy: Vec<f64>,
+    y: Vec<f64>,
+    series_hat: Vec<Complex<f64>>,
+    /// The spectrum of the weights `w`.
+    weights: Spectrum,
+    /// The spectrum of the weights' order derivatives `∂w/∂α`.
+    derivatives: Spectrum,
+    /// The spectrum of `g = 1/(δ + a·w)`, and the `a` and rows it is for
+    /// (with `weights.of` as its `w`).
+    inverse: Spectrum,
+    inverse_key: Option<(u64, usize)>,
+}
+
+impl Clone for FftBranch {
+    fn clone(&self) -> Self {
+        Self::default()
+    }
+}
+
+impl fmt::Debug for FftBranch {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("FftBranch")
+            .field("size", &self.weights.size)
+            .field("taps", &self.weights.of.len())
+            .finish_non_exhaustive()
+    }
+}
+
+/// The smallest power-of-two transform that holds the linear convolution
+/// of two sequences of `n` values.
+fn transform_size(n: usize) -> usize {
+    (2 * n).next_power_of_two().max(2)
+}
+
+/// The transforms and their working buffers, kept between calls (a large
+/// buffer allocated anew is a fresh mapping whose pages the kernel clears:
+/// a third of a fit's time before they were kept).
+#[derive(Default)]
+struct Transforms {
+    planner: Planner,
+    /// The real input of a forward transform (clobbered by it).
+    real: Vec<f64>,
+    /// The transforms' own scratch.
+    scratch: Vec<Complex<f64>>,
+}
+
+impl Transforms {
+    /// The spectrum of `x` zero-padded to `size` (a power of two), into
+    /// `out`.
+    fn forward(&mut self, x: &[f64], size: usize, out: &mut Vec<Complex<f64>>) {
+        let fft = self.planner.plan_fft_forward(size);
+        self.real.clear();
+        let k = x.len().min(size);
+        self.real.extend_from_slice(&x[..k]);
+        self.real.resize(size, 0.0);
+        out.resize(size / 2 + 1, Complex::default());
+        self.scratch
+            .resize(fft.get_scratch_len(), Complex::default());
+        // The lengths are the plan's own: no error is possible.
+        let _ = fft.process_with_scratch(&mut self.real, out, &mut self.scratch);
+    }
+
+    /// The sequence of spectrum `spec` (of size `size`, clobbered),
+    /// normalized, into `out`.
+    fn backward(&mut self, spec: &mut [Complex<f64>], size: usize, out: &mut Vec<f64>) {
+        let fft = self.planner.plan_fft_inverse(size);
+        out.resize(size, 0.0);
+        // The products of real sequences' spectra are real at 0 and at the
+        // Nyquist bin up to rounding; the transform takes them real.
+        if let Some(c) = spec.first_mut() {
+            c.im = 0.0;
+        }
+        if let Some(c) = spec.last_mut() {
+            c.im = 0.0;
+        }
+        self.scratch
+            .resize(fft.get_scratch_len(), Complex::default());
+        let _ = fft.process_with_scratch(spec, out, &mut self.scratch);
+        let s = 1.0 / size as f64;
+        out.iter_mut().for_each(|v| *v *= s);
+    }
+
+    /// `x ∗ k` over its first `size` values (cyclic), with `k`'s spectrum
+    /// `k_hat` at that size, into `out` (`spec` is working space).
+    fn convolve(
+        &mut self,
+        x: &[f64],
+        k_hat: &[Complex<f64>],
+        size: usize,
+        spec: &mut Vec<Complex<f64>>,
+        out: &mut Vec<f64>,
+    ) {
+        self.forward(x, size, spec);
+        spec.iter_mut().zip(k_hat).for_each(|(a, b)| *a *= b);
+        self.backward(spec, size, out);
+    }
+}
+
+impl Spectrum {
+    /// Keeps the spectrum of `x` at `size` (recomputed when `x` or the
+    /// size changed); true when it was recomputed.
+    fn keep(&mut self, t: &mut Transforms, x: &[f64], size: usize) -> bool {
+        if self.size == size && self.of == x {
+            return false;
+        }
+        t.forward(x, size, &mut self.hat);
+        self.of.clear();
+        self.of.extend_from_slice(x);
+        self.size = size;
+        true
+    }
+}
+
+impl FftBranch {
+    /// The spectra of `w` and of `g = 1/(δ + a·w)` (first `n` terms) at
+    /// the transform size of `n` rows.
+    fn prepare(&mut self, w: &[f64], a: f64, n: usize) -> usize {
+        let size = transform_size(n);
+        let taps = &w[..w.len().min(n)];
+        if self.weights.keep(&mut self.t, taps, size) {
+            self.inverse_key = None;
+        }
+        if self.inverse_key != Some((a.to_bits(), n)) {
+            let d: Vec<f64> = taps
+                .iter()
+                .enumerate()
+                .map(|(j, &wj)| a * wj + if j == 0 { 1.0 } else { 0.0 })
+                .collect();
+            let g = self.inverse_series(&d, n);
+            self.t.forward(&g, size, &mut self.inverse.hat);
+            self.inverse.size = size;
+            self.inverse_key = Some((a.to_bits(), n));
+        }
+        size
+    }
+
+    /// The first `n` coefficients of the power series `1/d` (`d[0] ≠ 0`),
+    /// by Newton's iteration: from `g` exact to `k` terms,
+    /// `g + g·(1 − d·g)` is exact to `2k`. Both products are taken on
+    /// cyclic transforms of size `2k`: what wraps lands below `k`, where
+    /// the terms are known.
+    fn inverse_series(&mut self, d: &[f64], n: usize) -> Vec<f64> {
+        let mut g = vec![1.0 / d[0]];
+        g.reserve(n);
+        let (mut g_hat, mut r) = (
+            std::mem::take(&mut self.series_hat),
+            std::mem::take(&mut self.fy),
+        );
+        let mut k = 1;
+        while k < n {
+            let k2 = (2 * k).min(n);
+            let size = 2 * k;
+            self.t.forward(&g, size, &mut g_hat);
+            let dk = &d[..k2.min(d.len())];
+            self.t
+                .convolve(dk, &g_hat, size, &mut self.spec, &mut self.y);
+            r.clear();
+            r.resize(size, 0.0);
+            for (rj, &y) in r[k..k2].iter_mut().zip(&self.y[k..k2]) {
+                *rj = -y;
+            }
+            self.t
+                .convolve(&r, &g_hat, size, &mut self.spec, &mut self.y);
+            g.extend_from_slice(&self.y[k..k2]);
+            k = k2;
+        }
+        g.truncate(n);
+        self.series_hat = g_hat;
+        self.fy = r;
+        g
+    }
+
+    /// Solves the recursion for the drive in `f` (rows `warm..`; zero
+    /// below), with the history `x[..warm]`, into `x[warm..]`.
+    fn solve(&mut self, a: f64, warm: usize, x: &mut [f64], pair: bool, size: usize) {
+        let n = x.len();
+        let f = if pair { &mut self.fy } else { &mut self.fx };
+        if warm > 0 {
+            let past = &mut self.y;
+            self.t
+                .convolve(&x[..warm], &self.weights.hat, size, &mut self.spec, past);
+            for l in warm..n {
+                f[l] -= a * past[l];
+            }
+        }
+        self.t
+            .convolve(f, &self.inverse.hat, size, &mut self.spec, &mut self.y);
+        x[warm..n].copy_from_slice(&self.y[warm..n]);
+    }
+
+    /// The voltage of `cell` over a current record from rest with the full
+    /// memory (`U_oc + R_i·I + η(I) + U_p`), the period `h` in s.
+    pub fn simulate(&mut self, cell: &CellParameters<f64>, h: f64, current: &[f64]) -> Vec<f64> {
+        let n = current.len();
+        let (mut w, mut dw) = (vec![0.0; n], vec![0.0; n]);
+        fill_weights(cell.alpha, &mut w, &mut dw);
+        let a = cell.tau() * (-cell.alpha * h.ln()).exp();
+        let mut up = vec![0.0; n];
+        self.filter(&w, a, 0, &mut up, |l| cell.r_ct * current[l], |_, _, _| {});
+        up.iter()
+            .zip(current)
+            .map(|(&u, &i)| cell.u_oc + cell.static_voltage(i) + u)
+            .collect()
+    }
+}
+
+/// True when the direct recursion is the cheaper way for `n` rows and `m`
+/// taps.
+fn direct(n: usize, m: usize) -> bool {
+    n.min(m) < DIRECT_TAPS
+}
+
+/// `buf` as `n` zeros.
+fn zeroed(buf: &mut Vec<f64>, n: usize) {
+    buf.clear();
+    buf.resize(n, 0.0);
+}
+
+impl BranchSolver<f64> for FftBranch {
+    fn filter(
+        &mut self,
+        w: &[f64],
+        a: f64,
+        warm: usize,
+        x: &mut [f64],
+        mut drive: impl FnMut(usize) -> f64,
+        mut seen: impl FnMut(usize, f64, f64),
+    ) {
+        let n = x.len();
+        if warm >= n || direct(n, w.len()) {
+            return GlRecursion.filter(w, a, warm, x, drive, seen);
+        }
+        let size = self.prepare(w, a, n);
+        zeroed(&mut self.fx, n);
+        for (l, fl) in self.fx.iter_mut().enumerate().skip(warm) {
+            *fl = drive(l);
+        }
+        self.solve(a, warm, x, false, size);
+        // E = w ∗ x, and H = E − x (w₀ = 1).
+        self.t
+            .convolve(x, &self.weights.hat, size, &mut self.spec, &mut self.y);
+        for (l, (&xl, &e)) in x.iter().zip(&self.y).enumerate().skip(warm) {
+            seen(l, xl, e - xl);
+        }
+    }
+
+    fn filter_pair(
+        &mut self,
+        w: &[f64],
+        a: f64,
+        warm: usize,
+        x: &mut [f64],
+        y: &mut [f64],
+        mut drive: impl FnMut(usize) -> (f64, f64),
+    ) {
+        let n = x.len().min(y.len());
+        let (x, y) = (&mut x[..n], &mut y[..n]);
+        if warm >= n || direct(n, w.len()) {
+            return GlRecursion.filter_pair(w, a, warm, x, y, drive);
+        }
+        let size = self.prepare(w, a, n);
+        zeroed(&mut self.fx, n);
+        zeroed(&mut self.fy, n);
+        for l in warm..n {
+            (self.fx[l], self.fy[l]) = drive(l);
+        }
+        self.solve(a, warm, x, false, size);
+        self.solve(a, warm, y, true, size);
+    }
+
+    fn weight_derivative<const MEM: usize>(
+        &mut self,
+        gl: &GlWeights<f64, MEM>,
+        x: &[f64],
+        rows: Range<usize>,
+        mut f: impl FnMut(usize, f64),
+    ) {
+        let n = x.len();
+        if direct(n, gl.len()) {
+            return gl.for_each_weight_derivative(x, rows, f);
+        }
+        let size = transform_size(n);
+        let dw = gl.weight_derivatives();
+        self.derivatives
+            .keep(&mut self.t, &dw[..dw.len().min(n)], size);
+        self.t
+            .convolve(x, &self.derivatives.hat, size, &mut self.spec, &mut self.y);
+        let s = gl.scale();
+        for l in rows.start..rows.end.min(n) {
+            f(l, s * self.y[l]);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,174 @@
+//! The FFT solver against the direct recursion: the same values within
+//! 1e−9 of the largest, from rest and from a history, with the memory the
+//! whole window and shorter, and the refinement's fits the same.
+
+use super::*;
+use estimator_core::battery::output_error::OutputErrorRefinement;
+use estimator_core::battery::BatterySettings;
+use estimator_core::window::SampleWindow;
+
+/// A drive with steps, rests and a ramp (not periodic, so nothing cancels).
+fn drive(l: usize) -> f64 {
+    let phase = (l / 97) % 5;
+    [3.0, 0.0, -2.5, 0.0, 1.0][phase] + 1e-4 * (l % 13) as f64
+}
+
+/// Largest absolute difference over the largest absolute value.
+fn relative(a: &[f64], b: &[f64]) -> f64 {
+    let scale = a.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    let worst = a
+        .iter()
+        .zip(b)
+        .fold(0.0f64, |m, (x, y)| m.max((x - y).abs()));
+    worst / scale
+}
+
+/// One solver's run: `x`, `E`, the pair, the order derivative's sums.
+type Run<'a> = dyn FnMut(&mut [f64], &mut [f64], &mut [f64], &mut [f64], &mut [f64]) + 'a;
+
+/// Runs both solvers' `filter` (with `seen`) and `filter_pair` on `n` rows,
+/// memory `m`, order `alpha`, `a`, history of `warm` rows; returns the
+/// worst relative difference over every output.
+fn compare<const MEM: usize>(n: usize, m: usize, alpha: f64, a: f64, warm: usize) -> f64 {
+    let w = GlWeights::<f64, MEM>::new(alpha, 0.5, m).unwrap();
+    let history: Vec<f64> = (0..n)
+        .map(|l| if l < warm { 0.01 * drive(l) } else { 0.0 })
+        .collect();
+    let run = |solver: &mut Run| {
+        let (mut x, mut e, mut p, mut q, mut d) = (
+            history.clone(),
+            vec![0.0; n],
+            history.clone(),
+            history.iter().map(|v| -v).collect::<Vec<_>>(),
+            vec![0.0; n],
+        );
+        solver(&mut x, &mut e, &mut p, &mut q, &mut d);
+        [x, e, p, q, d]
+    };
+    let direct = run(&mut |x, e, p, q, d| {
+        let mut s = GlRecursion;
+        s.filter(w.weights(), a, warm, x, drive, |l, xv, h| e[l] = xv + h);
+        s.filter_pair(w.weights(), a, warm, p, q, |l| (drive(l), -2.0 * drive(l)));
+        s.weight_derivative(&w, x, warm..n, |l, v| d[l] = v);
+    });
+    let mut fft = FftBranch::default();
+    let fast = run(&mut |x, e, p, q, d| {
+        fft.filter(w.weights(), a, warm, x, drive, |l, xv, h| e[l] = xv + h);
+        fft.filter_pair(w.weights(), a, warm, p, q, |l| (drive(l), -2.0 * drive(l)));
+        fft.weight_derivative(&w, x, warm..n, |l, v| d[l] = v);
+    });
+    direct
+        .iter()
+        .zip(&fast)
+        .map(|(a, b)| relative(a, b))
+        .fold(0.0, f64::max)
+}
+
+#[test]
+fn from_rest_with_the_full_memory_it_is_the_direct_recursion() {
+    for (alpha, a) in [(0.6, 3.0), (0.95, 40.0), (0.2, 0.01), (1.0, 1e3)] {
+        let worst = compare::<4096>(4096, 4096, alpha, a, 0);
+        assert!(worst < 1e-9, "α {alpha}, a {a}: {worst:e}");
+    }
+}
+
+#[test]
+fn from_a_history_with_a_shorter_memory_it_is_the_direct_recursion() {
+    for (n, m, warm) in [(3000, 1000, 999), (2500, 2500, 700), (1500, 200, 0)] {
+        let worst = compare::<3000>(n, m, 0.7, 5.0, warm);
+        assert!(worst < 1e-9, "n {n}, m {m}, warm {warm}: {worst:e}");
+    }
+}
+
+#[test]
+fn a_long_record_is_the_direct_recursion() {
+    // (On the worker thread: the weights of 65 536 taps are built on the
+    // stack.)
+    let worst = crate::worker::on_worker(|| {
+        Ok::<_, crate::Error>(compare::<65536>(65536, 65536, 0.8, 20.0, 0))
+    })
+    .unwrap();
+    assert!(worst < 1e-9, "{worst:e}");
+}
+
+#[test]
+fn below_the_direct_taps_it_is_the_direct_recursion_bit_for_bit() {
+    assert_eq!(compare::<512>(512, DIRECT_TAPS - 1, 0.6, 3.0, 0), 0.0);
+    assert_eq!(compare::<512>(DIRECT_TAPS - 1, 512, 0.6, 3.0, 0), 0.0);
+}
+
+#[test]
+fn the_inverse_series_inverts() {
+    let mut s = FftBranch::default();
+    let (mut w, mut dw) = (vec![0.0; 1000], vec![0.0; 1000]);
+    fill_weights(0.5, &mut w, &mut dw);
+    let d: Vec<f64> = w
+        .iter()
+        .enumerate()
+        .map(|(j, v)| 2.0 * v + f64::from(j == 0))
+        .collect();
+    let g = s.inverse_series(&d, 1000);
+    for l in 0..1000 {
+        let c: f64 = (0..=l).map(|j| d[j] * g[l - j]).sum();
+        let want = f64::from(l == 0);
+        assert!((c - want).abs() < 1e-13, "row {l}: {c}");
+    }
+}
+
+#[test]
+fn a_refinement_on_it_fits_as_the_direct_one() {
+    crate::worker::on_worker(|| {
+        refinement_fits_as_the_direct_one();
+        Ok::<_, crate::Error>(())
+    })
+    .unwrap();
+}
+
+fn refinement_fits_as_the_direct_one() {
+    const N: usize = 3000;
+    let truth = CellParameters::<f64>::cell_18650();
+    let current: Vec<f64> = (0..N).map(drive).collect();
+    let v = FftBranch::default().simulate(&truth, 1.0, &current);
+    let mut win = Box::new(SampleWindow::<f64, N>::new());
+    for (l, (&i, &u)) in current.iter().zip(&v).enumerate() {
+        win.push(i, u + 1e-3 * ((l * 7919 % 101) as f64 / 50.0 - 1.0))
+            .unwrap();
+    }
+    let s = BatterySettings::new(1.0, N);
+    let start = CellParameters {
+        r_i: 0.01,
+        r_ct: 0.03,
+        q: 200.0,
+        alpha: 0.6,
+        u_oc: 3.6,
+        ..truth
+    };
+    let mut direct = Box::new(OutputErrorRefinement::<f64, N, N>::new(&s, start).unwrap());
+    let mut fast = Box::new(OutputErrorRefinement::<f64, N, N, FftBranch>::new(&s, start).unwrap());
+    for k in 0..30 {
+        let (a, b) = (
+            direct.iterate(&s, &*win).unwrap(),
+            fast.iterate(&s, &*win).unwrap(),
+        );
+        assert_eq!(a.accepted, b.accepted, "iteration {k}");
+        assert!(
+            (a.cost / b.cost - 1.0).abs() < 1e-9,
+            "iteration {k}: {} {}",
+            a.cost,
+            b.cost
+        );
+        if a.converged && b.converged {
+            break;
+        }
+    }
+    let (a, b) = (direct.cell(), fast.cell());
+    for (x, y) in [
+        (a.r_i, b.r_i),
+        (a.r_ct, b.r_ct),
+        (a.q, b.q),
+        (a.alpha, b.alpha),
+    ] {
+        assert!((x / y - 1.0).abs() < 1e-7, "{x} {y}");
+    }
+    assert!((a.r_ct / truth.r_ct - 1.0).abs() < 0.02);
+}
