@@ -7,8 +7,9 @@
 #   on the US06 drive cycle -> online with the map as the prior.
 #
 # Writes everything into OUT (default target/real-cells/panasonic) and prints
-# the numbers the page quotes. About 12 minutes on one core (the map: issue
-# 34), plus 1.5 min for the reference (numpy + scipy).
+# the numbers the page quotes. About 2 minutes on one core (the map 7 s
+# since its fits run with the full memory by FFT, 117 s before), plus
+# 1.5 min for the reference (numpy + scipy).
 #
 #   bash bench/panasonic_chain.sh [OUT]
 set -euo pipefail

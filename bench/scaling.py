@@ -1,0 +1,181 @@
+#!/usr/bin/env python3
+"""Whole-record fit time against record length: ours against a scipy FFT
+reference, same model, same rows, same RMSE (docs/performance.md, issue 34).
+
+Records of 1k, 8k, 50k and 200k rows at 1 s are made here from a
+continuous-time-like pulse profile (random pulse levels and lengths,
+rests between them) through the constant-phase model with FULL memory
+(``reference_fit.cpe_branch``) plus, for the Butler-Volmer rows, the static
+term ``a asinh(I/i0)``, and 1 mV of Gaussian noise. Each record is fitted
+
+* by ours, one start: ``fracbms-host``'s example ``refine_once`` (one
+  refinement from the start below to convergence, the same
+  ``refine_from_start`` every start of ``identify battery`` runs), timed
+  inside the process (not the CSV reading);
+* by ours, the whole command: ``host-sim identify battery --model
+  linear|butler-volmer`` (reading, the paper's regression for a start,
+  every refinement start, the Butler-Volmer starts and the choice, the
+  intervals, the JSON), timed as a process;
+* by the reference: one ``scipy.optimize.least_squares`` fit of the same
+  model (the branch by FFT, ``reference_fit.cpe_branch``, O(n log n)) from
+  one start, the rough even split ours also tries (alpha 0.7, tau^alpha =
+  5 s^alpha, R_i = R_ct = R/2 with R the slope of V on I, U_oc the line's
+  intercept: ``rough_starts``), parameters in logarithms as ours.
+
+Both print the free-run RMSE; the ratio of times is ours over theirs in the
+same run: one start against one start, and the whole command against the
+one start of the reference. One core: run it alone (``taskset -c 0`` is
+used when present).
+
+    cargo build --release -p host-sim
+    cargo build --release -p fracbms-host --example refine_once
+    python3 bench/scaling.py [--rows 1000,8000,50000,200000] [--out target/scaling]
+        [--host-sim target/release/host-sim] [--models linear,butler-volmer]
+"""
+
+import argparse
+import json
+import math
+import os
+import shutil
+import subprocess
+import sys
+import time
+
+import numpy as np
+from scipy.optimize import least_squares
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from reference_fit import bv, cpe_branch  # noqa: E402
+
+H = 1.0
+TRUTH = dict(r_i=0.020, r_ct=0.015, q=8.0 / 0.015, alpha=0.75, u_oc=3.7)
+BV = dict(a=0.01, i0=1.0)
+
+
+def record(n, seed, kinetic):
+    """Current and voltage of n rows: pulses of -5..5 A lasting 5-200 s,
+    each followed by a rest of 10-600 s half of the time."""
+    rng = np.random.default_rng(seed)
+    i = np.zeros(n)
+    k = 0
+    while k < n:
+        length = int(rng.integers(5, 200))
+        i[k:k + length] = rng.uniform(-5.0, 5.0)
+        k += length
+        if rng.random() < 0.5:
+            k += int(rng.integers(10, 600))
+    t = TRUTH
+    v = t["u_oc"] + t["r_i"] * i + cpe_branch(i, H, t["r_ct"], t["q"], t["alpha"])
+    if kinetic:
+        v = v + bv(i, BV["a"], BV["i0"])
+    return i, v + rng.normal(0.0, 1e-3, n)
+
+
+def start(i, v):
+    """The rough even-split start (fracbms-host's rough_starts, first)."""
+    r = max(abs(np.polyfit(i, v, 1)[0]), 1e-5)
+    q = 5.0 / (r / 2.0)
+    u_oc = float(np.mean(v) - r * np.mean(i))
+    return [math.log(r / 2.0), math.log(r / 2.0), math.log(q), 0.7, u_oc]
+
+
+def reference(i, v, kinetic):
+    """One least-squares fit from the rough start; (seconds, rmse)."""
+    t0 = time.perf_counter()
+    x0 = start(i, v)
+    if kinetic:
+        r_i = math.exp(x0[0])
+        i_max = float(np.max(np.abs(i)))
+        # ln R_i, ln R_ct, ln Q, alpha, U_oc, ln a, ln i0; i0 = 0.3 I_max
+        # (ours tries 0.1, 0.3 and 1).
+        i0 = 0.3 * i_max
+        x0 = x0 + [math.log(i0 * r_i / 2.0), math.log(i0)]
+
+    def model(p):
+        r_i, r_ct, q = math.exp(p[0]), math.exp(p[1]), math.exp(p[2])
+        y = p[4] + r_i * i + cpe_branch(i, H, r_ct, q, p[3])
+        if kinetic:
+            y = y + bv(i, math.exp(p[5]), math.exp(p[6]))
+        return y - v
+
+    lo = [-20, -20, -20, 0.05, -np.inf] + ([-20, -10] if kinetic else [])
+    hi = [5, 5, 30, 1.0, np.inf] + ([5, 10] if kinetic else [])
+    x0[3] = min(x0[3], 0.999)
+    res = least_squares(model, x0, bounds=(lo, hi), max_nfev=200)
+    return time.perf_counter() - t0, math.sqrt(np.mean(res.fun**2)), res
+
+
+def ours(host_sim, path, model, out_json):
+    cmd = [host_sim, "identify", "battery", "--input", path, "--model", model,
+           "--json", out_json]
+    if shutil.which("taskset"):
+        cmd = ["taskset", "-c", "0"] + cmd
+    t0 = time.perf_counter()
+    p = subprocess.run(cmd, capture_output=True, text=True)
+    dt = time.perf_counter() - t0
+    if p.returncode != 0:
+        raise SystemExit(f"{' '.join(cmd)}: {p.stderr.strip()}")
+    j = json.load(open(out_json))
+    return dt, j["rmse_v"], j
+
+
+def one_start(example, path, model):
+    cmd = [example, path, model]
+    if shutil.which("taskset"):
+        cmd = ["taskset", "-c", "0"] + cmd
+    p = subprocess.run(cmd, capture_output=True, text=True)
+    if p.returncode != 0:
+        raise SystemExit(f"{' '.join(cmd)}: {p.stderr.strip()}")
+    return json.loads(p.stdout)
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--rows", default="1000,8000,50000,200000")
+    ap.add_argument("--models", default="linear,butler-volmer")
+    ap.add_argument("--out", default="target/scaling")
+    ap.add_argument("--host-sim", default="target/release/host-sim")
+    ap.add_argument("--refine-once", default="target/release/examples/refine_once")
+    ap.add_argument("--skip-reference-above", type=int, default=10**9,
+                    help="rows above which the scipy reference is not run")
+    a = ap.parse_args()
+    os.makedirs(a.out, exist_ok=True)
+    if shutil.which("taskset"):
+        os.sched_setaffinity(0, {0})
+    print("| rows | model | ours, one start (s) | scipy, one start (s) | ours faster | ours, whole command (s) | ours faster | RMSE ours, one start / whole / ref. (mV) | α ours / ref. |")
+    print("|---|---|---|---|---|---|---|---|---|")
+    rows = []
+    for n in (int(x) for x in a.rows.split(",")):
+        for model in a.models.split(","):
+            kinetic = model == "butler-volmer"
+            i, v = record(n, seed=n, kinetic=kinetic)
+            path = os.path.join(a.out, f"{model}-{n}.csv")
+            t = np.arange(n) * H
+            np.savetxt(path, np.column_stack([t, i, v]), delimiter=",",
+                       header="time_s,current_a,voltage_v", comments="", fmt="%.9g")
+            one = one_start(a.refine_once, path, model)
+            t_ours, rmse_ours, j = ours(a.host_sim, path, model, path + ".json")
+            if n <= a.skip_reference_above:
+                t_ref, rmse_ref, res = reference(i, v, kinetic)
+                alpha_ref = res.x[3]
+                r1 = f"{t_ref / one['seconds']:.1f}×"
+                r2 = f"{t_ref / t_ours:.1f}×"
+                ref_s, ref_r = f"{t_ref:.3f}", f"{1e3 * rmse_ref:.4f}"
+                al = f"{j['alpha']:.4f} / {alpha_ref:.4f}"
+            else:
+                t_ref = rmse_ref = None
+                r1 = r2 = ref_s = ref_r = "—"
+                al = f"{j['alpha']:.4f} / —"
+            print(f"| {n} | {model} | {one['seconds']:.3f} | {ref_s} | {r1} | {t_ours:.2f} | {r2} | "
+                  f"{1e3 * one['rmse_v']:.4f} / {1e3 * rmse_ours:.4f} / {ref_r} | {al} |", flush=True)
+            rows.append(dict(rows=n, model=model, ours_one_start_s=one["seconds"],
+                             ours_one_start_iterations=one["iterations"], ours_command_s=t_ours,
+                             reference_s=t_ref, reference_nfev=None if t_ref is None else int(res.nfev),
+                             rmse_one_start_v=one["rmse_v"], rmse_ours_v=rmse_ours,
+                             rmse_reference_v=rmse_ref))
+    json.dump(rows, open(os.path.join(a.out, "scaling.json"), "w"), indent=1)
+
+
+if __name__ == "__main__":
+    main()
