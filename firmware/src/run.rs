@@ -95,6 +95,11 @@ fn main() -> ! {
             cost.cell_updates += u32::from(r.core.updated);
             cost.clocks += dt;
             cost.max = cost.max.max(dt);
+            if config::BENCH {
+                // Each update's cost, for the median (`cargo xtask
+                // bench-target` gathers these lines).
+                defmt::println!("UPDATE clocks={=u64}", dt);
+            }
             cost.refined += u32::from(task.cell(0).is_some_and(|c| c.is_refining()));
         }
         if let Some(f) = r.fault {

@@ -417,8 +417,15 @@ fn run_elf(elf: &Path, timeout: u32, icount: bool) -> Result<Summary> {
         .spawn()
         .context("cannot start defmt-print (cargo install defmt-print --locked)")?;
     let mut summary = Summary::new();
+    // A bench build prints one UPDATE line per timed update: gathered
+    // (in order, comma-separated under UPDATE clocks), not echoed.
+    let mut updates: Vec<String> = Vec::new();
     for line in BufReader::new(print.stdout.take().context("defmt-print stdout")?).lines() {
         let line = line.context("reading the decoded log")?;
+        if let Some(v) = line.trim_start().strip_prefix("UPDATE clocks=") {
+            updates.push(v.trim().to_owned());
+            continue;
+        }
         eprintln!("{line}");
         let mut words = line.split_whitespace();
         // println! lines carry no level; "{L} " leaves a leading space.
@@ -437,6 +444,12 @@ fn run_elf(elf: &Path, timeout: u32, icount: bool) -> Result<Summary> {
             };
             summary.insert(key, kv);
         }
+    }
+    if !updates.is_empty() {
+        summary.insert(
+            "UPDATE".into(),
+            BTreeMap::from([("clocks".to_owned(), updates.join(","))]),
+        );
     }
     let st = qemu.wait().context("waiting for qemu")?;
     let _ = print.wait();
@@ -585,11 +598,24 @@ fn bench_target(b: &BenchArgs) -> Result<()> {
     let per_clock = 1e9 / hz as f64;
     let per_update = clocks as f64 * per_clock / updates as f64;
     let per_iteration = clocks as f64 * per_clock / iterations as f64;
+    // The median update (of those that ran iterations), from each update's
+    // clocks.
+    let mut each: Vec<u64> = s
+        .get("UPDATE")
+        .and_then(|m| m.get("clocks"))
+        .map(|v| v.split(',').filter_map(|x| x.parse().ok()).collect())
+        .unwrap_or_default();
+    each.sort_unstable();
+    let median = match each.len() {
+        0 => bail!("the firmware printed no UPDATE clocks= lines"),
+        n if n % 2 == 1 => each[n / 2] as f64,
+        n => (each[n / 2 - 1] + each[n / 2]) as f64 / 2.0,
+    } * per_clock;
     let rows = b.window + 1 - b.memory;
     let flops = estimator_core::flops::battery_regression(rows, 1).total();
     eprintln!(
         "bench-target: method {}, {updates} updates, {iterations} iterations; \
-         mean {per_update:.0} instructions per update, longest {:.0}; \
+         mean {per_update:.0} instructions per update, median {median:.0}, longest {:.0}; \
          {per_iteration:.0} per iteration (push included) = {:.1} instructions per \
          Table-1 flop ({flops} flops per 2S-OP-GI iteration over {rows} rows)",
         match b.method {
@@ -631,6 +657,8 @@ fn bench_target(b: &BenchArgs) -> Result<()> {
                 "bytes_per_cell": int(&s, "MEM", "bytes_per_cell")?,
                 "shared_bytes": int(&s, "MEM", "shared_bytes")?,
                 "instructions_per_pack_update": per_update.round() as u64,
+                "instructions_per_pack_update_median": median.round() as u64,
+                "longest_pack_update": (max_clocks as f64 * per_clock).round() as u64,
                 "instructions_per_cell_update": (clocks as f64 * per_clock / cell_updates as f64).round() as u64,
             })
         );
@@ -643,6 +671,8 @@ fn bench_target(b: &BenchArgs) -> Result<()> {
             "memory": b.memory,
             "iterations_per_update": b.iterations,
             "instructions_per_update": per_update.round() as u64,
+            "instructions_per_update_median": median.round() as u64,
+            "longest_update": (max_clocks as f64 * per_clock).round() as u64,
             "instructions_per_iteration": per_iteration.round() as u64,
         })
     );

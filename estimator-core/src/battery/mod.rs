@@ -124,7 +124,7 @@ impl<T: Real> CellParameters<T> {
         if self.bv_a == T::zero() {
             T::zero()
         } else {
-            self.bv_a * (current / self.bv_i0).asinh()
+            self.bv_a * (current / self.bv_i0).arsinh()
         }
     }
 

@@ -372,7 +372,7 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
 #[inline]
 pub(super) fn kinetic_derivatives<T: Real>(p: &CellParameters<T>, current: T) -> (T, T) {
     let u = current / p.bv_i0;
-    (p.bv_a * u.asinh(), -p.bv_a * u / (T::one() + u * u).sqrt())
+    (p.bv_a * u.arsinh(), -p.bv_a * u / (T::one() + u * u).root())
 }
 
 /// Copies the upper triangle of a symmetric matrix into the lower one.
