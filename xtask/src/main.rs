@@ -19,11 +19,13 @@
 //!   of virtual time; the 25 MHz SysTick then counts 40 instructions per
 //!   clock) and prints, as the last line, `{"window": L, "memory": M,
 //!   "iterations_per_update": K, "instructions_per_update": N,
-//!   "instructions_per_iteration": N}` (means over the updates that ran
-//!   iterations; details on stderr). With `--cells N` it measures a pack of
+//!   "instructions_per_update_median": N, "longest_update": N,
+//!   "instructions_per_iteration": N}` (means, the median and the longest
+//!   over the updates that ran iterations; details on stderr). With `--cells N` it measures a pack of
 //!   N cells made from the input record and prints `{"cells", "window",
 //!   "memory", "iterations_per_update", "bytes_per_cell", "shared_bytes",
-//!   "instructions_per_pack_update", "instructions_per_cell_update"}`.
+//!   "instructions_per_pack_update", "instructions_per_pack_update_median",
+//!   "longest_pack_update", "instructions_per_cell_update"}`.
 //! * `cargo xtask panic-sites [--features F] [--elf ELF] [--root NAME]
 //!   [--sites] [--deny-reachable]` builds the release firmware and lists
 //!   its panic call sites, marking those reachable from the per-sample step
