@@ -4,12 +4,14 @@
 //! screening and verdict of [`crate::trust`]. The estimators are
 //! `estimator-core`'s; this module drives them in `f64` and reports.
 
-use super::model_choice::{choose_model, refine_fit, Fit, ModelChoice, Refinement};
+use super::model_choice::{
+    choose_model, refine_fit, stop_reason_name, Fit, ModelChoice, Refinement,
+};
 use super::{table_row, BatteryMethod, HistoryEntry, ModelRequest, BAT_MEM, MAX_BATTERY_ROWS};
 use crate::branch::FftBranch;
 use crate::error::Result;
 use crate::{bail, err, io, trust};
-use estimator_core::battery::output_error::FitInformation;
+use estimator_core::battery::output_error::{AtBounds, FitInformation};
 use estimator_core::battery::regression::PaperRegressionGi;
 use estimator_core::battery::{BatterySettings, CellModel, CellParameters};
 use estimator_core::window::SampleWindow;
@@ -60,6 +62,15 @@ pub struct BatteryJson {
     /// Why the refinement stopped: `converged` or `iteration_limit`; null
     /// with `--method paper`.
     pub stop: Option<&'static str>,
+    /// What ended it: `small_step` (an accepted step changed no parameter
+    /// by more than ε), `negligible_step` (the next step is below ε or
+    /// below what the cost resolves), `no_lower_cost` (no damping found a
+    /// lower cost) or `iteration_limit`; null with `--method paper`.
+    pub stop_reason: Option<&'static str>,
+    /// The parameters at a bound of the search (`r_i`, `r_ct`: 0; `alpha`:
+    /// its bound): the fit is a boundary optimum in those (empty when
+    /// none; null with `--method paper`).
+    pub held_at_bounds: Option<Vec<&'static str>>,
     /// Per-iteration cost of 2S-OP-GI.
     pub history: Vec<HistoryEntry>,
     /// The fit can be trusted: no reason against it holds (see
@@ -316,6 +327,7 @@ fn battery_run_sized<const N: usize, const MEM: usize>(
     let mut track = Vec::new();
     let mut converged = false;
     let mut stop = None;
+    let mut stop_reason = None;
     if print_table {
         println!(
             "{:>5} {:>10} {:>10} {:>10} {:>8} {:>9} {:>12}",
@@ -425,6 +437,7 @@ fn battery_run_sized<const N: usize, const MEM: usize>(
             if refine.model == ModelRequest::Linear {
                 converged = lin.converged;
                 stop = Some(lin.stop.as_str());
+                stop_reason = Some(stop_reason_name(lin.stop, lin.reason));
                 let info = lin.oe.information(&so, &*win).ok();
                 (lin.cell, Some(lin.rmse), info, bounds)
             } else {
@@ -433,6 +446,7 @@ fn battery_run_sized<const N: usize, const MEM: usize>(
                 iters += fit.iterations;
                 converged = fit.converged;
                 stop = Some(fit.stop.as_str());
+                stop_reason = Some(stop_reason_name(fit.stop, fit.reason));
                 choice = Some(why);
                 let sf = BatterySettings {
                     model: if fit.cell.is_butler_volmer() {
@@ -472,6 +486,15 @@ fn battery_run_sized<const N: usize, const MEM: usize>(
             iterations: iters,
             converged,
             stop,
+            stop_reason,
+            held_at_bounds: stop.map(|_| {
+                let s = BatterySettings {
+                    alpha_min: alpha_bounds[0],
+                    alpha_max: alpha_bounds[1],
+                    ..BatterySettings::new(rec.h, 1)
+                };
+                AtBounds::of(&s, &cell).names().collect()
+            }),
             history,
             identifiable: false,
             identifiable_reason: None,

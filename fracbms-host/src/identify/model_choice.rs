@@ -5,7 +5,7 @@
 
 use super::ModelRequest;
 use crate::branch::FftBranch;
-use estimator_core::battery::output_error::{OutputErrorRefinement, COLUMN_NAMES};
+use estimator_core::battery::output_error::{OutputErrorRefinement, StopReason, COLUMN_NAMES};
 use estimator_core::battery::{BatterySettings, CellModel, CellParameters};
 use estimator_core::window::SampleWindow;
 use serde::Serialize;
@@ -78,6 +78,16 @@ impl FitStop {
     }
 }
 
+/// The JSON `stop_reason` of a fit: the core's [`StopReason`] name, or
+/// `iteration_limit`.
+pub fn stop_reason_name(stop: FitStop, reason: Option<StopReason>) -> &'static str {
+    match (stop, reason) {
+        (FitStop::IterationLimit, _) => "iteration_limit",
+        (FitStop::Converged, Some(r)) => r.as_str(),
+        (FitStop::Converged, None) => "converged",
+    }
+}
+
 /// Most iterations of one whole-record refinement.
 pub const MAX_REFINE_ITERATIONS: usize = 200;
 
@@ -93,6 +103,8 @@ pub(super) struct Fit<const N: usize> {
     pub(super) iterations: u32,
     pub(super) converged: bool,
     pub(super) stop: FitStop,
+    /// Why the last iteration reported a minimum (None at the limit).
+    pub(super) reason: Option<StopReason>,
 }
 
 /// Refines `start` over the window until converged or
@@ -105,12 +117,14 @@ pub(super) fn refine_fit<const N: usize>(
     let mut oe = Box::new(Refinement::<N>::new(s, start)?);
     let (mut rmse, mut iterations) = (f64::NAN, 0);
     let mut stop = FitStop::IterationLimit;
+    let mut reason = None;
     for _ in 0..MAX_REFINE_ITERATIONS {
         let st = oe.iterate(s, win)?;
         iterations += 1;
         rmse = st.rmse;
         if st.converged {
             stop = FitStop::Converged;
+            reason = st.stop;
             break;
         }
     }
@@ -121,6 +135,7 @@ pub(super) fn refine_fit<const N: usize>(
         iterations,
         converged: stop == FitStop::Converged,
         stop,
+        reason,
     })
 }
 
@@ -136,6 +151,8 @@ pub struct SingleFit {
     pub iterations: u32,
     /// How it ended.
     pub stop: FitStop,
+    /// Why it reported a minimum (None at the iteration limit).
+    pub reason: Option<StopReason>,
 }
 
 /// Refines `start` over a whole record (current `i`, voltage `v`, period
@@ -195,6 +212,7 @@ pub fn refine_from_start(
             rmse_v: f.rmse,
             iterations: f.iterations,
             stop: f.stop,
+            reason: f.reason,
         })
     }
     match i.len().min(v.len()) {
@@ -337,6 +355,7 @@ pub(super) fn choose_model<const N: usize>(
             iterations: bv.iterations,
             converged: lin.converged,
             stop: lin.stop,
+            reason: lin.reason,
         };
         Ok((lin, choice))
     }
@@ -415,6 +434,11 @@ mod tests {
         assert!(fit.iterations < 60, "{}", fit.iterations);
         assert!(c.r_i <= 1e-6 * (c.r_i + c.r_ct) * 1.0001, "{c:?}");
         assert_eq!(c.alpha, s.alpha_max);
+        // Reported as the boundary optimum it is.
+        use estimator_core::battery::output_error::AtBounds;
+        let at: Vec<_> = AtBounds::of(&s, &c).names().collect();
+        assert_eq!(at, ["r_i", "alpha"]);
+        assert!(fit.reason.is_some());
         let best = rmse_of(&c, &current, &v);
         assert!(
             (best / fit.rmse - 1.0).abs() < 1e-9,

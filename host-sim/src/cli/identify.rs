@@ -262,9 +262,14 @@ pub(super) fn battery(a: IdBatteryArgs) -> Result<()> {
         j.rmse_v,
         j.iterations,
         j.converged,
-        match j.stop {
-            Some("iteration_limit") => "; stopped at the iteration limit",
-            _ => "",
+        match (j.stop, j.held_at_bounds.as_deref()) {
+            (Some("iteration_limit"), _) => "; stopped at the iteration limit".to_owned(),
+            (_, Some(b)) if !b.is_empty() => format!(
+                "; {}; a boundary optimum in {}",
+                j.stop_reason.unwrap_or("converged").replace('_', " "),
+                b.join(", ")
+            ),
+            _ => String::new(),
         }
     );
     match &j.confidence {

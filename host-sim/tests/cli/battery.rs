@@ -45,6 +45,13 @@ fn battery_round_trip_recovers_the_cell() {
     assert!(g("rmse_v") < 1.1e-3);
     assert!(j["converged"].as_bool().unwrap());
     assert!(j["iterations"].as_u64().unwrap() > 0);
+    // An interior optimum: why it stopped, and no parameter at a bound.
+    let why = j["stop_reason"].as_str().unwrap();
+    assert!(
+        ["small_step", "negligible_step", "no_lower_cost"].contains(&why),
+        "{why}"
+    );
+    assert_eq!(j["held_at_bounds"], serde_json::json!([]));
 }
 
 /// The NMC curve of `simulate battery --ocv nmc`, every 2 % of SOC, as a

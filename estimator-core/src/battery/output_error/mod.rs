@@ -91,6 +91,7 @@ mod tests;
 
 pub use information::FitInformation;
 use search::*;
+pub use search::{AtBounds, RESISTANCE_FLOOR};
 use sensitivities::*;
 use simulation::*;
 
@@ -134,10 +135,42 @@ pub struct RefinementStep<T> {
     pub converged: bool,
     /// True when the step was accepted (the cost decreased).
     pub accepted: bool,
+    /// Why the iteration reports a minimum (`None` when not `converged`).
+    pub stop: Option<StopReason>,
     /// Marquardt damping λ after the iteration.
     pub lambda: T,
     /// Number of fitted samples.
     pub rows: usize,
+}
+
+/// Why a refinement iteration reports a minimum
+/// ([`RefinementStep::stop`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum StopReason {
+    /// An accepted step changed no parameter by more than ε
+    /// ([`BatterySettings::epsilon`]).
+    SmallStep,
+    /// The step is below ε, or the decrease it predicts is below what the
+    /// cost resolves (after an accepted step, judged on the last Jacobian:
+    /// see the module docs); no simulation was spent on it.
+    NegligibleStep,
+    /// No damping found a lower cost: Marquardt's λ was raised
+    /// [`MAX_TRIES`] times, or the same iteration on the same window would
+    /// repeat such a one.
+    NoLowerCost,
+}
+
+impl StopReason {
+    /// The name in reports: `small_step`, `negligible_step` or
+    /// `no_lower_cost`.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            StopReason::SmallStep => "small_step",
+            StopReason::NegligibleStep => "negligible_step",
+            StopReason::NoLowerCost => "no_lower_cost",
+        }
+    }
 }
 
 /// What the refinement has computed since it was made: the counters behind
@@ -232,8 +265,8 @@ pub struct OutputErrorRefinement<T, const N: usize, const MEM: usize, K = GlRecu
     fresh: bool,
     /// The settings (their [`BatterySettings::fingerprint`]) of the last
     /// iteration when it found no lower cost on the loaded window from the
-    /// current estimate (`fresh` then holds).
-    stalled: Option<u64>,
+    /// current estimate (`fresh` then holds), and why.
+    stalled: Option<(u64, StopReason)>,
     /// The linearization of the last iteration when it accepted a step on
     /// the loaded window (the sensitivities still hold it).
     linear: Option<Linearization<T>>,

@@ -30,7 +30,61 @@ pub(super) const COST_RESOLUTION: f64 = 100.0;
 pub(super) const MAX_RELAXATION_WINDOWS: f64 = 10.0;
 /// A resistance below this fraction of `R_i + R_ct` is at its bound 0: a
 /// step that would lower it further holds it instead.
-pub(super) const RESISTANCE_FLOOR: f64 = 1e-6;
+pub const RESISTANCE_FLOOR: f64 = 1e-6;
+
+/// Which parameters of an estimate sit at a bound of the search: a
+/// resistance below [`RESISTANCE_FLOOR`] of `R_i + R_ct` (its bound 0), α
+/// at `alpha_min` or `alpha_max`. The search holds such a parameter where
+/// its step would push it further out, so a fit that ends with one is a
+/// boundary optimum: reported as such, not as an interior estimate.
+///
+/// ```
+/// use estimator_core::battery::output_error::AtBounds;
+/// use estimator_core::battery::{BatterySettings, CellParameters};
+///
+/// let s = BatterySettings::<f64>::new(1.0, 100);
+/// let p = CellParameters { r_i: 1e-12, alpha: 1.0, ..CellParameters::cell_18650() };
+/// let b = AtBounds::of(&s, &p);
+/// assert_eq!(b.names().collect::<Vec<_>>(), ["r_i", "alpha"]);
+/// ```
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct AtBounds {
+    /// `R_i` at its bound 0.
+    pub r_i: bool,
+    /// `R_ct` at its bound 0.
+    pub r_ct: bool,
+    /// α at `alpha_min` or `alpha_max`.
+    pub alpha: bool,
+}
+
+impl AtBounds {
+    /// The bounds `p` sits at under the settings `s`.
+    pub fn of<T: Real>(s: &BatterySettings<T>, p: &CellParameters<T>) -> Self {
+        let floor = T::lit(RESISTANCE_FLOOR) * (p.r_i + p.r_ct);
+        Self {
+            r_i: p.r_i <= floor,
+            r_ct: p.r_ct <= floor,
+            alpha: p.alpha >= s.alpha_max || p.alpha <= s.alpha_min,
+        }
+    }
+
+    /// True when any parameter is at a bound.
+    pub fn any(&self) -> bool {
+        self.r_i || self.r_ct || self.alpha
+    }
+
+    /// The names (`r_i`, `r_ct`, `alpha`) of the parameters at a bound.
+    pub fn names(&self) -> impl Iterator<Item = &'static str> {
+        [
+            (self.r_i, "r_i"),
+            (self.r_ct, "r_ct"),
+            (self.alpha, "alpha"),
+        ]
+        .into_iter()
+        .filter_map(|(at, name)| at.then_some(name))
+    }
+}
 
 impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
     OutputErrorRefinement<T, N, MEM, K>
@@ -145,9 +199,15 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
         }
     }
 
-    /// An iteration that stops at the estimate (a minimum); `data0` is the
-    /// data's part of the cost `cost0`.
-    pub(super) fn stop(&mut self, cost0: T, data0: T, rows: usize) -> RefinementStep<T> {
+    /// An iteration that stops at the estimate (a minimum) for `why`;
+    /// `data0` is the data's part of the cost `cost0`.
+    pub(super) fn stop(
+        &mut self,
+        cost0: T,
+        data0: T,
+        rows: usize,
+        why: StopReason,
+    ) -> RefinementStep<T> {
         self.k += 1;
         self.work.iterations = self.work.iterations.wrapping_add(1);
         RefinementStep {
@@ -157,6 +217,7 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
             change: T::zero(),
             converged: true,
             accepted: false,
+            stop: Some(why),
             lambda: self.lambda,
             rows,
         }
@@ -224,11 +285,12 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
         }
         self.fresh = true;
         let rows = n - warm;
-        if self.stalled == Some(s.fingerprint()) {
+        if let Some((_, why)) = self.stalled.filter(|&(f, _)| f == s.fingerprint()) {
             // The last iteration, from this estimate on this window with
-            // these settings, found no lower cost with any damping (and
-            // reset λ): this one would repeat it exactly.
-            return Ok(self.stop(cost0, data0, rows));
+            // these settings, found no lower cost with any damping, or no
+            // step worth trying (and reset λ): this one would repeat it
+            // exactly.
+            return Ok(self.stop(cost0, data0, rows, why));
         }
         let longest = T::lit(MAX_RELAXATION_WINDOWS * rows as f64) * s.h;
         if let Some(last) = self.linear.filter(|l| l.fits(s)) {
@@ -253,8 +315,8 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
             if let Proposal::Negligible = self.propose(s, &a, &b, cost0, longest) {
                 self.linear = None;
                 self.lambda = T::lit(LAMBDA0);
-                self.stalled = Some(s.fingerprint());
-                return Ok(self.stop(cost0, data0, rows));
+                self.stalled = Some((s.fingerprint(), StopReason::NegligibleStep));
+                return Ok(self.stop(cost0, data0, rows, StopReason::NegligibleStep));
             }
         }
         let p = self.p;
@@ -271,9 +333,11 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
             change: T::zero(),
             converged: false,
             accepted: false,
+            stop: None,
             lambda: self.lambda,
             rows,
         };
+        let mut why = StopReason::NoLowerCost;
         for _ in 0..MAX_TRIES {
             let (trial, beta, change) = match self.propose(s, &a, &b, cost0, longest) {
                 Proposal::Step { p, beta, change } => (p, beta, change),
@@ -282,7 +346,10 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
                     continue;
                 }
                 // More damping only shrinks the step and its decrease.
-                Proposal::Negligible => break,
+                Proposal::Negligible => {
+                    why = StopReason::NegligibleStep;
+                    break;
+                }
             };
             self.w.set_order(trial.alpha)?;
             let data = WindowData {
@@ -324,13 +391,18 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
             // later window starts with a fresh trust region.
             self.w.set_order(p.alpha)?;
             self.lambda = T::lit(LAMBDA0);
-            self.stalled = Some(s.fingerprint());
+            self.stalled = Some((s.fingerprint(), why));
         }
         self.k += 1;
         self.work.iterations = self.work.iterations.wrapping_add(1);
         step.k = self.k;
         step.lambda = self.lambda;
         step.converged = !step.accepted || step.change <= s.epsilon;
+        step.stop = match (step.converged, step.accepted) {
+            (false, _) => None,
+            (true, true) => Some(StopReason::SmallStep),
+            (true, false) => Some(why),
+        };
         Ok(step)
     }
 }

@@ -176,15 +176,24 @@ fn a_converged_window_is_not_searched_again() {
     };
     let mut oe = OutputErrorRefinement::<f64, N, 24>::new(&s, start).unwrap();
     let mut k = 0;
-    while oe.iterate(&s, &win).unwrap().accepted {
+    let why = loop {
+        let step = oe.iterate(&s, &win).unwrap();
+        // A reason exactly when it reports a minimum.
+        assert_eq!(step.stop.is_some(), step.converged, "{step:?}");
+        if !step.accepted {
+            break step.stop;
+        }
         k += 1;
         assert!(k < 100, "no minimum after 100 iterations");
-    }
+    };
     let at_min = oe.cell();
     assert!((at_min.r_ct / truth.r_ct - 1.0).abs() < 1e-6, "{at_min:?}");
     for _ in 0..3 {
         let step = oe.iterate(&s, &win).unwrap();
         assert!(step.converged && !step.accepted && step.change == 0.0);
+        // The repeat gives the reason of the stop it repeats.
+        assert_eq!(step.stop, why);
+        assert!(why.is_some());
         assert_eq!(oe.cell(), at_min);
     }
     // One more (noisy) sample: the window changed, the search runs.
