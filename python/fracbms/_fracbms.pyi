@@ -15,7 +15,7 @@ MAX_ROWS: int
 """Most rows identify_hammerstein takes (8192)."""
 
 MAX_BATTERY_ROWS: int
-"""Most rows identify_battery takes (65536)."""
+"""Most rows identify_battery takes (262144)."""
 
 def identify_battery(
     time_s: ArrayLike,

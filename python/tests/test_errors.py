@@ -120,7 +120,8 @@ def test_bad_keywords():
         fracbms.OnlineCell(window=64)
     with pytest.raises(ValueError, match="u_oc is needed without ocv"):
         fracbms.simulate_battery(t, i, r_i=0.02, r_ct=0.015, q=500.0, alpha=0.7)
-    with pytest.raises(ValueError, match=re.escape("at most 65536 are identified")):
+    assert fracbms.MAX_BATTERY_ROWS == 262144
+    with pytest.raises(ValueError, match=re.escape("at most 262144 are identified")):
         n = fracbms.MAX_BATTERY_ROWS + 1
         fracbms.identify_battery(np.arange(float(n)), np.ones(n), np.full(n, 3.7))
     with pytest.raises(TypeError):
