@@ -21,15 +21,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         [_, p, m] => (p.clone(), m.clone()),
         _ => return Err("usage: refine_once RECORD.csv linear|butler-volmer".into()),
     };
-    let text = std::fs::read_to_string(&path)?;
-    let (mut t, mut i, mut v) = (Vec::new(), Vec::new(), Vec::new());
-    for line in text.lines().skip(1) {
-        let f: Vec<f64> = line.split(',').map(str::parse).collect::<Result<_, _>>()?;
-        t.push(f[0]);
-        i.push(f[1]);
-        v.push(f[2]);
-    }
-    let h = t[1] - t[0];
+    let rec = fracbms_host::io::read_battery(std::path::Path::new(&path), None)?;
+    let (h, i, v) = (rec.h, rec.current, rec.voltage);
     let mut start = rough_starts(&i, &v)[0];
     if model == "butler-volmer" {
         start = start.with_butler_volmer(0.3 * i.iter().fold(0.0f64, |m, x| m.max(x.abs())));

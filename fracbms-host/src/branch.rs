@@ -241,7 +241,7 @@ impl FftBranch {
 
     /// Solves the recursion for the drive in `f` (rows `warm..`; zero
     /// below), with the history `x[..warm]`, into `x[warm..]`.
-    fn solve(&mut self, a: f64, warm: usize, x: &mut [f64], pair: bool, size: usize) {
+    fn solve_into(&mut self, a: f64, warm: usize, x: &mut [f64], pair: bool, size: usize) {
         let n = x.len();
         let f = if pair { &mut self.fy } else { &mut self.fx };
         if warm > 0 {
@@ -257,6 +257,26 @@ impl FftBranch {
         x[warm..n].copy_from_slice(&self.y[warm..n]);
     }
 
+    /// The recursion for `drive` (rows `warm..`) from the history
+    /// `x[..warm]`, into `x[warm..]`; returns the transform size.
+    fn solve_drive(
+        &mut self,
+        w: &[f64],
+        a: f64,
+        warm: usize,
+        x: &mut [f64],
+        mut drive: impl FnMut(usize) -> f64,
+    ) -> usize {
+        let n = x.len();
+        let size = self.prepare(w, a, n);
+        zeroed(&mut self.fx, n);
+        for (l, fl) in self.fx.iter_mut().enumerate().skip(warm) {
+            *fl = drive(l);
+        }
+        self.solve_into(a, warm, x, false, size);
+        size
+    }
+
     /// The voltage of `cell` over a current record from rest with the full
     /// memory (`U_oc + R_i·I + η(I) + U_p`), the period `h` in s.
     pub fn simulate(&mut self, cell: &CellParameters<f64>, h: f64, current: &[f64]) -> Vec<f64> {
@@ -265,7 +285,7 @@ impl FftBranch {
         fill_weights(cell.alpha, &mut w, &mut dw);
         let a = cell.tau() * (-cell.alpha * h.ln()).exp();
         let mut up = vec![0.0; n];
-        self.filter(&w, a, 0, &mut up, |l| cell.r_ct * current[l], |_, _, _| {});
+        self.solve(&w, a, 0, &mut up, |l| cell.r_ct * current[l]);
         up.iter()
             .zip(current)
             .map(|(&u, &i)| cell.u_oc + cell.static_voltage(i) + u)
@@ -292,25 +312,35 @@ impl BranchSolver<f64> for FftBranch {
         a: f64,
         warm: usize,
         x: &mut [f64],
-        mut drive: impl FnMut(usize) -> f64,
+        drive: impl FnMut(usize) -> f64,
         mut seen: impl FnMut(usize, f64, f64),
     ) {
         let n = x.len();
         if warm >= n || direct(n, w.len()) {
             return GlRecursion.filter(w, a, warm, x, drive, seen);
         }
-        let size = self.prepare(w, a, n);
-        zeroed(&mut self.fx, n);
-        for (l, fl) in self.fx.iter_mut().enumerate().skip(warm) {
-            *fl = drive(l);
-        }
-        self.solve(a, warm, x, false, size);
+        let size = self.solve_drive(w, a, warm, x, drive);
         // E = w ∗ x, and H = E − x (w₀ = 1).
         self.t
             .convolve(x, &self.weights.hat, size, &mut self.spec, &mut self.y);
         for (l, (&xl, &e)) in x.iter().zip(&self.y).enumerate().skip(warm) {
             seen(l, xl, e - xl);
         }
+    }
+
+    fn solve(
+        &mut self,
+        w: &[f64],
+        a: f64,
+        warm: usize,
+        x: &mut [f64],
+        drive: impl FnMut(usize) -> f64,
+    ) {
+        let n = x.len();
+        if warm >= n || direct(n, w.len()) {
+            return GlRecursion.solve(w, a, warm, x, drive);
+        }
+        self.solve_drive(w, a, warm, x, drive);
     }
 
     fn filter_pair(
@@ -333,8 +363,8 @@ impl BranchSolver<f64> for FftBranch {
         for l in warm..n {
             (self.fx[l], self.fy[l]) = drive(l);
         }
-        self.solve(a, warm, x, false, size);
-        self.solve(a, warm, y, true, size);
+        self.solve_into(a, warm, x, false, size);
+        self.solve_into(a, warm, y, true, size);
     }
 
     fn weight_derivative<const MEM: usize>(

@@ -24,7 +24,7 @@
 //! let w = GlWeights::<f64, 64>::new(0.6, 1.0, 64).unwrap();
 //! let mut x = [0.0; 64];
 //! // A unit step drive from rest, a = 2.
-//! GlRecursion.filter(w.weights(), 2.0, 0, &mut x, |_| 1.0, |_, _, _| {});
+//! GlRecursion.solve(w.weights(), 2.0, 0, &mut x, |_| 1.0);
 //! assert!((x[0] - 1.0 / 3.0).abs() < 1e-15);
 //! assert!(x[63] > x[0] && x[63] < 1.0);
 //! ```
@@ -53,6 +53,13 @@ pub trait BranchSolver<T: Real>: Default {
         drive: impl FnMut(usize) -> T,
         seen: impl FnMut(usize, T, T),
     );
+
+    /// [`filter`](Self::filter) without `seen`: for a caller that does not
+    /// need the history sums (a solver that gets them only at extra cost
+    /// skips them).
+    fn solve(&mut self, w: &[T], a: T, warm: usize, x: &mut [T], drive: impl FnMut(usize) -> T) {
+        self.filter(w, a, warm, x, drive, |_, _, _| {});
+    }
 
     /// [`filter`](Self::filter) of two sequences with the same weights and
     /// `a` (over the shorter of `x` and `y`); `drive(l)` gives both drives.

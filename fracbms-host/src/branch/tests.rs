@@ -172,3 +172,20 @@ fn refinement_fits_as_the_direct_one() {
     }
     assert!((a.r_ct / truth.r_ct - 1.0).abs() < 0.02);
 }
+
+#[test]
+fn solve_without_the_history_sums_is_filter() {
+    const N: usize = 3000;
+    let w = GlWeights::<f64, N>::new(0.65, 1.0, 2000).unwrap();
+    let warm = 400;
+    let start: Vec<f64> = (0..N)
+        .map(|l| if l < warm { 0.02 * drive(l) } else { 0.0 })
+        .collect();
+    let (mut direct, mut quiet, mut full) = (start.clone(), start.clone(), start);
+    GlRecursion.solve(w.weights(), 4.0, warm, &mut direct, drive);
+    let mut fft = FftBranch::default();
+    fft.solve(w.weights(), 4.0, warm, &mut quiet, drive);
+    fft.filter(w.weights(), 4.0, warm, &mut full, drive, |_, _, _| {});
+    assert_eq!(quiet, full);
+    assert!(relative(&direct, &quiet) < 1e-9);
+}

@@ -161,9 +161,7 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
                 Some((t, _)) => {
                     cpe_filter_tail(wts, a, warm, &mut self.s_a[..n], t, order, |_, _, _| {})
                 }
-                None => self
-                    .solver
-                    .filter(wts, a, warm, &mut self.s_a[..n], order, |_, _, _| {}),
+                None => self.solver.solve(wts, a, warm, &mut self.s_a[..n], order),
             }
             self.s_ri[..n].fill(T::zero());
             self.s_uoc[..n].fill(T::zero());
@@ -260,14 +258,9 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
                     |_| T::zero(),
                     |_, _, _| {},
                 ),
-                None => self.solver.filter(
-                    wts,
-                    a,
-                    warm,
-                    &mut self.s_uoc[..n],
-                    |_| T::zero(),
-                    |_, _, _| {},
-                ),
+                None => self
+                    .solver
+                    .solve(wts, a, warm, &mut self.s_uoc[..n], |_| T::zero()),
             }
         }
     }
