@@ -351,19 +351,23 @@ fn block_sums<T: Real>(w: &[T], xs: &[T]) -> [T; BLOCK] {
     // The samples of rows 1..3 at the current tap.
     let mut xr = [xs[m], xs[m + 1], xs[m + 2]];
     let mut s = [T::zero(); BLOCK];
-    let wc = w.chunks_exact(4);
-    let wr = wc.remainder();
-    let xc = xs[..m].rchunks_exact(4);
-    let xt = xc.remainder();
-    // Four taps at a time, written out as in [`block_sums_pair`], so that
-    // the samples stay in registers without moves.
+    // Eight taps at a time, as two runs of four written out (see
+    // [`four_taps`]): the samples stay in registers, and only the three
+    // carried into the next eight are moved.
+    let wc = w.chunks_exact(8);
+    let w4 = wc.remainder();
+    let xc = xs[..m].rchunks_exact(8);
+    let x4 = xc.remainder();
     for (wq, xq) in wc.zip(xc) {
-        let [a, b, c] = xr;
-        tap(&mut s, wq[0], [xq[3], a, b, c]);
-        tap(&mut s, wq[1], [xq[2], xq[3], a, b]);
-        tap(&mut s, wq[2], [xq[1], xq[2], xq[3], a]);
-        tap(&mut s, wq[3], [xq[0], xq[1], xq[2], xq[3]]);
-        xr = [xq[0], xq[1], xq[2]];
+        xr = four_taps(&mut s, &wq[..4], &xq[4..], xr);
+        xr = four_taps(&mut s, &wq[4..], &xq[..4], xr);
+    }
+    let wc = w4.chunks_exact(4);
+    let wr = wc.remainder();
+    let xc = x4.rchunks_exact(4);
+    let xt = xc.remainder();
+    for (wq, xq) in wc.zip(xc) {
+        xr = four_taps(&mut s, wq, xq, xr);
     }
     for (&wj, &x0) in wr.iter().zip(xt.iter().rev()) {
         let [a, b, c] = xr;
@@ -371,6 +375,20 @@ fn block_sums<T: Real>(w: &[T], xs: &[T]) -> [T; BLOCK] {
         xr = [x0, a, b];
     }
     s
+}
+
+/// Four taps `wq` of a block: `xq = [x(l−j−3), …, x(l−j)]` for row 0 at
+/// taps `j..j+3` and `xr` the samples of rows 1..3 at tap `j`; returns the
+/// samples of rows 1..3 at tap `j + 4`.
+#[inline(always)]
+#[cfg_attr(not(target_arch = "arm"), allow(dead_code))]
+fn four_taps<T: Real>(s: &mut [T; BLOCK], wq: &[T], xq: &[T], xr: [T; 3]) -> [T; 3] {
+    let [a, b, c] = xr;
+    tap(s, wq[0], [xq[3], a, b, c]);
+    tap(s, wq[1], [xq[2], xq[3], a, b]);
+    tap(s, wq[2], [xq[1], xq[2], xq[3], a]);
+    tap(s, wq[3], [xq[0], xq[1], xq[2], xq[3]]);
+    [xq[0], xq[1], xq[2]]
 }
 
 /// Tap sums of one weight set `w` (`m` taps) against one sequence, row by
@@ -645,26 +663,29 @@ fn block_sums_pair<T: Real>(w: &[T], xs: &[T], ys: &[T]) -> ([T; BLOCK], [T; BLO
     let mut yr = [ys[m], ys[m + 1], ys[m + 2]];
     let mut s = [T::zero(); BLOCK];
     let mut d = [T::zero(); BLOCK];
-    let wc = w.chunks_exact(4);
+    // Eight taps at a time as in [`block_sums`], then four, then one.
+    let wc = w.chunks_exact(8);
+    let w4 = wc.remainder();
+    let xc = xs[..m].rchunks_exact(8);
+    let x4 = xc.remainder();
+    let yc = ys[..m].rchunks_exact(8);
+    let y4 = yc.remainder();
+    for ((wq, xq), yq) in wc.zip(xc).zip(yc) {
+        // xq = [x(l−j−7), …, x(l−j)] for row 0 at taps j..j+7.
+        xr = four_taps(&mut s, &wq[..4], &xq[4..], xr);
+        yr = four_taps(&mut d, &wq[..4], &yq[4..], yr);
+        xr = four_taps(&mut s, &wq[4..], &xq[..4], xr);
+        yr = four_taps(&mut d, &wq[4..], &yq[..4], yr);
+    }
+    let wc = w4.chunks_exact(4);
     let wr = wc.remainder();
-    let xc = xs[..m].rchunks_exact(4);
+    let xc = x4.rchunks_exact(4);
     let xt = xc.remainder();
-    let yc = ys[..m].rchunks_exact(4);
+    let yc = y4.rchunks_exact(4);
     let yt = yc.remainder();
     for ((wq, xq), yq) in wc.zip(xc).zip(yc) {
-        // xq = [x(l−j−3), x(l−j−2), x(l−j−1), x(l−j)] for row 0 at taps j..j+3.
-        let [a, b, c] = xr;
-        let [p, q, r] = yr;
-        tap(&mut s, wq[0], [xq[3], a, b, c]);
-        tap(&mut d, wq[0], [yq[3], p, q, r]);
-        tap(&mut s, wq[1], [xq[2], xq[3], a, b]);
-        tap(&mut d, wq[1], [yq[2], yq[3], p, q]);
-        tap(&mut s, wq[2], [xq[1], xq[2], xq[3], a]);
-        tap(&mut d, wq[2], [yq[1], yq[2], yq[3], p]);
-        tap(&mut s, wq[3], [xq[0], xq[1], xq[2], xq[3]]);
-        tap(&mut d, wq[3], [yq[0], yq[1], yq[2], yq[3]]);
-        xr = [xq[0], xq[1], xq[2]];
-        yr = [yq[0], yq[1], yq[2]];
+        xr = four_taps(&mut s, wq, xq, xr);
+        yr = four_taps(&mut d, wq, yq, yr);
     }
     for ((&wj, &x0), &y0) in wr.iter().zip(xt.iter().rev()).zip(yt.iter().rev()) {
         let [a, b, c] = xr;

@@ -32,7 +32,7 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
             tail: tail_context(s, self.past.as_ref()),
         };
         let cost = if self.fresh {
-            window_cost(&data, &self.p, self.beta, &self.up[..n])
+            window_cost(&data, &self.p, self.beta, &self.eta[..n], &self.up[..n])
         } else {
             self.stalled = None;
             simulate_window(
@@ -43,6 +43,7 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
                 self.beta,
                 &mut self.up[..n],
                 &mut self.e[..n],
+                &mut self.eta[..n],
             )
         };
         if !cost.is_finite() {

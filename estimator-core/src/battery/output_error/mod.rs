@@ -256,19 +256,24 @@ pub struct OutputErrorRefinement<T, const N: usize, const MEM: usize, K = GlRecu
     trial: [T; N],
     /// `E` of the trial simulation.
     trial_e: [T; N],
+    /// The kinetic voltage `η(I(l))` of `p` (with `up`), and of the trial.
+    eta: [T; N],
+    trial_eta: [T; N],
     n: usize,
     warm: usize,
     /// The modes of the loaded window's past (with `warm > 0`).
     past: Option<PastModes<T>>,
     stamp: Option<u32>,
-    /// `up` (and `e`) hold the simulation of `p`, β over the loaded window.
+    /// `up` (and `e`, `eta`) hold the simulation of `p`, β over the loaded
+    /// window.
     fresh: bool,
     /// The settings (their [`BatterySettings::fingerprint`]) of the last
     /// iteration when it found no lower cost on the loaded window from the
     /// current estimate (`fresh` then holds), and why.
     stalled: Option<(u64, StopReason)>,
     /// The linearization of the last iteration when it accepted a step on
-    /// the loaded window (the sensitivities still hold it).
+    /// the loaded window (the sensitivity buffers still hold its Jacobian's
+    /// columns).
     linear: Option<Linearization<T>>,
     work: RefinementWork,
 }
@@ -329,6 +334,8 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
             beta: T::ZERO,
             trial: [T::ZERO; N],
             trial_e: [T::ZERO; N],
+            eta: [T::ZERO; N],
+            trial_eta: [T::ZERO; N],
             n: 0,
             warm: 0,
             past: None,

@@ -262,7 +262,7 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
         // estimate in `up` (its accepted trial, or the kept estimate's).
         let prior_cost = |p: &CellParameters<T>| s.prior.map_or(T::zero(), |pr| pr.cost(p, s));
         let data0 = if self.fresh {
-            window_cost(&data, &self.p, self.beta, &self.up[..n])
+            window_cost(&data, &self.p, self.beta, &self.eta[..n], &self.up[..n])
         } else {
             self.stalled = None;
             self.linear = None;
@@ -275,6 +275,7 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
                 self.beta,
                 &mut self.up[..n],
                 &mut self.e[..n],
+                &mut self.eta[..n],
             )
         };
         // The cost of the estimate: the data's, plus the prior's.
@@ -296,15 +297,22 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
         if let Some(last) = self.linear.filter(|l| l.fits(s)) {
             // The last iteration on this window accepted a step. Before new
             // sensitivities, its Jacobian J₀ (at the estimate it started
-            // from) with the residuals here gives the chord step
+            // from, still in the columns) with the residuals here gives the
+            // chord step
             // (J₀ᵀJ₀ + λD)⁻¹J₀ᵀr; when even that is negligible, this is a
             // minimum (to the cost's resolution) and the O(N·M) pass is
             // not needed. Anything else falls through to the exact step.
             let mut b = [T::zero(); COLUMNS];
             for l in warm..n {
-                let j = self.jacobian_row(s, &last.p, l);
+                let j = self.jacobian_row(s, l);
                 let r = residual(
-                    self.v[l], &self.p, self.beta, self.c[l], self.i[l], self.up[l],
+                    self.v[l],
+                    &self.p,
+                    self.beta,
+                    self.c[l],
+                    self.i[l],
+                    self.eta[l],
+                    self.up[l],
                 );
                 for (bb, ja) in b.iter_mut().zip(j) {
                     *bb = *bb + ja * r;
@@ -369,11 +377,13 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
                 beta,
                 &mut self.trial[..n],
                 &mut self.trial_e[..n],
+                &mut self.trial_eta[..n],
             );
             let c = c + prior_cost(&trial);
             if c.is_finite() && c < cost0 {
                 core::mem::swap(&mut self.up, &mut self.trial);
                 core::mem::swap(&mut self.e, &mut self.trial_e);
+                core::mem::swap(&mut self.eta, &mut self.trial_eta);
                 step.change = change;
                 self.p = trial;
                 self.beta = beta;
@@ -385,7 +395,7 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
             }
             self.lambda = self.lambda * T::lit(10.0);
         }
-        self.linear = step.accepted.then(|| Linearization::new(s, p, &data_a));
+        self.linear = step.accepted.then(|| Linearization::new(s, &data_a));
         if !step.accepted {
             // Back to the order of the kept estimate; λ is reset so that a
             // later window starts with a fresh trust region.

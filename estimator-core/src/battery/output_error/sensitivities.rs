@@ -4,11 +4,10 @@
 
 use super::*;
 
-/// `J₀ᵀJ₀` of an iteration (its upper triangle by rows), the estimate it
-/// was taken at, and which columns it had.
+/// `J₀ᵀJ₀` of an iteration (its upper triangle by rows) and which columns
+/// it had (the columns themselves stay in the sensitivity buffers).
 #[derive(Clone, Copy, Debug)]
 pub(super) struct Linearization<T> {
-    pub(super) p: CellParameters<T>,
     pub(super) a: [T; PACKED],
     pub(super) estimate_order: bool,
     pub(super) ocv_slope: bool,
@@ -16,7 +15,7 @@ pub(super) struct Linearization<T> {
 }
 
 impl<T: Real> Linearization<T> {
-    pub(super) fn new(s: &BatterySettings<T>, p: CellParameters<T>, a: &Square<T>) -> Self {
+    pub(super) fn new(s: &BatterySettings<T>, a: &Square<T>) -> Self {
         let mut up = [T::zero(); PACKED];
         let mut k = 0;
         for (r, row) in a.iter().enumerate() {
@@ -26,7 +25,6 @@ impl<T: Real> Linearization<T> {
             }
         }
         Self {
-            p,
             a: up,
             estimate_order: s.estimate_order,
             ocv_slope: s.ocv_slope,
@@ -177,12 +175,13 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
             // The history U_p = U_t − U_oc − R_i·I − η(I) moves with η's
             // parameters: the free responses to −∂η. (No tail: the model
             // with the Butler–Volmer term keeps the truncated sum.)
-            for ((sa, si), &il) in self.s_bva[..warm]
+            for (((sa, si), &il), &eta) in self.s_bva[..warm]
                 .iter_mut()
                 .zip(&mut self.s_bvi0[..warm])
                 .zip(&i[..warm])
+                .zip(&self.eta[..warm])
             {
-                let (da, di) = kinetic_derivatives(&p, il);
+                let (da, di) = kinetic_derivatives(&p, il, eta);
                 *sa = -da;
                 *si = -di;
             }
@@ -265,107 +264,225 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
         }
     }
 
-    /// Row `l` of the Jacobian of the simulated voltage `Û_t(l)` with
-    /// respect to `x = [ln R_i, ln R_ct, ln Q, α, U_oc, β, ln a, ln i₀]`
-    /// (zero columns for what the settings keep fixed), from the
-    /// sensitivities taken at `p`.
-    #[inline]
-    pub(super) fn jacobian_row(
-        &self,
-        s: &BatterySettings<T>,
-        p: &CellParameters<T>,
-        l: usize,
-    ) -> [T; COLUMNS] {
-        let (da, di) = match s.model {
-            CellModel::ButlerVolmer => self.kinetic_columns(p, l),
-            CellModel::Linear => (T::zero(), T::zero()),
-        };
-        [
-            p.r_i * (self.i[l] + self.s_ri[l]),
-            p.r_ct * self.s_rct[l],
-            p.q * self.s_q[l],
-            if s.estimate_order {
-                self.s_a[l]
-            } else {
-                T::zero()
-            },
-            T::one() + self.s_uoc[l],
-            if s.ocv_slope {
+    /// Turns the sensitivities, taken at the estimate `p` (whose
+    /// simulation `up`, `eta` hold), into the columns of the Jacobian of
+    /// the simulated voltage `Û_t(l)` with respect to
+    /// `x = [ln R_i, ln R_ct, ln Q, α, U_oc, β, ln a, ln i₀]`, in place
+    /// (zero columns for what the settings keep fixed; the kinetic columns
+    /// only for the Butler–Volmer model), and writes the residuals at `p`
+    /// into the trial buffer (free until the step search).
+    pub(super) fn jacobian_columns(&mut self, s: &BatterySettings<T>) {
+        let p = self.p;
+        let kinetic = s.model == CellModel::ButlerVolmer;
+        for l in self.warm..self.n {
+            let (i, eta) = (self.i[l], self.eta[l]);
+            self.s_ri[l] = p.r_i * (i + self.s_ri[l]);
+            self.s_rct[l] = p.r_ct * self.s_rct[l];
+            self.s_q[l] = p.q * self.s_q[l];
+            if !s.estimate_order {
+                self.s_a[l] = T::zero();
+            }
+            self.s_uoc[l] = T::one() + self.s_uoc[l];
+            self.s_beta[l] = if s.ocv_slope {
                 self.s_beta[l] - self.c[l]
             } else {
                 T::zero()
-            },
+            };
+            if kinetic {
+                let (da, di) = kinetic_derivatives(&p, i, eta);
+                self.s_bva[l] = da + self.s_bva[l];
+                self.s_bvi0[l] = di + self.s_bvi0[l];
+            }
+            self.trial[l] = residual(self.v[l], &p, self.beta, self.c[l], i, eta, self.up[l]);
+        }
+    }
+
+    /// Row `l` of the Jacobian left by [`Self::jacobian_columns`] (the
+    /// kinetic columns zero in the linear model).
+    #[inline]
+    pub(super) fn jacobian_row(&self, s: &BatterySettings<T>, l: usize) -> [T; COLUMNS] {
+        let (da, di) = match s.model {
+            CellModel::ButlerVolmer => (self.s_bva[l], self.s_bvi0[l]),
+            CellModel::Linear => (T::zero(), T::zero()),
+        };
+        [
+            self.s_ri[l],
+            self.s_rct[l],
+            self.s_q[l],
+            self.s_a[l],
+            self.s_uoc[l],
+            self.s_beta[l],
             da,
             di,
         ]
     }
 
-    /// The Butler–Volmer columns of row `l` of the Jacobian. Kept out of
-    /// line: inlined, its `asinh` and square root make the compiler outline
-    /// the whole row instead, and the linear model's rows then cost 10 %
-    /// more on the Cortex-M4 (docs/butler-volmer.md).
-    #[inline(never)]
-    pub(super) fn kinetic_columns(&self, p: &CellParameters<T>, l: usize) -> (T, T) {
-        let (da, di) = kinetic_derivatives(p, self.i[l]);
-        (da + self.s_bva[l], di + self.s_bvi0[l])
-    }
-
-    /// New sensitivities at the estimate (whose simulation `up` holds) and
-    /// the data's normal equations `JᵀJ`, `Jᵀr` in `x`.
+    /// New sensitivities at the estimate (whose simulation `up` holds), the
+    /// Jacobian's columns from them, and the data's normal equations
+    /// `JᵀJ`, `Jᵀr` in `x`.
     pub(super) fn normal_equations(&mut self, s: &BatterySettings<T>) -> (Square<T>, [T; COLUMNS]) {
         self.sensitivities(
             s.ocv_slope,
             s.model == CellModel::ButlerVolmer,
             s.uses_tail(),
         );
+        self.jacobian_columns(s);
         // The linear model's kinetic columns are zero: not accumulated.
-        // (A constant width: the compiler keeps the sums in registers.)
         match s.model {
-            CellModel::Linear => self.accumulate::<LINEAR_COLUMNS>(s),
-            CellModel::ButlerVolmer => self.accumulate::<COLUMNS>(s),
+            CellModel::Linear => self.accumulate::<LINEAR_COLUMNS>(),
+            CellModel::ButlerVolmer => self.accumulate::<COLUMNS>(),
         }
     }
 
     /// `JᵀJ` and `Jᵀr` over the first `C` columns of `x` (the rest zero),
-    /// from the sensitivities.
-    pub(super) fn accumulate<const C: usize>(
-        &self,
-        s: &BatterySettings<T>,
-    ) -> (Square<T>, [T; COLUMNS]) {
-        let p = self.p;
-        let mut a = [[T::zero(); C]; C];
-        let mut b = [T::zero(); C];
-        for l in self.warm..self.n {
-            let full = self.jacobian_row(s, &p, l);
-            let j: [T; C] = core::array::from_fn(|k| full[k]);
-            let r = residual(self.v[l], &p, self.beta, self.c[l], self.i[l], self.up[l]);
-            // The upper triangle; the lower one is filled below.
-            for (k, (r_, ja)) in a.iter_mut().zip(j).enumerate() {
-                for (x, &jb) in r_[k..].iter_mut().zip(&j[k..]) {
-                    *x = *x + ja * jb;
+    /// from the columns and residuals of [`Self::jacobian_columns`].
+    ///
+    /// The 44 sums of the Butler–Volmer model (27 of the linear one) do
+    /// not fit the Cortex-M4F's 32 registers with the row's values, so they
+    /// go in passes over the rows that each keep at most 20 sums in
+    /// registers. Every sum still adds its rows in order:
+    /// the same values as one pass.
+    pub(super) fn accumulate<const C: usize>(&self) -> (Square<T>, [T; COLUMNS]) {
+        let (warm, n) = (self.warm, self.n);
+        let cols: [&[T]; COLUMNS + 1] = [
+            &self.s_ri[warm..n],
+            &self.s_rct[warm..n],
+            &self.s_q[warm..n],
+            &self.s_a[warm..n],
+            &self.s_uoc[warm..n],
+            &self.s_beta[warm..n],
+            &self.s_bva[warm..n],
+            &self.s_bvi0[warm..n],
+            &self.trial[warm..n],
+        ];
+        let len = n - warm;
+        let cs = cols.map(|c| &c[..len]);
+        let mut a = [[T::zero(); COLUMNS]; COLUMNS];
+        let mut b = [T::zero(); COLUMNS];
+        // One pass over the rows for the listed sums `(x, y)`: into
+        // `a[x][y]`, or into `b[x]` for `y = 8` (the residuals). Written
+        // out with constant indices, so that the sums stay in registers.
+        macro_rules! pass {
+            ($(($x:literal, $y:literal)),* $(,)?) => {{
+                const P: usize = [$($x),*].len();
+                let pairs: [(usize, usize); P] = [$(($x, $y)),*];
+                let mut sums = [T::zero(); P];
+                for l in 0..len {
+                    let mut k = 0;
+                    $(
+                        sums[k] = sums[k] + cs[$x][l] * cs[$y][l];
+                        k += 1;
+                    )*
+                    debug_assert_eq!(k, P);
                 }
-            }
-            for (bb, ja) in b.iter_mut().zip(j) {
-                *bb = *bb + ja * r;
-            }
+                for (&(x, y), v) in pairs.iter().zip(sums) {
+                    if y == COLUMNS {
+                        b[x] = v;
+                    } else {
+                        a[x][y] = v;
+                    }
+                }
+            }};
         }
-        let mut wide = [[T::zero(); COLUMNS]; COLUMNS];
-        let mut wb = [T::zero(); COLUMNS];
-        for (row, src) in wide.iter_mut().zip(&a) {
-            row[..C].copy_from_slice(src);
+        if C == COLUMNS {
+            // Jᵀr, the diagonal and four neighbours; rows 0 and 1 of the
+            // rest; rows 2 to 5 of the rest.
+            pass!(
+                (0, 8),
+                (1, 8),
+                (2, 8),
+                (3, 8),
+                (4, 8),
+                (5, 8),
+                (6, 8),
+                (7, 8),
+                (0, 0),
+                (1, 1),
+                (2, 2),
+                (3, 3),
+                (4, 4),
+                (5, 5),
+                (6, 6),
+                (7, 7),
+                (0, 1),
+                (2, 3),
+                (4, 5),
+                (6, 7),
+            );
+            pass!(
+                (0, 2),
+                (0, 3),
+                (0, 4),
+                (0, 5),
+                (0, 6),
+                (0, 7),
+                (1, 2),
+                (1, 3),
+                (1, 4),
+                (1, 5),
+                (1, 6),
+                (1, 7),
+            );
+            pass!(
+                (2, 4),
+                (2, 5),
+                (2, 6),
+                (2, 7),
+                (3, 4),
+                (3, 5),
+                (3, 6),
+                (3, 7),
+                (4, 6),
+                (4, 7),
+                (5, 6),
+                (5, 7),
+            );
+        } else {
+            // The same for six columns.
+            pass!(
+                (0, 8),
+                (1, 8),
+                (2, 8),
+                (3, 8),
+                (4, 8),
+                (5, 8),
+                (0, 0),
+                (1, 1),
+                (2, 2),
+                (3, 3),
+                (4, 4),
+                (5, 5),
+                (0, 1),
+                (2, 3),
+                (4, 5),
+            );
+            pass!(
+                (0, 2),
+                (0, 3),
+                (0, 4),
+                (0, 5),
+                (1, 2),
+                (1, 3),
+                (1, 4),
+                (1, 5),
+                (2, 4),
+                (2, 5),
+                (3, 4),
+                (3, 5),
+            );
         }
-        wb[..C].copy_from_slice(&b);
-        mirror_upper(&mut wide);
-        (wide, wb)
+        mirror_upper(&mut a);
+        (a, b)
     }
 }
 
-/// `(∂η/∂ln a, ∂η/∂ln i₀)` of `η = a·asinh(I/i₀)` at `current`:
+/// `(∂η/∂ln a, ∂η/∂ln i₀)` of `η = a·asinh(I/i₀)` at `current`, given
+/// `eta = η(current)` ([`CellParameters::kinetic_voltage`]):
 /// `(η, −a·u/√(1+u²))`, `u = I/i₀`.
 #[inline]
-pub(super) fn kinetic_derivatives<T: Real>(p: &CellParameters<T>, current: T) -> (T, T) {
+pub(super) fn kinetic_derivatives<T: Real>(p: &CellParameters<T>, current: T, eta: T) -> (T, T) {
     let u = current / p.bv_i0;
-    (p.bv_a * u.arsinh(), -p.bv_a * u / (T::one() + u * u).root())
+    (eta, -p.bv_a * u / (T::one() + u * u).root())
 }
 
 /// Copies the upper triangle of a symmetric matrix into the lower one.

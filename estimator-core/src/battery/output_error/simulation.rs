@@ -168,7 +168,9 @@ pub(super) fn cpe_filter_pair_tail<T: Real>(
 /// with the open-circuit voltage `U_oc − β·c(l)` (`c` the charge still to
 /// flow), the first `warm` samples of `U_p` taken from the data, and returns
 /// ½Σr² over the fitted samples `warm..`. `e` receives
-/// `E(l) = Σ_{j≥0} w_j·U_p(l − j)` for the fitted samples.
+/// `E(l) = Σ_{j≥0} w_j·U_p(l − j)` for the fitted samples, and `eta` the
+/// kinetic voltage `η(I(l))` of `p` at every sample (see [`fill_kinetic`]).
+#[allow(clippy::too_many_arguments)]
 pub(super) fn simulate_window<T: Real, const MEM: usize>(
     solver: &mut impl BranchSolver<T>,
     w: &GlWeights<T, MEM>,
@@ -177,6 +179,7 @@ pub(super) fn simulate_window<T: Real, const MEM: usize>(
     beta: T,
     buf: &mut [T],
     e: &mut [T],
+    eta: &mut [T],
 ) -> T {
     let WindowData {
         i,
@@ -186,8 +189,9 @@ pub(super) fn simulate_window<T: Real, const MEM: usize>(
         tail,
         ..
     } = *data;
+    fill_kinetic(p, i, eta);
     for l in 0..warm {
-        buf[l] = residual(v[l], p, beta, c[l], i[l], T::zero());
+        buf[l] = residual(v[l], p, beta, c[l], i[l], eta[l], T::zero());
     }
     let a = p.tau() * w.scale();
     match tail.and_then(|t| Some((t, TailKernel::new(p.alpha).ok()?))) {
@@ -220,33 +224,59 @@ pub(super) fn simulate_window<T: Real, const MEM: usize>(
             |l, x, h| e[l] = x + h,
         ),
     }
-    window_cost(data, p, beta, buf)
+    window_cost(data, p, beta, eta, buf)
 }
 
-/// The voltage residual `U_t − (U_oc − β·c + R_i·I + η(I) + U_p)` of one
-/// sample.
+/// `eta[l] = η(I(l))`, the kinetic voltage of `p` at each sample of `i`
+/// (zeros in the linear model). The residuals, the kinetic columns of the
+/// Jacobian and the history's kinetic free responses at the estimate all
+/// read it: one `asinh` per sample and simulation, not one per use.
+#[inline]
+pub(super) fn fill_kinetic<T: Real>(p: &CellParameters<T>, i: &[T], eta: &mut [T]) {
+    if p.bv_a != T::zero() {
+        for (e, &il) in eta.iter_mut().zip(i) {
+            *e = p.kinetic_voltage(il);
+        }
+    } else {
+        eta[..i.len()].fill(T::zero());
+    }
+}
+
+/// The voltage residual `U_t − (U_oc − β·c + R_i·I + η + U_p)` of one
+/// sample, with `eta` the kinetic voltage `η(I)` of `p` at its current
+/// ([`CellParameters::kinetic_voltage`]).
 /// `U_t − U_oc` comes first: the two are close (exact by Sterbenz's lemma
 /// within a factor 2), so the rounding is that of the small remaining terms,
 /// not of the 3–4 V terminal voltage. In `f32` this is the difference
 /// between a cost that resolves a step's decrease and one whose rounding
 /// (ulp(3.7 V) ≈ 2.4e−7 V against millivolt residuals) hides it.
 #[inline]
-pub(super) fn residual<T: Real>(v: T, p: &CellParameters<T>, beta: T, c: T, i: T, up: T) -> T {
-    (v - p.u_oc) + beta * c - p.static_voltage(i) - up
+pub(super) fn residual<T: Real>(
+    v: T,
+    p: &CellParameters<T>,
+    beta: T,
+    c: T,
+    i: T,
+    eta: T,
+    up: T,
+) -> T {
+    (v - p.u_oc) + beta * c - (p.r_i * i + eta) - up
 }
 
-/// ½Σr² over the fitted samples of the simulation `up` of `p`, β.
+/// ½Σr² over the fitted samples of the simulation `up` of `p`, β, with
+/// `eta` its kinetic voltages ([`fill_kinetic`]).
 #[inline]
 pub(super) fn window_cost<T: Real>(
     data: &WindowData<'_, T>,
     p: &CellParameters<T>,
     beta: T,
+    eta: &[T],
     up: &[T],
 ) -> T {
     let WindowData { i, v, c, warm, .. } = *data;
     let mut cost = T::zero();
     for l in warm..up.len() {
-        let r = residual(v[l], p, beta, c[l], i[l], up[l]);
+        let r = residual(v[l], p, beta, c[l], i[l], eta[l], up[l]);
         cost = cost + r * r;
     }
     cost / T::lit(2.0)
