@@ -79,14 +79,14 @@ pub struct IdBatteryArgs {
     #[arg(long, value_enum, default_value = "op")]
     pub algorithm: AlgorithmArg,
     /// Memory M of the paper regression (default 256); the refinement uses
-    /// the whole record (at most 4096).
+    /// the whole record (full memory).
     #[arg(long)]
     pub memory: Option<usize>,
     /// Iterations of 2S-OP-GI (paper method, or the start of the refinement).
     #[arg(long, default_value_t = 50)]
     pub iterations: u32,
-    /// Memory of the refinement (default: the whole record, at most 4096;
-    /// give the firmware's memory to compare with it).
+    /// Memory of the refinement (default: the whole record; give the
+    /// firmware's memory to compare with it).
     #[arg(long)]
     pub refine_memory: Option<usize>,
     /// Fit an OCV slope dU_oc/dq (the state of charge drifting through the
