@@ -27,6 +27,11 @@ pub trait Real: Float + Debug + Default + Send + Sync + 'static + sealed::Sealed
     /// positive definite or the result is not finite.
     fn solve_spd<const D: usize>(a: &[[Self; D]; D], b: &[Self; D]) -> Option<[Self; D]>;
 
+    /// The diagonal of `a⁻¹` for a symmetric positive definite `a`, from
+    /// one Cholesky factorization (nalgebra, on the stack). `None` when `a`
+    /// is not positive definite or the result is not finite.
+    fn spd_inverse_diagonal<const D: usize>(a: &[[Self; D]; D]) -> Option<[Self; D]>;
+
     /// `√x` for the per-sample model terms. `f64`: `libm`'s (the
     /// hardware instruction on x86-64). `f32`: [`root_f32`], plain
     /// arithmetic within 1 ulp of `libm`'s, because `libm`'s `sqrtf` is
@@ -158,6 +163,20 @@ macro_rules! solve_spd_impl {
                     return None;
                 }
                 *o = xi;
+            }
+            Some(out)
+        }
+
+        fn spd_inverse_diagonal<const D: usize>(a: &[[$t; D]; D]) -> Option<[$t; D]> {
+            let m = nalgebra::SMatrix::<$t, D, D>::from_fn(|i, j| a[i][j]);
+            let inv = m.cholesky()?.inverse();
+            let mut out = [0.0; D];
+            for (k, o) in out.iter_mut().enumerate() {
+                let x = inv[(k, k)];
+                if !x.is_finite() {
+                    return None;
+                }
+                *o = x;
             }
             Some(out)
         }

@@ -337,14 +337,18 @@ fn footprint_of_an_f32_estimator() {
     // cell's state and, while it iterates, in the working area (2 × 104 B:
     // 29 048 B). The working area keeps the kinetic voltage of the estimate
     // and of the trial at every sample (2 × 1 024 B: 31 072 B), so that an
-    // iteration takes one `asinh` per sample and simulation.
+    // iteration takes one `asinh` per sample and simulation. What the data
+    // identify (issue 35) adds the last normal equations' information to
+    // the working area (280 B) and the published parameters with their
+    // statuses and the last step resistance to the cell's state (72 B):
+    // 31 424 B.
     use estimator_core::battery::online::{CellState, CurrentHistory, WorkingArea};
     let parts = core::mem::size_of::<CellState<f32, 256>>()
         + core::mem::size_of::<WorkingArea<f32, 256, 64>>()
         + core::mem::size_of::<CurrentHistory<f32, 256>>();
     assert!(cell <= parts + 16, "{cell} {parts}");
     assert!(
-        cell < 26 * 1024 + 4 * 256 * 4 + 128 + 96 + 2 * 104,
+        cell < 26 * 1024 + 4 * 256 * 4 + 128 + 96 + 2 * 104 + 352,
         "{cell}"
     );
 }

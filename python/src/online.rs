@@ -70,18 +70,37 @@ type Column = fn(&TrackRow) -> Option<f64>;
 
 /// The numeric columns of a track row under the names of `online battery
 /// --out` (`None`: the CSV's empty cell): `push`'s dict and `run`'s arrays.
-const TRACK_NUMBERS: [(&str, Column); 11] = [
+/// `r_i`, `r_ct`, `q`, `alpha` are the published values (the last window's
+/// that identified each); `window_*` the last good window's fit.
+const TRACK_NUMBERS: [(&str, Column); 16] = [
     ("time_s", |r| Some(r.t)),
-    ("r_i", |r| r.estimate.map(|p| p.r_i)),
-    ("r_ct", |r| r.estimate.map(|p| p.r_ct)),
-    ("q", |r| r.estimate.map(|p| p.q)),
-    ("alpha", |r| r.estimate.map(|p| p.alpha)),
+    ("r_i", |r| r.published.r_i.value),
+    ("r_ct", |r| r.published.r_ct.value),
+    ("q", |r| r.published.q.value),
+    ("alpha", |r| r.published.alpha.value),
     ("u_oc", |r| r.estimate.map(|p| p.u_oc)),
     ("soc", |r| r.soc),
-    ("ocv_offset_v", |r| r.ocv_offset),
+    ("ocv_offset_v", |r| r.estimate.and(r.ocv_offset)),
     ("bv_a_v", |r| butler_volmer(r).map(|p| p.bv_a)),
     ("bv_i0_a", |r| butler_volmer(r).map(|p| p.bv_i0)),
     ("predicted_v", |r| r.predicted),
+    ("step_resistance_ohm", |r| r.step_resistance),
+    ("window_r_i", |r| r.estimate.map(|p| p.r_i)),
+    ("window_r_ct", |r| r.estimate.map(|p| p.r_ct)),
+    ("window_q", |r| r.estimate.map(|p| p.q)),
+    ("window_alpha", |r| r.estimate.map(|p| p.alpha)),
+];
+
+/// One text column of a track row.
+type Text = fn(&TrackRow) -> &'static str;
+
+/// The status columns of a track row (`identified`, `held` or
+/// `not_identified`), as in `online battery --out`.
+const TRACK_STATUSES: [(&str, Text); 4] = [
+    ("r_i_status", |r| r.published.r_i.status.as_str()),
+    ("r_ct_status", |r| r.published.r_ct.status.as_str()),
+    ("q_status", |r| r.published.q.status.as_str()),
+    ("alpha_status", |r| r.published.alpha.status.as_str()),
 ];
 
 /// The estimate of a row when it has the Butler–Volmer term.
@@ -96,6 +115,9 @@ fn row_dict<'py>(py: Python<'py>, r: &TrackRow) -> PyResult<Bound<'py, PyDict>> 
         d.set_item(k, f(r))?;
     }
     d.set_item("status", r.status)?;
+    for (k, f) in TRACK_STATUSES {
+        d.set_item(k, f(r))?;
+    }
     d.set_item("rejected", r.rejected)?;
     Ok(d)
 }
@@ -196,8 +218,12 @@ impl OnlineCell {
     /// Feed one sample: current (A, positive when charging) and voltage (V).
     ///
     /// Returns None while the window is filling, else a dict: `time_s`
-    /// (`k·h`), `r_i`, `r_ct`, `q`, `alpha`, `u_oc` (None until the first
-    /// physical estimate), `status` (`"starting"`, `"tracking"`, or why the
+    /// (`k·h`), `r_i`, `r_ct`, `q`, `alpha` (None until the data identify
+    /// each; `r_i_status`, `r_ct_status`, `q_status`, `alpha_status` say
+    /// `"identified"`, `"held"` or `"not_identified"`), `u_oc` (None until
+    /// the first physical estimate), `window_r_i`, `window_r_ct`,
+    /// `window_q`, `window_alpha` (that estimate's fit, identified or
+    /// not), `step_resistance_ohm`, `status` (`"starting"`, `"tracking"`, or why the
     /// estimate is held: `"not_excited"`, `"held"`, `"unphysical"`,
     /// `"at_bound"`, `"slow_relaxation"`, `"ocv_implausible"`), `soc`,
     /// `ocv_offset_v`, `bv_a_v`, `bv_i0_a`, `predicted_v` (this sample's
@@ -230,9 +256,13 @@ impl OnlineCell {
     /// Feed a whole record; return the track as a dict of numpy arrays.
     ///
     /// The columns of `host-sim online battery --out`: `time_s`, `r_i`,
-    /// `r_ct`, `q`, `alpha`, `u_oc`, `status`, `soc`, `ocv_offset_v`,
-    /// `bv_a_v`, `bv_i0_a`, `predicted_v` (NaN where the CSV is empty), plus
-    /// `rejected` (`""` for an accepted sample). On a fresh cell with an OCV
+    /// `r_ct`, `q`, `alpha` (each published only once the data identify
+    /// it; `r_i_status`… say `identified`, `held` or `not_identified`),
+    /// `u_oc`, `status`, `soc`, `ocv_offset_v`, `bv_a_v`, `bv_i0_a`,
+    /// `predicted_v`, `step_resistance_ohm`, `window_r_i`, `window_r_ct`,
+    /// `window_q`, `window_alpha` (the last good window's fit, identified
+    /// or not; NaN where the CSV is empty), plus `rejected` (`""` for an
+    /// accepted sample). On a fresh cell with an OCV
     /// table and no `soc0`, the start SOC is read from the record's rested
     /// start, as the CLI reads it (a ValueError when it does not start at
     /// rest). Goes on from the samples pushed before. `temperature_c` (°C,
@@ -304,6 +334,9 @@ impl OnlineCell {
             np.call_method1("array", (list, "U16"))
         };
         d.set_item("status", strings(&|r| r.status)?)?;
+        for (k, f) in TRACK_STATUSES {
+            d.set_item(k, strings(&f)?)?;
+        }
         d.set_item("rejected", strings(&|r| r.rejected.unwrap_or(""))?)?;
         Ok(d)
     }

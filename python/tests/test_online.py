@@ -7,7 +7,9 @@ import fracbms
 from conftest import CELL, REPO, read_csv
 
 COLUMNS = ["time_s", "r_i", "r_ct", "q", "alpha", "u_oc", "soc", "ocv_offset_v",
-           "bv_a_v", "bv_i0_a", "predicted_v"]
+           "bv_a_v", "bv_i0_a", "predicted_v", "step_resistance_ohm", "window_r_i",
+           "window_r_ct", "window_q", "window_alpha"]
+STATUSES = ["r_i_status", "r_ct_status", "q_status", "alpha_status"]
 
 
 def cli_track(host_sim, record, tmp_path, *args):
@@ -18,6 +20,8 @@ def cli_track(host_sim, record, tmp_path, *args):
 
 def assert_same_track(py, cli):
     assert list(py["status"]) == list(cli["status"])
+    for k in STATUSES:
+        assert list(py[k]) == list(cli[k]), k
     for k in COLUMNS:
         # The CLI writes 10 significant digits.
         np.testing.assert_allclose(py[k], cli[k], rtol=2e-9, atol=0, equal_nan=True, err_msg=k)
@@ -29,7 +33,7 @@ def test_run_equals_the_cli_and_tracks_the_cell(host_sim, cell_record, tmp_path,
     c = read_csv(cell_record)
     cell = fracbms.OnlineCell(tail=tail)
     py = cell.run(c["current_a"], c["voltage_v"])
-    assert set(py) == set(COLUMNS) | {"status", "rejected"}
+    assert set(py) == set(COLUMNS) | set(STATUSES) | {"status", "rejected"}
     assert all(isinstance(py[k], np.ndarray) for k in py)
     assert_same_track(py, cli)
     assert cell.samples == 1500 and cell.rejected == 0

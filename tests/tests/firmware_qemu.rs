@@ -214,15 +214,20 @@ fn qemu_xtask_rejects_a_malformed_record() {
 }
 
 /// The last row of an `online battery` track (with an OCV curve) as the
-/// firmware's JSON keys; it must be a tracked estimate.
+/// firmware's JSON keys; it must be a tracked estimate. The window's fit
+/// (`window_r_i`…), identified or not: what the firmware logs.
 fn last_estimate(track: &Path) -> serde_json::Value {
     let t = std::fs::read_to_string(track).unwrap();
+    let header: Vec<&str> = t.lines().next().unwrap().split(',').collect();
     let last: Vec<&str> = t.lines().last().unwrap().split(',').collect();
     assert_eq!(last[6], "tracking", "{last:?}");
-    let num = |k: usize| -> f64 { last[k].parse().unwrap() };
+    let num = |name: &str| -> f64 {
+        let k = header.iter().position(|h| *h == name).unwrap();
+        last[k].parse().unwrap()
+    };
     serde_json::json!({
-        "r_i": num(1), "r_ct": num(2), "q": num(3), "alpha": num(4), "u_oc": num(5),
-        "soc": num(7),
+        "r_i": num("window_r_i"), "r_ct": num("window_r_ct"), "q": num("window_q"),
+        "alpha": num("window_alpha"), "u_oc": num("u_oc"), "soc": num("soc"),
     })
 }
 
@@ -505,8 +510,10 @@ fn qemu_firmware_with_the_butler_volmer_model_agrees_with_host_sim() {
     let last: Vec<&str> = t.lines().last().unwrap().split(',').collect();
     assert_eq!(last[6], "tracking", "{last:?}");
     let num = |k: usize| -> f64 { last[k].parse().unwrap() };
+    // The window's fit (`window_r_i`… , columns 17–20): what the firmware
+    // logs, identified or not.
     let host = serde_json::json!({
-        "r_i": num(1), "r_ct": num(2), "q": num(3), "alpha": num(4), "u_oc": num(5),
+        "r_i": num(17), "r_ct": num(18), "q": num(19), "alpha": num(20), "u_oc": num(5),
         "bv_a_v": num(9), "bv_i0_a": num(10),
     });
     let fw = firmware(

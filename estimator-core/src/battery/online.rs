@@ -54,8 +54,9 @@ use crate::frac::GlWeights;
 use crate::real::Real;
 
 pub use super::tracker::{
-    CellState, CellWindow, CurrentHistory, Method, OnlineSettings, Rejection, SampleCounts,
-    SampleReport, Status, WorkingArea,
+    CellState, CellWindow, CurrentHistory, Identification, Method, OnlineSettings,
+    PublishedParameter, PublishedParameters, Rejection, SampleCounts, SampleReport, Status,
+    StepResistance, WorkingArea, STEP_PRECISION,
 };
 
 /// One cell's online estimator: window capacity `N`, memory capacity `MEM`.
@@ -106,6 +107,12 @@ impl<T: Real, const N: usize, const MEM: usize> CellEstimator<T, N, MEM> {
     /// curve its `u_oc` is the open-circuit voltage now, `OCV(SOC) + ΔU`.
     pub fn estimate(&self) -> Option<CellParameters<T>> {
         self.state().estimate()
+    }
+
+    /// What is published of `R_i`, `R_ct`, `Q` and α, each with whether
+    /// the data identify it ([`CellState::published`]).
+    pub fn published(&self) -> PublishedParameters<T> {
+        self.state().published()
     }
 
     /// The OCV offset `ΔU` (V) of the last good estimate (with an OCV

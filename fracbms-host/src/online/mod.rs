@@ -9,7 +9,9 @@ use crate::{bail, err};
 use crate::{io, progress};
 use estimator_core::battery::map::MapFollower;
 use estimator_core::battery::ocv::OcvModel;
-use estimator_core::battery::online::{CellEstimator, Method, OnlineSettings, Rejection};
+use estimator_core::battery::online::{
+    CellEstimator, Method, OnlineSettings, PublishedParameter, PublishedParameters, Rejection,
+};
 use estimator_core::battery::output_error::RefinementWork;
 use estimator_core::battery::{CellModel, CellParameters, Prior, Start};
 use estimator_core::Real;
@@ -60,6 +62,11 @@ pub struct TrackRow {
     /// The one-step prediction of this sample's voltage (V) from the
     /// estimate before it (none before the first estimate).
     pub predicted: Option<f64>,
+    /// What is published of `R_i`, `R_ct`, `Q` and α, each with whether
+    /// the data identify it (the track's `r_i`… and `*_status` columns).
+    pub published: PublishedParameters<f64>,
+    /// The resistance of the last precise current step (Ω).
+    pub step_resistance: Option<f64>,
 }
 
 /// What a track run did.
@@ -263,6 +270,20 @@ impl<T: Real + Send + Sync, const N: usize> Step for Sized<T, N> {
             }),
             soc: est.state_of_charge().map(|z| z.to_f64()),
             ocv_offset: est.ocv_offset().map(|d| d.to_f64()),
+            published: {
+                let p = est.published();
+                let c = |x: PublishedParameter<T>| PublishedParameter {
+                    value: x.value.map(|v| v.to_f64()),
+                    status: x.status,
+                };
+                PublishedParameters {
+                    r_i: c(p.r_i),
+                    r_ct: c(p.r_ct),
+                    q: c(p.q),
+                    alpha: c(p.alpha),
+                }
+            },
+            step_resistance: est.cell_state().step_resistance().map(|st| st.ohm.to_f64()),
         }
     }
 
@@ -449,9 +470,15 @@ pub struct OnlineReport {
     pub prior_map: Option<(String, Vec<String>)>,
 }
 
-/// The header of the track CSV `online battery` writes.
-pub const TRACK_HEADER: &str =
-    "time_s,r_i,r_ct,q,alpha,u_oc,status,soc,ocv_offset_v,bv_a_v,bv_i0_a,predicted_v";
+/// The header of the track CSV `online battery` writes. `r_i`, `r_ct`, `q`
+/// and `alpha` are the published values: each the last window's that the
+/// data identified, empty before the first; its `*_status` column says
+/// `identified`, `held` or `not_identified` (`PublishedParameters`).
+/// `step_resistance_ohm` is the last precise current step's `ΔU/ΔI`;
+/// `window_r_i`… are the last good window's fit, identified or not (what
+/// the track's `r_i`… columns held before issue 35, and what the firmware
+/// still logs).
+pub const TRACK_HEADER: &str = "time_s,r_i,r_ct,q,alpha,u_oc,status,soc,ocv_offset_v,bv_a_v,bv_i0_a,predicted_v,r_i_status,r_ct_status,q_status,alpha_status,step_resistance_ohm,window_r_i,window_r_ct,window_q,window_alpha";
 
 /// `online battery`: reads the record `input`, runs the online estimator
 /// over it as `o` says and writes the track to `out` (columns
@@ -489,7 +516,6 @@ pub fn battery_file(input: &Path, out: &Path, o: &OnlineBatteryOptions) -> Resul
         None => (None, None),
     };
     let memory = o.memory.unwrap_or(o.window / 4);
-    let f = |x: f64| format!("{x:.9e}");
     let g = |x: Option<f64>| x.map(|x| format!("{x:.9e}")).unwrap_or_default();
     let t = TrackOptions {
         window: o.window,
@@ -510,32 +536,31 @@ pub fn battery_file(input: &Path, out: &Path, o: &OnlineBatteryOptions) -> Resul
             writeln!(w, "{TRACK_HEADER}")?;
             res = track(&rec, &t, read.temperature.as_deref(), |r| {
                 let bv = r.estimate.filter(|p| p.is_butler_volmer());
-                match r.estimate {
-                    Some(p) => writeln!(
-                        w,
-                        "{},{},{},{},{},{},{},{},{},{},{},{}",
-                        r.t,
-                        f(p.r_i),
-                        f(p.r_ct),
-                        f(p.q),
-                        f(p.alpha),
-                        f(p.u_oc),
-                        r.status,
-                        g(r.soc),
-                        g(r.ocv_offset),
-                        g(bv.map(|p| p.bv_a)),
-                        g(bv.map(|p| p.bv_i0)),
-                        g(r.predicted)
-                    )?,
-                    None => writeln!(
-                        w,
-                        "{},,,,,,{},{},,,,{}",
-                        r.t,
-                        r.status,
-                        g(r.soc),
-                        g(r.predicted)
-                    )?,
-                }
+                let pb = &r.published;
+                let statuses = pb.named().map(|(_, x)| x.status.as_str()).join(",");
+                let pv = |x: PublishedParameter<f64>| g(x.value);
+                writeln!(
+                    w,
+                    "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
+                    r.t,
+                    pv(pb.r_i),
+                    pv(pb.r_ct),
+                    pv(pb.q),
+                    pv(pb.alpha),
+                    g(r.estimate.map(|p| p.u_oc)),
+                    r.status,
+                    g(r.soc),
+                    g(r.estimate.and(r.ocv_offset)),
+                    g(bv.map(|p| p.bv_a)),
+                    g(bv.map(|p| p.bv_i0)),
+                    g(r.predicted),
+                    statuses,
+                    g(r.step_resistance),
+                    g(r.estimate.map(|p| p.r_i)),
+                    g(r.estimate.map(|p| p.r_ct)),
+                    g(r.estimate.map(|p| p.q)),
+                    g(r.estimate.map(|p| p.alpha)),
+                )?;
                 Ok(())
             });
             res.clone().map(|_| ())

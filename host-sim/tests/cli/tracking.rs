@@ -32,7 +32,7 @@ fn online_writes_a_track() {
     // The contract's columns first (issues 3 and 16), then ours.
     assert_eq!(
         lines.next(),
-        Some("time_s,r_i,r_ct,q,alpha,u_oc,status,soc,ocv_offset_v,bv_a_v,bv_i0_a,predicted_v")
+        Some("time_s,r_i,r_ct,q,alpha,u_oc,status,soc,ocv_offset_v,bv_a_v,bv_i0_a,predicted_v,r_i_status,r_ct_status,q_status,alpha_status,step_resistance_ohm,window_r_i,window_r_ct,window_q,window_alpha")
     );
     let rows: Vec<&str> = lines.collect();
     assert_eq!(rows.len(), 600);
@@ -45,6 +45,27 @@ fn online_writes_a_track() {
         assert_eq!(col(rows[599], k), "", "column {k}");
     }
     assert!(col(rows[599], 11).parse::<f64>().is_ok());
+    // Each published parameter says whether the data identify it: nothing
+    // before the first fit; on this own-model record (σ 1 mV) the last
+    // window identifies all four, and a step resistance was seen.
+    for k in 12..=15 {
+        assert_eq!(col(rows[0], k), "not_identified", "column {k}");
+        assert_eq!(col(rows[599], k), "identified", "column {k}");
+    }
+    for r in &rows {
+        for k in 12..=15 {
+            let st = col(r, k);
+            assert!(
+                ["identified", "held", "not_identified"].contains(&st.as_str()),
+                "{st}"
+            );
+            // A value is published exactly when the parameter has been
+            // identified (now or before).
+            assert_eq!(col(r, k - 11).is_empty(), st == "not_identified", "{r}");
+        }
+    }
+    let step: f64 = col(rows[599], 16).parse().unwrap();
+    assert!(step > 0.0, "{step}");
     // The refinement's work is reported.
     let err = String::from_utf8_lossy(&o.stderr);
     let work = err

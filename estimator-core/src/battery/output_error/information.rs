@@ -56,6 +56,7 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
         self.linear = None;
         let (jtj, _) = self.normal_equations(s);
         self.work.linearizations = self.work.linearizations.wrapping_add(1);
+        let lag1 = self.residual_lag1();
         let kinetic = s.model == CellModel::ButlerVolmer && self.p.is_butler_volmer();
         Ok(FitInformation {
             jtj,
@@ -71,7 +72,27 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
                 kinetic,
                 kinetic,
             ],
+            lag1,
         })
+    }
+
+    /// The lag-1 autocorrelation `Σ r(l)·r(l−1) / Σ r(l)²` of the
+    /// residuals the last normal equations left in the trial buffer (0
+    /// for fewer than two rows or zero residuals).
+    pub(super) fn residual_lag1(&self) -> T {
+        let r = &self.trial[self.warm..self.n];
+        let (mut num, mut den) = (T::zero(), T::zero());
+        for (k, &x) in r.iter().enumerate() {
+            den = den + x * x;
+            if k > 0 {
+                num = num + x * r[k - 1];
+            }
+        }
+        if den > T::zero() {
+            num / den
+        } else {
+            T::zero()
+        }
     }
 }
 
@@ -87,9 +108,24 @@ pub struct FitInformation<T> {
     pub rows: usize,
     /// Which columns the fit estimates.
     pub fitted: [bool; COLUMNS],
+    /// The lag-1 autocorrelation of the residuals over the fitted rows
+    /// (for [`Self::correlated_standard_errors`]).
+    pub lag1: T,
 }
 
 impl<T: Real> FitInformation<T> {
+    /// [`Self::standard_errors`] widened for residuals that follow each
+    /// other (an AR(1) process with the residuals' lag-1 autocorrelation
+    /// ρ, clamped to `[0, 0.999]`): each times `√((1 + ρ)/(1 − ρ))`, the
+    /// square root of the samples one independent sample is worth. Model
+    /// error on a measured cell makes the residuals of a window follow each
+    /// other closely; white-noise intervals are then far too narrow.
+    pub fn correlated_standard_errors(&self) -> [Option<T>; COLUMNS] {
+        let rho = self.lag1.max(T::zero()).min(T::lit(0.999));
+        let widen = ((T::one() + rho) / (T::one() - rho)).sqrt();
+        self.standard_errors().map(|e| e.map(|e| e * widen))
+    }
+
     /// Number of fitted parameters.
     pub fn parameters(&self) -> usize {
         self.fitted.iter().filter(|&&f| f).count()
@@ -122,14 +158,15 @@ impl<T: Real> FitInformation<T> {
             }
         }
         let var = self.residual_variance();
+        let Some(d) = T::spd_inverse_diagonal(&m) else {
+            return [None; COLUMNS];
+        };
         let mut out = [None; COLUMNS];
         for k in (0..COLUMNS).filter(|&k| self.fitted[k]) {
-            let mut e = [T::zero(); COLUMNS];
-            e[k] = T::one();
-            match T::solve_spd(&m, &e) {
-                Some(x) if x[k] > T::zero() => out[k] = Some((var * x[k]).sqrt()),
-                _ => return [None; COLUMNS],
+            if d[k] <= T::zero() {
+                return [None; COLUMNS];
             }
+            out[k] = Some((var * d[k]).sqrt());
         }
         out
     }

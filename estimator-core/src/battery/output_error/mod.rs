@@ -275,6 +275,9 @@ pub struct OutputErrorRefinement<T, const N: usize, const MEM: usize, K = GlRecu
     /// the loaded window (the sensitivity buffers still hold its Jacobian's
     /// columns).
     linear: Option<Linearization<T>>,
+    /// The information of the last normal equations on the loaded window
+    /// (the prior's included), for [`Self::last_information`].
+    information: Option<FitInformation<T>>,
     work: RefinementWork,
 }
 
@@ -343,6 +346,7 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
             fresh: false,
             stalled: None,
             linear: None,
+            information: None,
             work: RefinementWork::default(),
         })
     }
@@ -364,6 +368,7 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
         self.fresh = false;
         self.stalled = None;
         self.linear = None;
+        self.information = None;
         Ok(())
     }
 
@@ -412,6 +417,7 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
         self.fresh = false;
         self.stalled = None;
         self.linear = None;
+        self.information = None;
         Ok(())
     }
 
@@ -441,6 +447,15 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
     /// fitted sample.
     pub fn polarization(&self) -> (&[T], usize) {
         (&self.up[..self.n], self.warm)
+    }
+
+    /// The information of the last iteration's normal equations on the
+    /// loaded window (`JᵀJ` of the data with the prior's, the data's cost
+    /// at the estimate they were taken at, the fitted rows and columns),
+    /// for the standard errors of what the window identifies; `None` before
+    /// one on this window.
+    pub fn last_information(&self) -> Option<&FitInformation<T>> {
+        self.information.as_ref()
     }
 
     /// One-step prediction of the terminal voltage for the *next* sample at
@@ -473,6 +488,7 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
             self.past = if self.warm > 0 { win.past() } else { None };
             self.stamp = Some(key);
             self.fresh = false;
+            self.information = None;
             if self.n > 0 {
                 self.c[self.n - 1] = T::zero();
                 for l in (0..self.n - 1).rev() {

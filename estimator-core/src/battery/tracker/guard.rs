@@ -154,6 +154,13 @@ impl<T: Real, const N: usize> CellState<T, N> {
                     self.rmse = T::infinity();
                 }
                 self.spikes_in_row = 0;
+                let two = {
+                    let mut last = self.view(history).newest_first();
+                    (last.next(), last.next())
+                };
+                if let (Some(prev), Some((before, _))) = two {
+                    self.observe_step(s.battery.min_current_std, before, prev, i, y);
+                }
                 Some((i, y))
             }
             (why, stored) => {

@@ -43,6 +43,8 @@ impl<T: Real, const N: usize> CellState<T, N> {
         k: usize,
     ) -> (Status, u16) {
         let b = &s.battery;
+        // No new evidence unless a window's fit says otherwise below.
+        self.published.hold();
         // Saturating: `push` may be given other settings than the
         // constructor's (memory 0 or `usize::MAX` then means "never enough").
         let need = b
@@ -156,8 +158,12 @@ impl<T: Real, const N: usize> CellState<T, N> {
         work: &mut WorkingArea<T, N, MEM>,
     ) -> Result<Status, Error> {
         let st = work.oe.iterate(&s.battery, &self.view(history))?;
-        match self.publish(s, &mut work.pw, work.oe.cell(), st.rmse, st.rows) {
-            Ok(()) => Ok(Status::Tracking),
+        let p = work.oe.cell();
+        match self.publish(s, &mut work.pw, p, st.rmse, st.rows) {
+            Ok(()) => {
+                self.judge(s, &p, work.oe.last_information());
+                Ok(Status::Tracking)
+            }
             Err(why) => {
                 // Not plausible: held, and the refinement starts again from
                 // the last good estimate (or the settings' start), so that

@@ -7,8 +7,9 @@
 //! estimators' iteration state), the working area the cells share one at a
 //! time ([`WorkingArea`]), the pack's current history and a cell's view of
 //! it ([`CurrentHistory`], [`CellWindow`]), the guard that validates and
-//! substitutes each sample ([`guard`]), and the iterations and the
-//! plausibility check before an estimate is published ([`iterate`]). The
+//! substitutes each sample ([`guard`]), the iterations and the
+//! plausibility check before an estimate is published ([`iterate`]), and
+//! which parameters the data identify ([`identified`]). The
 //! per-sample flow is described in [`super::online`].
 //!
 //! It must not touch the pack's schedule or health (which cell updates in
@@ -18,12 +19,16 @@
 
 mod guard;
 mod history;
+mod identified;
 mod iterate;
 mod settings;
 mod state;
 mod status;
 
 pub use history::{CellWindow, CurrentHistory};
+pub use identified::{
+    Identification, PublishedParameter, PublishedParameters, StepResistance, STEP_PRECISION,
+};
 pub(crate) use settings::check_limits;
 pub use settings::{Method, OnlineSettings};
 pub use state::{CellState, WorkingArea};

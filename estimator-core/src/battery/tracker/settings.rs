@@ -63,6 +63,13 @@ pub struct OnlineSettings<T, const P: usize = 0> {
     /// The longest relaxation time `τ^(1/α)` a published estimate may have,
     /// in fitted windows (`(L − M + 1)·h`).
     pub max_relaxation_windows: T,
+    /// `R_i`, `R_ct` and `Q` are published when their 95 % interval from
+    /// the window's information is within this factor either way, `R_i`
+    /// also when it is within this factor of the last step resistance
+    /// ([`super::PublishedParameters`]).
+    pub identify_factor: T,
+    /// α is published when its 95 % interval is within ± this.
+    pub identify_alpha: T,
 }
 
 impl<T: Real> OnlineSettings<T> {
@@ -71,7 +78,8 @@ impl<T: Real> OnlineSettings<T> {
     /// no OCV curve (OCV slope fitted),
     /// `|I| ≤ 500 A`, `U_t ∈ [1.5, 5] V`, spikes beyond `max(8·RMSE, 50 mV)`,
     /// 3 consecutive spikes believed; published relaxation times up to one
-    /// fitted window, OCV offsets up to 0.15 V.
+    /// fitted window, OCV offsets up to 0.15 V; parameters published when
+    /// identified to a factor 2 (α to ±0.1).
     pub fn new(h: T, memory: usize, initial: CellParameters<T>) -> Self {
         let mut battery = BatterySettings::new(h, memory);
         battery.start = Start::FromData;
@@ -92,6 +100,8 @@ impl<T: Real> OnlineSettings<T> {
             ocv: None,
             max_ocv_offset: T::lit(0.15),
             max_relaxation_windows: T::one(),
+            identify_factor: T::lit(2.0),
+            identify_alpha: T::lit(0.1),
         }
     }
 }
@@ -128,6 +138,8 @@ impl<T: Real, const P: usize> OnlineSettings<T, P> {
             max_consecutive_spikes: self.max_consecutive_spikes,
             ocv,
             max_ocv_offset: self.max_ocv_offset,
+            identify_factor: self.identify_factor,
+            identify_alpha: self.identify_alpha,
             max_relaxation_windows: self.max_relaxation_windows,
         }
     }

@@ -50,6 +50,11 @@ pub struct CellState<T, const N: usize> {
     /// The modes of the samples that left the window (the past the
     /// refinement's tail needs, [`BatterySettings::tail`]).
     pub(super) past: PastModes<T>,
+    /// What is published of each parameter, and whether the data
+    /// identify it ([`super::identified`]).
+    pub(super) published: PublishedParameters<T>,
+    /// The last precise current step's resistance.
+    pub(super) step: Option<StepResistance<T>>,
 }
 
 /// The working area a pack's cells share, one cell at a time: the two
@@ -118,6 +123,8 @@ impl<T: Real, const N: usize> CellState<T, N> {
             spikes_in_row: 0,
             last_rejection: None,
             past: PastModes::new(),
+            published: PublishedParameters::NONE,
+            step: None,
         }
     }
 
@@ -135,6 +142,20 @@ impl<T: Real, const N: usize> CellState<T, N> {
             u_oc: p.u_oc + self.ocv_now.unwrap_or(T::zero()),
             ..p
         })
+    }
+
+    /// What is published of `R_i`, `R_ct`, `Q` and α: for each, the value
+    /// of the last window whose data identified it and whether that is the
+    /// last window ([`Identification`]); nothing before the first. The
+    /// [`estimate`](Self::estimate) is the window's fit, identified or not.
+    pub fn published(&self) -> PublishedParameters<T> {
+        self.published
+    }
+
+    /// The resistance of the last current step precise enough to judge
+    /// `R_i` by ([`StepResistance`]).
+    pub fn step_resistance(&self) -> Option<StepResistance<T>> {
+        self.step
     }
 
     /// The OCV offset `ΔU` (V) of the last good estimate (with an OCV

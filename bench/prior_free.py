@@ -1,0 +1,125 @@
+#!/usr/bin/env python3
+"""Online without a prior (issue 35): what `online battery` publishes on
+records our model did not make, and how far it is from a reference.
+
+* PyBaMM DFN records (data/pybamm, window 256, their OCV table, no prior):
+  every published R_i and R_ct against the whole-record fit of the same
+  record (data/pybamm/reference.json, ``cpe``); the fraction of samples
+  with a published value, and of published values within [0.5x, 2x].
+* The Panasonic 18650PF 25 degC HPPC test (data/panasonic-18650pf, its OCV
+  table from bench/panasonic_chain.sh): every published R_i against the
+  step resistance of the nearest pulse edge in the raw 0.1 s data, every
+  published R_ct against the per-SOC map of `identify battery` (nearest
+  level); the fraction of samples after the first pulse group that carry
+  a published R_i.
+
+    cargo build --release -p host-sim
+    bash bench/panasonic_chain.sh          # target/real-cells/panasonic/ocv.csv
+    python3 bench/prior_free.py [--host-sim target/release/host-sim] [--out target/prior-free]
+"""
+
+import argparse
+import csv
+import json
+import os
+import subprocess
+
+import numpy as np
+
+PANASONIC = "data/panasonic-18650pf/03-11-17_08.47 25degC_5Pulse_HPPC_Pan18650PF.mat"
+PAN_OCV = "target/real-cells/panasonic/ocv.csv"
+
+
+def run(cmd):
+    subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+
+
+def track(path):
+    rows = list(csv.DictReader(open(path)))
+    f = lambda x: float(x) if x else np.nan  # noqa: E731
+    cols = {k: np.array([f(r[k]) for r in rows]) for k in ("time_s", "r_i", "r_ct", "q", "alpha", "soc")}
+    for k in ("r_i", "r_ct", "q", "alpha"):
+        cols[k + "_status"] = np.array([r[k + "_status"] for r in rows])
+    return cols
+
+
+def judge(name, values, ref):
+    """Fraction published, fraction of published within [0.5, 2] x ref,
+    worst ratios."""
+    pub = np.isfinite(values)
+    ratio = values[pub] / ref[pub] if np.ndim(ref) else values[pub] / ref
+    inside = (ratio >= 0.5) & (ratio <= 2.0)
+    lo = ratio.min() if ratio.size else float("nan")
+    hi = ratio.max() if ratio.size else float("nan")
+    return f"{name}: published {pub.mean():.1%}, within [0.5x, 2x] {inside.mean() if ratio.size else float('nan'):.1%} (ratios {lo:.3g}..{hi:.3g})"
+
+
+def dfn(hs, out):
+    ref = json.load(open("data/pybamm/reference.json"))
+    meta = json.load(open("data/pybamm/meta.json"))["records"]
+    for rec in ("chen2020-drive", "chen2020-hppc", "prada2013-drive", "prada2013-hppc"):
+        ocv = "data/pybamm/" + rec.split("-")[0] + "-ocv.csv"
+        t = f"{out}/{rec}.csv"
+        run([hs, "online", "battery", "--input", f"data/pybamm/{rec}.csv", "--window", "256",
+             "--ocv", ocv, "--capacity-ah", str(meta[rec]["capacity_ah"]), "--out", t])
+        tr = track(t)
+        cpe = ref[rec]["cpe"]
+        print(rec, "|", judge("R_i", tr["r_i"], cpe["r_i"]), "|", judge("R_ct", tr["r_ct"], cpe["r_ct"]))
+
+
+def pulse_steps():
+    """(time, step resistance) at every pulse edge of the raw record: the
+    voltage change over the first 0.1 s sample of the edge."""
+    import scipy.io as sio
+
+    meas = sio.loadmat(PANASONIC)["meas"][0, 0]
+    t, i, v = (meas[k].ravel() for k in ("Time", "Current", "Voltage"))
+    di, dv = np.diff(i), np.diff(v)
+    edge = (np.abs(di) > 1.0) & (np.abs(i[:-1]) < 0.05) & (np.diff(t) < 0.2)
+    k = np.where(edge)[0]
+    return t[k + 1], dv[k] / di[k]
+
+
+def panasonic(hs, out):
+    if not os.path.exists(PAN_OCV):
+        print("panasonic: no", PAN_OCV, "(bash bench/panasonic_chain.sh)")
+        return
+    t = f"{out}/panasonic-track.csv"
+    run([hs, "online", "battery", "--input", PANASONIC, "--ocv", PAN_OCV, "--capacity-ah", "2.9",
+         "--window", "256", "--out", t])
+    mp = f"{out}/panasonic-map.csv"
+    run([hs, "identify", "battery", "--input", PANASONIC, "--ocv", PAN_OCV, "--capacity-ah", "2.9",
+         "--min-rest", "3000", "--model", "linear", "--map-out", mp, "--json", f"{out}/panasonic.json"])
+    levels = list(csv.DictReader(open(mp)))
+    lsoc = np.array([float(r["soc"]) for r in levels])
+    lrct = np.array([float(r["r_ct"]) for r in levels])
+    lri = np.array([float(r["r_i"]) for r in levels])
+    tr = track(t)
+    ts, rs = pulse_steps()
+    near = np.array([rs[np.argmin(np.abs(ts - x))] for x in tr["time_s"]])
+    first_group_end = ts[min(9, len(ts) - 1)]
+    after = tr["time_s"] > first_group_end
+    print("panasonic: step resistances at the pulse edges (0.1 s) %.1f..%.1f mOhm" % (rs.min() * 1e3, rs.max() * 1e3))
+    print("panasonic |", judge("R_i vs the nearest step", tr["r_i"][after], near[after]))
+    soc_ref = np.array([lrct[np.argmin(np.abs(lsoc - z))] if np.isfinite(z) else np.nan for z in tr["soc"]])
+    ri_ref = np.array([lri[np.argmin(np.abs(lsoc - z))] if np.isfinite(z) else np.nan for z in tr["soc"]])
+    print("panasonic |", judge("R_ct vs the per-SOC map", tr["r_ct"][after], soc_ref[after]))
+    print("panasonic |", judge("R_i vs the per-SOC map", tr["r_i"][after], ri_ref[after]))
+    for k in ("r_i", "r_ct", "q", "alpha"):
+        st = tr[k + "_status"][after]
+        print(f"panasonic | {k}_status after the first pulse group:",
+              {s: f"{(st == s).mean():.1%}" for s in ("identified", "held", "not_identified")})
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--host-sim", default="target/release/host-sim")
+    ap.add_argument("--out", default="target/prior-free")
+    a = ap.parse_args()
+    os.makedirs(a.out, exist_ok=True)
+    dfn(a.host_sim, a.out)
+    panasonic(a.host_sim, a.out)
+
+
+if __name__ == "__main__":
+    main()

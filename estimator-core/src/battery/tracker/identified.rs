@@ -1,0 +1,214 @@
+//! What the data identify: each published parameter's status
+//! ([`Identification`]), the values published per parameter
+//! ([`PublishedParameters`]) and the model-free resistance of the last
+//! current step ([`StepResistance`]).
+//!
+//! A window's estimate is the minimum of its cost, whether or not the
+//! window's data determine every parameter. A parameter is published only
+//! when they do: its 95 % interval from the window's information (the
+//! refinement's `JᵀJ` with the prior's, scaled by the residual variance and
+//! widened for residuals that follow each other;
+//! [`crate::battery::output_error::FitInformation::correlated_standard_errors`])
+//! is within a factor
+//! [`OnlineSettings::identify_factor`] (α within
+//! ±[`OnlineSettings::identify_alpha`]), and, for `R_i`, it is within that
+//! factor of the resistance the last current step showed. Otherwise the
+//! last identified value stays published, marked held, or nothing is
+//! published for it yet.
+//!
+//! It owns these judgements and the step detection; it must not change the
+//! estimate the tracker iterates from (the refinement keeps its own), nor
+//! the overall [`Status`].
+
+use super::*;
+use crate::battery::output_error::FitInformation;
+use crate::battery::CellParameters;
+use crate::real::Real;
+
+/// Whether a published parameter comes from the data.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Identification {
+    /// No window has identified it yet: nothing is published.
+    NotIdentified,
+    /// The last window identified it: the published value is that
+    /// window's.
+    Identified,
+    /// The last window did not identify it (or was not fitted): the value
+    /// of the last window that did is kept.
+    Held,
+}
+
+impl Identification {
+    /// A short lower-case name (for the track's `*_status` columns).
+    pub fn as_str(&self) -> &'static str {
+        match self {
+            Identification::NotIdentified => "not_identified",
+            Identification::Identified => "identified",
+            Identification::Held => "held",
+        }
+    }
+}
+
+/// One published parameter: its value (`None` until identified) and
+/// status.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct PublishedParameter<T> {
+    /// The value of the last window that identified it.
+    pub value: Option<T>,
+    /// Whether that window is the last one.
+    pub status: Identification,
+}
+
+impl<T: Copy> PublishedParameter<T> {
+    const NONE: Self = Self {
+        value: None,
+        status: Identification::NotIdentified,
+    };
+
+    /// The last window identified it (`Some(x)`) or not (`None`).
+    fn update(&mut self, identified: Option<T>) {
+        match identified {
+            Some(x) => {
+                self.value = Some(x);
+                self.status = Identification::Identified;
+            }
+            None => self.hold(),
+        }
+    }
+
+    /// No new evidence: an identified value becomes held.
+    fn hold(&mut self) {
+        if self.value.is_some() {
+            self.status = Identification::Held;
+        }
+    }
+}
+
+/// The parameters a cell publishes, each with its own status.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct PublishedParameters<T> {
+    /// `R_i` (Ω).
+    pub r_i: PublishedParameter<T>,
+    /// `R_ct` (Ω).
+    pub r_ct: PublishedParameter<T>,
+    /// `Q` (`τ = R_ct·Q`).
+    pub q: PublishedParameter<T>,
+    /// The order α.
+    pub alpha: PublishedParameter<T>,
+}
+
+impl<T: Copy> PublishedParameters<T> {
+    /// Nothing published yet.
+    pub const NONE: Self = Self {
+        r_i: PublishedParameter::NONE,
+        r_ct: PublishedParameter::NONE,
+        q: PublishedParameter::NONE,
+        alpha: PublishedParameter::NONE,
+    };
+
+    /// The four in the order `[R_i, R_ct, Q, α]` with their names.
+    pub fn named(&self) -> [(&'static str, PublishedParameter<T>); 4] {
+        [
+            ("r_i", self.r_i),
+            ("r_ct", self.r_ct),
+            ("q", self.q),
+            ("alpha", self.alpha),
+        ]
+    }
+
+    /// Every parameter held (no new evidence from this update).
+    pub(super) fn hold(&mut self) {
+        self.r_i.hold();
+        self.r_ct.hold();
+        self.q.hold();
+        self.alpha.hold();
+    }
+}
+
+/// The resistance a current step showed: `ΔU/ΔI` between two consecutive
+/// samples, a model-free measure of the resistance within one sample
+/// period (`R_i` and the part of the branch that answers within it).
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct StepResistance<T> {
+    /// `ΔU/ΔI` (Ω).
+    pub ohm: T,
+    /// The step `ΔI` (A).
+    pub step_a: T,
+    /// [`CellState`]'s sample count when it was seen.
+    pub at_sample: u64,
+}
+
+/// A step counts when its resistance is known to this fraction (its 95 %
+/// half-width from the fit's RMSE in both samples, `2·√2·RMSE/|ΔI|`,
+/// against the resistance itself).
+pub const STEP_PRECISION: f64 = 0.25;
+
+/// 95 % two-sided normal quantile.
+const Z95: f64 = 1.96;
+
+impl<T: Real, const N: usize> CellState<T, N> {
+    /// The step resistance of the sample `(i, u)` (window coordinates)
+    /// after the previous one `prev`, when the step is a clean edge: the
+    /// current before it steady (`before`, the current of the sample
+    /// before `prev`, within a tenth of the step), the step at least half
+    /// of either current and a hundred times `min_current_std`, and its
+    /// resistance known to [`STEP_PRECISION`] against the fit's RMSE (any
+    /// such step before a fit). A sample that straddles the edge (a bin
+    /// average, an interpolation across a gap) is the step's first sample
+    /// or is passed over: the next one's current before it is not steady.
+    pub(super) fn observe_step(&mut self, min_current_std: T, before: T, prev: (T, T), i: T, u: T) {
+        let (di, du) = (i - prev.0, u - prev.1);
+        let edge = T::lit(0.5) * i.abs().max(prev.0.abs());
+        if !(di.is_finite() && du.is_finite())
+            || di.abs() < T::lit(100.0) * min_current_std
+            || di.abs() < edge
+            || (prev.0 - before).abs() > T::lit(0.1) * di.abs()
+        {
+            return;
+        }
+        let ohm = du / di;
+        let precise = !self.rmse.is_finite()
+            || T::lit(2.0 * core::f64::consts::SQRT_2) * self.rmse
+                <= T::lit(STEP_PRECISION) * ohm.abs() * di.abs();
+        if precise && ohm > T::zero() {
+            self.step = Some(StepResistance {
+                ohm,
+                step_a: di,
+                at_sample: self.counts.samples,
+            });
+        }
+    }
+
+    /// Judges each parameter of the window's estimate `p` by the window's
+    /// information `info` (none: nothing identified) and `R_i` also by the
+    /// last step resistance; updates what is published.
+    pub(super) fn judge<const P: usize>(
+        &mut self,
+        s: &OnlineSettings<T, P>,
+        p: &CellParameters<T>,
+        info: Option<&FitInformation<T>>,
+    ) {
+        let Some(info) = info else {
+            self.published.hold();
+            return;
+        };
+        let se = info.correlated_standard_errors();
+        let z = T::lit(Z95);
+        let log_ok = |k: usize| se[k].is_some_and(|e| z * e <= s.identify_factor.ln());
+        let step_ok = self.step.is_none_or(|st| {
+            p.r_i >= st.ohm / s.identify_factor && p.r_i <= st.ohm * s.identify_factor
+        });
+        self.published
+            .r_i
+            .update((log_ok(0) && step_ok).then_some(p.r_i));
+        self.published.r_ct.update(log_ok(1).then_some(p.r_ct));
+        self.published.q.update(log_ok(2).then_some(p.q));
+        // A fixed order is given, not estimated: published as it is.
+        let alpha_ok = !info.fitted[3] || se[3].is_some_and(|e| z * e <= s.identify_alpha);
+        self.published.alpha.update(alpha_ok.then_some(p.alpha));
+    }
+}
