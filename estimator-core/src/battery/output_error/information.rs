@@ -56,12 +56,27 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
         self.linear = None;
         let (jtj, _) = self.normal_equations(s);
         self.work.linearizations = self.work.linearizations.wrapping_add(1);
-        let lag1 = self.residual_lag1();
-        let kinetic = s.model == CellModel::ButlerVolmer && self.p.is_butler_volmer();
-        Ok(FitInformation {
+        let kinetic = self.p.is_butler_volmer();
+        Ok(self.fit_information(s, jtj, cost, kinetic))
+    }
+
+    /// The [`FitInformation`] of the normal equations just formed: `jtj`
+    /// (the prior's added or not, as the caller wants), the data's `cost`,
+    /// the fitted rows and columns (the kinetic ones when `kinetic` and the
+    /// settings fit the Butler–Volmer model) and the residuals' lag-1
+    /// autocorrelation.
+    pub(super) fn fit_information(
+        &self,
+        s: &BatterySettings<T>,
+        jtj: Square<T>,
+        cost: T,
+        kinetic: bool,
+    ) -> FitInformation<T> {
+        let kinetic = kinetic && s.model == CellModel::ButlerVolmer;
+        FitInformation {
             jtj,
             cost,
-            rows: n - warm,
+            rows: self.n - self.warm,
             fitted: [
                 true,
                 true,
@@ -72,8 +87,8 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
                 kinetic,
                 kinetic,
             ],
-            lag1,
-        })
+            lag1: self.residual_lag1(),
+        }
     }
 
     /// The lag-1 autocorrelation `Σ r(l)·r(l−1) / Σ r(l)²` of the

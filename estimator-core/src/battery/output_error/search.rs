@@ -334,23 +334,8 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
         // there again from the settings of that iteration.
         let data_a = a;
         add_prior(s, &p, &mut a, &mut b);
-        let kinetic = s.model == CellModel::ButlerVolmer;
-        self.information = Some(FitInformation {
-            jtj: a,
-            cost: data0,
-            rows,
-            fitted: [
-                true,
-                true,
-                true,
-                s.estimate_order,
-                true,
-                s.ocv_slope,
-                kinetic,
-                kinetic,
-            ],
-            lag1: self.residual_lag1(),
-        });
+        // (The estimate has the kinetic term whenever the model does.)
+        self.information = Some(self.fit_information(s, a, data0, true));
         let mut step = RefinementStep {
             k: self.k,
             cost: cost0,
