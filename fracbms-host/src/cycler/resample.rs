@@ -1,6 +1,8 @@
 //! A log with varying steps and gaps, put on a uniform period: the current
 //! charge-preserving (the mean over each period), the voltage and the
-//! temperature taken at the sample instants. Owns the time base; must not
+//! temperature taken at the sample instants, the voltage the period's mean
+//! where the current changes inside it (so that the edge keeps its ohmic
+//! drop). Owns the time base; must not
 //! touch the columns' names, units or signs (read before it runs).
 
 use serde::Serialize;
@@ -98,8 +100,10 @@ pub struct Uniform {
     /// Mean current over `[t_k, t_k + h)`, the log's current held from
     /// each row to the next.
     pub current: Vec<f64>,
-    /// Voltage at `t_k`, linear between the rows around it; held from the
-    /// row before where the current changes at the next row.
+    /// Voltage at `t_k`, linear between the rows around it, held from the
+    /// row before where the current changes at the next row; where the
+    /// current changes inside `[t_k, t_k + h)`, the voltage's mean over it
+    /// (the same held and linear pieces).
     pub voltage: Vec<f64>,
     /// Temperature at `t_k`, as the voltage.
     pub temperature: Option<Vec<f64>>,
@@ -161,17 +165,19 @@ pub fn to_uniform(
             }
         };
         out.time.push(a);
-        // Where the current steps at the next row, the voltage's jump
-        // belongs to the new current: the voltage is held, not drawn
-        // across the step (a rest's end stays relaxed).
-        let steps = j + 1 < n && current[keep[j + 1]] != current[keep[j]];
-        out.voltage
-            .push(if steps { voltage[keep[j]] } else { at(voltage) });
         if let (Some(col), Some(v)) = (temperature, out.temperature.as_mut()) {
             v.push(at(col));
         }
-        // The mean of the held current over [a, b).
+        // The mean of the held current over [a, b), and the voltage at the
+        // instant; where the current changes inside the period, the
+        // voltage's mean over it, so that the ohmic drop `R_i·I` of the
+        // edge is kept in the same proportion as the current (a voltage
+        // taken before the edge with a current that holds part of it is a
+        // step without a drop, and a fit then takes the drop for the
+        // branch: R_i → 0 on the Panasonic HPPC test at 2 s).
         let mut q = 0.0;
+        let mut u = 0.0;
+        let mut changes = false;
         let mut i = j;
         let mut rows_in = 0usize;
         loop {
@@ -179,6 +185,8 @@ pub fn to_uniform(
             let hi = if i + 1 < n { t(i + 1).min(b) } else { b };
             if hi > lo {
                 q += current[keep[i]] * (hi - lo);
+                u += voltage_mean(time, current, voltage, keep, i, lo, hi) * (hi - lo);
+                changes |= current[keep[i]] != current[keep[j]];
             }
             if t(i) >= a && t(i) < b {
                 rows_in += 1;
@@ -189,12 +197,46 @@ pub fn to_uniform(
             i += 1;
         }
         out.current.push(q / h);
+        // Where the current steps at the next row, the voltage's jump
+        // belongs to the new current: held, not drawn across the step (a
+        // rest's end stays relaxed).
+        let steps = j + 1 < n && current[keep[j + 1]] != current[keep[j]];
+        out.voltage.push(match (changes, steps) {
+            (true, _) => u / h,
+            (false, true) => voltage[keep[j]],
+            (false, false) => at(voltage),
+        });
         match rows_in {
             0 => r.rows_interpolated += 1,
             m => r.rows_merged += m - 1,
         }
     }
     out
+}
+
+/// The log's voltage averaged over `[lo, hi]` inside the rows `i`, `i + 1`
+/// (of `keep`): linear between them, but held at row `i`'s where the
+/// current steps at row `i + 1` (the voltage's jump belongs to the new
+/// current: a rest's end stays relaxed), and after the last row.
+fn voltage_mean(
+    time: &[f64],
+    current: &[f64],
+    voltage: &[f64],
+    keep: &[usize],
+    i: usize,
+    lo: f64,
+    hi: f64,
+) -> f64 {
+    let v0 = voltage[keep[i]];
+    let Some(&next) = keep.get(i + 1) else {
+        return v0;
+    };
+    if current[next] != current[keep[i]] {
+        return v0;
+    }
+    let (t0, t1) = (time[keep[i]], time[next]);
+    let at = |x: f64| v0 + (x - t0) / (t1 - t0) * (voltage[next] - v0);
+    0.5 * (at(lo) + at(hi))
 }
 
 #[cfg(test)]
@@ -213,7 +255,7 @@ mod tests {
     }
 
     #[test]
-    fn the_charge_is_kept_and_the_voltage_taken_at_the_instants() {
+    fn the_charge_is_kept_and_the_voltage_averaged_over_the_same_period() {
         // 0.1 s rows on a pulse, 60 s rows on a rest, a 250 s gap.
         let mut time = vec![];
         let mut current = vec![];
@@ -241,12 +283,27 @@ mod tests {
         );
         assert_eq!(u.current[4], -5.0);
         assert!((u.current[9] - 2.5).abs() < 1e-12 && u.current[5] == 2.5);
-        // Voltage at the instant, not a mean: 3 V + t mV.
+        // Voltage at the instant where the current does not change inside
+        // the period: 3 V + t mV…
         assert!((u.voltage[37] - 3.037).abs() < 1e-12);
         assert!((u.voltage[200] - 3.200).abs() < 1e-12);
-        // Held where the current steps at the next row (250 s: 0.2 A, then
-        // 0 A from 490 s).
+        // …held where the current steps at the next row (130 s: 0.1 A, then
+        // 0.2 A from 190 s; 250 s: 0.2 A, then 0 A from 490 s).
+        assert!((u.voltage[150] - 3.130).abs() < 1e-12);
         assert!((u.voltage[300] - 3.250).abs() < 1e-12);
+        // An edge inside a period (at 2 s, [4, 6) holds the step at 5 s):
+        // the current's mean and the voltage's mean over it, the voltage
+        // held over [4.9, 5) where the current steps at the next row.
+        let (u2, _) = run(&time, &current, 2.0);
+        assert!((u2.current[2] + 1.25).abs() < 1e-12, "{}", u2.current[2]);
+        let want = (0.9 * (3.0 + 4.45e-3) + 0.1 * 3.0049 + (3.0 + 5.5e-3)) / 2.0;
+        assert!(
+            (u2.voltage[2] - want).abs() < 1e-12,
+            "{} vs {want}",
+            u2.voltage[2]
+        );
+        // [2, 4): no change inside: the instant's voltage.
+        assert!((u2.voltage[1] - 3.002).abs() < 1e-12);
         // 100 rows in 10 periods: 90 merged; 5 rests of 60 s and the gap;
         // the last row is the last sample's.
         assert_eq!(r.rows_merged, 90);
