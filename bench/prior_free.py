@@ -67,9 +67,12 @@ def dfn(hs, out):
         print(rec, "|", judge("R_i", tr["r_i"], cpe["r_i"]), "|", judge("R_ct", tr["r_ct"], cpe["r_ct"]))
 
 
-def pulse_steps():
+def pulse_steps(after_s=None):
     """(time, step resistance) at every pulse edge of the raw record: the
-    voltage change over the first 0.1 s sample of the edge."""
+    voltage change over the first 0.1 s sample of the edge, or (with
+    ``after_s``) from the last sample before the edge to ``after_s``
+    seconds after it (the resistance a record sampled at that period
+    shows: R_i with the branch's part that answers within it)."""
     import scipy.io as sio
 
     meas = sio.loadmat(PANASONIC)["meas"][0, 0]
@@ -77,7 +80,10 @@ def pulse_steps():
     di, dv = np.diff(i), np.diff(v)
     edge = (np.abs(di) > 1.0) & (np.abs(i[:-1]) < 0.05) & (np.diff(t) < 0.2)
     k = np.where(edge)[0]
-    return t[k + 1], dv[k] / di[k]
+    if after_s is None:
+        return t[k + 1], dv[k] / di[k]
+    later = np.interp(t[k] + after_s, t, v)
+    return t[k + 1], (later - v[k]) / di[k]
 
 
 def panasonic(hs, out):
@@ -100,15 +106,27 @@ def panasonic(hs, out):
     first_group_end = ts[min(9, len(ts) - 1)]
     after = tr["time_s"] > first_group_end
     print("panasonic: step resistances at the pulse edges (0.1 s) %.1f..%.1f mOhm" % (rs.min() * 1e3, rs.max() * 1e3))
-    print("panasonic |", judge("R_i vs the nearest step", tr["r_i"][after], near[after]))
+    print("panasonic |", judge("R_i vs the nearest step (0.1 s)", tr["r_i"][after], near[after]))
+    h = float(np.median(np.diff(tr["time_s"])))
+    th, rh = pulse_steps(h)
+    near_h = np.array([rh[np.argmin(np.abs(th - x))] for x in tr["time_s"]])
+    print("panasonic: step resistances over the record's period %g s: %.1f..%.1f mOhm" % (h, rh.min() * 1e3, rh.max() * 1e3))
+    print("panasonic |", judge(f"R_i vs the nearest step ({h:g} s)", tr["r_i"][after], near_h[after]))
     soc_ref = np.array([lrct[np.argmin(np.abs(lsoc - z))] if np.isfinite(z) else np.nan for z in tr["soc"]])
     ri_ref = np.array([lri[np.argmin(np.abs(lsoc - z))] if np.isfinite(z) else np.nan for z in tr["soc"]])
     print("panasonic |", judge("R_ct vs the per-SOC map", tr["r_ct"][after], soc_ref[after]))
+    # Only where the map's own level is identifiable (its 95 % intervals
+    # within a factor 2): elsewhere the reference is no reference.
+    ok = np.array([r["identifiable"] == "true" for r in levels])
+    near_level = np.array([np.argmin(np.abs(lsoc - z)) if np.isfinite(z) else -1 for z in tr["soc"]])
+    sure = after & (near_level >= 0) & ok[np.maximum(near_level, 0)]
+    print("panasonic |", judge("R_ct vs the identifiable map levels", tr["r_ct"][sure], soc_ref[sure]),
+          f"({sure.sum()} of {after.sum()} samples near such a level)")
     print("panasonic |", judge("R_i vs the per-SOC map", tr["r_i"][after], ri_ref[after]))
     for k in ("r_i", "r_ct", "q", "alpha"):
         st = tr[k + "_status"][after]
         print(f"panasonic | {k}_status after the first pulse group:",
-              {s: f"{(st == s).mean():.1%}" for s in ("identified", "held", "not_identified")})
+              {s: f"{(st == s).mean():.1%}" for s in ("identified", "step", "held", "expired", "not_identified")})
 
 
 def main():

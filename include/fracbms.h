@@ -191,6 +191,46 @@ typedef int32_t FracbmsRejection;
 #endif // __cplusplus
 
 /**
+ * Whether a published parameter comes from the data (as `host-sim online
+ * battery`'s `*_status` columns; `fracbms_identification_name`).
+ */
+enum FracbmsIdentification
+#if defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+  : int32_t
+#endif // defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+ {
+  /**
+   * No window has identified it yet: nothing is published (NaN).
+   */
+  FRACBMS_IDENTIFICATION_NOT_IDENTIFIED = 0,
+  /**
+   * The last window identified it.
+   */
+  FRACBMS_IDENTIFICATION_IDENTIFIED = 1,
+  /**
+   * The last window did not: the value of the last one that did.
+   */
+  FRACBMS_IDENTIFICATION_HELD = 2,
+  /**
+   * `R_i` only: fitted with the last current step's resistance as
+   * evidence, the window alone not separating it from the branch.
+   */
+  FRACBMS_IDENTIFICATION_STEP = 3,
+  /**
+   * Identified at a state of charge too far from the present one:
+   * nothing is published (NaN).
+   */
+  FRACBMS_IDENTIFICATION_EXPIRED = 4,
+};
+#ifndef __cplusplus
+#if __STDC_VERSION__ >= 202311L
+typedef enum FracbmsIdentification FracbmsIdentification;
+#else
+typedef int32_t FracbmsIdentification;
+#endif // __STDC_VERSION__ >= 202311L
+#endif // __cplusplus
+
+/**
  * Cell model.
  */
 enum FracbmsModel
@@ -371,6 +411,45 @@ typedef struct FracbmsSettings {
 } FracbmsSettings;
 
 /**
+ * The parameters a cell publishes: each value (NaN when nothing is
+ * published) with its status.
+ */
+typedef struct FracbmsPublished {
+  /**
+   * `R_i` (Ω).
+   */
+  float r_i;
+  /**
+   * `R_ct` (Ω).
+   */
+  float r_ct;
+  /**
+   * `Q`.
+   */
+  float q;
+  /**
+   * The order α.
+   */
+  float alpha;
+  /**
+   * Status of `r_i`.
+   */
+  FracbmsIdentification r_i_status;
+  /**
+   * Status of `r_ct`.
+   */
+  FracbmsIdentification r_ct_status;
+  /**
+   * Status of `q`.
+   */
+  FracbmsIdentification q_status;
+  /**
+   * Status of `alpha`.
+   */
+  FracbmsIdentification alpha_status;
+} FracbmsPublished;
+
+/**
  * One sample's outcome and the estimate after it.
  */
 typedef struct FracbmsEstimate {
@@ -419,6 +498,16 @@ typedef struct FracbmsEstimate {
    * median by more than the flag ratio.
    */
   bool flagged;
+  /**
+   * What is published of each parameter: only what the data identify
+   * (`parameters` is the window's fit, identified or not).
+   */
+  struct FracbmsPublished published;
+  /**
+   * The resistance `ΔU/ΔI` of the last clean current step (Ω; NaN
+   * before one), the model-free check of `R_i`.
+   */
+  float step_resistance;
 } FracbmsEstimate;
 
 /**
@@ -722,6 +811,13 @@ uint16_t fracbms_pack_cells(const struct FracbmsPack *pack);
  * static.
  */
 const char *fracbms_status_name(int32_t status);
+
+/**
+ * A `FracbmsIdentification`'s name as `host-sim online battery` writes it
+ * in its `*_status` columns (`"unknown"` for another value),
+ * NUL-terminated and static.
+ */
+const char *fracbms_identification_name(int32_t status);
 
 /**
  * A `FracbmsCode`'s meaning in a few words (`"unknown code"` for another

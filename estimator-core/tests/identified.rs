@@ -2,8 +2,9 @@
 //! when the window's data identify it, and the model-free resistance of a
 //! current step.
 
+use estimator_core::battery::ocv::{OcvModel, OcvTable};
 use estimator_core::battery::online::{CellEstimator, Identification, OnlineSettings};
-use estimator_core::battery::profile::Profile;
+use estimator_core::battery::profile::{ocv_nmc, Profile};
 use estimator_core::battery::simulate::simulate;
 use estimator_core::battery::CellParameters;
 use estimator_core::frac::GlWeights;
@@ -135,4 +136,107 @@ fn a_resistance_the_window_cannot_see_is_not_published() {
         // Published only within the factor the status promises.
         assert!(r / truth.r_ct < 2.0 && truth.r_ct / r < 2.0, "R_ct {r}");
     }
+}
+
+/// The NMC curve every 1 % of SOC.
+fn nmc_table() -> OcvTable<f64, 101> {
+    let soc: Vec<f64> = (0..=100).map(|k| k as f64 / 100.0).collect();
+    let ocv: Vec<f64> = soc.iter().map(|&z| ocv_nmc(z)).collect();
+    OcvTable::new(&soc, &ocv).unwrap()
+}
+
+#[test]
+fn a_held_value_expires_when_the_state_of_charge_moves_on() {
+    // Pulses around SOC 0.9 (identified there), then a constant 1C
+    // discharge: no window is excited, and after 0.15 of SOC what was
+    // identified at 0.9 is no longer published.
+    let truth = CellParameters::<f64>::cell_18650();
+    let capacity = 2.5;
+    let mut i: Vec<f64> = (0..800)
+        .map(|l| {
+            if l < 30 {
+                0.0
+            } else {
+                Profile::Pulse.current(l as f64, 6.0)
+            }
+        })
+        .collect();
+    i.extend(std::iter::repeat_n(-2.5, 1000));
+    let mut soc = Vec::with_capacity(i.len());
+    let mut z = 0.9;
+    for &x in &i {
+        z += x / (capacity * 3600.0);
+        soc.push(z);
+    }
+    let n = i.len();
+    let mut w = Box::new(GlWeights::<f64, 4096>::new(truth.alpha, 1.0, n).unwrap());
+    let (mut up, mut v) = (vec![0.0; n], vec![0.0; n]);
+    simulate(&truth, &mut w, &i, |l| ocv_nmc(soc[l]), &mut up, &mut v).unwrap();
+    let s =
+        OnlineSettings::new(1.0, 64, truth).with_ocv(OcvModel::new(nmc_table(), capacity).unwrap());
+    let mut est = Box::new(CellEstimator::<f64, 256, 64>::new(&s).unwrap());
+    let mut held_far = false;
+    for l in 0..n {
+        est.push(&s, i[l], v[l]);
+        let p = est.published().r_ct;
+        if let (Some(then), Some(now)) = (p.soc, est.state_of_charge()) {
+            // Never published further than the span from where it was
+            // identified.
+            assert!(
+                (now - then).abs() <= s.hold_soc_span || p.value.is_none(),
+                "{l}: {p:?} at {now}"
+            );
+            held_far |= p.status == Identification::Held && (now - then).abs() > 0.1;
+        }
+    }
+    assert!(held_far, "held while the SOC moved less than the span");
+    for (name, x) in est.published().named() {
+        assert_eq!(x.status, Identification::Expired, "{name}");
+        assert_eq!(x.value, None, "{name}");
+    }
+    assert!(est.state_of_charge().unwrap() < 0.9 - 0.15);
+}
+
+#[test]
+fn after_a_gap_the_state_of_charge_is_read_again_at_rest() {
+    let truth = CellParameters::<f64>::cell_18650();
+    let capacity = 2.5;
+    let s =
+        OnlineSettings::new(1.0, 64, truth).with_ocv(OcvModel::new(nmc_table(), capacity).unwrap());
+    let mut est = Box::new(CellEstimator::<f64, 256, 64>::new(&s).unwrap());
+    let rested = |est: &mut CellEstimator<f64, 256, 64>, z: f64| {
+        for _ in 0..20 {
+            est.push(&s, 0.0, ocv_nmc(z));
+        }
+    };
+    rested(&mut est, 0.8);
+    assert!((est.state_of_charge().unwrap() - 0.8).abs() < 1e-3);
+    // A gap that hid a discharge to 0.5; the record resumes at rest.
+    est.resume_after_gap(true);
+    rested(&mut est, 0.5);
+    assert!((est.state_of_charge().unwrap() - 0.5).abs() < 1e-3);
+    // Not at rest where it resumes: the count is kept.
+    est.resume_after_gap(false);
+    rested(&mut est, 0.3);
+    assert!((est.state_of_charge().unwrap() - 0.5).abs() < 1e-3);
+}
+
+#[test]
+fn a_step_whose_voltage_does_not_move_is_no_step_resistance() {
+    // Before any fit a step is judged against a logger's resolution: a
+    // resampled row that kept the voltage from before the edge says
+    // nothing of the resistance.
+    let s = OnlineSettings::new(1.0, 64, CellParameters::<f64>::cell_18650());
+    let mut est = Box::new(CellEstimator::<f64, 256, 64>::new(&s).unwrap());
+    for _ in 0..10 {
+        est.push(&s, 0.0, 3.7);
+    }
+    est.push(&s, -3.0, 3.7 - 5e-5);
+    assert_eq!(est.cell_state().step_resistance(), None);
+    for _ in 0..10 {
+        est.push(&s, 0.0, 3.7);
+    }
+    est.push(&s, -3.0, 3.7 - 0.06);
+    let st = est.cell_state().step_resistance().unwrap();
+    assert!((st.ohm - 0.02).abs() < 1e-9, "{st:?}");
 }

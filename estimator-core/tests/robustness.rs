@@ -341,12 +341,17 @@ fn footprint_of_an_f32_estimator() {
     // identify (issue 35) adds the last normal equations' information to
     // the working area (280 B) and the published parameters with their
     // statuses and the last step resistance to the cell's state (72 B):
-    // 31 424 B.
+    // 31 424 B; the state of charge each was identified at (32 B, for
+    // their expiry) and the refinement's step evidence (8 B): 31 464 B.
     use estimator_core::battery::online::{CellState, CurrentHistory, WorkingArea};
     let parts = core::mem::size_of::<CellState<f32, 256>>()
         + core::mem::size_of::<WorkingArea<f32, 256, 64>>()
         + core::mem::size_of::<CurrentHistory<f32, 256>>();
     assert!(cell <= parts + 16, "{cell} {parts}");
+    let per_cell = core::mem::size_of::<CellState<f32, 256>>();
+    println!("size_of: a pack cell's state {per_cell} B");
+    // The MCU budget of a pack's cell (issue 35): 2 KiB.
+    assert!(per_cell <= 2048, "{per_cell}");
     assert!(
         cell < 26 * 1024 + 4 * 256 * 4 + 128 + 96 + 2 * 104 + 352,
         "{cell}"

@@ -69,9 +69,9 @@ mod types;
 pub use identify::{FracbmsFit, FracbmsIdentifyOptions};
 pub use map::{fracbms_cell_follow_map, fracbms_cell_set_prior, fracbms_map_cell_at};
 pub use types::{
-    FracbmsCode, FracbmsEstimate, FracbmsMapLevel, FracbmsMethod, FracbmsModel, FracbmsParameters,
-    FracbmsRejection, FracbmsSettings, FracbmsStatus, FRACBMS_MAP_LEVELS_MAX,
-    FRACBMS_OCV_POINTS_MAX,
+    FracbmsCode, FracbmsEstimate, FracbmsIdentification, FracbmsMapLevel, FracbmsMethod,
+    FracbmsModel, FracbmsParameters, FracbmsPublished, FracbmsRejection, FracbmsSettings,
+    FracbmsStatus, FRACBMS_MAP_LEVELS_MAX, FRACBMS_OCV_POINTS_MAX,
 };
 
 use state::{CellOp, PackOp, PackOut};
@@ -414,6 +414,23 @@ pub extern "C" fn fracbms_status_name(status: i32) -> *const c_char {
         Status::AtBound => c"at_bound",
         Status::SlowRelaxation => c"slow_relaxation",
         Status::OcvImplausible => c"ocv_implausible",
+    };
+    name.as_ptr()
+}
+
+/// A `FracbmsIdentification`'s name as `host-sim online battery` writes it
+/// in its `*_status` columns (`"unknown"` for another value),
+/// NUL-terminated and static.
+#[no_mangle]
+pub extern "C" fn fracbms_identification_name(status: i32) -> *const c_char {
+    use estimator_core::battery::online::Identification;
+    let name: &'static core::ffi::CStr = match FracbmsIdentification::core(status) {
+        None => c"unknown",
+        Some(Identification::NotIdentified) => c"not_identified",
+        Some(Identification::Identified) => c"identified",
+        Some(Identification::Held) => c"held",
+        Some(Identification::Step) => c"step",
+        Some(Identification::Expired) => c"expired",
     };
     name.as_ptr()
 }

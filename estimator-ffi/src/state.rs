@@ -179,6 +179,8 @@ fn estimate_of<const N: usize>(
         samples: u32::try_from(counts.samples).unwrap_or(u32::MAX),
         rejected: counts.rejected(),
         flagged: false,
+        published: c.published().into(),
+        step_resistance: c.step_resistance().map_or(f32::NAN, |st| st.ohm),
     }
 }
 

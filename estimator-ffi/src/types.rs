@@ -4,7 +4,10 @@
 
 use estimator_core::battery::map::{MapLevel, ParameterMap};
 use estimator_core::battery::ocv::{OcvModel, OcvTable};
-use estimator_core::battery::online::{Method, OnlineSettings, Rejection, Status};
+use estimator_core::battery::online::{
+    Identification, Method, OnlineSettings, PublishedParameter, PublishedParameters, Rejection,
+    Status,
+};
 use estimator_core::battery::{CellModel, CellParameters, Start};
 
 /// Largest OCV table the C interface takes (points).
@@ -344,6 +347,97 @@ pub struct FracbmsEstimate {
     /// Pack only: the cell's `R_i` or `R_ct` stands out of the pack's
     /// median by more than the flag ratio.
     pub flagged: bool,
+    /// What is published of each parameter: only what the data identify
+    /// (`parameters` is the window's fit, identified or not).
+    pub published: FracbmsPublished,
+    /// The resistance `ΔU/ΔI` of the last clean current step (Ω; NaN
+    /// before one), the model-free check of `R_i`.
+    pub step_resistance: f32,
+}
+
+/// Whether a published parameter comes from the data (as `host-sim online
+/// battery`'s `*_status` columns; `fracbms_identification_name`).
+#[repr(i32)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FracbmsIdentification {
+    /// No window has identified it yet: nothing is published (NaN).
+    FRACBMS_IDENTIFICATION_NOT_IDENTIFIED = 0,
+    /// The last window identified it.
+    FRACBMS_IDENTIFICATION_IDENTIFIED = 1,
+    /// The last window did not: the value of the last one that did.
+    FRACBMS_IDENTIFICATION_HELD = 2,
+    /// `R_i` only: fitted with the last current step's resistance as
+    /// evidence, the window alone not separating it from the branch.
+    FRACBMS_IDENTIFICATION_STEP = 3,
+    /// Identified at a state of charge too far from the present one:
+    /// nothing is published (NaN).
+    FRACBMS_IDENTIFICATION_EXPIRED = 4,
+}
+
+impl From<Identification> for FracbmsIdentification {
+    fn from(s: Identification) -> Self {
+        match s {
+            Identification::NotIdentified => Self::FRACBMS_IDENTIFICATION_NOT_IDENTIFIED,
+            Identification::Identified => Self::FRACBMS_IDENTIFICATION_IDENTIFIED,
+            Identification::Held => Self::FRACBMS_IDENTIFICATION_HELD,
+            Identification::Step => Self::FRACBMS_IDENTIFICATION_STEP,
+            Identification::Expired => Self::FRACBMS_IDENTIFICATION_EXPIRED,
+        }
+    }
+}
+
+impl FracbmsIdentification {
+    /// The core's identification of a C value, if any.
+    pub(crate) fn core(v: i32) -> Option<Identification> {
+        [
+            Identification::NotIdentified,
+            Identification::Identified,
+            Identification::Held,
+            Identification::Step,
+            Identification::Expired,
+        ]
+        .into_iter()
+        .find(|&s| Self::from(s) as i32 == v)
+    }
+}
+
+/// The parameters a cell publishes: each value (NaN when nothing is
+/// published) with its status.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FracbmsPublished {
+    /// `R_i` (Ω).
+    pub r_i: f32,
+    /// `R_ct` (Ω).
+    pub r_ct: f32,
+    /// `Q`.
+    pub q: f32,
+    /// The order α.
+    pub alpha: f32,
+    /// Status of `r_i`.
+    pub r_i_status: FracbmsIdentification,
+    /// Status of `r_ct`.
+    pub r_ct_status: FracbmsIdentification,
+    /// Status of `q`.
+    pub q_status: FracbmsIdentification,
+    /// Status of `alpha`.
+    pub alpha_status: FracbmsIdentification,
+}
+
+impl From<PublishedParameters<f32>> for FracbmsPublished {
+    fn from(p: PublishedParameters<f32>) -> Self {
+        let v = |x: PublishedParameter<f32>| x.value.unwrap_or(f32::NAN);
+        Self {
+            r_i: v(p.r_i),
+            r_ct: v(p.r_ct),
+            q: v(p.q),
+            alpha: v(p.alpha),
+            r_i_status: p.r_i.status.into(),
+            r_ct_status: p.r_ct.status.into(),
+            q_status: p.q.status.into(),
+            alpha_status: p.alpha.status.into(),
+        }
+    }
 }
 
 /// Converts the C settings into the core's, copying the OCV table.

@@ -74,7 +74,18 @@ fn a_cell_through_the_abi_is_the_core_estimator_bit_for_bit() {
         let e = unsafe { e.assume_init() };
         assert_eq!(e.status, r.status.into());
         assert_eq!(e.iterations, r.iterations);
+        same_published(&e.published, &reference.published().into());
+        let step = reference.cell_state().step_resistance().map(|s| s.ohm);
+        assert_eq!(
+            e.step_resistance.to_bits(),
+            step.unwrap_or(f32::NAN).to_bits()
+        );
     }
+    // The pulse record identifies R_i (its statuses reach C).
+    assert_ne!(
+        e_status(&e, |p| p.r_i_status),
+        FracbmsIdentification::FRACBMS_IDENTIFICATION_NOT_IDENTIFIED
+    );
     let e = unsafe { e.assume_init() };
     let p = reference.estimate().unwrap();
     assert!(e.valid);
@@ -89,6 +100,45 @@ fn a_cell_through_the_abi_is_the_core_estimator_bit_for_bit() {
         FRACBMS_OK
     );
     assert_eq!(unsafe { again.assume_init() }.parameters, e.parameters);
+}
+
+/// The same published values (bit for bit, NaN for none) and statuses.
+fn same_published(a: &FracbmsPublished, b: &FracbmsPublished) {
+    let bits = |p: &FracbmsPublished| [p.r_i, p.r_ct, p.q, p.alpha].map(f32::to_bits);
+    let statuses = |p: &FracbmsPublished| [p.r_i_status, p.r_ct_status, p.q_status, p.alpha_status];
+    assert_eq!(bits(a), bits(b));
+    assert_eq!(statuses(a), statuses(b));
+    for (v, s) in [(a.r_i, a.r_i_status), (a.r_ct, a.r_ct_status)] {
+        let none = matches!(
+            s,
+            FracbmsIdentification::FRACBMS_IDENTIFICATION_NOT_IDENTIFIED
+                | FracbmsIdentification::FRACBMS_IDENTIFICATION_EXPIRED
+        );
+        assert_eq!(v.is_nan(), none, "{v} {s:?}");
+    }
+}
+
+fn e_status(
+    e: &MaybeUninit<FracbmsEstimate>,
+    f: impl Fn(&FracbmsPublished) -> FracbmsIdentification,
+) -> FracbmsIdentification {
+    f(&unsafe { e.assume_init() }.published)
+}
+
+#[test]
+fn identification_names_are_the_tracks() {
+    use FracbmsIdentification::*;
+    let name = |s: i32| unsafe { std::ffi::CStr::from_ptr(fracbms_identification_name(s)) };
+    for (s, want) in [
+        (FRACBMS_IDENTIFICATION_NOT_IDENTIFIED, "not_identified"),
+        (FRACBMS_IDENTIFICATION_IDENTIFIED, "identified"),
+        (FRACBMS_IDENTIFICATION_HELD, "held"),
+        (FRACBMS_IDENTIFICATION_STEP, "step"),
+        (FRACBMS_IDENTIFICATION_EXPIRED, "expired"),
+    ] {
+        assert_eq!(name(s as i32).to_str().unwrap(), want);
+    }
+    assert_eq!(name(99).to_str().unwrap(), "unknown");
 }
 
 #[test]
@@ -254,6 +304,7 @@ fn a_pack_through_the_abi_is_the_core_pack_bit_for_bit() {
         let e = unsafe { e.assume_init() };
         let want = reference.cell(usize::from(c)).unwrap();
         assert_eq!(e.parameters, want.estimate().unwrap().into());
+        same_published(&e.published, &want.published().into());
         assert_eq!(e.rejected, if c == 3 { 10 } else { 0 });
         assert!(!e.flagged, "cells differ by an offset only");
     }

@@ -206,6 +206,7 @@ fn one_cell_result(task: &ConfiguredTask, samples: u64, all: bool) -> bool {
                 e.r_i, e.r_ct, e.q, e.alpha, e.u_oc, samples, task.rejected()
             );
             if let Some(c) = task.cell(0) {
+                published_line(1, c);
                 if let (Some(z), Some(d)) = (c.state_of_charge(), c.ocv_offset()) {
                     defmt::println!("SOC soc={=f32} ocv_offset_v={=f32}", z, d);
                 }
@@ -237,6 +238,28 @@ fn one_cell_result(task: &ConfiguredTask, samples: u64, all: bool) -> bool {
     }
 }
 
+/// What cell `cell` (1-based) publishes: each parameter's value (NaN when
+/// none) and status, and the last step resistance (NaN before one), as
+/// `host-sim online battery`'s `r_i…alpha`, `*_status` and
+/// `step_resistance_ohm` columns.
+fn published_line<const N: usize>(cell: usize, c: &CellState<f32, N>) {
+    let p = c.published();
+    let v = |x: Option<f32>| x.unwrap_or(f32::NAN);
+    defmt::println!(
+        "PUBLISHED cell={=usize} r_i={=f32} r_i_status={=str} r_ct={=f32} r_ct_status={=str} q={=f32} q_status={=str} alpha={=f32} alpha_status={=str} step_resistance_ohm={=f32}",
+        cell,
+        v(p.r_i.value),
+        p.r_i.status.as_str(),
+        v(p.r_ct.value),
+        p.r_ct.status.as_str(),
+        v(p.q.value),
+        p.q.status.as_str(),
+        v(p.alpha.value),
+        p.alpha.status.as_str(),
+        v(c.step_resistance().map(|st| st.ohm))
+    );
+}
+
 /// The final report of a pack image: one `CELL` line per cell (its
 /// estimate, rejected samples, flag) and a `PACK` line; true when every
 /// cell has a physical estimate (or this is a cost measurement).
@@ -251,6 +274,9 @@ fn pack_result(
     for k in 0..config::CELLS {
         let rejected = task.cell(k).map_or(0, |c| c.counts().rejected());
         let flagged = health.is_some_and(|h| task.is_flagged(s, &h, k));
+        if let Some(c) = task.cell(k) {
+            published_line(k + 1, c);
+        }
         match task.estimate_of(k) {
             Some(e) => {
                 defmt::println!(

@@ -13,7 +13,7 @@ use crate::online::TrackOptions;
 use crate::presets;
 use crate::simulate::{battery_data, Current, OcvCurve};
 use crate::{bail, err};
-use estimator_core::battery::online::OnlineSettings;
+use estimator_core::battery::online::{OnlineSettings, PublishedParameters};
 use estimator_core::battery::pack::{PackEstimator, PackSettings};
 use estimator_core::battery::CellParameters;
 use estimator_core::Real;
@@ -248,8 +248,10 @@ pub struct PackRow {
     pub t: f64,
     /// Cell (1-based).
     pub cell: usize,
-    /// Its estimate after this sample.
+    /// Its estimate after this sample (the window's fit).
     pub estimate: Option<CellParameters<f64>>,
+    /// What it publishes, each parameter with its status.
+    pub published: PublishedParameters<f64>,
     /// Its status name.
     pub status: &'static str,
     /// Its sample of this period was rejected.
@@ -358,6 +360,7 @@ fn run<T: Real, const N: usize>(
                 t,
                 cell: k + 1,
                 estimate: c.estimate().map(|p| p.cast()),
+                published: c.published().map(|v| v.to_f64()),
                 status: c.status().as_str(),
                 rejected: c.last_rejection().is_some(),
                 flagged: health.is_some_and(|h| pack.is_flagged(s, &h, k)),
@@ -413,7 +416,11 @@ impl Default for OnlinePack {
 }
 
 /// The header of the long-format track CSV `online pack` writes.
-pub const PACK_TRACK_HEADER: &str = "time_s,cell,r_i,r_ct,q,alpha,u_oc,status,rejected,flagged";
+///
+/// As `online battery`'s track: `r_i, r_ct, q, alpha` are what the cell
+/// publishes (only what the data identify; empty otherwise), each with its
+/// `*_status`; `window_*` is the window's fit, identified or not.
+pub const PACK_TRACK_HEADER: &str = "time_s,cell,r_i,r_ct,q,alpha,u_oc,status,rejected,flagged,r_i_status,r_ct_status,q_status,alpha_status,window_r_i,window_r_ct,window_q,window_alpha";
 
 /// `online pack`: reads the pack record `input`, runs the pack estimator
 /// over it as `a` says and writes the long-format track to `out` (columns
@@ -437,31 +444,29 @@ pub fn online_file(input: &Path, out: &Path, a: &OnlinePack) -> Result<(PackSumm
     io::write_atomic(out, |w| {
         writeln!(w, "{PACK_TRACK_HEADER}")?;
         res = track_pack(&rec, &o, |r| {
-            match r.estimate {
-                Some(p) => writeln!(
-                    w,
-                    "{},{},{},{},{},{},{},{},{},{}",
-                    r.t,
-                    r.cell,
-                    f(p.r_i),
-                    f(p.r_ct),
-                    f(p.q),
-                    f(p.alpha),
-                    f(p.u_oc),
-                    r.status,
-                    u8::from(r.rejected),
-                    u8::from(r.flagged)
-                )?,
-                None => writeln!(
-                    w,
-                    "{},{},,,,,,{},{},{}",
-                    r.t,
-                    r.cell,
-                    r.status,
-                    u8::from(r.rejected),
-                    u8::from(r.flagged)
-                )?,
-            }
+            let g = |x: Option<f64>| x.map(f).unwrap_or_default();
+            let pb = &r.published;
+            let statuses = pb.named().map(|(_, x)| x.status.as_str()).join(",");
+            let e = r.estimate;
+            writeln!(
+                w,
+                "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
+                r.t,
+                r.cell,
+                g(pb.r_i.value),
+                g(pb.r_ct.value),
+                g(pb.q.value),
+                g(pb.alpha.value),
+                g(e.map(|p| p.u_oc)),
+                r.status,
+                u8::from(r.rejected),
+                u8::from(r.flagged),
+                statuses,
+                g(e.map(|p| p.r_i)),
+                g(e.map(|p| p.r_ct)),
+                g(e.map(|p| p.q)),
+                g(e.map(|p| p.alpha)),
+            )?;
             Ok(())
         });
         res.clone().map(|_| ())

@@ -99,6 +99,10 @@ class OnlineCell:
         --out`` as numpy arrays (NaN where the CSV is empty), plus
         ``rejected``. ``temperature_c`` (one per sample) picks a map prior's
         temperature."""
+    def resume_after_gap(self, rested: bool) -> None:
+        """The record resumes after a gap of unknown charge: the window
+        restarts and, when ``rested``, the state of charge is read again
+        from the next rested voltages through the OCV table."""
     @property
     def samples(self) -> int:
         """Samples offered so far."""

@@ -94,8 +94,8 @@ const TRACK_NUMBERS: [(&str, Column); 16] = [
 /// One text column of a track row.
 type Text = fn(&TrackRow) -> &'static str;
 
-/// The status columns of a track row (`identified`, `held` or
-/// `not_identified`), as in `online battery --out`.
+/// The status columns of a track row (`identified`, `held`, `step`,
+/// `expired` or `not_identified`), as in `online battery --out`.
 const TRACK_STATUSES: [(&str, Text); 4] = [
     ("r_i_status", |r| r.published.r_i.status.as_str()),
     ("r_ct_status", |r| r.published.r_ct.status.as_str()),
@@ -220,7 +220,7 @@ impl OnlineCell {
     /// Returns None while the window is filling, else a dict: `time_s`
     /// (`k·h`), `r_i`, `r_ct`, `q`, `alpha` (None until the data identify
     /// each; `r_i_status`, `r_ct_status`, `q_status`, `alpha_status` say
-    /// `"identified"`, `"held"` or `"not_identified"`), `u_oc` (None until
+    /// `"identified"`, `"held"`, `"step"` (R_i from the step resistance), `"expired"` or `"not_identified"`), `u_oc` (None until
     /// the first physical estimate), `window_r_i`, `window_r_ct`,
     /// `window_q`, `window_alpha` (that estimate's fit, identified or
     /// not), `step_resistance_ohm`, `status` (`"starting"`, `"tracking"`, or why the
@@ -257,7 +257,7 @@ impl OnlineCell {
     ///
     /// The columns of `host-sim online battery --out`: `time_s`, `r_i`,
     /// `r_ct`, `q`, `alpha` (each published only once the data identify
-    /// it; `r_i_status`… say `identified`, `held` or `not_identified`),
+    /// it; `r_i_status`… say `identified`, `held`, `step`, `expired` or `not_identified`),
     /// `u_oc`, `status`, `soc`, `ocv_offset_v`, `bv_a_v`, `bv_i0_a`,
     /// `predicted_v`, `step_resistance_ohm`, `window_r_i`, `window_r_ct`,
     /// `window_q`, `window_alpha` (the last good window's fit, identified
@@ -339,6 +339,15 @@ impl OnlineCell {
         }
         d.set_item("rejected", strings(&|r| r.rejected.unwrap_or(""))?)?;
         Ok(d)
+    }
+
+    /// The record resumes after a gap of unknown charge (a logger that
+    /// stopped): the window restarts and, when ``rested`` (the cell at rest
+    /// where it resumes), the state of charge is read again from the next
+    /// rested voltages through the OCV table, as at the start. What is
+    /// published stays, held. The CLI does this at every gap of a file.
+    fn resume_after_gap(&mut self, rested: bool) {
+        self.tracker.resume_after_gap(rested);
     }
 
     /// Samples offered so far.

@@ -103,3 +103,20 @@ def test_f32_and_other_windows_run(cell_record):
         assert r["status"][-1] == "tracking", (window, precision)
         assert r["r_i"][-1] == pytest.approx(CELL["r_i"], rel=0.1)
     assert repr(cell) == "OnlineCell(window=512, memory=128, h=1, samples=1500)"
+
+
+def test_after_a_gap_the_soc_is_read_again_at_rest():
+    # The chen2020 table: rested at one voltage, then a gap that hid a
+    # discharge, then rested at a lower voltage.
+    o = read_csv(REPO / "data" / "pybamm" / "chen2020-ocv.csv")
+    soc, ocv = o["soc"], o["ocv_v"]
+    cell = fracbms.OnlineCell(ocv=(soc, ocv), capacity_ah=5.0)
+    at = lambda z: float(np.interp(z, soc, ocv))  # noqa: E731
+    first = cell.run(np.zeros(25), np.full(25, at(0.8)))["soc"][-1]
+    assert first == pytest.approx(0.8, abs=2e-3)
+    cell.resume_after_gap(True)
+    after = cell.run(np.zeros(20), np.full(20, at(0.5)))["soc"][-1]
+    assert after == pytest.approx(0.5, abs=2e-3)
+    cell.resume_after_gap(False)
+    kept = cell.run(np.zeros(20), np.full(20, at(0.3)))["soc"][-1]
+    assert kept == pytest.approx(0.5, abs=2e-3)

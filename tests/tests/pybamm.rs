@@ -132,6 +132,7 @@ fn sliding_window() {
                     ..online::TrackOptions::new(256, 64)
                 },
                 None,
+                &[],
                 |r| {
                     rows.push(r);
                     Ok(())

@@ -6,11 +6,16 @@
 //!   under `qemu-system-arm -machine mps2-an386` (inside `timeout`), decodes
 //!   its defmt log with `defmt-print` (to stderr) and prints the final
 //!   estimates as the last line of stdout, one JSON object with the keys
-//!   `r_i`, `r_ct`, `q`, `alpha`, `u_oc`, `samples`, `rejected`. A pack
-//!   record (`time_s,current_a,cell_1_v,…,cell_N_v`) builds the pack
-//!   firmware for its N cells and prints `{"cells": [{"cell", "r_i",
-//!   "r_ct", "q", "alpha", "u_oc", "rejected", "flagged"}, …], "samples",
-//!   "rejected"}`. The exit status is non-zero when the firmware failed.
+//!   `r_i`, `r_ct`, `q`, `alpha`, `u_oc` (the window's fit), `samples`,
+//!   `rejected`, and what the cell publishes: `published_r_i` …
+//!   `published_alpha` (null when not identified), `r_i_status` …
+//!   `alpha_status` (as the track's `*_status` columns) and
+//!   `step_resistance_ohm`. A pack record
+//!   (`time_s,current_a,cell_1_v,…,cell_N_v`) builds the pack firmware for
+//!   its N cells and prints `{"cells": [{"cell", "r_i", "r_ct", "q",
+//!   "alpha", "u_oc", "rejected", "flagged", and the same published keys},
+//!   …], "samples", "rejected"}`. The exit status is non-zero when the
+//!   firmware failed.
 //! * `cargo xtask run-elf ELF` runs a built image the same way (the
 //!   target's cargo runner).
 //! * `cargo xtask bench-target [--window L] [--memory M] [--iterations K]
@@ -442,6 +447,7 @@ fn run_elf(elf: &Path, timeout: u32, icount: bool) -> Result<Summary> {
             // A pack prints one CELL line per cell: keyed CELL1, CELL2, …
             let key = match (key, kv.get("cell")) {
                 ("CELL", Some(n)) => format!("CELL{n}"),
+                ("PUBLISHED", Some(n)) => format!("PUBLISHED{n}"),
                 _ => key.to_owned(),
             };
             summary.insert(key, kv);
@@ -479,9 +485,31 @@ fn number(s: &Summary, line: &str, key: &str) -> Result<serde_json::Value> {
         .into())
 }
 
+/// What cell `k` (1-based) publishes, into `out`: `published_r_i` …
+/// `published_alpha` (null when nothing is published), `r_i_status` …
+/// `alpha_status` and `step_resistance_ohm` (null before a step).
+fn insert_published(s: &Summary, k: u64, out: &mut serde_json::Map<String, serde_json::Value>) {
+    let Some(m) = s.get(&format!("PUBLISHED{k}")) else {
+        return;
+    };
+    let num = |key: &str| {
+        m.get(key)
+            .and_then(|v| v.parse::<f64>().ok())
+            .and_then(serde_json::Number::from_f64)
+            .map_or(serde_json::Value::Null, serde_json::Value::Number)
+    };
+    for key in ["r_i", "r_ct", "q", "alpha"] {
+        out.insert(format!("published_{key}"), num(key));
+        let status = m.get(&format!("{key}_status")).cloned().unwrap_or_default();
+        out.insert(format!("{key}_status"), status.into());
+    }
+    out.insert("step_resistance_ohm".into(), num("step_resistance_ohm"));
+}
+
 /// The JSON of a pack image's final report: `{"cells": [{"cell", "r_i",
-/// "r_ct", "q", "alpha", "u_oc", "rejected", "flagged"}, …], "samples",
-/// "rejected"}` (a cell without an estimate has null parameters).
+/// "r_ct", "q", "alpha", "u_oc", "rejected", "flagged", and what the cell
+/// publishes ([`insert_published`])}, …], "samples", "rejected"}` (a cell
+/// without an estimate has null parameters; `r_i` … are the window's fit).
 fn pack_json(s: &Summary) -> Result<serde_json::Value> {
     let cells = int(s, "PACK", "cells")?;
     let mut list = Vec::new();
@@ -504,6 +532,7 @@ fn pack_json(s: &Summary) -> Result<serde_json::Value> {
             "flagged".into(),
             (flagged.map(String::as_str) == Some("true")).into(),
         );
+        insert_published(s, k, &mut c);
         list.push(serde_json::Value::Object(c));
     }
     Ok(serde_json::json!({
@@ -538,6 +567,7 @@ fn qemu(a: &QemuArgs) -> Result<()> {
             out.insert(name.into(), number(&s, "MAP", key)?);
         }
     }
+    insert_published(&s, 1, &mut out);
     out.insert("model".into(), a.model.clone().into());
     for key in ["bv_a_v", "bv_i0_a"] {
         let v = if s.contains_key("BV") {

@@ -134,6 +134,12 @@ impl<T: Real, const N: usize, const MEM: usize> CellEstimator<T, N, MEM> {
         self.pack.cells[0].set_state_of_charge(soc);
     }
 
+    /// The record resumes after a gap of unknown charge
+    /// ([`CellState::resume_after_gap`]).
+    pub fn resume_after_gap(&mut self, rested: bool) {
+        self.pack.cells[0].resume_after_gap(rested);
+    }
+
     /// Health after the last sample.
     pub fn status(&self) -> Status {
         self.state().status()

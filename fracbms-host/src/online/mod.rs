@@ -1,6 +1,7 @@
 //! `online battery`: the sliding-window estimator, sample by sample, as the
 //! firmware runs it (f64 here).
 
+use crate::cycler::resample::Gap;
 use crate::error::Result;
 use crate::identify::{BatteryMethod, ModelRequest};
 use crate::io::OCV_POINTS;
@@ -187,14 +188,20 @@ fn cast_prior<T: Real>(p: &Prior<f64>) -> Prior<T> {
 
 /// Runs the online estimator over a record as `o` says, calling `sink`
 /// after every sample. With `o.prior_map`, `temperature` (°C, one per
-/// sample) picks the map's temperature.
+/// sample) picks the map's temperature. At the first sample after each of
+/// the log's `gaps` (their charge is unknown) the estimator resumes
+/// ([`Tracker::resume_after_gap`]; rested when the current there is at
+/// most C/100).
 pub fn track(
     rec: &io::BatteryRecord,
     o: &TrackOptions,
     temperature: Option<&[f64]>,
+    gaps: &[Gap],
     mut sink: impl FnMut(TrackRow) -> Result<()>,
 ) -> Result<TrackSummary> {
     let mut cell = Tracker::new(o, rec.h, o.cell.map(|c| c.soc0))?;
+    let rest = o.cell.map_or(0.0, |c| c.model.capacity_ah / 100.0);
+    let mut ends = gaps.iter().map(|g| g.start_s + g.length_s).peekable();
     let pb = progress::bar(rec.current.len() as u64, "tracking");
     for (k, ((&t, &i), &v)) in rec
         .time
@@ -205,6 +212,10 @@ pub fn track(
     {
         if let Some(t) = temperature.and_then(|x| x.get(k)) {
             cell.set_temperature(*t);
+        }
+        if ends.next_if(|&end| end <= t).is_some() {
+            while ends.next_if(|&end| end <= t).is_some() {}
+            cell.resume_after_gap(i.abs() <= rest);
         }
         sink(cell.push(t, i, v))?;
         if k % 256 == 0 {
@@ -232,6 +243,7 @@ trait Step: Send + Sync {
     fn push(&mut self, t: f64, current: f64, voltage: f64) -> TrackRow;
     fn summary(&self) -> TrackSummary;
     fn set_state_of_charge(&mut self, soc: f64);
+    fn resume_after_gap(&mut self, rested: bool);
     fn state_of_charge(&self) -> Option<f64>;
     fn set_prior(&mut self, p: &Prior<f64>);
 }
@@ -270,25 +282,17 @@ impl<T: Real + Send + Sync, const N: usize> Step for Sized<T, N> {
             }),
             soc: est.state_of_charge().map(|z| z.to_f64()),
             ocv_offset: est.ocv_offset().map(|d| d.to_f64()),
-            published: {
-                let p = est.published();
-                let c = |x: PublishedParameter<T>| PublishedParameter {
-                    value: x.value.map(|v| v.to_f64()),
-                    status: x.status,
-                };
-                PublishedParameters {
-                    r_i: c(p.r_i),
-                    r_ct: c(p.r_ct),
-                    q: c(p.q),
-                    alpha: c(p.alpha),
-                }
-            },
+            published: est.published().map(|v| v.to_f64()),
             step_resistance: est.cell_state().step_resistance().map(|st| st.ohm.to_f64()),
         }
     }
 
     fn set_state_of_charge(&mut self, soc: f64) {
         self.est.set_state_of_charge(T::lit(soc));
+    }
+
+    fn resume_after_gap(&mut self, rested: bool) {
+        self.est.resume_after_gap(rested);
     }
 
     fn state_of_charge(&self) -> Option<f64> {
@@ -336,6 +340,14 @@ impl Tracker {
             temperature: None,
             follower: MapFollower::new(),
         })
+    }
+
+    /// The record resumes after a gap of unknown charge: the window
+    /// restarts and, when `rested`, the state of charge is read again
+    /// from the next rested voltages
+    /// ([`estimator_core::battery::online::CellEstimator::resume_after_gap`]).
+    pub fn resume_after_gap(&mut self, rested: bool) {
+        self.cell.resume_after_gap(rested);
     }
 
     /// The cell's temperature now (°C): the map's temperature the prior is
@@ -534,7 +546,8 @@ pub fn battery_file(input: &Path, out: &Path, o: &OnlineBatteryOptions) -> Resul
         let mut res = Ok(TrackSummary::default());
         io::write_atomic(out, |w| {
             writeln!(w, "{TRACK_HEADER}")?;
-            res = track(&rec, &t, read.temperature.as_deref(), |r| {
+            let gaps = &read.report.resampling.gaps;
+            res = track(&rec, &t, read.temperature.as_deref(), gaps, |r| {
                 let bv = r.estimate.filter(|p| p.is_butler_volmer());
                 let pb = &r.published;
                 let statuses = pb.named().map(|(_, x)| x.status.as_str()).join(",");

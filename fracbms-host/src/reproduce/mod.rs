@@ -376,7 +376,7 @@ fn tracking(dir: &Path, md: &mut String) -> Result<()> {
     )?;
     let rec = record(&d, 1.0);
     let mut rows = Vec::new();
-    online::track(&rec, &online::TrackOptions::new(256, 64), None, |r| {
+    online::track(&rec, &online::TrackOptions::new(256, 64), None, &[], |r| {
         rows.push(r);
         Ok(())
     })?;

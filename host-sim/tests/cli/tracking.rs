@@ -166,6 +166,15 @@ fn pack_round_trip_tracks_every_cell_and_flags_the_aged_one() {
     for (k, row) in rows[rows.len() - 8..].iter().enumerate() {
         assert_eq!(row[1], (k + 1).to_string());
         assert_eq!(row[7], "tracking", "{row:?}");
+        // What is published is identified (or held from a window that
+        // identified it), and it is what the bands judge below.
+        for c in 10..14 {
+            assert!(
+                ["identified", "held"].contains(&row[c]),
+                "cell {}: {row:?}",
+                k + 1
+            );
+        }
         let est = |c: usize| row[c].parse::<f64>().unwrap();
         let tru = |key: &str| cells[k][key].as_f64().unwrap();
         assert!(

@@ -278,8 +278,18 @@ pub struct OutputErrorRefinement<T, const N: usize, const MEM: usize, K = GlRecu
     /// The information of the last normal equations on the loaded window
     /// (the prior's included), for [`Self::last_information`].
     information: Option<FitInformation<T>>,
+    /// `ln R_i` of a model-free measurement of `R_i` weighed with the data
+    /// ([`Self::set_r_i_evidence`]).
+    evidence: Option<T>,
     work: RefinementWork,
 }
+
+/// The weight of [`OutputErrorRefinement::set_r_i_evidence`]'s term
+/// `½·w·(ln R_i − ln R_step)²` in the cost: that of a [`super::Prior::new`]
+/// on `R_i` alone (a factor 2 at one sigma with the data weighed at
+/// σ_v = 0.1 V), `(0.1/ln 2)²`.
+pub const R_I_EVIDENCE_WEIGHT: f64 =
+    (0.1 / core::f64::consts::LN_2) * (0.1 / core::f64::consts::LN_2);
 
 /// The part of [`OutputErrorRefinement`] a cell keeps between iterations
 /// (small and `Copy`; the rest is working area).
@@ -347,6 +357,7 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
             stalled: None,
             linear: None,
             information: None,
+            evidence: None,
             work: RefinementWork::default(),
         })
     }
@@ -456,6 +467,53 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
     /// one on this window.
     pub fn last_information(&self) -> Option<&FitInformation<T>> {
         self.information.as_ref()
+    }
+
+    /// Weighs the window's data with a model-free measurement of `R_i`
+    /// (Ω; `None`: none): the cost gains `½·w·(ln R_i − ln ohm)²` with
+    /// `w =` [`R_I_EVIDENCE_WEIGHT`], as a prior on `R_i` alone would. For
+    /// a window whose data do not separate `R_i` from the branch's fastest
+    /// part (sampled slower than that part answers), the voltage step over
+    /// a current step does. [`Self::last_information`] stays the data's
+    /// (with the settings' prior): what the window alone identifies.
+    /// A value that is not finite and positive is ignored.
+    pub fn set_r_i_evidence(&mut self, ohm: Option<T>) {
+        let ln = ohm
+            .filter(|&r| r.is_finite() && r > T::zero())
+            .map(|r| r.ln());
+        if ln != self.evidence {
+            // Another cost: what the last iteration found says nothing of it.
+            self.stalled = None;
+            self.linear = None;
+            self.evidence = ln;
+        }
+    }
+
+    /// The step resistance set by [`Self::set_r_i_evidence`] (Ω).
+    pub fn r_i_evidence(&self) -> Option<T> {
+        self.evidence.map(|c| c.exp())
+    }
+
+    /// The evidence's cost at `p` (zero without).
+    pub(super) fn evidence_cost(evidence: Option<T>, p: &CellParameters<T>) -> T {
+        evidence.map_or(T::zero(), |c| {
+            let d = p.r_i.ln() - c;
+            T::lit(R_I_EVIDENCE_WEIGHT) * d * d / T::lit(2.0)
+        })
+    }
+
+    /// Adds the evidence's part to the normal equations at `p`.
+    pub(super) fn add_evidence(
+        &self,
+        p: &CellParameters<T>,
+        a: &mut Square<T>,
+        b: &mut [T; COLUMNS],
+    ) {
+        if let Some(c) = self.evidence {
+            let w = T::lit(R_I_EVIDENCE_WEIGHT);
+            a[0][0] = a[0][0] + w;
+            b[0] = b[0] + w * (c - p.r_i.ln());
+        }
     }
 
     /// One-step prediction of the terminal voltage for the *next* sample at

@@ -260,7 +260,10 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
         };
         // The last iteration on this window left the simulation of the
         // estimate in `up` (its accepted trial, or the kept estimate's).
-        let prior_cost = |p: &CellParameters<T>| s.prior.map_or(T::zero(), |pr| pr.cost(p, s));
+        let evidence = self.evidence;
+        let prior_cost = |p: &CellParameters<T>| {
+            s.prior.map_or(T::zero(), |pr| pr.cost(p, s)) + Self::evidence_cost(evidence, p)
+        };
         let data0 = if self.fresh {
             window_cost(&data, &self.p, self.beta, &self.eta[..n], &self.up[..n])
         } else {
@@ -320,6 +323,7 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
             }
             let mut a = last.normal_matrix();
             add_prior(s, &self.p, &mut a, &mut b);
+            self.add_evidence(&self.p, &mut a, &mut b);
             if let Proposal::Negligible = self.propose(s, &a, &b, cost0, longest) {
                 self.linear = None;
                 self.lambda = T::lit(LAMBDA0);
@@ -336,6 +340,8 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
         add_prior(s, &p, &mut a, &mut b);
         // (The estimate has the kinetic term whenever the model does.)
         self.information = Some(self.fit_information(s, a, data0, true));
+        // What the window alone identifies is judged without the evidence.
+        self.add_evidence(&p, &mut a, &mut b);
         let mut step = RefinementStep {
             k: self.k,
             cost: cost0,

@@ -37,6 +37,17 @@ pub enum Identification {
     /// The last window did not identify it (or was not fitted): the value
     /// of the last window that did is kept.
     Held,
+    /// `R_i` only: the last window's data alone do not separate `R_i` from
+    /// the branch's fastest part, so it was fitted with the last clean
+    /// current step's resistance as evidence
+    /// ([`crate::battery::output_error::OutputErrorRefinement::set_r_i_evidence`]),
+    /// and the value is within [`OnlineSettings::identify_factor`] of that
+    /// step's resistance.
+    Step,
+    /// The value was identified at a state of charge further than
+    /// [`OnlineSettings::hold_soc_span`] from the present one: nothing is
+    /// published until a window identifies it again.
+    Expired,
 }
 
 impl Identification {
@@ -46,7 +57,17 @@ impl Identification {
             Identification::NotIdentified => "not_identified",
             Identification::Identified => "identified",
             Identification::Held => "held",
+            Identification::Step => "step",
+            Identification::Expired => "expired",
         }
+    }
+
+    /// Whether a value is published with this status.
+    pub fn is_published(&self) -> bool {
+        matches!(
+            self,
+            Identification::Identified | Identification::Held | Identification::Step
+        )
     }
 }
 
@@ -59,20 +80,35 @@ pub struct PublishedParameter<T> {
     pub value: Option<T>,
     /// Whether that window is the last one.
     pub status: Identification,
+    /// The state of charge when it was identified (with an OCV curve).
+    pub soc: Option<T>,
 }
 
 impl<T: Copy> PublishedParameter<T> {
     const NONE: Self = Self {
         value: None,
         status: Identification::NotIdentified,
+        soc: None,
     };
 
-    /// The last window identified it (`Some(x)`) or not (`None`).
-    fn update(&mut self, identified: Option<T>) {
+    /// The same with the value and state of charge mapped by `f` (for
+    /// example to another float type).
+    pub fn map<U>(self, f: impl Fn(T) -> U) -> PublishedParameter<U> {
+        PublishedParameter {
+            value: self.value.map(&f),
+            status: self.status,
+            soc: self.soc.map(&f),
+        }
+    }
+
+    /// The last window identified it (`Some(x)`, with `status`) or not
+    /// (`None`) at state of charge `soc`.
+    fn update(&mut self, identified: Option<T>, status: Identification, soc: Option<T>) {
         match identified {
             Some(x) => {
                 self.value = Some(x);
-                self.status = Identification::Identified;
+                self.status = status;
+                self.soc = soc;
             }
             None => self.hold(),
         }
@@ -82,6 +118,19 @@ impl<T: Copy> PublishedParameter<T> {
     fn hold(&mut self) {
         if self.value.is_some() {
             self.status = Identification::Held;
+        }
+    }
+}
+
+impl<T: Real> PublishedParameter<T> {
+    /// A value identified further than `span` from the state of charge
+    /// `soc` expires.
+    fn expire(&mut self, soc: Option<T>, span: T) {
+        if let (Some(now), Some(then), Some(_)) = (soc, self.soc, self.value) {
+            if (now - then).abs() > span {
+                self.value = None;
+                self.status = Identification::Expired;
+            }
         }
     }
 }
@@ -126,6 +175,27 @@ impl<T: Copy> PublishedParameters<T> {
         self.q.hold();
         self.alpha.hold();
     }
+
+    /// The same with every value mapped by `f`.
+    pub fn map<U>(self, f: impl Fn(T) -> U) -> PublishedParameters<U> {
+        PublishedParameters {
+            r_i: self.r_i.map(&f),
+            r_ct: self.r_ct.map(&f),
+            q: self.q.map(&f),
+            alpha: self.alpha.map(&f),
+        }
+    }
+}
+
+impl<T: Real> PublishedParameters<T> {
+    /// Every value identified further than `span` from the state of
+    /// charge `soc` expires.
+    pub(super) fn expire(&mut self, soc: Option<T>, span: T) {
+        self.r_i.expire(soc, span);
+        self.r_ct.expire(soc, span);
+        self.q.expire(soc, span);
+        self.alpha.expire(soc, span);
+    }
 }
 
 /// The resistance a current step showed: `ΔU/ΔI` between two consecutive
@@ -147,6 +217,10 @@ pub struct StepResistance<T> {
 /// against the resistance itself).
 pub const STEP_PRECISION: f64 = 0.25;
 
+/// The voltage noise a step is judged against before a fit (V): a
+/// cycler's or a cell monitor's resolution, about 0.1 mV.
+pub const STEP_NOISE_FLOOR_V: f64 = 1e-4;
+
 /// 95 % two-sided normal quantile.
 const Z95: f64 = 1.96;
 
@@ -156,8 +230,8 @@ impl<T: Real, const N: usize> CellState<T, N> {
     /// current before it steady (`before`, the current of the sample
     /// before `prev`, within a tenth of the step), the step at least half
     /// of either current and a hundred times `min_current_std`, and its
-    /// resistance known to [`STEP_PRECISION`] against the fit's RMSE (any
-    /// such step before a fit). A sample that straddles the edge (a bin
+    /// resistance known to [`STEP_PRECISION`] against the fit's RMSE
+    /// ([`STEP_NOISE_FLOOR_V`] before a fit). A sample that straddles the edge (a bin
     /// average, an interpolation across a gap) is the step's first sample
     /// or is passed over: the next one's current before it is not steady.
     pub(super) fn observe_step(&mut self, min_current_std: T, before: T, prev: (T, T), i: T, u: T) {
@@ -171,9 +245,17 @@ impl<T: Real, const N: usize> CellState<T, N> {
             return;
         }
         let ohm = du / di;
-        let precise = !self.rmse.is_finite()
-            || T::lit(2.0 * core::f64::consts::SQRT_2) * self.rmse
-                <= T::lit(STEP_PRECISION) * ohm.abs() * di.abs();
+        // Before a fit (or after the window restarted), a logger's
+        // resolution stands for the fit's RMSE: a step whose voltage hardly
+        // moves (a resampled row that kept the voltage from before the
+        // edge) says nothing of the resistance.
+        let noise = if self.rmse.is_finite() {
+            self.rmse
+        } else {
+            T::lit(STEP_NOISE_FLOOR_V)
+        };
+        let precise =
+            T::lit(2.0 * core::f64::consts::SQRT_2) * noise <= T::lit(STEP_PRECISION) * du.abs();
         if precise && ohm > T::zero() {
             self.step = Some(StepResistance {
                 ohm,
@@ -183,14 +265,41 @@ impl<T: Real, const N: usize> CellState<T, N> {
         }
     }
 
+    /// The step resistance to fit `R_i` with as evidence in the next
+    /// update (none with a prior, or when the last window alone
+    /// identified `R_i`): while `R_i` is published from the step
+    /// ([`Identification::Step`]), and when the last estimate's `R_i`
+    /// contradicts the step (outside [`OnlineSettings::identify_factor`]
+    /// of it: the window gave the instantaneous answer to the branch). An
+    /// `R_i` consistent with the step but not identified is left to the
+    /// data: the step also holds the branch's first sample, and pulling
+    /// `R_i` towards it would bias the branch.
+    pub(super) fn r_i_evidence<const P: usize>(&self, s: &OnlineSettings<T, P>) -> Option<T> {
+        let step = self.step?.ohm;
+        if s.battery.prior.is_some() {
+            return None;
+        }
+        let f = s.identify_factor;
+        match self.published.r_i.status {
+            Identification::Identified => None,
+            Identification::Step => Some(step),
+            _ => self
+                .estimate
+                .filter(|p| !(p.r_i >= step / f && p.r_i <= step * f))
+                .map(|_| step),
+        }
+    }
+
     /// Judges each parameter of the window's estimate `p` by the window's
     /// information `info` (none: nothing identified) and `R_i` also by the
-    /// last step resistance; updates what is published.
+    /// last step resistance (`evidence`: `R_i` was fitted with it,
+    /// [`Self::r_i_evidence`]); updates what is published.
     pub(super) fn judge<const P: usize>(
         &mut self,
         s: &OnlineSettings<T, P>,
         p: &CellParameters<T>,
         info: Option<&FitInformation<T>>,
+        evidence: bool,
     ) {
         let Some(info) = info else {
             self.published.hold();
@@ -202,13 +311,21 @@ impl<T: Real, const N: usize> CellState<T, N> {
         let step_ok = self.step.is_none_or(|st| {
             p.r_i >= st.ohm / s.identify_factor && p.r_i <= st.ohm * s.identify_factor
         });
-        self.published
-            .r_i
-            .update((log_ok(0) && step_ok).then_some(p.r_i));
-        self.published.r_ct.update(log_ok(1).then_some(p.r_ct));
-        self.published.q.update(log_ok(2).then_some(p.q));
+        let soc = self.soc;
+        let (id, held) = (Identification::Identified, Identification::Held);
+        let r_i = if log_ok(0) && step_ok {
+            Some(id)
+        } else if evidence && self.step.is_some() && step_ok {
+            Some(Identification::Step)
+        } else {
+            None
+        };
+        let pb = &mut self.published;
+        pb.r_i.update(r_i.map(|_| p.r_i), r_i.unwrap_or(held), soc);
+        pb.r_ct.update(log_ok(1).then_some(p.r_ct), id, soc);
+        pb.q.update(log_ok(2).then_some(p.q), id, soc);
         // A fixed order is given, not estimated: published as it is.
         let alpha_ok = !info.fitted[3] || se[3].is_some_and(|e| z * e <= s.identify_alpha);
-        self.published.alpha.update(alpha_ok.then_some(p.alpha));
+        pb.alpha.update(alpha_ok.then_some(p.alpha), id, soc);
     }
 }

@@ -43,8 +43,11 @@ impl<T: Real, const N: usize> CellState<T, N> {
         k: usize,
     ) -> (Status, u16) {
         let b = &s.battery;
+        // Whether the last window alone identified `R_i` (before `hold`).
+        let evidence = self.r_i_evidence(s);
         // No new evidence unless a window's fit says otherwise below.
         self.published.hold();
+        self.published.expire(self.soc, s.hold_soc_span);
         // Saturating: `push` may be given other settings than the
         // constructor's (memory 0 or `usize::MAX` then means "never enough").
         let need = b
@@ -73,6 +76,7 @@ impl<T: Real, const N: usize> CellState<T, N> {
         if work.take(s, k, self).is_err() {
             return (Status::Held, 0);
         }
+        work.oe.set_r_i_evidence(evidence);
         let mut status = self.status;
         let mut iterations = 0;
         for _ in 0..s.iterations_per_sample {
@@ -161,7 +165,8 @@ impl<T: Real, const N: usize> CellState<T, N> {
         let p = work.oe.cell();
         match self.publish(s, &mut work.pw, p, st.rmse, st.rows) {
             Ok(()) => {
-                self.judge(s, &p, work.oe.last_information());
+                let evidence = work.oe.r_i_evidence().is_some();
+                self.judge(s, &p, work.oe.last_information(), evidence);
                 Ok(Status::Tracking)
             }
             Err(why) => {

@@ -70,6 +70,10 @@ pub struct OnlineSettings<T, const P: usize = 0> {
     pub identify_factor: T,
     /// α is published when its 95 % interval is within ± this.
     pub identify_alpha: T,
+    /// A published value identified at a state of charge further than
+    /// this from the present one expires (with an OCV curve): resistances
+    /// and time constants change with the state of charge.
+    pub hold_soc_span: T,
 }
 
 impl<T: Real> OnlineSettings<T> {
@@ -79,7 +83,8 @@ impl<T: Real> OnlineSettings<T> {
     /// `|I| ≤ 500 A`, `U_t ∈ [1.5, 5] V`, spikes beyond `max(8·RMSE, 50 mV)`,
     /// 3 consecutive spikes believed; published relaxation times up to one
     /// fitted window, OCV offsets up to 0.15 V; parameters published when
-    /// identified to a factor 2 (α to ±0.1).
+    /// identified to a factor 2 (α to ±0.1), held within 0.15 of the state
+    /// of charge they were identified at.
     pub fn new(h: T, memory: usize, initial: CellParameters<T>) -> Self {
         let mut battery = BatterySettings::new(h, memory);
         battery.start = Start::FromData;
@@ -102,6 +107,7 @@ impl<T: Real> OnlineSettings<T> {
             max_relaxation_windows: T::one(),
             identify_factor: T::lit(2.0),
             identify_alpha: T::lit(0.1),
+            hold_soc_span: T::lit(0.15),
         }
     }
 }
@@ -140,6 +146,7 @@ impl<T: Real, const P: usize> OnlineSettings<T, P> {
             max_ocv_offset: self.max_ocv_offset,
             identify_factor: self.identify_factor,
             identify_alpha: self.identify_alpha,
+            hold_soc_span: self.hold_soc_span,
             max_relaxation_windows: self.max_relaxation_windows,
         }
     }

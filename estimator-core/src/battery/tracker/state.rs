@@ -208,6 +208,22 @@ impl<T: Real, const N: usize> CellState<T, N> {
         }
     }
 
+    /// The record resumes after a gap of unknown charge (a logger that
+    /// stopped, a cell stored): the window restarts (no model runs across
+    /// the gap) and, when `rested` (the cell at rest where the record
+    /// resumes), the state of charge is read again from the next rested
+    /// voltages through the OCV curve, as at the start. What is published
+    /// stays, held (and expires by state of charge,
+    /// [`super::OnlineSettings::hold_soc_span`]).
+    pub fn resume_after_gap(&mut self, rested: bool) {
+        self.clear_window();
+        self.rmse = T::infinity();
+        if rested {
+            self.soc = None;
+            self.rest_start = None;
+        }
+    }
+
     /// Restarts the window (the pack's ring keeps the currents); its past
     /// is forgotten.
     pub(super) fn clear_window(&mut self) {
