@@ -54,6 +54,7 @@ pub mod ocv;
 pub mod online;
 pub mod output_error;
 pub mod pack;
+pub mod power;
 pub mod profile;
 pub mod regression;
 pub mod simulate;

@@ -48,6 +48,7 @@
 
 use super::output_error::RefinementWork;
 use super::pack::PackEstimator;
+use super::power::PulsePredictor;
 use super::CellParameters;
 use crate::error::Error;
 use crate::frac::GlWeights;
@@ -132,6 +133,28 @@ impl<T: Real, const N: usize, const MEM: usize> CellEstimator<T, N, MEM> {
     /// sample's voltage is read through the inverse OCV curve.
     pub fn set_state_of_charge(&mut self, soc: T) {
         self.pack.cells[0].set_state_of_charge(soc);
+    }
+
+    /// The model and the polarization the cell carries now, to predict a
+    /// constant-current pulse and the state of power from
+    /// ([`crate::battery::power`]): the last good estimate, when the last
+    /// update's fit is that estimate (`None` before one, and after an
+    /// update whose fit was refused until the next accepted one). With an
+    /// OCV curve the open-circuit voltage follows the pulse's charge from
+    /// the state of charge now.
+    pub fn pulse_predictor<'a, const P: usize>(
+        &'a self,
+        s: &'a OnlineSettings<T, P>,
+    ) -> Option<PulsePredictor<'a, T, MEM, P>> {
+        let c = self.state();
+        let p = c.window_estimate()?;
+        let (up, w) = self.pack.work.polarization_of(0, p)?;
+        let ocv = match (&s.ocv, c.state_of_charge()) {
+            (Some(m), Some(z)) => Some((m, z)),
+            (Some(_), None) => return None,
+            (None, _) => None,
+        };
+        PulsePredictor::new(p, w, up, ocv)
     }
 
     /// The record resumes after a gap of unknown charge

@@ -460,6 +460,13 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
         (&self.up[..self.n], self.warm)
     }
 
+    /// The estimate and its simulated polarization over the loaded window
+    /// (the last value is the newest sample's), when the last iteration
+    /// left them in step; `None` otherwise.
+    pub fn simulated(&self) -> Option<(CellParameters<T>, &[T])> {
+        (self.fresh && self.n > 0 && self.n <= N).then(|| (self.p, &self.up[..self.n]))
+    }
+
     /// The information of the last iteration's normal equations on the
     /// loaded window (`JᵀJ` of the data with the prior's, the data's cost
     /// at the estimate they were taken at, the fitted rows and columns),

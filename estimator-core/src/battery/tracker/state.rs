@@ -71,6 +71,18 @@ pub struct WorkingArea<T, const N: usize, const MEM: usize> {
 }
 
 impl<T: Real, const N: usize, const MEM: usize> WorkingArea<T, N, MEM> {
+    /// Cell `k`'s estimate `p` (window coordinates) with its simulated
+    /// polarization and the weights at its order, when the area is that
+    /// cell's and the last iteration left them in step with `p`.
+    pub(crate) fn polarization_of(
+        &self,
+        k: usize,
+        p: &CellParameters<T>,
+    ) -> Option<(&[T], &GlWeights<T, MEM>)> {
+        let (q, up) = self.oe.simulated()?;
+        (self.owner == Some(k) && q == *p && self.pw.alpha() == p.alpha).then_some((up, &self.pw))
+    }
+
     pub(crate) fn new<const P: usize>(s: &OnlineSettings<T, P>) -> Result<Self, Error> {
         Ok(Self {
             gi: PaperRegressionGi::new(&s.battery, s.alpha0)?,
@@ -142,6 +154,12 @@ impl<T: Real, const N: usize> CellState<T, N> {
             u_oc: p.u_oc + self.ocv_now.unwrap_or(T::zero()),
             ..p
         })
+    }
+
+    /// The last good estimate in the window's coordinates (`u_oc` is `ΔU`
+    /// with an OCV curve).
+    pub(crate) fn window_estimate(&self) -> Option<&CellParameters<T>> {
+        self.estimate.as_ref()
     }
 
     /// What is published of `R_i`, `R_ct`, `Q` and α: for each, the value
