@@ -57,7 +57,8 @@ pub struct StateOfPower<T> {
 /// let p = CellParameters::<f64>::cell_18650();
 /// let w = GlWeights::<f64, 64>::new(p.alpha, 1.0, 64).unwrap();
 /// // At rest: no polarization.
-/// let cell = PulsePredictor::new(&p, &w, &[0.0; 10], None).unwrap();
+/// // Without an OCV curve (its table size is then any).
+/// let cell = PulsePredictor::<f64, 64, 2>::new(&p, &w, &[0.0; 10], None).unwrap();
 /// let limits = PowerLimits { voltage_min: 3.0, voltage_max: 4.2, current_limit: 20.0 };
 /// let sop = cell.state_of_power(&limits, 10);
 /// // The pulse at the limit current ends on the limit voltage.
