@@ -81,7 +81,17 @@ class OnlineCell:
         prior_factor: float = 2.0,
         prior_alpha_sigma: float = 0.1,
         prior_noise_mv: float = 100.0,
-    ) -> None: ...
+        horizons: Sequence[float] = (10.0, 30.0),
+        voltage_min: Optional[float] = None,
+        voltage_max: Optional[float] = None,
+        current_limit: Optional[float] = None,
+        pulse_current_a: Optional[float] = None,
+    ) -> None:
+        """``horizons`` (s), ``voltage_min``/``voltage_max`` (V; default the OCV
+        table's range), ``current_limit`` (A) and ``pulse_current_a`` (A, +
+        charging; default a 1C discharge) give the state-of-power columns
+        ``sop_discharge_a_{H}s``, ``sop_charge_a_{H}s``, ``pulse_v_{H}s``, as
+        ``host-sim online battery``'s flags."""
     def push(
         self, current_a: float, voltage_v: float, temperature_c: Optional[float] = None
     ) -> Optional[dict[str, Any]]:

@@ -2,6 +2,7 @@
 //! (`host-sim online battery`), over `fracbms_host::online::Tracker`.
 
 use super::*;
+use fracbms_host::online::power::PowerOptions;
 
 /// The online estimator of one cell (`host-sim online battery`).
 ///
@@ -63,6 +64,24 @@ pub(crate) struct OnlineCell {
     unresolved: Option<OcvSpec>,
     window: usize,
     memory: usize,
+    /// The state-of-power horizons (s): their columns follow the track's.
+    horizons: Vec<f64>,
+}
+
+/// The state-of-power columns of a row, `(name, value)` per horizon `H`:
+/// `sop_discharge_a_{H}s`, `sop_charge_a_{H}s`, `pulse_v_{H}s`.
+fn power_columns(horizons: &[f64], r: &TrackRow) -> Vec<(String, Option<f64>)> {
+    horizons
+        .iter()
+        .zip(&r.power)
+        .flat_map(|(h, p)| {
+            [
+                (format!("sop_discharge_a_{h}s"), p.discharge_a),
+                (format!("sop_charge_a_{h}s"), p.charge_a),
+                (format!("pulse_v_{h}s"), p.pulse_v),
+            ]
+        })
+        .collect()
 }
 
 /// One numeric column of a track row.
@@ -109,10 +128,13 @@ fn butler_volmer(r: &TrackRow) -> Option<CellParameters<f64>> {
 }
 
 /// A track row as `push` returns it.
-fn row_dict<'py>(py: Python<'py>, r: &TrackRow) -> PyResult<Bound<'py, PyDict>> {
+fn row_dict<'py>(py: Python<'py>, r: &TrackRow, horizons: &[f64]) -> PyResult<Bound<'py, PyDict>> {
     let d = PyDict::new(py);
     for (k, f) in TRACK_NUMBERS {
         d.set_item(k, f(r))?;
+    }
+    for (k, v) in power_columns(horizons, r) {
+        d.set_item(k, v)?;
     }
     d.set_item("status", r.status)?;
     for (k, f) in TRACK_STATUSES {
@@ -129,7 +151,8 @@ impl OnlineCell {
         window = 256, memory = 64, h = 1.0, ocv = None, capacity_ah = None, *, soc0 = None,
         method = "refined", model = "auto", precision = "f64", start = "from-data",
         iterations_per_sample = 1, tail = false, prior = None, prior_factor = 2.0,
-        prior_alpha_sigma = 0.1, prior_noise_mv = 100.0
+        prior_alpha_sigma = 0.1, prior_noise_mv = 100.0, horizons = vec![10.0, 30.0],
+        voltage_min = None, voltage_max = None, current_limit = None, pulse_current_a = None
     ))]
     #[allow(clippy::too_many_arguments)]
     fn new(
@@ -150,6 +173,11 @@ impl OnlineCell {
         prior_factor: f64,
         prior_alpha_sigma: f64,
         prior_noise_mv: f64,
+        horizons: Vec<f64>,
+        voltage_min: Option<f64>,
+        voltage_max: Option<f64>,
+        current_limit: Option<f64>,
+        pulse_current_a: Option<f64>,
     ) -> PyResult<Self> {
         if !(h.is_finite() && h > 0.0) {
             return Err(PyValueError::new_err(format!(
@@ -194,6 +222,18 @@ impl OnlineCell {
             cell: cell.as_ref(),
             model,
             tail,
+            power: {
+                let mut p = PowerOptions::default()
+                    .with_horizons(&horizons)
+                    .map_err(|e| {
+                        PyValueError::new_err(format!("{e:#}").replace("--horizons", "horizons="))
+                    })?;
+                p.voltage_min = voltage_min;
+                p.voltage_max = voltage_max;
+                p.current_limit = current_limit;
+                p.pulse_current_a = pulse_current_a;
+                p
+            },
         };
         let tracker = py
             .detach(|| on_worker(|| Tracker::new(&o, h, spec.and_then(|s| s.soc0))))
@@ -212,6 +252,7 @@ impl OnlineCell {
             unresolved: spec.filter(|s| s.soc0.is_none()),
             window,
             memory,
+            horizons,
         })
     }
 
@@ -250,7 +291,7 @@ impl OnlineCell {
         if r.status == "filling" {
             return Ok(None);
         }
-        row_dict(py, &r).map(Some)
+        row_dict(py, &r, &self.horizons).map(Some)
     }
 
     /// Feed a whole record; return the track as a dict of numpy arrays.
@@ -326,6 +367,19 @@ impl OnlineCell {
         let d = PyDict::new(py);
         for (k, f) in TRACK_NUMBERS {
             let column: Vec<f64> = rows.iter().map(|r| f(r).unwrap_or(f64::NAN)).collect();
+            d.set_item(k, PyArray1::from_vec(py, column))?;
+        }
+        for (j, (k, _)) in rows
+            .first()
+            .map(|r| power_columns(&self.horizons, r))
+            .unwrap_or_default()
+            .into_iter()
+            .enumerate()
+        {
+            let column: Vec<f64> = rows
+                .iter()
+                .map(|r| power_columns(&self.horizons, r)[j].1.unwrap_or(f64::NAN))
+                .collect();
             d.set_item(k, PyArray1::from_vec(py, column))?;
         }
         let np = py.import("numpy")?;

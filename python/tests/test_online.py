@@ -8,7 +8,9 @@ from conftest import CELL, REPO, read_csv
 
 COLUMNS = ["time_s", "r_i", "r_ct", "q", "alpha", "u_oc", "soc", "ocv_offset_v",
            "bv_a_v", "bv_i0_a", "predicted_v", "step_resistance_ohm", "window_r_i",
-           "window_r_ct", "window_q", "window_alpha"]
+           "window_r_ct", "window_q", "window_alpha",
+           "sop_discharge_a_10s", "sop_charge_a_10s", "pulse_v_10s",
+           "sop_discharge_a_30s", "sop_charge_a_30s", "pulse_v_30s"]
 STATUSES = ["r_i_status", "r_ct_status", "q_status", "alpha_status"]
 
 

@@ -21,6 +21,7 @@ use std::path::{Path, PathBuf};
 
 pub use prior::{read_prior, read_prior_source, PriorMap, PriorSource};
 
+pub mod power;
 mod prior;
 
 /// Floating-point precision of an online estimator.
@@ -68,6 +69,9 @@ pub struct TrackRow {
     pub published: PublishedParameters<f64>,
     /// The resistance of the last precise current step (Ω).
     pub step_resistance: Option<f64>,
+    /// The state of power at each of [`TrackOptions::power`]'s horizons
+    /// (the rest empty).
+    pub power: [power::PowerRow; power::MAX_HORIZONS],
 }
 
 /// What a track run did.
@@ -109,6 +113,8 @@ pub struct TrackOptions<'a> {
     /// Add the Grünwald–Letnikov taps beyond the memory (the short-memory
     /// correction, `BatterySettings::tail`).
     pub tail: bool,
+    /// The state-of-power columns: horizons, limits, pulse.
+    pub power: power::PowerOptions,
 }
 
 impl TrackOptions<'_> {
@@ -127,6 +133,7 @@ impl TrackOptions<'_> {
             cell: None,
             model: ModelRequest::Linear,
             tail: false,
+            power: power::PowerOptions::default(),
         }
     }
 
@@ -252,16 +259,21 @@ trait Step: Send + Sync {
 struct Sized<T: Real, const N: usize> {
     s: OnlineSettings<T, OCV_POINTS>,
     est: Box<CellEstimator<T, N, N>>,
+    power: Option<power::ResolvedPower>,
 }
 
 impl<T: Real + Send + Sync + 'static, const N: usize> Sized<T, N> {
-    fn boxed(s: OnlineSettings<T, OCV_POINTS>, soc0: Option<f64>) -> Result<Box<dyn Step>> {
+    fn boxed(
+        s: OnlineSettings<T, OCV_POINTS>,
+        soc0: Option<f64>,
+        power: Option<power::ResolvedPower>,
+    ) -> Result<Box<dyn Step>> {
         let mut est =
             Box::new(CellEstimator::<T, N, N>::new(&s).map_err(|e| err!(Options, "{e}"))?);
         if let Some(z) = soc0 {
             est.set_state_of_charge(T::lit(z));
         }
-        Ok(Box::new(Self { s, est }))
+        Ok(Box::new(Self { s, est, power }))
     }
 }
 
@@ -284,6 +296,11 @@ impl<T: Real + Send + Sync, const N: usize> Step for Sized<T, N> {
             ocv_offset: est.ocv_offset().map(|d| d.to_f64()),
             published: est.published().map(|v| v.to_f64()),
             step_resistance: est.cell_state().step_resistance().map(|st| st.ohm.to_f64()),
+            power: self
+                .power
+                .map_or([power::PowerRow::default(); power::MAX_HORIZONS], |p| {
+                    p.rows(est, s)
+                }),
         }
     }
 
@@ -330,9 +347,10 @@ impl Tracker {
                 window.saturating_sub(8)
             );
         }
+        let power = o.power.resolve(o.cell);
         let cell = match o.precision {
-            Precision::F64 => sized(o.settings::<f64>(h)?, soc0, window)?,
-            Precision::F32 => sized(o.settings::<f32>(h)?, soc0, window)?,
+            Precision::F64 => sized(o.settings::<f64>(h)?, soc0, window, power)?,
+            Precision::F32 => sized(o.settings::<f32>(h)?, soc0, window, power)?,
         };
         Ok(Self {
             cell,
@@ -396,13 +414,14 @@ fn sized<T: Real + Send + Sync + 'static>(
     s: OnlineSettings<T, OCV_POINTS>,
     soc0: Option<f64>,
     window: usize,
+    power: Option<power::ResolvedPower>,
 ) -> Result<Box<dyn Step>> {
     match window {
-        64 => Sized::<T, 64>::boxed(s, soc0),
-        128 => Sized::<T, 128>::boxed(s, soc0),
-        256 => Sized::<T, 256>::boxed(s, soc0),
-        512 => Sized::<T, 512>::boxed(s, soc0),
-        1024 => Sized::<T, 1024>::boxed(s, soc0),
+        64 => Sized::<T, 64>::boxed(s, soc0, power),
+        128 => Sized::<T, 128>::boxed(s, soc0, power),
+        256 => Sized::<T, 256>::boxed(s, soc0, power),
+        512 => Sized::<T, 512>::boxed(s, soc0, power),
+        1024 => Sized::<T, 1024>::boxed(s, soc0, power),
         _ => bail!(
             Options,
             "--window {window}: must be one of 64, 128, 256, 512, 1024"
@@ -443,6 +462,9 @@ pub struct OnlineBatteryOptions {
     pub ocv: crate::ocv::OcvOptions,
     /// How the record is read: columns, current sign, period.
     pub record: crate::cycler::RecordOptions,
+    /// The state-of-power columns (`--horizons`, `--voltage-min`,
+    /// `--voltage-max`, `--current-limit`, `--pulse-current-a`).
+    pub power: power::PowerOptions,
 }
 
 impl Default for OnlineBatteryOptions {
@@ -462,6 +484,7 @@ impl Default for OnlineBatteryOptions {
             tail: false,
             ocv: crate::ocv::OcvOptions::default(),
             record: crate::cycler::RecordOptions::default(),
+            power: power::PowerOptions::default(),
         }
     }
 }
@@ -541,18 +564,19 @@ pub fn battery_file(input: &Path, out: &Path, o: &OnlineBatteryOptions) -> Resul
         cell: cell.as_ref(),
         model: o.model,
         tail: o.tail,
+        power: o.power,
     };
     let summary = {
         let mut res = Ok(TrackSummary::default());
         io::write_atomic(out, |w| {
-            writeln!(w, "{TRACK_HEADER}")?;
+            writeln!(w, "{TRACK_HEADER}{}", o.power.header())?;
             let gaps = &read.report.resampling.gaps;
             res = track(&rec, &t, read.temperature.as_deref(), gaps, |r| {
                 let bv = r.estimate.filter(|p| p.is_butler_volmer());
                 let pb = &r.published;
                 let statuses = pb.named().map(|(_, x)| x.status.as_str()).join(",");
                 let pv = |x: PublishedParameter<f64>| g(x.value);
-                writeln!(
+                write!(
                     w,
                     "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
                     r.t,
@@ -574,6 +598,16 @@ pub fn battery_file(input: &Path, out: &Path, o: &OnlineBatteryOptions) -> Resul
                     g(r.estimate.map(|p| p.q)),
                     g(r.estimate.map(|p| p.alpha)),
                 )?;
+                for p in &r.power[..o.power.horizons().len()] {
+                    write!(
+                        w,
+                        ",{},{},{}",
+                        g(p.discharge_a),
+                        g(p.charge_a),
+                        g(p.pulse_v)
+                    )?;
+                }
+                writeln!(w)?;
                 Ok(())
             });
             res.clone().map(|_| ())

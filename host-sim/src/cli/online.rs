@@ -73,6 +73,29 @@ pub struct OnlineBatteryArgs {
     pub tail: bool,
     #[command(flatten)]
     pub cell: OcvArgs,
+    /// State of power: the horizons (s) of the columns
+    /// `sop_discharge_a_{H}s`, `sop_charge_a_{H}s` (the largest constant
+    /// current magnitudes whose predicted voltage stays within the limits
+    /// for H seconds) and `pulse_v_{H}s` (the voltage at the end of a pulse
+    /// of --pulse-current-a for H seconds), from the model after each
+    /// sample; empty until every parameter is published (docs/bms-states.md).
+    #[arg(long, value_delimiter = ',', default_value = "10,30")]
+    pub horizons: Vec<f64>,
+    /// The lowest voltage a state-of-power pulse may reach (V; default:
+    /// the OCV table's lowest; without a table and this, no state of power).
+    #[arg(long)]
+    pub voltage_min: Option<f64>,
+    /// The highest (V; default: the OCV table's highest).
+    #[arg(long)]
+    pub voltage_max: Option<f64>,
+    /// The largest state-of-power current magnitude (A; default 500 A, the
+    /// estimator's plausible current).
+    #[arg(long)]
+    pub current_limit: Option<f64>,
+    /// The current of the `pulse_v_{H}s` columns (A, + charging; default: a
+    /// 1C discharge, −capacity).
+    #[arg(long, allow_hyphen_values = true)]
+    pub pulse_current_a: Option<f64>,
     /// Output CSV `time_s,r_i,r_ct,q,alpha,u_oc,status,soc,ocv_offset_v,
     /// bv_a_v,bv_i0_a,predicted_v` (u_oc: the open-circuit voltage now,
     /// OCV(SOC) + ΔU with --ocv; soc and ocv_offset_v empty without --ocv;
@@ -154,6 +177,14 @@ pub(super) fn battery(a: OnlineBatteryArgs) -> Result<()> {
         tail: a.tail,
         ocv: (&a.cell).into(),
         record: (&a.record).into(),
+        power: {
+            let mut p = online_track::power::PowerOptions::default().with_horizons(&a.horizons)?;
+            p.voltage_min = a.voltage_min;
+            p.voltage_max = a.voltage_max;
+            p.current_limit = a.current_limit;
+            p.pulse_current_a = a.pulse_current_a;
+            p
+        },
     };
     let r = online_track::battery_file(&a.input, &a.out, &o)?;
     super::print_record(&a.input, &r.record);

@@ -32,7 +32,7 @@ fn online_writes_a_track() {
     // The contract's columns first (issues 3 and 16), then ours.
     assert_eq!(
         lines.next(),
-        Some("time_s,r_i,r_ct,q,alpha,u_oc,status,soc,ocv_offset_v,bv_a_v,bv_i0_a,predicted_v,r_i_status,r_ct_status,q_status,alpha_status,step_resistance_ohm,window_r_i,window_r_ct,window_q,window_alpha")
+        Some("time_s,r_i,r_ct,q,alpha,u_oc,status,soc,ocv_offset_v,bv_a_v,bv_i0_a,predicted_v,r_i_status,r_ct_status,q_status,alpha_status,step_resistance_ohm,window_r_i,window_r_ct,window_q,window_alpha,sop_discharge_a_10s,sop_charge_a_10s,pulse_v_10s,sop_discharge_a_30s,sop_charge_a_30s,pulse_v_30s")
     );
     let rows: Vec<&str> = lines.collect();
     assert_eq!(rows.len(), 600);
@@ -228,4 +228,125 @@ fn pack_round_trip_tracks_every_cell_and_flags_the_aged_one() {
     ]);
     assert!(!o.status.success());
     assert!(String::from_utf8_lossy(&o.stderr).contains("--aged 5"));
+}
+
+/// The state-of-power columns (issue 36): on a DFN HPPC record with its
+/// OCV table, once every parameter is published, the limit currents and
+/// the 1C pulse's voltage at each horizon; a longer horizon allows less
+/// current; no columns' values without limits; a bad horizon is one line.
+#[test]
+fn the_track_carries_the_state_of_power() {
+    let out = tmp("sop-track.csv");
+    let data = |n: &str| {
+        Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../data")
+            .join(n)
+    };
+    let rec = data("pybamm/chen2020-hppc.csv");
+    let ocv = data("pybamm/chen2020-ocv.csv");
+    let o = run(&[
+        "online",
+        "battery",
+        "--input",
+        s(&rec),
+        "--ocv",
+        s(&ocv),
+        "--capacity-ah",
+        "5.153198",
+        "--horizons",
+        "2,10,30",
+        "--out",
+        s(&out),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let t = std::fs::read_to_string(&out).unwrap();
+    let mut lines = t.lines();
+    let head: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let at = |k: &str| {
+        head.iter()
+            .position(|h| *h == k)
+            .unwrap_or_else(|| panic!("{k}"))
+    };
+    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+    let num = |r: &[&str], k: &str| r[at(k)].parse::<f64>().ok();
+    let mut with = 0;
+    for r in &rows {
+        let published = ["r_i", "r_ct", "q", "alpha"]
+            .iter()
+            .all(|k| num(r, k).is_some());
+        let d2 = num(r, "sop_discharge_a_2s");
+        // Published only with the whole model.
+        assert!(published || d2.is_none(), "{r:?}");
+        if let (Some(d2), Some(d30), Some(c2), Some(c30)) = (
+            d2,
+            num(r, "sop_discharge_a_30s"),
+            num(r, "sop_charge_a_2s"),
+            num(r, "sop_charge_a_30s"),
+        ) {
+            with += 1;
+            assert!(d30 <= d2 && c30 <= c2, "{r:?}");
+            assert!(d30 > 0.0 && c30 > 0.0, "{r:?}");
+            // A 1C discharge pulse ends below the present voltage.
+            let v10 = num(r, "pulse_v_10s").unwrap();
+            assert!(v10 < num(r, "u_oc").unwrap(), "{r:?}");
+        }
+    }
+    assert!(with > rows.len() / 2, "{with} of {}", rows.len());
+    // Without an OCV table or voltage limits: the columns, empty.
+    let own = tmp("sop-own.csv");
+    assert!(run(&[
+        "simulate",
+        "battery",
+        "--preset",
+        "cell",
+        "--length",
+        "600",
+        "--out",
+        s(&own)
+    ])
+    .status
+    .success());
+    let o = run(&["online", "battery", "--input", s(&own), "--out", s(&out)]);
+    assert!(o.status.success());
+    let t = std::fs::read_to_string(&out).unwrap();
+    assert!(
+        t.lines().skip(1).all(|l| l.ends_with(",,,,,,")),
+        "{}",
+        t.lines().last().unwrap()
+    );
+    // With the limits given, the own model's record has them.
+    let o = run(&[
+        "online",
+        "battery",
+        "--input",
+        s(&own),
+        "--voltage-min",
+        "3.0",
+        "--voltage-max",
+        "4.2",
+        "--out",
+        s(&out),
+    ]);
+    assert!(o.status.success());
+    let t = std::fs::read_to_string(&out).unwrap();
+    assert!(
+        !t.lines().last().unwrap().ends_with(",,,,,,"),
+        "{}",
+        t.lines().last().unwrap()
+    );
+    for bad in ["0", "1,x", "-2"] {
+        let o = run(&[
+            "online",
+            "battery",
+            "--input",
+            s(&own),
+            "--horizons",
+            bad,
+            "--out",
+            s(&out),
+        ]);
+        assert!(!o.status.success(), "{bad}");
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(err.trim_end().lines().count(), 1, "{bad}: {err}");
+    }
 }

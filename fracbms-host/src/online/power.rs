@@ -1,0 +1,176 @@
+//! The state-of-power columns of a track (issue 36): for each horizon `H`,
+//! `sop_discharge_a_{H}s`, `sop_charge_a_{H}s` and `pulse_v_{H}s`, from the
+//! core's [`PulsePredictor`] on the cell's estimate after each sample.
+//!
+//! Owns the horizons, the limits' defaults and the columns; the prediction
+//! is the core's. Published only when every parameter of the model is
+//! (identified, from the step, or held: not `not_identified` nor
+//! `expired`), as the prior-free rule publishes the parameters themselves.
+
+use crate::bail;
+use crate::error::Result;
+use crate::ocv::CellOcv;
+use estimator_core::battery::online::{CellEstimator, OnlineSettings, PublishedParameters};
+use estimator_core::battery::power::PowerLimits;
+use estimator_core::Real;
+
+/// The most horizons a track carries.
+pub const MAX_HORIZONS: usize = 8;
+
+/// What the state-of-power columns say, as `online battery`'s flags give
+/// it. The default: horizons of 10 and 30 s; the voltage limits the OCV
+/// table's lowest and highest voltage; no current cap beyond the
+/// estimator's plausible current; the pulse a 1C discharge (with a
+/// capacity).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PowerOptions {
+    horizons_s: [f64; MAX_HORIZONS],
+    count: usize,
+    /// The lowest voltage a pulse may reach (V; default: the OCV table's
+    /// lowest).
+    pub voltage_min: Option<f64>,
+    /// The highest (V; default: the OCV table's highest).
+    pub voltage_max: Option<f64>,
+    /// The largest current magnitude (A; default: the estimator's
+    /// plausible current, 500 A).
+    pub current_limit: Option<f64>,
+    /// The current of the `pulse_v_{H}s` columns (A, + charging; default:
+    /// a 1C discharge from the capacity).
+    pub pulse_current_a: Option<f64>,
+}
+
+impl Default for PowerOptions {
+    fn default() -> Self {
+        let mut horizons_s = [0.0; MAX_HORIZONS];
+        horizons_s[..2].copy_from_slice(&[10.0, 30.0]);
+        Self {
+            horizons_s,
+            count: 2,
+            voltage_min: None,
+            voltage_max: None,
+            current_limit: None,
+            pulse_current_a: None,
+        }
+    }
+}
+
+impl PowerOptions {
+    /// The default with these horizons (s).
+    ///
+    /// # Errors
+    /// None, more than [`MAX_HORIZONS`], or one that is not finite and
+    /// positive.
+    pub fn with_horizons(self, horizons_s: &[f64]) -> Result<Self> {
+        if horizons_s.is_empty() || horizons_s.len() > MAX_HORIZONS {
+            bail!(
+                Options,
+                "--horizons: give 1 to {MAX_HORIZONS} horizons in seconds (got {})",
+                horizons_s.len()
+            );
+        }
+        if let Some(h) = horizons_s.iter().find(|h| !(h.is_finite() && **h > 0.0)) {
+            bail!(
+                Options,
+                "--horizons {h}: a horizon is a positive number of seconds"
+            );
+        }
+        let mut o = self;
+        o.horizons_s = [0.0; MAX_HORIZONS];
+        o.horizons_s[..horizons_s.len()].copy_from_slice(horizons_s);
+        o.count = horizons_s.len();
+        Ok(o)
+    }
+
+    /// The horizons (s).
+    pub fn horizons(&self) -> &[f64] {
+        &self.horizons_s[..self.count]
+    }
+
+    /// The columns' names, each with a leading comma (to follow
+    /// [`super::TRACK_HEADER`]).
+    pub fn header(&self) -> String {
+        self.horizons()
+            .iter()
+            .map(|h| format!(",sop_discharge_a_{h}s,sop_charge_a_{h}s,pulse_v_{h}s"))
+            .collect()
+    }
+
+    /// The limits and the pulse for a cell with `cell`'s table and
+    /// capacity; `None` where the voltage limits are neither given nor
+    /// known from a table.
+    pub(crate) fn resolve(&self, cell: Option<&CellOcv>) -> Option<ResolvedPower> {
+        let table = cell.map(|c| c.model.table.ocv_points());
+        let lowest = table.and_then(|v| v.first().copied());
+        let highest = table.and_then(|v| v.last().copied());
+        let limits = PowerLimits {
+            voltage_min: self.voltage_min.or(lowest)?,
+            voltage_max: self.voltage_max.or(highest)?,
+            current_limit: self.current_limit.unwrap_or(500.0),
+        };
+        Some(ResolvedPower {
+            limits,
+            pulse_current_a: self.pulse_current_a.or(cell.map(|c| -c.model.capacity_ah)),
+            options: *self,
+        })
+    }
+}
+
+/// One horizon's columns after a sample.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PowerRow {
+    /// `sop_discharge_a_{H}s` (A, a magnitude).
+    pub discharge_a: Option<f64>,
+    /// `sop_charge_a_{H}s` (A).
+    pub charge_a: Option<f64>,
+    /// `pulse_v_{H}s` (V).
+    pub pulse_v: Option<f64>,
+}
+
+/// [`PowerOptions`] with the limits resolved for one cell.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct ResolvedPower {
+    limits: PowerLimits<f64>,
+    pulse_current_a: Option<f64>,
+    options: PowerOptions,
+}
+
+impl ResolvedPower {
+    /// The columns after the cell's last sample (all empty where its
+    /// model is not published, or its fit is not the estimate).
+    pub(crate) fn rows<T: Real, const N: usize, const P: usize>(
+        &self,
+        est: &CellEstimator<T, N, N>,
+        s: &OnlineSettings<T, P>,
+    ) -> [PowerRow; MAX_HORIZONS] {
+        let mut out = [PowerRow::default(); MAX_HORIZONS];
+        if !published_model(&est.published()) {
+            return out;
+        }
+        let Some(pred) = est.pulse_predictor(s) else {
+            return out;
+        };
+        let limits = PowerLimits {
+            voltage_min: T::lit(self.limits.voltage_min),
+            voltage_max: T::lit(self.limits.voltage_max),
+            current_limit: T::lit(self.limits.current_limit),
+        };
+        let h = s.battery.h.to_f64();
+        for (row, &horizon) in out.iter_mut().zip(self.options.horizons()) {
+            let steps = ((horizon / h).round() as usize).max(1);
+            let sop = pred.state_of_power(&limits, steps);
+            *row = PowerRow {
+                discharge_a: Some(sop.discharge_a.to_f64()),
+                charge_a: Some(sop.charge_a.to_f64()),
+                pulse_v: self
+                    .pulse_current_a
+                    .map(|i| pred.pulse_voltage(T::lit(i), steps).to_f64()),
+            };
+        }
+        out
+    }
+}
+
+/// Every parameter of the model has a published value.
+fn published_model<T: Copy>(p: &PublishedParameters<T>) -> bool {
+    p.named().iter().all(|(_, x)| x.value.is_some())
+}
