@@ -137,24 +137,40 @@ impl<T: Real, const N: usize, const MEM: usize> CellEstimator<T, N, MEM> {
 
     /// The model and the polarization the cell carries now, to predict a
     /// constant-current pulse and the state of power from
-    /// ([`crate::battery::power`]): the last good estimate, when the last
-    /// update's fit is that estimate (`None` before one, and after an
-    /// update whose fit was refused until the next accepted one). With an
-    /// OCV curve the open-circuit voltage follows the pulse's charge from
-    /// the state of charge now.
+    /// ([`crate::battery::power`]): the last good estimate, its polarization
+    /// as its last fit simulated it, carried forward through the samples
+    /// pushed since with their currents. `None` before an estimate, after
+    /// an update whose fit was refused (until the next accepted one), and
+    /// when more samples have been pushed since the fit than the window
+    /// still holds (their currents are gone). With an OCV curve the
+    /// open-circuit voltage follows the pulse's charge from the state of
+    /// charge now.
     pub fn pulse_predictor<'a, const P: usize>(
         &'a self,
         s: &'a OnlineSettings<T, P>,
     ) -> Option<PulsePredictor<'a, T, MEM, P>> {
         let c = self.state();
         let p = c.window_estimate()?;
-        let (up, w) = self.pack.work.polarization_of(0, p)?;
+        let (up, stamp, w) = self.pack.work.polarization_of(0, p)?;
         let ocv = match (&s.ocv, c.state_of_charge()) {
             (Some(m), Some(z)) => Some((m, z)),
             (Some(_), None) => return None,
             (None, _) => None,
         };
-        PulsePredictor::new(p, w, up, ocv)
+        let since = c.window_version().wrapping_sub(stamp) as usize;
+        let window = self.window();
+        if since > window.len() {
+            return None;
+        }
+        let mut pred = PulsePredictor::new(p, w, up, ocv)?;
+        let mut newer = [T::zero(); N];
+        for (j, (i, _)) in window.newest_first().take(since).enumerate() {
+            newer[since - 1 - j] = i;
+        }
+        for &i in &newer[..since] {
+            pred.advance(i);
+        }
+        Some(pred)
     }
 
     /// The record resumes after a gap of unknown charge

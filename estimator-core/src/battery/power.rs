@@ -69,7 +69,9 @@ pub struct StateOfPower<T> {
 pub struct PulsePredictor<'a, T, const MEM: usize, const P: usize> {
     p: CellParameters<T>,
     w: &'a GlWeights<T, MEM>,
-    history: &'a [T],
+    /// The polarization now and before: `past[j]` is `j` samples ago (the
+    /// first `M` count).
+    past: [T; MEM],
     ocv: Option<(&'a OcvModel<T, P>, T)>,
 }
 
@@ -91,12 +93,37 @@ impl<'a, T: Real, const MEM: usize, const P: usize> PulsePredictor<'a, T, MEM, P
         ocv: Option<(&'a OcvModel<T, P>, T)>,
     ) -> Option<Self> {
         let same_order = (w.alpha() - p.alpha).abs() <= T::lit(1e-9) * p.alpha.abs().max(T::one());
-        (p.is_physical() && same_order && history.iter().all(|x| x.is_finite())).then_some(Self {
+        if !(p.is_physical() && same_order && history.iter().all(|x| x.is_finite())) {
+            return None;
+        }
+        let mut past = [T::zero(); MEM];
+        for (x, &h) in past.iter_mut().zip(history.iter().rev()) {
+            *x = h;
+        }
+        Some(Self {
             p: *p,
             w,
-            history,
+            past,
             ocv,
         })
+    }
+
+    /// Carries the polarization one sample forward through a sample of
+    /// `current` (A) that happened (the charge it moved is the caller's
+    /// state of charge, already counted).
+    pub fn advance(&mut self, current: T) {
+        let wts = self.w.weights();
+        let m = wts.len().min(MEM);
+        let a = self.p.tau() * self.w.scale();
+        let h = wts[1..m]
+            .iter()
+            .zip(&self.past)
+            .fold(T::zero(), |s, (&w, &x)| s + w * x);
+        let x = (self.p.r_ct * current - a * h) / (T::one() + a);
+        for j in (1..MEM).rev() {
+            self.past[j] = self.past[j - 1];
+        }
+        self.past[0] = x;
     }
 
     /// Runs the recursion `steps` samples forward and calls `seen(k, F_k,
@@ -108,11 +135,8 @@ impl<'a, T: Real, const MEM: usize, const P: usize> PulsePredictor<'a, T, MEM, P
         let m = wts.len().min(MEM);
         let a = self.p.tau() * self.w.scale();
         // past[j]: the value j + 1 samples before the one computed next.
-        let mut free = [T::zero(); MEM];
+        let mut free = self.past;
         let mut step = [T::zero(); MEM];
-        for (j, x) in self.history.iter().rev().take(m).enumerate() {
-            free[j] = *x;
-        }
         for k in 1..=steps {
             let mut hf = T::zero();
             let mut hg = T::zero();
@@ -156,12 +180,7 @@ impl<'a, T: Real, const MEM: usize, const P: usize> PulsePredictor<'a, T, MEM, P
     /// (A, + charging) held for `steps` samples from now (the present
     /// voltage's model value for `steps = 0`, at no current).
     pub fn pulse_voltage(&self, current: T, steps: usize) -> T {
-        let mut v = self.voltage(
-            T::zero(),
-            0,
-            self.history.last().copied().unwrap_or(T::zero()),
-            T::zero(),
-        );
+        let mut v = self.voltage(T::zero(), 0, self.past[0], T::zero());
         self.responses(steps, |k, f, g| {
             if k == steps {
                 v = self.voltage(current, k, f, g);
@@ -289,6 +308,24 @@ mod tests {
                     "bv {bv} ocv {ocv}: {got} vs {want}"
                 );
             }
+        }
+    }
+
+    /// Carried forward through the samples since, an older state predicts
+    /// what the present one does.
+    #[test]
+    fn an_older_state_carried_forward_is_the_present_one() {
+        let p = CellParameters::<f64>::cell_18650();
+        let w = GlWeights::<f64, 64>::new(p.alpha, 1.0, 64).unwrap();
+        let (_, up) = truth(&p, 250, 0.0, 1, false);
+        let now = PulsePredictor::<f64, 64, 101>::new(&p, &w, &up[..250], None).unwrap();
+        let mut old = PulsePredictor::<f64, 64, 101>::new(&p, &w, &up[..230], None).unwrap();
+        for l in 230..250 {
+            old.advance(Profile::Pulse.current(l as f64, 4.0));
+        }
+        for k in [1, 10, 30] {
+            let (a, b) = (old.pulse_voltage(-3.0, k), now.pulse_voltage(-3.0, k));
+            assert!((a - b).abs() < 1e-12, "{k}: {a} vs {b}");
         }
     }
 

@@ -461,10 +461,12 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
     }
 
     /// The estimate and its simulated polarization over the loaded window
-    /// (the last value is the newest sample's), when the last iteration
-    /// left them in step; `None` otherwise.
-    pub fn simulated(&self) -> Option<(CellParameters<T>, &[T])> {
-        (self.fresh && self.n > 0 && self.n <= N).then(|| (self.p, &self.up[..self.n]))
+    /// (the last value is that window's newest sample's), with the
+    /// window's [`Window::version`] when it was loaded, when the last
+    /// iteration left them in step; `None` otherwise.
+    pub fn simulated(&self) -> Option<(CellParameters<T>, &[T], u32)> {
+        let stamp = self.stamp?;
+        (self.fresh && self.n > 0 && self.n <= N).then(|| (self.p, &self.up[..self.n], stamp))
     }
 
     /// The information of the last iteration's normal equations on the

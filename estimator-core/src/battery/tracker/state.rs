@@ -72,15 +72,17 @@ pub struct WorkingArea<T, const N: usize, const MEM: usize> {
 
 impl<T: Real, const N: usize, const MEM: usize> WorkingArea<T, N, MEM> {
     /// Cell `k`'s estimate `p` (window coordinates) with its simulated
-    /// polarization and the weights at its order, when the area is that
-    /// cell's and the last iteration left them in step with `p`.
+    /// polarization, the window version it was simulated on, and the
+    /// weights at its order, when the area is that cell's and the last
+    /// iteration left them in step with `p`.
     pub(crate) fn polarization_of(
         &self,
         k: usize,
         p: &CellParameters<T>,
-    ) -> Option<(&[T], &GlWeights<T, MEM>)> {
-        let (q, up) = self.oe.simulated()?;
-        (self.owner == Some(k) && q == *p && self.pw.alpha() == p.alpha).then_some((up, &self.pw))
+    ) -> Option<(&[T], u32, &GlWeights<T, MEM>)> {
+        let (q, up, stamp) = self.oe.simulated()?;
+        (self.owner == Some(k) && q == *p && self.pw.alpha() == p.alpha)
+            .then_some((up, stamp, &self.pw))
     }
 
     pub(crate) fn new<const P: usize>(s: &OnlineSettings<T, P>) -> Result<Self, Error> {
@@ -160,6 +162,12 @@ impl<T: Real, const N: usize> CellState<T, N> {
     /// with an OCV curve).
     pub(crate) fn window_estimate(&self) -> Option<&CellParameters<T>> {
         self.estimate.as_ref()
+    }
+
+    /// The window's version (it changes with every sample pushed and every
+    /// restart).
+    pub(crate) fn window_version(&self) -> u32 {
+        self.version
     }
 
     /// What is published of `R_i`, `R_ct`, `Q` and α: for each, the value
