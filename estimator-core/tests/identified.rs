@@ -2,7 +2,10 @@
 //! when the window's data identify it, and the model-free resistance of a
 //! current step.
 
-use estimator_core::battery::ocv::{OcvModel, OcvTable};
+mod common;
+use common::nmc_table;
+
+use estimator_core::battery::ocv::OcvModel;
 use estimator_core::battery::online::{CellEstimator, Identification, OnlineSettings};
 use estimator_core::battery::profile::{ocv_nmc, Profile};
 use estimator_core::battery::simulate::simulate;
@@ -136,13 +139,6 @@ fn a_resistance_the_window_cannot_see_is_not_published() {
         // Published only within the factor the status promises.
         assert!(r / truth.r_ct < 2.0 && truth.r_ct / r < 2.0, "R_ct {r}");
     }
-}
-
-/// The NMC curve every 1 % of SOC.
-fn nmc_table() -> OcvTable<f64, 101> {
-    let soc: Vec<f64> = (0..=100).map(|k| k as f64 / 100.0).collect();
-    let ocv: Vec<f64> = soc.iter().map(|&z| ocv_nmc(z)).collect();
-    OcvTable::new(&soc, &ocv).unwrap()
 }
 
 #[test]

@@ -1,7 +1,10 @@
 //! Real cells: the OCV curve and coulomb-counted state of charge in the
 //! sliding-window estimator, and the plausibility guard.
 
-use estimator_core::battery::ocv::{OcvModel, OcvTable};
+mod common;
+use common::nmc_table;
+
+use estimator_core::battery::ocv::OcvModel;
 use estimator_core::battery::online::{CellEstimator, OnlineSettings, Status};
 use estimator_core::battery::profile::{ocv_nmc, Profile};
 use estimator_core::battery::simulate::simulate;
@@ -11,13 +14,6 @@ use rand::SeedableRng;
 use rand_distr::{Distribution, Normal};
 
 const CAPACITY_AH: f64 = 2.5;
-
-/// The NMC curve sampled every 1 % of SOC, as a BMS would store it.
-fn nmc_table() -> OcvTable<f64, 101> {
-    let soc: Vec<f64> = (0..=100).map(|k| k as f64 / 100.0).collect();
-    let ocv: Vec<f64> = soc.iter().map(|&z| ocv_nmc(z)).collect();
-    OcvTable::new(&soc, &ocv).unwrap()
-}
 
 /// The `cell` preset's pulse profile (±6 A) on a 1.5 A mean discharge from
 /// SOC 0.9 with a 60 s rest first: SOC 0.9 → 0.4 in 3060 s through the

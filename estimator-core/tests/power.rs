@@ -3,7 +3,10 @@
 //! against the simulated truth of that pulse, and the limit currents
 //! against the limits.
 
-use estimator_core::battery::ocv::{OcvModel, OcvTable};
+mod common;
+use common::nmc_table;
+
+use estimator_core::battery::ocv::OcvModel;
 use estimator_core::battery::online::{CellEstimator, OnlineSettings};
 use estimator_core::battery::power::PowerLimits;
 use estimator_core::battery::profile::{ocv_nmc, Profile};
@@ -16,9 +19,7 @@ use rand_distr::{Distribution, Normal};
 const CAPACITY_AH: f64 = 2.5;
 
 fn nmc() -> OcvModel<f64, 101> {
-    let soc: Vec<f64> = (0..=100).map(|k| k as f64 / 100.0).collect();
-    let ocv: Vec<f64> = soc.iter().map(|&z| ocv_nmc(z)).collect();
-    OcvModel::new(OcvTable::new(&soc, &ocv).unwrap(), CAPACITY_AH).unwrap()
+    OcvModel::new(nmc_table(), CAPACITY_AH).unwrap()
 }
 
 /// The `cell` preset through the NMC curve from SOC 0.9 (60 s rest, then

@@ -1,6 +1,9 @@
-//! Test helpers: data from eq. (4), the least-squares reference, δ.
+//! Test helpers: data from eq. (4), the least-squares reference, δ; the
+//! NMC curve of the battery tests.
 #![allow(dead_code)]
 
+use estimator_core::battery::ocv::OcvTable;
+use estimator_core::battery::profile::ocv_nmc;
 use estimator_core::frac::GlWeights;
 use estimator_core::model::{Basis, HammersteinSystem, Polynomial};
 use nalgebra::{DMatrix, DVector};
@@ -170,4 +173,11 @@ pub fn median(mut v: Vec<f64>) -> f64 {
     } else {
         0.5 * (v[n / 2 - 1] + v[n / 2])
     }
+}
+
+/// The NMC curve sampled every 1 % of SOC, as a BMS would store it.
+pub fn nmc_table() -> OcvTable<f64, 101> {
+    let soc: Vec<f64> = (0..=100).map(|k| k as f64 / 100.0).collect();
+    let ocv: Vec<f64> = soc.iter().map(|&z| ocv_nmc(z)).collect();
+    OcvTable::new(&soc, &ocv).unwrap()
 }
