@@ -12,6 +12,10 @@ the docs and CI use without PyBaMM:
   0.70) and ``hppc`` (hybrid pulse power characterization blocks of 10 s 2C
   discharge and 10 s 1.5C charge pulses with rests, walking the SOC from
   0.90 down by 5 % per block to about 0.40);
+* a third profile, ``soc`` (issue 36, the SOC observer): 15 min at rest,
+  then four rounds of 25 min of the drive cycle (a mean of 0.3C) and
+  15 min at rest, SOC 0.90 -> about 0.40 in 10 560 s; rests longer than
+  ten minutes, as a parked car's;
 * each record starts with 60 s at rest from equilibrium, so its first
   voltages are the OCV (the start SOC can be read from the OCV table);
 * exact zero-order hold: the current is a PyBaMM input parameter and the
@@ -161,6 +165,17 @@ def hppc_current(c_ah, blocks=10):
     return np.array(block * blocks)
 
 
+def soc_current(c_ah, rng):
+    """The ``soc`` profile after the leading rest: 900 s at rest, then four
+    rounds of 1500 s of drive cycle (mean 0.3C discharge) and 900 s at rest."""
+    parts = [np.zeros(900 - REST_S)]
+    for _ in range(4):
+        d = drive_current(1500, c_ah, rng)
+        d *= (-0.3 * c_ah) / d.mean()
+        parts += [np.clip(d, -3.0 * c_ah, 1.0 * c_ah), np.zeros(900)]
+    return np.concatenate(parts)
+
+
 def simulate(param_set, current_charge_positive, initial_soc):
     """Terminal voltage after each 1 s zero-order-hold step."""
     pv = pybamm.ParameterValues(param_set)
@@ -186,11 +201,16 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", type=Path, default=Path("data/pybamm"))
     ap.add_argument("--seed", type=int, default=2026)
+    ap.add_argument("--profiles", default="drive,hppc,soc",
+                    help="the profiles to make (the others' files and meta entries are kept)")
     a = ap.parse_args()
+    profiles = a.profiles.split(",")
     if pybamm.__version__ != PYBAMM_VERSION:
         print(f"note: pybamm {pybamm.__version__}, the files were made with {PYBAMM_VERSION}")
     a.out.mkdir(parents=True, exist_ok=True)
     meta = {"pybamm": pybamm.__version__, "sigma_v": SIGMA_V, "records": {}, "ocv": {}}
+    if (a.out / "meta.json").exists():
+        meta = json.load(open(a.out / "meta.json"))
     for short, name in CELLS.items():
         pv = pybamm.ParameterValues(name)
         c_ah, sto = capacity_ah(pv)
@@ -209,9 +229,13 @@ def main():
             "points": len(soc),
             "plateau_slope_v_per_soc_min": float(np.min(np.diff(ocv) / np.diff(soc))),
         }
-        for profile in ["drive", "hppc"]:
+        for profile in profiles:
             rng = np.random.default_rng(a.seed)
-            body = drive_current(3000 - REST_S, c_ah, rng) if profile == "drive" else hppc_current(c_ah)
+            body = {
+                "drive": lambda: drive_current(3000 - REST_S, c_ah, rng),
+                "hppc": lambda: hppc_current(c_ah),
+                "soc": lambda: soc_current(c_ah, rng),
+            }[profile]()
             current = np.concatenate([np.zeros(REST_S), body])
             t0 = time.time()
             v_true = simulate(name, current, SOC0)

@@ -5,6 +5,7 @@
 //! means is documented where the enum lives.
 
 use crate::identify::{Algorithm, BatteryMethod, HammersteinMethod, ModelRequest};
+use crate::online::soc::SocMode;
 use crate::online::Precision;
 use crate::reproduce::ReproducePart;
 use estimator_core::battery::Start;
@@ -52,6 +53,7 @@ choice!(HammersteinMethod: HammersteinMethod::Paper, HammersteinMethod::Refined)
 choice!(BatteryMethod: BatteryMethod::Paper, BatteryMethod::Refined);
 choice!(ModelRequest: ModelRequest::Linear, ModelRequest::ButlerVolmer, ModelRequest::Auto);
 choice!(Precision: Precision::F32, Precision::F64);
+choice!(SocMode: SocMode::Observer, SocMode::Coulomb);
 choice!(ReproducePart: ReproducePart::All, ReproducePart::Example1, ReproducePart::Battery);
 
 impl Choice for Start {

@@ -86,12 +86,18 @@ class OnlineCell:
         voltage_max: Optional[float] = None,
         current_limit: Optional[float] = None,
         pulse_current_a: Optional[float] = None,
+        soc: Literal["observer", "coulomb"] = "observer",
+        soc_rest_s: Optional[float] = None,
     ) -> None:
         """``horizons`` (s), ``voltage_min``/``voltage_max`` (V; default the OCV
         table's range), ``current_limit`` (A) and ``pulse_current_a`` (A, +
         charging; default a 1C discharge) give the state-of-power columns
         ``sop_discharge_a_{H}s``, ``sop_charge_a_{H}s``, ``pulse_v_{H}s``, as
-        ``host-sim online battery``'s flags."""
+        ``host-sim online battery``'s flags. With an OCV table, ``soc`` is
+        the observer's (``soc="observer"``: the count corrected at each rest
+        of ``soc_rest_s``, default 600 s, with ``current_bias_a``,
+        ``capacity_ah``, ``soc_sigma``, ``soc_ocv_weight``) or the count
+        (``soc="coulomb"``); ``soc_coulomb`` is always the count."""
     def push(
         self, current_a: float, voltage_v: float, temperature_c: Optional[float] = None
     ) -> Optional[dict[str, Any]]:

@@ -3,6 +3,7 @@
 
 use super::*;
 use fracbms_host::online::power::PowerOptions;
+use fracbms_host::online::soc::{SocMode, SocOptions};
 
 /// The online estimator of one cell (`host-sim online battery`).
 ///
@@ -91,7 +92,7 @@ type Column = fn(&TrackRow) -> Option<f64>;
 /// --out` (`None`: the CSV's empty cell): `push`'s dict and `run`'s arrays.
 /// `r_i`, `r_ct`, `q`, `alpha` are the published values (the last window's
 /// that identified each); `window_*` the last good window's fit.
-const TRACK_NUMBERS: [(&str, Column); 16] = [
+const TRACK_NUMBERS: [(&str, Column); 22] = [
     ("time_s", |r| Some(r.t)),
     ("r_i", |r| r.published.r_i.value),
     ("r_ct", |r| r.published.r_ct.value),
@@ -108,6 +109,12 @@ const TRACK_NUMBERS: [(&str, Column); 16] = [
     ("window_r_ct", |r| r.estimate.map(|p| p.r_ct)),
     ("window_q", |r| r.estimate.map(|p| p.q)),
     ("window_alpha", |r| r.estimate.map(|p| p.alpha)),
+    ("soc_coulomb", |r| r.soc_detail.columns()[0]),
+    ("current_bias_a", |r| r.soc_detail.columns()[1]),
+    ("capacity_ah", |r| r.soc_detail.columns()[2]),
+    ("soc_sigma", |r| r.soc_detail.columns()[3]),
+    ("soc_ocv_weight", |r| r.soc_detail.columns()[4]),
+    ("soh_r", |r| r.soh_r),
 ];
 
 /// One text column of a track row.
@@ -152,7 +159,8 @@ impl OnlineCell {
         method = "refined", model = "auto", precision = "f64", start = "from-data",
         iterations_per_sample = 1, tail = false, prior = None, prior_factor = 2.0,
         prior_alpha_sigma = 0.1, prior_noise_mv = 100.0, horizons = vec![10.0, 30.0],
-        voltage_min = None, voltage_max = None, current_limit = None, pulse_current_a = None
+        voltage_min = None, voltage_max = None, current_limit = None, pulse_current_a = None,
+        soc = "observer", soc_rest_s = None
     ))]
     #[allow(clippy::too_many_arguments)]
     fn new(
@@ -178,6 +186,8 @@ impl OnlineCell {
         voltage_max: Option<f64>,
         current_limit: Option<f64>,
         pulse_current_a: Option<f64>,
+        soc: &str,
+        soc_rest_s: Option<f64>,
     ) -> PyResult<Self> {
         if !(h.is_finite() && h > 0.0) {
             return Err(PyValueError::new_err(format!(
@@ -188,6 +198,7 @@ impl OnlineCell {
         let model: ModelRequest = choice("model", model)?;
         let precision: Precision = choice("precision", precision)?;
         let start: Start = choice("start", start)?;
+        let soc: SocMode = choice("soc", soc)?;
         let spec = ocv_spec(ocv, capacity_ah, soc0)?;
         let cell = spec.map(|s| CellOcv {
             model: s.model,
@@ -233,6 +244,10 @@ impl OnlineCell {
                 p.current_limit = current_limit;
                 p.pulse_current_a = pulse_current_a;
                 p
+            },
+            soc: SocOptions {
+                mode: soc,
+                rest_s: soc_rest_s,
             },
         };
         let tracker = py

@@ -8,7 +8,8 @@ from conftest import CELL, REPO, read_csv
 
 COLUMNS = ["time_s", "r_i", "r_ct", "q", "alpha", "u_oc", "soc", "ocv_offset_v",
            "bv_a_v", "bv_i0_a", "predicted_v", "step_resistance_ohm", "window_r_i",
-           "window_r_ct", "window_q", "window_alpha",
+           "window_r_ct", "window_q", "window_alpha", "soc_coulomb", "current_bias_a",
+           "capacity_ah", "soc_sigma", "soc_ocv_weight", "soh_r",
            "sop_discharge_a_10s", "sop_charge_a_10s", "pulse_v_10s",
            "sop_discharge_a_30s", "sop_charge_a_30s", "pulse_v_30s"]
 STATUSES = ["r_i_status", "r_ct_status", "q_status", "alpha_status"]
@@ -82,8 +83,11 @@ def test_with_an_ocv_curve_equals_the_cli(host_sim, tmp_path):
     # The start SOC was read from the rested start, as the CLI does.
     assert py["soc"][0] == pytest.approx(0.9, abs=5e-3)
     # The SOC counted from there: PyBaMM's change of SOC over the record.
-    assert py["soc"][-1] - py["soc"][0] == pytest.approx(
+    assert py["soc_coulomb"][-1] - py["soc_coulomb"][0] == pytest.approx(
         c["soc_true"][-1] - c["soc_true"][0], abs=1e-6)
+    # No rest of ten minutes in a drive cycle: the observer only counts.
+    np.testing.assert_allclose(py["soc"], py["soc_coulomb"], rtol=0, atol=1e-9)
+    assert np.all(py["soc_ocv_weight"] == 0)
 
 
 def test_a_bad_sample_is_rejected_not_raised(cell_record):
@@ -114,11 +118,47 @@ def test_after_a_gap_the_soc_is_read_again_at_rest():
     soc, ocv = o["soc"], o["ocv_v"]
     cell = fracbms.OnlineCell(ocv=(soc, ocv), capacity_ah=5.0)
     at = lambda z: float(np.interp(z, soc, ocv))  # noqa: E731
-    first = cell.run(np.zeros(25), np.full(25, at(0.8)))["soc"][-1]
+    first = cell.run(np.zeros(25), np.full(25, at(0.8)))["soc_coulomb"][-1]
     assert first == pytest.approx(0.8, abs=2e-3)
     cell.resume_after_gap(True)
-    after = cell.run(np.zeros(20), np.full(20, at(0.5)))["soc"][-1]
-    assert after == pytest.approx(0.5, abs=2e-3)
+    after = cell.run(np.zeros(20), np.full(20, at(0.5)))
+    assert after["soc_coulomb"][-1] == pytest.approx(0.5, abs=2e-3)
+    # The observer's SOC is unknown after the gap: it reads the rest once
+    # it has lasted five minutes (half of the ten that correct a known SOC).
+    assert after["soc"][-1] == pytest.approx(0.8, abs=2e-3)
+    assert after["soc_sigma"][-1] > 0.4
+    later = cell.run(np.zeros(300), np.full(300, at(0.5)))
+    assert later["soc"][-1] == pytest.approx(0.5, abs=5e-3)
     cell.resume_after_gap(False)
-    kept = cell.run(np.zeros(20), np.full(20, at(0.3)))["soc"][-1]
+    kept = cell.run(np.zeros(20), np.full(20, at(0.3)))["soc_coulomb"][-1]
     assert kept == pytest.approx(0.5, abs=2e-3)
+
+
+def test_the_observer_corrects_a_biased_sensor_and_coulomb_counting_does_not(host_sim, tmp_path):
+    # The DFN record with rests of 15 min, the sensor reading 1 % of 1C
+    # high: the CLI's and Python's observer agree, and correct the count.
+    rec = REPO / "data" / "pybamm" / "chen2020-soc.csv"
+    ocv_file = REPO / "data" / "pybamm" / "chen2020-ocv.csv"
+    cap = 5.153198325955154
+    c, o = read_csv(rec), read_csv(ocv_file)
+    biased = tmp_path / "biased.csv"
+    with open(biased, "w") as f:
+        f.write("time_s,current_a,voltage_v\n")
+        for t, i, v in zip(c["time_s"], c["current_a"], c["voltage_v"]):
+            f.write(f"{t:g},{i + cap / 100:.9g},{v:.9g}\n")
+    # The biased sensor reads C/100 at rest: the start SOC is given.
+    args = ["--ocv", ocv_file, "--capacity-ah", str(cap), "--soc0", "0.9", "--window", "64",
+            "--memory", "16"]
+    cli = cli_track(host_sim, biased, tmp_path, *args)
+    cell = fracbms.OnlineCell(window=64, memory=16, ocv=(o["soc"], o["ocv_v"]), capacity_ah=cap,
+                              soc0=0.9)
+    b = read_csv(biased)  # the currents as the CLI reads them
+    py = cell.run(b["current_a"], b["voltage_v"])
+    assert_same_track(py, cli)
+    after = slice(900, None)  # after the first rest
+    assert np.max(np.abs(py["soc"][after] - c["soc_true"][after])) < 0.02
+    assert np.max(np.abs(py["soc_coulomb"][after] - c["soc_true"][after])) > 0.025
+    coulomb = fracbms.OnlineCell(window=64, memory=16, ocv=(o["soc"], o["ocv_v"]), capacity_ah=cap,
+                                 soc0=0.9, soc="coulomb").run(b["current_a"][:2000], b["voltage_v"][:2000])
+    np.testing.assert_array_equal(coulomb["soc"], coulomb["soc_coulomb"])
+    assert np.all(np.isnan(coulomb["current_bias_a"]))

@@ -36,6 +36,10 @@
 //!   when the curve is known (`U_oc` becomes a small offset `ΔU`).
 //! * [`profile`] — test current profiles (pulse, HPPC, drive) and an OCV
 //!   curve.
+//! * [`power`] — the state of power: a pulse predicted from the present
+//!   state, the largest currents within the voltage limits.
+//! * [`soc`] — the SOC observer: the count corrected at rest by the OCV
+//!   curve, with the current bias and the capacity as states.
 //! * [`online`] — the sliding-window cell estimator a BMS runs per cell:
 //!   sample validation, spike and NaN rejection, the "not excited" hold,
 //!   either method ([`online::CellEstimator`]).
@@ -58,6 +62,7 @@ pub mod power;
 pub mod profile;
 pub mod regression;
 pub mod simulate;
+pub mod soc;
 mod tracker;
 
 use crate::real::Real;

@@ -129,10 +129,22 @@ impl<T: Real, const N: usize, const MEM: usize> CellEstimator<T, N, MEM> {
     }
 
     /// Sets the state of charge now (before the next sample), e.g. from the
-    /// BMS's own SOC estimate or a rested voltage. Without a call the first
-    /// sample's voltage is read through the inverse OCV curve.
+    /// BMS's own SOC estimate or a rested voltage: the count's and the
+    /// observer's. Without a call the first sample's voltage is read
+    /// through the inverse OCV curve.
     pub fn set_state_of_charge(&mut self, soc: T) {
         self.pack.cells[0].set_state_of_charge(soc);
+    }
+
+    /// The SOC observer's estimate after the last sample (with an OCV
+    /// curve, once the start is known): the count corrected at rest by the
+    /// curve, with the current sensor's bias and the capacity
+    /// ([`crate::battery::soc`]; [`OnlineSettings::soc`]).
+    pub fn soc_estimate<const P: usize>(
+        &self,
+        s: &OnlineSettings<T, P>,
+    ) -> Option<crate::battery::soc::SocEstimate<T>> {
+        self.state().soc_estimate(s)
     }
 
     /// The model and the polarization the cell carries now, to predict a

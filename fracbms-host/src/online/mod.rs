@@ -23,6 +23,7 @@ pub use prior::{read_prior, read_prior_source, PriorMap, PriorSource};
 
 pub mod power;
 mod prior;
+pub mod soc;
 
 /// Floating-point precision of an online estimator.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
@@ -57,8 +58,15 @@ pub struct TrackRow {
     /// Why this sample was rejected (and substituted): `non_finite`,
     /// `out_of_range` or `spike`; `None` when it was accepted.
     pub rejected: Option<&'static str>,
-    /// State of charge after this sample (with an OCV curve).
+    /// The published state of charge after this sample (with an OCV
+    /// curve): the observer's, or the count with `--soc coulomb`
+    /// ([`TrackOptions::soc`]).
     pub soc: Option<f64>,
+    /// The count and the observer's estimate behind `soc`.
+    pub soc_detail: soc::SocRow,
+    /// The published `R_i` over the prior's or the map's `R_i` at this SOC
+    /// and temperature (none without a prior).
+    pub soh_r: Option<f64>,
     /// The OCV offset ΔU of the estimate (with an OCV curve).
     pub ocv_offset: Option<f64>,
     /// The one-step prediction of this sample's voltage (V) from the
@@ -115,6 +123,8 @@ pub struct TrackOptions<'a> {
     pub tail: bool,
     /// The state-of-power columns: horizons, limits, pulse.
     pub power: power::PowerOptions,
+    /// How the SOC is published (with `cell`).
+    pub soc: soc::SocOptions,
 }
 
 impl TrackOptions<'_> {
@@ -134,6 +144,7 @@ impl TrackOptions<'_> {
             model: ModelRequest::Linear,
             tail: false,
             power: power::PowerOptions::default(),
+            soc: soc::SocOptions::default(),
         }
     }
 
@@ -180,7 +191,9 @@ impl TrackOptions<'_> {
                 )
             }
         };
-        Ok(s.with_curve(curve))
+        let mut s = s.with_curve(curve);
+        self.soc.apply(&mut s.soc)?;
+        Ok(s)
     }
 }
 
@@ -243,6 +256,11 @@ pub struct Tracker {
     map: Option<PriorMap>,
     temperature: Option<f64>,
     follower: MapFollower<f64>,
+    /// What `soc` publishes.
+    soc_mode: soc::SocMode,
+    /// The prior's `R_i`, or the map's where the prior was last taken:
+    /// `soh_r`'s reference.
+    reference_r_i: Option<f64>,
 }
 
 /// [`Tracker`]'s estimator behind one type for every window and precision.
@@ -251,7 +269,8 @@ trait Step: Send + Sync {
     fn summary(&self) -> TrackSummary;
     fn set_state_of_charge(&mut self, soc: f64);
     fn resume_after_gap(&mut self, rested: bool);
-    fn state_of_charge(&self) -> Option<f64>;
+    /// The SOC `mode` publishes now.
+    fn published_soc(&self, mode: soc::SocMode) -> Option<f64>;
     fn set_prior(&mut self, p: &Prior<f64>);
 }
 
@@ -293,6 +312,11 @@ impl<T: Real + Send + Sync, const N: usize> Step for Sized<T, N> {
                 Rejection::Spike => "spike",
             }),
             soc: est.state_of_charge().map(|z| z.to_f64()),
+            soc_detail: soc::SocRow {
+                coulomb: est.state_of_charge().map(|z| z.to_f64()),
+                observer: est.soc_estimate(s).map(|e| e.cast()),
+            },
+            soh_r: None,
             ocv_offset: est.ocv_offset().map(|d| d.to_f64()),
             published: est.published().map(|v| v.to_f64()),
             step_resistance: est.cell_state().step_resistance().map(|st| st.ohm.to_f64()),
@@ -312,8 +336,16 @@ impl<T: Real + Send + Sync, const N: usize> Step for Sized<T, N> {
         self.est.resume_after_gap(rested);
     }
 
-    fn state_of_charge(&self) -> Option<f64> {
-        self.est.state_of_charge().map(|z| z.to_f64())
+    fn published_soc(&self, mode: soc::SocMode) -> Option<f64> {
+        let coulomb = self.est.state_of_charge().map(|z| z.to_f64());
+        match mode {
+            soc::SocMode::Observer => self
+                .est
+                .soc_estimate(&self.s)
+                .map(|e| e.soc.to_f64())
+                .or(coulomb),
+            soc::SocMode::Coulomb => coulomb,
+        }
     }
 
     fn set_prior(&mut self, p: &Prior<f64>) {
@@ -348,6 +380,11 @@ impl Tracker {
             );
         }
         let power = o.power.resolve(o.cell);
+        let reference_r_i = match (o.prior_map, o.prior) {
+            (Some(m), _) => Some(m.prior_at(soc0, None).center.r_i),
+            (None, Some(p)) => Some(p.center.r_i),
+            (None, None) => None,
+        };
         let cell = match o.precision {
             Precision::F64 => sized(o.settings::<f64>(h)?, soc0, window, power)?,
             Precision::F32 => sized(o.settings::<f32>(h)?, soc0, window, power)?,
@@ -357,6 +394,8 @@ impl Tracker {
             map: o.prior_map.cloned(),
             temperature: None,
             follower: MapFollower::new(),
+            soc_mode: o.soc.mode,
+            reference_r_i,
         })
     }
 
@@ -376,16 +415,17 @@ impl Tracker {
         }
     }
 
-    /// With a map prior: the prior at the counted SOC and the temperature
-    /// now, taken again when the SOC has moved by 0.001 or the temperature
+    /// With a map prior: the prior at the published SOC and the
+    /// temperature now, taken again when the SOC has moved by 0.001 or the temperature
     /// by 0.5 °C (the core's [`MapFollower`]; nothing before the SOC is
     /// known: the prior of [`TrackOptions::settings`] stands).
     fn follow_map(&mut self) {
-        let (Some(m), Some(z)) = (&self.map, self.cell.state_of_charge()) else {
+        let (Some(m), Some(z)) = (&self.map, self.cell.published_soc(self.soc_mode)) else {
             return;
         };
         let t = self.temperature.unwrap_or(f64::NAN);
         if let Some(c) = m.follow(&mut self.follower, z, t) {
+            self.reference_r_i = Some(c.center.r_i);
             self.cell.set_prior(&c);
         }
     }
@@ -395,7 +435,16 @@ impl Tracker {
     /// rejected, counted and substituted by the core.
     pub fn push(&mut self, t: f64, current: f64, voltage: f64) -> TrackRow {
         self.follow_map();
-        self.cell.push(t, current, voltage)
+        let mut r = self.cell.push(t, current, voltage);
+        r.soc_detail = r.soc_detail.in_mode(self.soc_mode);
+        r.soc = r.soc_detail.published();
+        r.soh_r = r
+            .published
+            .r_i
+            .value
+            .zip(self.reference_r_i)
+            .map(|(r, reference)| r / reference);
+        r
     }
 
     /// What the estimator has seen and computed so far.
@@ -465,6 +514,8 @@ pub struct OnlineBatteryOptions {
     /// The state-of-power columns (`--horizons`, `--voltage-min`,
     /// `--voltage-max`, `--current-limit`, `--pulse-current-a`).
     pub power: power::PowerOptions,
+    /// How the SOC is published (`--soc`, `--soc-rest-s`).
+    pub soc: soc::SocOptions,
 }
 
 impl Default for OnlineBatteryOptions {
@@ -485,6 +536,7 @@ impl Default for OnlineBatteryOptions {
             ocv: crate::ocv::OcvOptions::default(),
             record: crate::cycler::RecordOptions::default(),
             power: power::PowerOptions::default(),
+            soc: soc::SocOptions::default(),
         }
     }
 }
@@ -512,8 +564,12 @@ pub struct OnlineReport {
 /// `step_resistance_ohm` is the last precise current step's `ΔU/ΔI`;
 /// `window_r_i`… are the last good window's fit, identified or not (what
 /// the track's `r_i`… columns held before issue 35, and what the firmware
-/// still logs).
-pub const TRACK_HEADER: &str = "time_s,r_i,r_ct,q,alpha,u_oc,status,soc,ocv_offset_v,bv_a_v,bv_i0_a,predicted_v,r_i_status,r_ct_status,q_status,alpha_status,step_resistance_ohm,window_r_i,window_r_ct,window_q,window_alpha";
+/// still logs). `soc` is the published SOC ([`soc::SocOptions`]);
+/// `soc_coulomb` the estimator's count, and `current_bias_a`,
+/// `capacity_ah`, `soc_sigma`, `soc_ocv_weight` the observer's
+/// ([`soc::SOC_HEADER`]); `soh_r` the published R_i over the prior's or
+/// map's.
+pub const TRACK_HEADER: &str = "time_s,r_i,r_ct,q,alpha,u_oc,status,soc,ocv_offset_v,bv_a_v,bv_i0_a,predicted_v,r_i_status,r_ct_status,q_status,alpha_status,step_resistance_ohm,window_r_i,window_r_ct,window_q,window_alpha,soc_coulomb,current_bias_a,capacity_ah,soc_sigma,soc_ocv_weight,soh_r";
 
 /// `online battery`: reads the record `input`, runs the online estimator
 /// over it as `o` says and writes the track to `out` (columns
@@ -565,6 +621,7 @@ pub fn battery_file(input: &Path, out: &Path, o: &OnlineBatteryOptions) -> Resul
         model: o.model,
         tail: o.tail,
         power: o.power,
+        soc: o.soc,
     };
     let summary = {
         let mut res = Ok(TrackSummary::default());
@@ -598,6 +655,10 @@ pub fn battery_file(input: &Path, out: &Path, o: &OnlineBatteryOptions) -> Resul
                     g(r.estimate.map(|p| p.q)),
                     g(r.estimate.map(|p| p.alpha)),
                 )?;
+                for x in r.soc_detail.columns() {
+                    write!(w, ",{}", g(x))?;
+                }
+                write!(w, ",{}", g(r.soh_r))?;
                 for p in &r.power[..o.power.horizons().len()] {
                     write!(
                         w,

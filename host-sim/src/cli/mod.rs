@@ -17,6 +17,7 @@ use clap::{Parser, Subcommand};
 use estimator_core::battery::Start;
 use fracbms_host::cycler::{ColumnMap, CurrentSign, RecordOptions};
 use fracbms_host::identify::{Algorithm, BatteryMethod, HammersteinMethod, ModelRequest};
+use fracbms_host::online::soc::SocMode;
 use fracbms_host::online::Precision;
 use fracbms_host::reproduce::ReproducePart;
 
@@ -171,6 +172,17 @@ value_enum! {
         F32,
         /// Double precision.
         F64,
+    }
+}
+
+value_enum! {
+    /// What `online battery` publishes as `soc` (`--soc`).
+    SocArg => SocMode {
+        /// The count corrected at rest by the OCV curve, with the current
+        /// bias and the capacity estimated.
+        Observer,
+        /// Plain coulomb counting from the start SOC.
+        Coulomb,
     }
 }
 

@@ -189,6 +189,17 @@ impl<T: Real, const N: usize> CellState<T, N> {
                 }
             }
         };
+        if let Some(m) = &s.ocv {
+            // The observer counts the stored current (the count's) and
+            // reads only an accepted voltage.
+            let v = if rejected.is_none() {
+                voltage
+            } else {
+                T::nan()
+            };
+            self.soc_observer
+                .push(&s.soc, &m.table, stored.unwrap_or(T::nan()), v);
+        }
         match sample {
             Some((i, u)) => {
                 if stored.is_some() {

@@ -4,6 +4,7 @@
 
 use super::*;
 use crate::battery::ocv::OcvModel;
+use crate::battery::soc::SocSettings;
 use crate::battery::{BatterySettings, CellParameters, Start};
 use crate::error::Error;
 use crate::real::Real;
@@ -74,6 +75,10 @@ pub struct OnlineSettings<T, const P: usize = 0> {
     /// this from the present one expires (with an OCV curve): resistances
     /// and time constants change with the state of charge.
     pub hold_soc_span: T,
+    /// The SOC observer beside the count (with a curve;
+    /// [`crate::battery::soc`]). [`with_curve`](Self::with_curve) sets its
+    /// defaults for the curve's capacity: change them after it.
+    pub soc: SocSettings<T>,
 }
 
 impl<T: Real> OnlineSettings<T> {
@@ -108,6 +113,7 @@ impl<T: Real> OnlineSettings<T> {
             identify_factor: T::lit(2.0),
             identify_alpha: T::lit(0.1),
             hold_soc_span: T::lit(0.15),
+            soc: SocSettings::new(T::one(), h),
         }
     }
 }
@@ -126,8 +132,10 @@ impl<T: Real, const P: usize> OnlineSettings<T, P> {
     /// curve).
     pub fn with_curve<const Q: usize>(self, ocv: Option<OcvModel<T, Q>>) -> OnlineSettings<T, Q> {
         let mut battery = self.battery;
-        if ocv.is_some() {
+        let mut soc = self.soc;
+        if let Some(m) = &ocv {
             battery.ocv_slope = false;
+            soc = SocSettings::new(m.capacity_ah, battery.h);
         }
         OnlineSettings {
             battery,
@@ -148,6 +156,7 @@ impl<T: Real, const P: usize> OnlineSettings<T, P> {
             identify_alpha: self.identify_alpha,
             hold_soc_span: self.hold_soc_span,
             max_relaxation_windows: self.max_relaxation_windows,
+            soc,
         }
     }
 

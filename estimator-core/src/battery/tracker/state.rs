@@ -5,6 +5,7 @@
 use super::*;
 use crate::battery::output_error::{OutputErrorRefinement, RefinementState, RefinementWork};
 use crate::battery::regression::{PaperRegressionGi, PaperRegressionState};
+use crate::battery::soc::{SocEstimate, SocObserver};
 use crate::battery::CellParameters;
 use crate::error::Error;
 use crate::frac::GlWeights;
@@ -55,6 +56,8 @@ pub struct CellState<T, const N: usize> {
     pub(super) published: PublishedParameters<T>,
     /// The last precise current step's resistance.
     pub(super) step: Option<StepResistance<T>>,
+    /// The SOC observer beside the count (with a curve).
+    pub(super) soc_observer: SocObserver<T>,
 }
 
 /// The working area a pack's cells share, one cell at a time: the two
@@ -138,6 +141,7 @@ impl<T: Real, const N: usize> CellState<T, N> {
             last_rejection: None,
             past: PastModes::new(),
             published: PublishedParameters::NONE,
+            soc_observer: SocObserver::new(&s.soc, None),
             step: None,
         }
     }
@@ -231,7 +235,17 @@ impl<T: Real, const N: usize> CellState<T, N> {
         if soc.is_finite() {
             self.soc = Some(soc);
             self.rest_start = None;
+            self.soc_observer.set_state_of_charge(soc);
         }
+    }
+
+    /// The SOC observer's estimate (with a curve, once the start is
+    /// known): the count corrected at rest, the current bias and the
+    /// capacity ([`crate::battery::soc`]). [`state_of_charge`](Self::state_of_charge)
+    /// is the count the window follows.
+    pub fn soc_estimate<const P: usize>(&self, s: &OnlineSettings<T, P>) -> Option<SocEstimate<T>> {
+        s.ocv.as_ref()?;
+        self.soc_observer.estimate(&s.soc)
     }
 
     /// The record resumes after a gap of unknown charge (a logger that
@@ -244,6 +258,7 @@ impl<T: Real, const N: usize> CellState<T, N> {
     pub fn resume_after_gap(&mut self, rested: bool) {
         self.clear_window();
         self.rmse = T::infinity();
+        self.soc_observer.resume_after_gap();
         if rested {
             self.soc = None;
             self.rest_start = None;

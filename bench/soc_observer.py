@@ -1,0 +1,89 @@
+#!/usr/bin/env python3
+"""The SOC observer on PyBaMM DFN records (issue 36): `online battery
+--soc observer` against the records' true SOC, beside plain counting.
+
+Each record (data/pybamm, 1 s: the `soc` records with rests of 15 min,
+the HPPC records with rests of 5 min and `--soc-rest-s 300`) is fed four
+ways: as it is; with a current-sensor bias of +1 % of 1C; with a start
+SOC 10 % off (`--soc0`); and both. The worst |SOC - truth| after the
+first rest that corrects the SOC, for the published `soc` and for
+`soc_coulomb`. Then the capacity: the same record with `--capacity-ah`
+10 % high.
+
+    cargo build --release -p host-sim
+    python3 bench/soc_observer.py [--host-sim target/release/host-sim] [--out target/soc-observer]
+"""
+
+import argparse
+import csv
+import json
+import os
+import subprocess
+
+import numpy as np
+
+# The record and the shortest rest that corrects the SOC (s): the `soc`
+# records' rests are 15 min (the default 600 s applies); the HPPC
+# records' only 5 min.
+RECORDS = (("chen2020-soc", 600), ("prada2013-soc", 600), ("chen2020-hppc", 300), ("prada2013-hppc", 300))
+
+
+def read(path):
+    rows = list(csv.DictReader(open(path)))
+    f = lambda x: float(x) if x else np.nan  # noqa: E731
+    return {k: np.array([f(r[k]) for r in rows]) for k in rows[0] if k not in ("status",) and not k.endswith("_status") and k != "rejected"}
+
+
+def first_rest_end(current, rest_s, capacity):
+    """The index after the first rest of at least rest_s samples (1 s)."""
+    n = 0
+    for k, i in enumerate(current):
+        if abs(i) <= capacity / 50:
+            n += 1
+        else:
+            if n >= rest_s:
+                return k
+            n = 0
+    return len(current)
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--host-sim", default="target/release/host-sim")
+    ap.add_argument("--out", default="target/soc-observer")
+    a = ap.parse_args()
+    os.makedirs(a.out, exist_ok=True)
+    meta = json.load(open("data/pybamm/meta.json"))["records"]
+    print(f"| record | case | observer worst | coulomb worst | observer at end | coulomb at end | bias (A) | capacity (A·h) |")
+    print("|---|---|---|---|---|---|---|---|")
+    for rec, rest_s in RECORDS:
+        m = meta[rec]
+        cap = m["capacity_ah"]
+        d = read(f"data/pybamm/{rec}.csv")
+        truth = d["soc_true"]
+        start = first_rest_end(d["current_a"], rest_s, cap)
+        cases = [("none", 0.0, 0.0, 1.0), ("bias +1% 1C", cap / 100, 0.0, 1.0),
+                 ("start -10%", 0.0, -0.1, 1.0), ("both", cap / 100, +0.1 if m["soc0"] < 0.85 else -0.1, 1.0),
+                 ("capacity +10%", 0.0, 0.0, 1.1)]
+        for case, bias, off, cscale in cases:
+            path = os.path.join(a.out, f"{rec}-in.csv")
+            with open(path, "w") as f:
+                f.write("time_s,current_a,voltage_v\n")
+                for t, i, v in zip(d["time_s"], d["current_a"], d["voltage_v"]):
+                    f.write(f"{t:g},{i + bias:.9g},{v:.9g}\n")
+            out = os.path.join(a.out, f"{rec}-{case.split()[0]}.csv")
+            subprocess.run([a.host_sim, "online", "battery", "--input", path, "--window", "256",
+                            "--ocv", f"data/pybamm/{rec.split('-')[0]}-ocv.csv",
+                            "--capacity-ah", str(cap * cscale), "--soc0", str(m["soc0"] + off),
+                            "--soc-rest-s", str(rest_s), "--out", out],
+                           check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+            t = read(out)
+            obs, cc = np.abs(t["soc"] - truth), np.abs(t["soc_coulomb"] - truth)
+            after = slice(start, None)
+            w = lambda x: f"{np.nanmax(x[after]):.4f}" if start < len(x) else "no rest"  # noqa: E731
+            print(f"| {rec} | {case} | {w(obs)} | {w(cc)} | {obs[-1]:.4f} | {cc[-1]:.4f} | "
+                  f"{t['current_bias_a'][-1]:+.4f} | {t['capacity_ah'][-1]:.3f} (true {cap:.3f}) |")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,123 @@
+//! The state-of-charge columns of a track (issue 36): `soc` (the published
+//! value), `soc_coulomb`, `current_bias_a`, `capacity_ah`, `soc_sigma`,
+//! `soc_ocv_weight`, from the core's observer in each cell's state
+//! ([`estimator_core::battery::soc`]).
+//!
+//! Owns the choice between the observer and plain counting (`--soc`) and
+//! the observer's settings from the flags; the observer is the core's.
+
+use crate::bail;
+use crate::error::Result;
+use estimator_core::battery::soc::{SocEstimate, SocSettings};
+use estimator_core::Real;
+use serde::{Deserialize, Serialize};
+
+/// What the track publishes as `soc`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum SocMode {
+    /// The observer: the count corrected at rest by the OCV curve, with
+    /// the current bias and the capacity estimated (the default with a
+    /// curve).
+    #[default]
+    Observer,
+    /// Plain coulomb counting from the start SOC (the estimator's own).
+    Coulomb,
+}
+
+impl SocMode {
+    /// `"observer"` or `"coulomb"`.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            SocMode::Observer => "observer",
+            SocMode::Coulomb => "coulomb",
+        }
+    }
+}
+
+/// How the SOC is published, as `online battery`'s flags give it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SocOptions {
+    /// Observer or plain counting.
+    pub mode: SocMode,
+    /// The shortest rest that corrects the SOC (s; default 600).
+    pub rest_s: Option<f64>,
+}
+
+impl Default for SocOptions {
+    fn default() -> Self {
+        Self {
+            mode: SocMode::Observer,
+            rest_s: None,
+        }
+    }
+}
+
+impl SocOptions {
+    /// Sets the observer's settings `s` (the core's defaults for the
+    /// curve's capacity) as the flags say.
+    ///
+    /// # Errors
+    /// A rest that is not finite and positive.
+    pub(crate) fn apply<T: Real>(&self, s: &mut SocSettings<T>) -> Result<()> {
+        if let Some(r) = self.rest_s {
+            if !(r.is_finite() && r > 0.0) {
+                bail!(Options, "--soc-rest-s {r}: must be finite and positive");
+            }
+            s.rest_s = T::lit(r);
+            s.rest_max_s = s.rest_max_s.max(T::lit(r));
+        }
+        Ok(())
+    }
+}
+
+/// The SOC columns of one track row.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct SocRow {
+    /// The estimator's own count (`soc_coulomb`).
+    pub coulomb: Option<f64>,
+    /// The observer's estimate (none with `--soc coulomb`).
+    pub observer: Option<SocEstimate<f64>>,
+}
+
+impl SocRow {
+    /// The row as `mode` publishes it: with [`SocMode::Coulomb`] no
+    /// observer.
+    pub(crate) fn in_mode(self, mode: SocMode) -> Self {
+        match mode {
+            SocMode::Observer => self,
+            SocMode::Coulomb => Self {
+                observer: None,
+                ..self
+            },
+        }
+    }
+
+    /// The published SOC: the observer's, else the count.
+    pub fn published(&self) -> Option<f64> {
+        self.observer.map(|e| e.soc).or(self.coulomb)
+    }
+
+    /// The columns after [`super::TRACK_HEADER`]'s `soc`, in
+    /// [`SOC_HEADER`]'s order.
+    pub fn columns(&self) -> [Option<f64>; 5] {
+        let e = self.observer;
+        [
+            self.coulomb,
+            e.map(|e| e.current_bias_a),
+            e.map(|e| e.capacity_ah),
+            e.map(|e| e.sigma),
+            e.map(|e| e.ocv_weight),
+        ]
+    }
+}
+
+/// The SOC columns the track carries after the estimator's (empty without
+/// an OCV curve; all but `soc_coulomb` empty with `--soc coulomb`).
+pub const SOC_HEADER: [&str; 5] = [
+    "soc_coulomb",
+    "current_bias_a",
+    "capacity_ah",
+    "soc_sigma",
+    "soc_ocv_weight",
+];
