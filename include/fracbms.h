@@ -450,6 +450,43 @@ typedef struct FracbmsPublished {
 } FracbmsPublished;
 
 /**
+ * The SOC observer's estimate (`estimator_core::battery::soc`): coulomb
+ * counting corrected at rest by the OCV table, with the current sensor's
+ * bias and the capacity estimated; as `host-sim online battery`'s `soc`,
+ * `current_bias_a`, `capacity_ah`, `soc_sigma`, `soc_ocv_weight`.
+ */
+typedef struct FracbmsSoc {
+  /**
+   * The published state of charge (0..1).
+   */
+  float state_of_charge;
+  /**
+   * Its standard deviation.
+   */
+  float sigma;
+  /**
+   * The current sensor's bias (A): measured − true.
+   */
+  float current_bias;
+  /**
+   * The estimated capacity (A·h).
+   */
+  float capacity_ah;
+  /**
+   * The last rest's weight on the SOC, 0..1 (near 0 on a flat OCV).
+   */
+  float ocv_weight;
+  /**
+   * Rest observations so far.
+   */
+  uint32_t observations;
+} FracbmsSoc;
+/**
+ * Nothing known: NaN, 0 observations.
+ */
+#define FracbmsSoc_NONE (FracbmsSoc){ .state_of_charge = f32_NAN, .sigma = f32_NAN, .current_bias = f32_NAN, .capacity_ah = f32_NAN, .ocv_weight = f32_NAN, .observations = 0 }
+
+/**
  * One sample's outcome and the estimate after it.
  */
 typedef struct FracbmsEstimate {
@@ -508,6 +545,11 @@ typedef struct FracbmsEstimate {
    * before one), the model-free check of `R_i`.
    */
   float step_resistance;
+  /**
+   * The SOC observer's estimate (with an OCV table; all NaN before the
+   * start SOC is known). `state_of_charge` is the count.
+   */
+  struct FracbmsSoc soc;
 } FracbmsEstimate;
 
 /**

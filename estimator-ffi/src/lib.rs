@@ -71,7 +71,7 @@ pub use map::{fracbms_cell_follow_map, fracbms_cell_set_prior, fracbms_map_cell_
 pub use types::{
     FracbmsCode, FracbmsEstimate, FracbmsIdentification, FracbmsMapLevel, FracbmsMethod,
     FracbmsModel, FracbmsParameters, FracbmsPublished, FracbmsRejection, FracbmsSettings,
-    FracbmsStatus, FRACBMS_MAP_LEVELS_MAX, FRACBMS_OCV_POINTS_MAX,
+    FracbmsSoc, FracbmsStatus, FRACBMS_MAP_LEVELS_MAX, FRACBMS_OCV_POINTS_MAX,
 };
 
 use state::{CellOp, PackOp, PackOut};

@@ -12,7 +12,7 @@ use estimator_core::battery::pack::{PackEstimator, PackSettings};
 use estimator_core::battery::Prior;
 
 use crate::types::{
-    FracbmsCode, FracbmsEstimate, FracbmsParameters, Settings, FRACBMS_OCV_POINTS_MAX,
+    FracbmsCode, FracbmsEstimate, FracbmsParameters, FracbmsSoc, Settings, FRACBMS_OCV_POINTS_MAX,
 };
 
 /// Written at the start of a cell's memory by `init`.
@@ -161,6 +161,7 @@ pub(crate) fn check_memory(
 
 /// The estimate of one cell's state.
 fn estimate_of<const N: usize>(
+    s: &Settings,
     c: &CellState<f32, N>,
     report: Option<SampleReport<f32>>,
 ) -> FracbmsEstimate {
@@ -181,6 +182,7 @@ fn estimate_of<const N: usize>(
         flagged: false,
         published: c.published().into(),
         step_resistance: c.step_resistance().map_or(f32::NAN, |st| st.ohm),
+        soc: c.soc_estimate(s).map_or(FracbmsSoc::NONE, FracbmsSoc::from),
     }
 }
 
@@ -288,7 +290,14 @@ pub(crate) unsafe fn cell_op(
                 None
             }
             CellOp::FollowMap(map, t, taken) => {
-                let z = slot.cell.state_of_charge().unwrap_or(f32::NAN);
+                // The published SOC: the observer's, else the count (as
+                // `host-sim online battery`'s map prior follows it).
+                let z = slot
+                    .cell
+                    .soc_estimate(&slot.settings)
+                    .map(|e| e.soc)
+                    .or(slot.cell.state_of_charge())
+                    .unwrap_or(f32::NAN);
                 *taken = false;
                 if let Some(mut c) = slot.follower.follow(&map, z, t) {
                     if slot.settings.ocv.is_none() {
@@ -302,7 +311,7 @@ pub(crate) unsafe fn cell_op(
                 None
             }
         };
-        estimate_of(slot.cell.cell_state(), report)
+        estimate_of(&slot.settings, slot.cell.cell_state(), report)
     }
     // SAFETY: forwarded from the caller.
     let h = unsafe { header(state, CELL_MAGIC) }?;
@@ -401,7 +410,7 @@ pub(crate) unsafe fn pack_op(state: *mut u8, op: PackOp<'_>) -> Result<PackOut, 
                     .pack
                     .cell(k)
                     .ok_or(FracbmsCode::FRACBMS_ERROR_CELL_COUNT)?;
-                let mut e = estimate_of(c, None);
+                let mut e = estimate_of(&slot.settings.cell, c, None);
                 e.flagged = slot
                     .pack
                     .health()

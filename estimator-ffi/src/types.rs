@@ -8,6 +8,7 @@ use estimator_core::battery::online::{
     Identification, Method, OnlineSettings, PublishedParameter, PublishedParameters, Rejection,
     Status,
 };
+use estimator_core::battery::soc::SocEstimate;
 use estimator_core::battery::{CellModel, CellParameters, Start};
 
 /// Largest OCV table the C interface takes (points).
@@ -353,6 +354,55 @@ pub struct FracbmsEstimate {
     /// The resistance `ΔU/ΔI` of the last clean current step (Ω; NaN
     /// before one), the model-free check of `R_i`.
     pub step_resistance: f32,
+    /// The SOC observer's estimate (with an OCV table; all NaN before the
+    /// start SOC is known). `state_of_charge` is the count.
+    pub soc: FracbmsSoc,
+}
+
+/// The SOC observer's estimate (`estimator_core::battery::soc`): coulomb
+/// counting corrected at rest by the OCV table, with the current sensor's
+/// bias and the capacity estimated; as `host-sim online battery`'s `soc`,
+/// `current_bias_a`, `capacity_ah`, `soc_sigma`, `soc_ocv_weight`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FracbmsSoc {
+    /// The published state of charge (0..1).
+    pub state_of_charge: f32,
+    /// Its standard deviation.
+    pub sigma: f32,
+    /// The current sensor's bias (A): measured − true.
+    pub current_bias: f32,
+    /// The estimated capacity (A·h).
+    pub capacity_ah: f32,
+    /// The last rest's weight on the SOC, 0..1 (near 0 on a flat OCV).
+    pub ocv_weight: f32,
+    /// Rest observations so far.
+    pub observations: u32,
+}
+
+impl FracbmsSoc {
+    /// Nothing known: NaN, 0 observations.
+    pub const NONE: Self = Self {
+        state_of_charge: f32::NAN,
+        sigma: f32::NAN,
+        current_bias: f32::NAN,
+        capacity_ah: f32::NAN,
+        ocv_weight: f32::NAN,
+        observations: 0,
+    };
+}
+
+impl From<SocEstimate<f32>> for FracbmsSoc {
+    fn from(e: SocEstimate<f32>) -> Self {
+        Self {
+            state_of_charge: e.soc,
+            sigma: e.sigma,
+            current_bias: e.current_bias_a,
+            capacity_ah: e.capacity_ah,
+            ocv_weight: e.ocv_weight,
+            observations: e.observations,
+        }
+    }
 }
 
 /// Whether a published parameter comes from the data (as `host-sim online

@@ -525,7 +525,13 @@ fn a_map_through_the_abi_is_the_cores() {
             unsafe { fracbms_cell_follow_map(cell, lv, 3, temperature(k), &mut taken) },
             FRACBMS_OK
         );
-        let z = reference.state_of_charge().unwrap();
+        // The published SOC: the observer's once it has started, the
+        // count before (as the CLI's map prior).
+        let z = reference
+            .soc_estimate(&cs)
+            .map(|e| e.soc)
+            .or(reference.state_of_charge())
+            .unwrap();
         let expect = follower.follow(&map, z, temperature(k));
         assert_eq!(taken, expect.is_some(), "sample {k}");
         if let Some(c) = expect {
@@ -534,7 +540,15 @@ fn a_map_through_the_abi_is_the_cores() {
         }
         unsafe { fracbms_cell_push(cell, i, v, e.as_mut_ptr()) };
         let r = reference.push(&cs, i, v);
-        assert_eq!(unsafe { e.assume_init() }.status, r.status.into());
+        let got = unsafe { e.assume_init() };
+        assert_eq!(got.status, r.status.into());
+        // The SOC observer reaches C bit for bit.
+        let want = reference.soc_estimate(&cs).map(FracbmsSoc::from).unwrap();
+        assert_eq!(
+            got.soc.state_of_charge.to_bits(),
+            want.state_of_charge.to_bits()
+        );
+        assert_eq!(got.soc, want);
     }
     let e = unsafe { e.assume_init() };
     assert_eq!(e.parameters, reference.estimate().unwrap().into());

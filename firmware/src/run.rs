@@ -189,7 +189,7 @@ fn main() -> ! {
         );
     }
     let ok = if config::CELLS == 1 {
-        one_cell_result(task, counts.samples, all)
+        one_cell_result(&s, task, counts.samples, all)
     } else {
         pack_result(&s, task, counts.samples, all)
     };
@@ -198,7 +198,12 @@ fn main() -> ! {
 
 /// The final report of a one-cell image (the flat JSON of `cargo xtask
 /// qemu`); true when the run passed its self-check.
-fn one_cell_result(task: &ConfiguredTask, samples: u64, all: bool) -> bool {
+fn one_cell_result(
+    s: &firmware::task::TaskSettings,
+    task: &ConfiguredTask,
+    samples: u64,
+    all: bool,
+) -> bool {
     match task.estimate() {
         Some(e) => {
             defmt::println!(
@@ -207,9 +212,7 @@ fn one_cell_result(task: &ConfiguredTask, samples: u64, all: bool) -> bool {
             );
             if let Some(c) = task.cell(0) {
                 published_line(1, c);
-                if let (Some(z), Some(d)) = (c.state_of_charge(), c.ocv_offset()) {
-                    defmt::println!("SOC soc={=f32} ocv_offset_v={=f32}", z, d);
-                }
+                soc_line(s, 1, c);
             }
             if e.is_butler_volmer() {
                 defmt::println!("BV bv_a_v={=f32} bv_i0_a={=f32}", e.bv_a, e.bv_i0);
@@ -260,6 +263,27 @@ fn published_line<const N: usize>(cell: usize, c: &CellState<f32, N>) {
     );
 }
 
+/// A cell's state of charge (with an OCV table, once known): `soc` the
+/// observer's (the published SOC, as `host-sim online battery`'s `soc`),
+/// `soc_coulomb` the count, the observer's bias, capacity, spread and last
+/// weight, and the OCV offset of the estimate (NaN before one).
+fn soc_line<const N: usize>(s: &firmware::task::TaskSettings, cell: usize, c: &CellState<f32, N>) {
+    let (Some(z), Some(e)) = (c.state_of_charge(), c.soc_estimate(&s.pack.cell)) else {
+        return;
+    };
+    defmt::println!(
+        "SOC cell={=usize} soc={=f32} soc_coulomb={=f32} current_bias_a={=f32} capacity_ah={=f32} soc_sigma={=f32} soc_ocv_weight={=f32} ocv_offset_v={=f32}",
+        cell,
+        e.soc,
+        z,
+        e.current_bias_a,
+        e.capacity_ah,
+        e.sigma,
+        e.ocv_weight,
+        c.ocv_offset().unwrap_or(f32::NAN)
+    );
+}
+
 /// The final report of a pack image: one `CELL` line per cell (its
 /// estimate, rejected samples, flag) and a `PACK` line; true when every
 /// cell has a physical estimate (or this is a cost measurement).
@@ -276,6 +300,7 @@ fn pack_result(
         let flagged = health.is_some_and(|h| task.is_flagged(s, &h, k));
         if let Some(c) = task.cell(k) {
             published_line(k + 1, c);
+            soc_line(s, k + 1, c);
         }
         match task.estimate_of(k) {
             Some(e) => {

@@ -230,14 +230,20 @@ impl<const N: usize, const MEM: usize, const C: usize> EstimatorTask<N, MEM, C> 
         Some(TaskReport { core, fault })
     }
 
-    /// With a map: the prior at the pack's mean counted SOC (the middle
+    /// With a map: the prior at the pack's mean published SOC (the
+    /// observer's, else the count; the middle
     /// level's before any SOC is known) and `temperature` (NaN: the last
     /// one), taken again when either moved by its step.
     fn follow_map(&mut self, s: &TaskSettings, temperature: f32) -> Option<Prior<f32>> {
         let map = s.map.as_ref()?;
         let (mut sum, mut n) = (0.0f32, 0u32);
         for k in 0..C {
-            if let Some(z) = self.pack.cell(k).and_then(|c| c.state_of_charge()) {
+            let z = self.pack.cell(k).and_then(|c| {
+                c.soc_estimate(&s.pack.cell)
+                    .map(|e| e.soc)
+                    .or(c.state_of_charge())
+            });
+            if let Some(z) = z {
                 sum += z;
                 n += 1;
             }

@@ -292,6 +292,73 @@ fn qemu_firmware_with_an_ocv_table_agrees_with_host_sim() {
     assert_agree(&fw, &host);
 }
 
+/// The SOC observer in the firmware: the first 3400 s of the DFN record
+/// with rests of 15 min (Chen2020, data/pybamm/chen2020-soc.csv; rests at
+/// 0–900 s and 2400–3300 s), the current sensor reading 0.05 A (1 % of 1C)
+/// high. The firmware's published SOC (f32) is `host-sim online battery`'s
+/// (f64, same settings), the rests corrected the count, and the count is
+/// the host's count.
+#[test]
+fn qemu_firmware_observes_the_state_of_charge_at_rest() {
+    let src = root().join("data/pybamm/chen2020-soc.csv");
+    let ocv = root().join("data/pybamm/chen2020-ocv.csv");
+    let text = std::fs::read_to_string(&src).unwrap();
+    let mut csv_text = String::from("time_s,current_a,voltage_v\n");
+    let mut truth = 0.0;
+    for l in text.lines().skip(1).take(3400) {
+        let x: Vec<f64> = l.split(',').map(|x| x.parse().unwrap()).collect();
+        csv_text.push_str(&format!("{},{},{}\n", x[0], x[1] + 0.05, x[2]));
+        truth = x[4];
+    }
+    let csv = tmp("soc-3400-biased.csv");
+    std::fs::write(&csv, csv_text).unwrap();
+    let track = tmp("soc-3400-track.csv");
+    let cap = "5.153198";
+    let s = |p: &Path| p.to_str().unwrap().to_owned();
+    host_sim(&[
+        "online",
+        "battery",
+        "--input",
+        &s(&csv),
+        "--ocv",
+        &s(&ocv),
+        "--capacity-ah",
+        cap,
+        "--out",
+        &s(&track),
+    ]);
+    let t = std::fs::read_to_string(&track).unwrap();
+    let header: Vec<&str> = t.lines().next().unwrap().split(',').collect();
+    let last: Vec<&str> = t.lines().last().unwrap().split(',').collect();
+    let host = |name: &str| -> f64 {
+        last[header.iter().position(|h| *h == name).unwrap()]
+            .parse()
+            .unwrap()
+    };
+    let fw = firmware(&csv, &["--ocv", &s(&ocv), "--capacity-ah", cap]);
+    eprintln!("firmware {fw}\ntruth {truth}");
+    assert_eq!(fw["samples"].as_u64(), Some(3400), "{fw}");
+    assert!(
+        (f(&fw, "soc_coulomb") - host("soc_coulomb")).abs() < 1e-4,
+        "{fw}"
+    );
+    assert!((f(&fw, "soc") - host("soc")).abs() < 1e-3, "{fw}");
+    assert!(
+        (f(&fw, "current_bias_a") - host("current_bias_a")).abs() < 2e-3,
+        "{fw}"
+    );
+    assert!(f(&fw, "soc_ocv_weight") > 0.5, "{fw}");
+    // The count drifts by the bias; the observer was corrected at 3300 s.
+    let (obs, count) = (
+        (f(&fw, "soc") - truth).abs(),
+        (f(&fw, "soc_coulomb") - truth).abs(),
+    );
+    assert!(
+        count > 0.005 && obs < count / 4.0,
+        "observer {obs}, count {count}"
+    );
+}
+
 /// The product's configuration on a whole DFN drive cycle (Chen2020, 3000
 /// s, data/pybamm): window 256, memory 64, the OCV table and a prior from
 /// the HPPC record of the same cell (`identify battery --json`). The

@@ -10,11 +10,14 @@
 //!   `rejected`, and what the cell publishes: `published_r_i` …
 //!   `published_alpha` (null when not identified), `r_i_status` …
 //!   `alpha_status` (as the track's `*_status` columns) and
-//!   `step_resistance_ohm`. A pack record
+//!   `step_resistance_ohm`; with `--ocv`, the state of charge: `soc` (the
+//!   SOC observer's, as the track's `soc`), `soc_coulomb`,
+//!   `current_bias_a`, `capacity_ah`, `soc_sigma`, `soc_ocv_weight`,
+//!   `ocv_offset_v`. A pack record
 //!   (`time_s,current_a,cell_1_v,…,cell_N_v`) builds the pack firmware for
 //!   its N cells and prints `{"cells": [{"cell", "r_i", "r_ct", "q",
-//!   "alpha", "u_oc", "rejected", "flagged", and the same published keys},
-//!   …], "samples", "rejected"}`. The exit status is non-zero when the
+//!   "alpha", "u_oc", "rejected", "flagged", and the same published and
+//!   state-of-charge keys}, …], "samples", "rejected"}`. The exit status is non-zero when the
 //!   firmware failed.
 //! * `cargo xtask run-elf ELF` runs a built image the same way (the
 //!   target's cargo runner).
@@ -448,6 +451,7 @@ fn run_elf(elf: &Path, timeout: u32, icount: bool) -> Result<Summary> {
             let key = match (key, kv.get("cell")) {
                 ("CELL", Some(n)) => format!("CELL{n}"),
                 ("PUBLISHED", Some(n)) => format!("PUBLISHED{n}"),
+                ("SOC", Some(n)) => format!("SOC{n}"),
                 _ => key.to_owned(),
             };
             summary.insert(key, kv);
@@ -506,6 +510,32 @@ fn insert_published(s: &Summary, k: u64, out: &mut serde_json::Map<String, serde
     out.insert("step_resistance_ohm".into(), num("step_resistance_ohm"));
 }
 
+/// What cell `k` says of its state of charge (its `SOC` line, with an OCV
+/// table): `soc` (the observer's, published), `soc_coulomb`,
+/// `current_bias_a`, `capacity_ah`, `soc_sigma`, `soc_ocv_weight`,
+/// `ocv_offset_v` (null where not a number; nothing without the line).
+fn insert_soc(s: &Summary, k: u64, out: &mut serde_json::Map<String, serde_json::Value>) {
+    let Some(m) = s.get(&format!("SOC{k}")) else {
+        return;
+    };
+    for key in [
+        "soc",
+        "soc_coulomb",
+        "current_bias_a",
+        "capacity_ah",
+        "soc_sigma",
+        "soc_ocv_weight",
+        "ocv_offset_v",
+    ] {
+        let v = m
+            .get(key)
+            .and_then(|v| v.parse::<f64>().ok())
+            .and_then(serde_json::Number::from_f64)
+            .map_or(serde_json::Value::Null, serde_json::Value::Number);
+        out.insert(key.into(), v);
+    }
+}
+
 /// The JSON of a pack image's final report: `{"cells": [{"cell", "r_i",
 /// "r_ct", "q", "alpha", "u_oc", "rejected", "flagged", and what the cell
 /// publishes ([`insert_published`])}, …], "samples", "rejected"}` (a cell
@@ -533,6 +563,7 @@ fn pack_json(s: &Summary) -> Result<serde_json::Value> {
             (flagged.map(String::as_str) == Some("true")).into(),
         );
         insert_published(s, k, &mut c);
+        insert_soc(s, k, &mut c);
         list.push(serde_json::Value::Object(c));
     }
     Ok(serde_json::json!({
@@ -554,9 +585,7 @@ fn qemu(a: &QemuArgs) -> Result<()> {
         out.insert(key.into(), number(&s, "RESULT", key)?);
     }
     if a.ocv.is_some() {
-        for key in ["soc", "ocv_offset_v"] {
-            out.insert(key.into(), number(&s, "SOC", key)?);
-        }
+        insert_soc(&s, 1, &mut out);
     }
     if a.map.is_some() {
         for (key, name) in [

@@ -123,6 +123,8 @@ impl<T: Real, const N: usize> CellState<T, N> {
                     let soc0 = m.table.soc_from_ocv(voltage);
                     self.soc = Some(soc0);
                     self.rest_start = rest.then_some((1, voltage, soc0));
+                    // The observer starts where the count does.
+                    self.soc_observer.set_state_of_charge(soc0);
                 }
                 (Some(z), Some((n, sum, soc0))) if rest && n < REST_SAMPLES => {
                     // Still at rest: the start SOC from the mean of the
@@ -132,6 +134,7 @@ impl<T: Real, const N: usize> CellState<T, N> {
                     let better = m.table.soc_from_ocv(sum / T::lit(f64::from(n + 1)));
                     self.soc = Some(z + (better - soc0));
                     self.rest_start = Some((n + 1, sum, better));
+                    self.soc_observer.set_state_of_charge(z + (better - soc0));
                 }
                 _ => self.rest_start = None,
             }
