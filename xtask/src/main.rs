@@ -22,7 +22,8 @@
 //! * `cargo xtask run-elf ELF` runs a built image the same way (the
 //!   target's cargo runner).
 //! * `cargo xtask bench-target [--window L] [--memory M] [--iterations K]
-//!   [--method paper|refined] [--input FILE.csv]` measures the firmware's
+//!   [--method paper|refined] [--input FILE.csv] [--ocv T.csv
+//!   --capacity-ah C]` measures the firmware's
 //!   cost under `qemu-system-arm -icount shift=0` (one instruction per ns
 //!   of virtual time; the 25 MHz SysTick then counts 40 instructions per
 //!   clock) and prints, as the last line, `{"window": L, "memory": M,
@@ -203,6 +204,13 @@ struct BenchArgs {
     /// the last line then is the pack's JSON.
     #[arg(long)]
     cells: Option<usize>,
+    /// The cell's OCV table `soc,ocv_v` (as `qemu --ocv`): the cost with
+    /// the count and the SOC observer.
+    #[arg(long, requires = "capacity_ah")]
+    ocv: Option<PathBuf>,
+    /// The cell's capacity (A·h), with `--ocv`.
+    #[arg(long, requires = "ocv")]
+    capacity_ah: Option<f64>,
 }
 
 /// Writes a pack record of `cells` cells made from the one-cell record
@@ -637,8 +645,8 @@ fn bench_target(b: &BenchArgs) -> Result<()> {
         timeout: b.timeout,
         inject: "none".into(),
         icount: true,
-        ocv: None,
-        capacity_ah: None,
+        ocv: b.ocv.clone(),
+        capacity_ah: b.capacity_ah,
         prior: None,
         map: None,
         model: b.model.clone(),
