@@ -201,3 +201,107 @@ fn butler_volmer_fit() {
         assert_eq!(c.chosen, want);
     }
 }
+
+/// The voltage limit `bench/sop_dfn.py` gave `--voltage-min` on a cell.
+fn sop_limit(cell: &str) -> f64 {
+    if cell == "chen2020" {
+        3.3
+    } else {
+        2.9
+    }
+}
+
+/// State of power against the DFN (issue 36): `data/pybamm/sop-truth.csv`
+/// (bench/sop_dfn.py, PyBaMM continued from row t0 with a constant pulse).
+/// From the same history, `online battery`'s library (window 256, OCV
+/// table; on the drive cycles the HPPC record's fit as prior) predicts the
+/// pulse:
+/// * a 1C discharge for 10 and 30 s: the error over the pulse's true drop
+///   is printed; on the HPPC records its median is within the issue's 10 %
+///   (asserted), the worst is not (14.4 %; 19–20 % on the drive cycle,
+///   docs/bms-states.md);
+/// * at the state-of-power current (the track's own
+///   `sop_discharge_a_{H}s` for that limit, reproduced here to 1e−6) the
+///   true cell stays above the limit: the prediction errs on the safe side
+///   (asserted within 1 % of the drop), but by up to half the drop at 10 s
+///   (the linear model's drop is steeper than the DFN's at 4–5C).
+#[test]
+fn state_of_power_against_the_dfn_continued() {
+    with_stack(sop_against_dfn);
+}
+
+fn sop_against_dfn() {
+    let text = std::fs::read_to_string(data("sop-truth.csv")).unwrap();
+    let meta = json("meta.json");
+    let mut hppc_errors = Vec::new();
+    let mut tracks = std::collections::HashMap::new();
+    for line in text.lines().skip(1) {
+        let f: Vec<&str> = line.split(',').collect();
+        let (rec, t0, current, steps) = (
+            f[0],
+            f[1].parse::<usize>().unwrap(),
+            f[2].parse::<f64>().unwrap(),
+            f[3].parse::<usize>().unwrap(),
+        );
+        let (v_end, v_min): (f64, f64) = (f[4].parse().unwrap(), f[5].parse().unwrap());
+        let (cell, profile) = rec.split_once('-').unwrap();
+        let cap = meta["records"][rec]["capacity_ah"].as_f64().unwrap();
+        let prior = (profile == "drive").then(|| Prior::new(fit(cell, "hppc").cell));
+        let (r, c) = record(cell, profile);
+        let v0 = r.voltage[t0];
+        let mut power = online::power::PowerOptions::default()
+            .with_horizons(&[steps as f64])
+            .unwrap();
+        power.pulse_current_a = Some(current);
+        power.voltage_min = Some(sop_limit(cell));
+        power.current_limit = Some(5.0 * cap);
+        let row = tracks
+            .entry((rec.to_owned(), t0, current.to_bits(), steps))
+            .or_insert_with(|| {
+                let mut at = None;
+                online::track(
+                    &r,
+                    &online::TrackOptions {
+                        prior: prior.as_ref(),
+                        cell: Some(&c),
+                        power,
+                        ..online::TrackOptions::new(256, 64)
+                    },
+                    None,
+                    &[],
+                    |row| {
+                        if (row.t - t0 as f64).abs() < 0.5 {
+                            at = Some(row.power[0]);
+                        }
+                        Ok(())
+                    },
+                )
+                .unwrap();
+                at.unwrap()
+            })
+            .to_owned();
+        let predicted = row
+            .pulse_v
+            .unwrap_or_else(|| panic!("{line}: nothing published"));
+        let sop = row.discharge_a.unwrap();
+        let is_sop = (sop + current).abs() <= 1e-6 * sop;
+        if is_sop {
+            let drop = v0 - v_min;
+            println!("{rec} t0 {t0}: SOP {sop:.2} A for {steps} s: the DFN's lowest {v_min:.4} V, limit {}", sop_limit(cell));
+            assert!(
+                v_min >= sop_limit(cell) - 0.01 * drop,
+                "{line}: the true cell crosses the limit"
+            );
+        } else {
+            let e = (predicted - v_end).abs() / (v0 - v_end);
+            println!("{rec} t0 {t0}: {current:.2} A for {steps} s: predicted {predicted:.4} V, DFN {v_end:.4} V, {:.1} % of the drop", 100.0 * e);
+            if profile == "hppc" {
+                hppc_errors.push(e);
+            }
+        }
+    }
+    hppc_errors.sort_by(f64::total_cmp);
+    assert!(!hppc_errors.is_empty());
+    let median = hppc_errors[hppc_errors.len() / 2];
+    assert!(median <= 0.10, "median {median}");
+}
