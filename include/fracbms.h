@@ -473,6 +473,11 @@ typedef struct FracbmsSoc {
    */
   float capacity_ah;
   /**
+   * Its standard deviation (A·h): large where the data do not tell the
+   * capacity from the bias.
+   */
+  float capacity_sigma_ah;
+  /**
    * The last rest's weight on the SOC, 0..1 (near 0 on a flat OCV).
    */
   float ocv_weight;
@@ -484,7 +489,7 @@ typedef struct FracbmsSoc {
 /**
  * Nothing known: NaN, 0 observations.
  */
-#define FracbmsSoc_NONE (FracbmsSoc){ .state_of_charge = f32_NAN, .sigma = f32_NAN, .current_bias = f32_NAN, .capacity_ah = f32_NAN, .ocv_weight = f32_NAN, .observations = 0 }
+#define FracbmsSoc_NONE (FracbmsSoc){ .state_of_charge = f32_NAN, .sigma = f32_NAN, .current_bias = f32_NAN, .capacity_ah = f32_NAN, .capacity_sigma_ah = f32_NAN, .ocv_weight = f32_NAN, .observations = 0 }
 
 /**
  * One sample's outcome and the estimate after it.

@@ -103,7 +103,7 @@ fn without_bias_the_observer_errs_by_what_the_rested_voltage_holds() {
     // (0). The observer's error is what the rested voltages carry: on the
     // preset, the table's 1 % interpolation and 1 mV noise (measured
     // 0.09 %); on the slow branch, the polarization still left after 15
-    // minutes of rest, 3.1 mV after 1200 s at 1 A (measured 0.94 %), which
+    // minutes of rest, 3.1 mV after 1200 s at 1 A (measured 0.89 %), which
     // the observations read as a lower SOC and a capacity 1 % low.
     for ((name, cell), bound) in cells().into_iter().zip([0.002, 0.011]) {
         let (obs, cc) = worst(&cell, 0.0, 0.0);

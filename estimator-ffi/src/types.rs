@@ -374,6 +374,9 @@ pub struct FracbmsSoc {
     pub current_bias: f32,
     /// The estimated capacity (A·h).
     pub capacity_ah: f32,
+    /// Its standard deviation (A·h): large where the data do not tell the
+    /// capacity from the bias.
+    pub capacity_sigma_ah: f32,
     /// The last rest's weight on the SOC, 0..1 (near 0 on a flat OCV).
     pub ocv_weight: f32,
     /// Rest observations so far.
@@ -387,6 +390,7 @@ impl FracbmsSoc {
         sigma: f32::NAN,
         current_bias: f32::NAN,
         capacity_ah: f32::NAN,
+        capacity_sigma_ah: f32::NAN,
         ocv_weight: f32::NAN,
         observations: 0,
     };
@@ -399,6 +403,7 @@ impl From<SocEstimate<f32>> for FracbmsSoc {
             sigma: e.sigma,
             current_bias: e.current_bias_a,
             capacity_ah: e.capacity_ah,
+            capacity_sigma_ah: e.capacity_sigma_ah,
             ocv_weight: e.ocv_weight,
             observations: e.observations,
         }

@@ -88,6 +88,7 @@ class OnlineCell:
         pulse_current_a: Optional[float] = None,
         soc: Literal["observer", "coulomb"] = "observer",
         soc_rest_s: Optional[float] = None,
+        soc_bias_sigma_a: Optional[float] = None,
     ) -> None:
         """``horizons`` (s), ``voltage_min``/``voltage_max`` (V; default the OCV
         table's range), ``current_limit`` (A) and ``pulse_current_a`` (A, +
@@ -95,8 +96,10 @@ class OnlineCell:
         ``sop_discharge_a_{H}s``, ``sop_charge_a_{H}s``, ``pulse_v_{H}s``, as
         ``host-sim online battery``'s flags. With an OCV table, ``soc`` is
         the observer's (``soc="observer"``: the count corrected at each rest
-        of ``soc_rest_s``, default 600 s, with ``current_bias_a``,
-        ``capacity_ah``, ``soc_sigma``, ``soc_ocv_weight``) or the count
+        of ``soc_rest_s``, default 600 s, with ``current_bias_a`` (its prior
+        spread ``soc_bias_sigma_a``, default C/50; 0: none),
+        ``capacity_ah``, ``capacity_sigma_ah``, ``soc_sigma``,
+        ``soc_ocv_weight``) or the count
         (``soc="coulomb"``); ``soc_coulomb`` is always the count."""
     def push(
         self, current_a: float, voltage_v: float, temperature_c: Optional[float] = None

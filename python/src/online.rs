@@ -92,7 +92,7 @@ type Column = fn(&TrackRow) -> Option<f64>;
 /// --out` (`None`: the CSV's empty cell): `push`'s dict and `run`'s arrays.
 /// `r_i`, `r_ct`, `q`, `alpha` are the published values (the last window's
 /// that identified each); `window_*` the last good window's fit.
-const TRACK_NUMBERS: [(&str, Column); 22] = [
+const TRACK_NUMBERS: [(&str, Column); 23] = [
     ("time_s", |r| Some(r.t)),
     ("r_i", |r| r.published.r_i.value),
     ("r_ct", |r| r.published.r_ct.value),
@@ -112,8 +112,9 @@ const TRACK_NUMBERS: [(&str, Column); 22] = [
     ("soc_coulomb", |r| r.soc_detail.columns()[0]),
     ("current_bias_a", |r| r.soc_detail.columns()[1]),
     ("capacity_ah", |r| r.soc_detail.columns()[2]),
-    ("soc_sigma", |r| r.soc_detail.columns()[3]),
-    ("soc_ocv_weight", |r| r.soc_detail.columns()[4]),
+    ("capacity_sigma_ah", |r| r.soc_detail.columns()[3]),
+    ("soc_sigma", |r| r.soc_detail.columns()[4]),
+    ("soc_ocv_weight", |r| r.soc_detail.columns()[5]),
     ("soh_r", |r| r.soh_r),
 ];
 
@@ -160,7 +161,7 @@ impl OnlineCell {
         iterations_per_sample = 1, tail = false, prior = None, prior_factor = 2.0,
         prior_alpha_sigma = 0.1, prior_noise_mv = 100.0, horizons = vec![10.0, 30.0],
         voltage_min = None, voltage_max = None, current_limit = None, pulse_current_a = None,
-        soc = "observer", soc_rest_s = None
+        soc = "observer", soc_rest_s = None, soc_bias_sigma_a = None
     ))]
     #[allow(clippy::too_many_arguments)]
     fn new(
@@ -188,6 +189,7 @@ impl OnlineCell {
         pulse_current_a: Option<f64>,
         soc: &str,
         soc_rest_s: Option<f64>,
+        soc_bias_sigma_a: Option<f64>,
     ) -> PyResult<Self> {
         if !(h.is_finite() && h > 0.0) {
             return Err(PyValueError::new_err(format!(
@@ -248,6 +250,7 @@ impl OnlineCell {
             soc: SocOptions {
                 mode: soc,
                 rest_s: soc_rest_s,
+                bias_sigma_a: soc_bias_sigma_a,
             },
         };
         let tracker = py

@@ -5,7 +5,7 @@
 //! ```text
 //! state      x = (SOC, b, g)     b: current-sensor bias (A), g = C_nominal / C
 //! per sample SOC ← SOC + g·(I_measured − b)·h / (3600·C_nominal)
-//! at rest    z = OCV⁻¹(U_rested),  σ_z = σ_U / |OCV'(SOC)|
+//! at rest    z = OCV⁻¹(U_rested),  σ_z² = (σ_U / |OCV'(SOC)|)² + σ_table²
 //! ```
 //!
 //! A three-state extended Kalman filter. The count moves the SOC and the
@@ -83,6 +83,10 @@ pub struct SocSettings<T> {
     /// The spread of a voltage read at once, not yet relaxed (V). Default
     /// 30 mV.
     pub unrelaxed_sigma_v: T,
+    /// The spread of the curve itself in SOC (its test's error, hysteresis,
+    /// temperature), added to every observation's: where the curve is
+    /// steep a rest reads no better than this. Default 0.01.
+    pub table_sigma_soc: T,
     /// The spread of a start SOC (given, or read from the first voltage).
     /// Default 0.1. A spread beyond four times an unrelaxed reading's
     /// (a start given loosely, a gap) has the next rest read early.
@@ -112,6 +116,7 @@ impl<T: Real> SocSettings<T> {
             rest_max_s: T::lit(3600.0),
             voltage_sigma_v: T::lit(0.005),
             unrelaxed_sigma_v: T::lit(0.03),
+            table_sigma_soc: T::lit(0.01),
             soc0_sigma: T::lit(0.1),
             bias_sigma_a: capacity_ah / T::lit(50.0),
             bias_walk_a: capacity_ah / T::lit(1000.0),
@@ -366,7 +371,7 @@ impl<T: Real> SocObserver<T> {
         let z = table.soc_from_ocv(voltage);
         let r = {
             let sd = sigma_v / table.slope(z).abs().max(s.min_slope);
-            sd * sd
+            sd * sd + s.table_sigma_soc * s.table_sigma_soc
         };
         let [p00, p01, p02, p11, p12, p22] = self.p;
         let sum = p00 + r;

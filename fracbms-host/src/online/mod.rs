@@ -566,10 +566,11 @@ pub struct OnlineReport {
 /// the track's `r_i`… columns held before issue 35, and what the firmware
 /// still logs). `soc` is the published SOC ([`soc::SocOptions`]);
 /// `soc_coulomb` the estimator's count, and `current_bias_a`,
-/// `capacity_ah`, `soc_sigma`, `soc_ocv_weight` the observer's
+/// `capacity_ah`, `capacity_sigma_ah`, `soc_sigma`, `soc_ocv_weight` the
+/// observer's
 /// ([`soc::SOC_HEADER`]); `soh_r` the published R_i over the prior's or
 /// map's.
-pub const TRACK_HEADER: &str = "time_s,r_i,r_ct,q,alpha,u_oc,status,soc,ocv_offset_v,bv_a_v,bv_i0_a,predicted_v,r_i_status,r_ct_status,q_status,alpha_status,step_resistance_ohm,window_r_i,window_r_ct,window_q,window_alpha,soc_coulomb,current_bias_a,capacity_ah,soc_sigma,soc_ocv_weight,soh_r";
+pub const TRACK_HEADER: &str = "time_s,r_i,r_ct,q,alpha,u_oc,status,soc,ocv_offset_v,bv_a_v,bv_i0_a,predicted_v,r_i_status,r_ct_status,q_status,alpha_status,step_resistance_ohm,window_r_i,window_r_ct,window_q,window_alpha,soc_coulomb,current_bias_a,capacity_ah,capacity_sigma_ah,soc_sigma,soc_ocv_weight,soh_r";
 
 /// `online battery`: reads the record `input`, runs the online estimator
 /// over it as `o` says and writes the track to `out` (columns

@@ -1,6 +1,6 @@
 //! The state-of-charge columns of a track (issue 36): `soc` (the published
 //! value), `soc_coulomb`, `current_bias_a`, `capacity_ah`, `soc_sigma`,
-//! `soc_ocv_weight`, from the core's observer in each cell's state
+//! `soc_ocv_weight` (and `capacity_sigma_ah`), from the core's observer in each cell's state
 //! ([`estimator_core::battery::soc`]).
 //!
 //! Owns the choice between the observer and plain counting (`--soc`) and
@@ -42,6 +42,9 @@ pub struct SocOptions {
     pub mode: SocMode,
     /// The shortest rest that corrects the SOC (s; default 600).
     pub rest_s: Option<f64>,
+    /// The prior spread of the current sensor's bias (A; default C/50;
+    /// 0: a calibrated sensor, no bias estimated).
+    pub bias_sigma_a: Option<f64>,
 }
 
 impl Default for SocOptions {
@@ -49,6 +52,7 @@ impl Default for SocOptions {
         Self {
             mode: SocMode::Observer,
             rest_s: None,
+            bias_sigma_a: None,
         }
     }
 }
@@ -66,6 +70,18 @@ impl SocOptions {
             }
             s.rest_s = T::lit(r);
             s.rest_max_s = s.rest_max_s.max(T::lit(r));
+        }
+        if let Some(b) = self.bias_sigma_a {
+            if !(b.is_finite() && b >= 0.0) {
+                bail!(
+                    Options,
+                    "--soc-bias-sigma-a {b}: must be finite and not negative"
+                );
+            }
+            s.bias_sigma_a = T::lit(b);
+            if b == 0.0 {
+                s.bias_walk_a = T::ZERO;
+            }
         }
         Ok(())
     }
@@ -100,12 +116,13 @@ impl SocRow {
 
     /// The columns after [`super::TRACK_HEADER`]'s `soc`, in
     /// [`SOC_HEADER`]'s order.
-    pub fn columns(&self) -> [Option<f64>; 5] {
+    pub fn columns(&self) -> [Option<f64>; 6] {
         let e = self.observer;
         [
             self.coulomb,
             e.map(|e| e.current_bias_a),
             e.map(|e| e.capacity_ah),
+            e.map(|e| e.capacity_sigma_ah),
             e.map(|e| e.sigma),
             e.map(|e| e.ocv_weight),
         ]
@@ -114,10 +131,11 @@ impl SocRow {
 
 /// The SOC columns the track carries after the estimator's (empty without
 /// an OCV curve; all but `soc_coulomb` empty with `--soc coulomb`).
-pub const SOC_HEADER: [&str; 5] = [
+pub const SOC_HEADER: [&str; 6] = [
     "soc_coulomb",
     "current_bias_a",
     "capacity_ah",
+    "capacity_sigma_ah",
     "soc_sigma",
     "soc_ocv_weight",
 ];

@@ -99,18 +99,23 @@ pub struct OnlineBatteryArgs {
     /// The `soc` column (with --ocv): `observer` (the default; coulomb
     /// counting corrected at each rest of --soc-rest-s by the OCV table,
     /// with the current sensor's bias and the capacity estimated, columns
-    /// current_bias_a, capacity_ah, soc_sigma, soc_ocv_weight) or
+    /// current_bias_a, capacity_ah, capacity_sigma_ah, soc_sigma,
+    /// soc_ocv_weight) or
     /// `coulomb` (counting from the start SOC, as soc_coulomb).
     #[arg(long, value_enum, default_value = "observer")]
     pub soc: SocArg,
     /// The shortest rest (s) whose voltage corrects the SOC (default 600).
     #[arg(long)]
     pub soc_rest_s: Option<f64>,
+    /// The prior spread (A) of the current sensor's bias the observer
+    /// estimates (default C/50; 0: a calibrated sensor, no bias state).
+    #[arg(long)]
+    pub soc_bias_sigma_a: Option<f64>,
     /// Output CSV `time_s,r_i,r_ct,q,alpha,u_oc,status,soc,ocv_offset_v,
     /// bv_a_v,bv_i0_a,predicted_v,r_i_status,r_ct_status,q_status,
     /// alpha_status,step_resistance_ohm,window_r_i,window_r_ct,window_q,
-    /// window_alpha,soc_coulomb,current_bias_a,capacity_ah,soc_sigma,
-    /// soc_ocv_weight,soh_r`, then the state-of-power columns (r_i…alpha:
+    /// window_alpha,soc_coulomb,current_bias_a,capacity_ah,
+    /// capacity_sigma_ah,soc_sigma,soc_ocv_weight,soh_r`, then the state-of-power columns (r_i…alpha:
     /// the published values, docs/real-cells.md; soc: see --soc; soh_r: the
     /// published R_i over the prior's or map's; u_oc: the open-circuit voltage now,
     /// OCV(SOC) + ΔU with --ocv; soc and ocv_offset_v empty without --ocv;
@@ -203,6 +208,7 @@ pub(super) fn battery(a: OnlineBatteryArgs) -> Result<()> {
         soc: online_track::soc::SocOptions {
             mode: a.soc.into(),
             rest_s: a.soc_rest_s,
+            bias_sigma_a: a.soc_bias_sigma_a,
         },
     };
     let r = online_track::battery_file(&a.input, &a.out, &o)?;
