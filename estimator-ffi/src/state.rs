@@ -294,9 +294,7 @@ pub(crate) unsafe fn cell_op(
                 // `host-sim online battery`'s map prior follows it).
                 let z = slot
                     .cell
-                    .soc_estimate(&slot.settings)
-                    .map(|e| e.soc)
-                    .or(slot.cell.state_of_charge())
+                    .published_state_of_charge(&slot.settings)
                     .unwrap_or(f32::NAN);
                 *taken = false;
                 if let Some(mut c) = slot.follower.follow(&map, z, t) {

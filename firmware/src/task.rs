@@ -238,11 +238,10 @@ impl<const N: usize, const MEM: usize, const C: usize> EstimatorTask<N, MEM, C> 
         let map = s.map.as_ref()?;
         let (mut sum, mut n) = (0.0f32, 0u32);
         for k in 0..C {
-            let z = self.pack.cell(k).and_then(|c| {
-                c.soc_estimate(&s.pack.cell)
-                    .map(|e| e.soc)
-                    .or(c.state_of_charge())
-            });
+            let z = self
+                .pack
+                .cell(k)
+                .and_then(|c| c.published_state_of_charge(&s.pack.cell));
             if let Some(z) = z {
                 sum += z;
                 n += 1;

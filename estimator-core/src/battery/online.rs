@@ -147,6 +147,12 @@ impl<T: Real, const N: usize, const MEM: usize> CellEstimator<T, N, MEM> {
         self.state().soc_estimate(s)
     }
 
+    /// The published state of charge: the observer's once it has started,
+    /// the count ([`state_of_charge`](Self::state_of_charge)) before.
+    pub fn published_state_of_charge<const P: usize>(&self, s: &OnlineSettings<T, P>) -> Option<T> {
+        self.state().published_state_of_charge(s)
+    }
+
     /// The model and the polarization the cell carries now, to predict a
     /// constant-current pulse and the state of power from
     /// ([`crate::battery::power`]): the last good estimate, its polarization

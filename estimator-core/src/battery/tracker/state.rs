@@ -248,6 +248,14 @@ impl<T: Real, const N: usize> CellState<T, N> {
         self.soc_observer.estimate(&s.soc)
     }
 
+    /// The published state of charge: the observer's once it has started,
+    /// the count before (what a map prior follows on every face).
+    pub fn published_state_of_charge<const P: usize>(&self, s: &OnlineSettings<T, P>) -> Option<T> {
+        self.soc_estimate(s)
+            .map(|e| e.soc)
+            .or(self.state_of_charge())
+    }
+
     /// The record resumes after a gap of unknown charge (a logger that
     /// stopped, a cell stored): the window restarts (no model runs across
     /// the gap) and, when `rested` (the cell at rest where the record
