@@ -48,6 +48,36 @@ def whole_record(path):
     return ah[-1] - ah[0]
 
 
+def reference():
+    """Least squares on the same rest readings: the charge counted at the
+    end of every rest of at least 600 s against the SOC its voltage reads
+    through the table (a line with free offset), without and with a bias
+    term, and weighted as the filter weighs them."""
+    m = sio.loadmat(HPPC)["meas"][0, 0]
+    t, i, v, ah = (m[k].ravel() for k in ("Time", "Current", "Voltage", "Ah"))
+    o = np.genfromtxt(OCV, delimiter=",", names=True)
+    ends, start = [], None
+    for k in range(1, len(t)):
+        if abs(i[k]) < 0.05:
+            start = t[k] if start is None else start
+        else:
+            if start is not None and t[k - 1] - start >= 600 and t[k] - t[k - 1] < 100:
+                ends.append(k - 1)
+            start = None
+    z, q, hours = np.interp(v[ends], o["ocv_v"], o["soc"]), ah[ends], t[ends] / 3600
+    slope = np.interp(z, o["soc"], np.gradient(o["ocv_v"], o["soc"]))
+    one = np.ones_like(z)
+    c = np.linalg.lstsq(np.c_[z, one], q, rcond=None)[0][0]
+    cb, b = np.linalg.lstsq(np.c_[z, hours, one], q, rcond=None)[0][:2]
+    print(f"reference, {len(ends)} rests: least squares {c:.3f} A h; with a bias term {cb:.3f} A h "
+          f"and {b:+.4f} A; corr(SOC read, time) {np.corrcoef(z, hours)[0, 1]:.3f}")
+    for name, w in (("slope^2 (5 mV over the slope)", slope**2),
+                    ("with the table's 0.01", 1 / ((0.005 / slope) ** 2 + 0.01**2))):
+        r = np.sqrt(w)
+        cw = np.linalg.lstsq(np.c_[z, one] * r[:, None], q * r, rcond=None)[0][0]
+        print(f"reference weighted by {name}: {cw:.3f} A h")
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--host-sim", default="target/release/host-sim")
@@ -57,8 +87,9 @@ def main():
     rec = os.path.join(a.out, "panasonic-hppc-whole.csv")
     counted = whole_record(rec)
     print(f"record made whole: {counted:.4f} A h discharged over the test")
-    print("| nominal given | bias state | capacity_ah at the end | error vs 2.995 A h | capacity_sigma_ah | current_bias_a | SOC at the end (count with 2.995 A h) |")
-    print("|---|---|---|---|---|---|---|")
+    reference()
+    print("| nominal given | bias state | capacity_ah at the end | capacity_status | error vs 2.995 A h | capacity_sigma_ah | current_bias_a | SOC at the end (count with 2.995 A h) |")
+    print("|---|---|---|---|---|---|---|---|")
     for bias in (None, 0.0):
         for nominal in (2.995 * 1.1, 2.9, 2.995 * 0.9):
             out = os.path.join(a.out, f"track-{nominal:.3f}-{bias}.csv")
@@ -70,7 +101,7 @@ def main():
             last = rows[-1]
             c = float(last["capacity_ah"])
             count = float(rows[0]["soc"]) + counted / MEASURED_AH
-            print(f"| {nominal:.3f} | {'C/50' if bias is None else 'none'} | {c:.3f} | {c / MEASURED_AH - 1:+.1%} | "
+            print(f"| {nominal:.3f} | {'C/50' if bias is None else 'none'} | {c:.3f} | {last['capacity_status']} | {c / MEASURED_AH - 1:+.1%} | "
                   f"{float(last['capacity_sigma_ah']):.3f} | {float(last['current_bias_a']):+.4f} | {float(last['soc']):.3f} ({count:.3f}) |")
 
 

@@ -78,11 +78,12 @@ def main():
                             "--soc-rest-s", str(rest_s), "--out", out],
                            check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
             t = read(out)
+            status = list(csv.DictReader(open(out)))[-1]["capacity_status"]
             obs, cc = np.abs(t["soc"] - truth), np.abs(t["soc_coulomb"] - truth)
             after = slice(start, None)
             w = lambda x: f"{np.nanmax(x[after]):.4f}" if start < len(x) else "no rest"  # noqa: E731
             print(f"| {rec} | {case} | {w(obs)} | {w(cc)} | {obs[-1]:.4f} | {cc[-1]:.4f} | "
-                  f"{t['current_bias_a'][-1]:+.4f} | {t['capacity_ah'][-1]:.3f} (true {cap:.3f}) |")
+                  f"{t['current_bias_a'][-1]:+.4f} | {t['capacity_ah'][-1]:.3f} (true {cap:.3f}, {status}) |")
 
 
 if __name__ == "__main__":

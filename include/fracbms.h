@@ -478,6 +478,11 @@ typedef struct FracbmsSoc {
    */
   float capacity_sigma_ah;
   /**
+   * Whether the data identify the capacity now (else `capacity_ah` is
+   * the last identified, or the nominal one).
+   */
+  bool capacity_identified;
+  /**
    * The last rest's weight on the SOC, 0..1 (near 0 on a flat OCV).
    */
   float ocv_weight;
@@ -489,7 +494,7 @@ typedef struct FracbmsSoc {
 /**
  * Nothing known: NaN, 0 observations.
  */
-#define FracbmsSoc_NONE (FracbmsSoc){ .state_of_charge = f32_NAN, .sigma = f32_NAN, .current_bias = f32_NAN, .capacity_ah = f32_NAN, .capacity_sigma_ah = f32_NAN, .ocv_weight = f32_NAN, .observations = 0 }
+#define FracbmsSoc_NONE (FracbmsSoc){ .state_of_charge = f32_NAN, .sigma = f32_NAN, .current_bias = f32_NAN, .capacity_ah = f32_NAN, .capacity_sigma_ah = f32_NAN, .capacity_identified = false, .ocv_weight = f32_NAN, .observations = 0 }
 
 /**
  * One sample's outcome and the estimate after it.

@@ -377,6 +377,9 @@ pub struct FracbmsSoc {
     /// Its standard deviation (A·h): large where the data do not tell the
     /// capacity from the bias.
     pub capacity_sigma_ah: f32,
+    /// Whether the data identify the capacity now (else `capacity_ah` is
+    /// the last identified, or the nominal one).
+    pub capacity_identified: bool,
     /// The last rest's weight on the SOC, 0..1 (near 0 on a flat OCV).
     pub ocv_weight: f32,
     /// Rest observations so far.
@@ -391,6 +394,7 @@ impl FracbmsSoc {
         current_bias: f32::NAN,
         capacity_ah: f32::NAN,
         capacity_sigma_ah: f32::NAN,
+        capacity_identified: false,
         ocv_weight: f32::NAN,
         observations: 0,
     };
@@ -404,6 +408,7 @@ impl From<SocEstimate<f32>> for FracbmsSoc {
             current_bias: e.current_bias_a,
             capacity_ah: e.capacity_ah,
             capacity_sigma_ah: e.capacity_sigma_ah,
+            capacity_identified: e.capacity_identified,
             ocv_weight: e.ocv_weight,
             observations: e.observations,
         }

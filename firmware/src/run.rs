@@ -272,13 +272,14 @@ fn soc_line<const N: usize>(s: &firmware::task::TaskSettings, cell: usize, c: &C
         return;
     };
     defmt::println!(
-        "SOC cell={=usize} soc={=f32} soc_coulomb={=f32} current_bias_a={=f32} capacity_ah={=f32} capacity_sigma_ah={=f32} soc_sigma={=f32} soc_ocv_weight={=f32} ocv_offset_v={=f32}",
+        "SOC cell={=usize} soc={=f32} soc_coulomb={=f32} current_bias_a={=f32} capacity_ah={=f32} capacity_sigma_ah={=f32} capacity_identified={=bool} soc_sigma={=f32} soc_ocv_weight={=f32} ocv_offset_v={=f32}",
         cell,
         e.soc,
         z,
         e.current_bias_a,
         e.capacity_ah,
         e.capacity_sigma_ah,
+        e.capacity_identified,
         e.sigma,
         e.ocv_weight,
         c.ocv_offset().unwrap_or(f32::NAN)

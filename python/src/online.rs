@@ -123,11 +123,12 @@ type Text = fn(&TrackRow) -> &'static str;
 
 /// The status columns of a track row (`identified`, `held`, `step`,
 /// `expired` or `not_identified`), as in `online battery --out`.
-const TRACK_STATUSES: [(&str, Text); 4] = [
+const TRACK_STATUSES: [(&str, Text); 5] = [
     ("r_i_status", |r| r.published.r_i.status.as_str()),
     ("r_ct_status", |r| r.published.r_ct.status.as_str()),
     ("q_status", |r| r.published.q.status.as_str()),
     ("alpha_status", |r| r.published.alpha.status.as_str()),
+    ("capacity_status", |r| r.soc_detail.capacity_status()),
 ];
 
 /// The estimate of a row when it has the Butler–Volmer term.

@@ -12,8 +12,8 @@
 //!   `alpha_status` (as the track's `*_status` columns) and
 //!   `step_resistance_ohm`; with `--ocv`, the state of charge: `soc` (the
 //!   SOC observer's, as the track's `soc`), `soc_coulomb`,
-//!   `current_bias_a`, `capacity_ah`, `capacity_sigma_ah`, `soc_sigma`,
-//!   `soc_ocv_weight`,
+//!   `current_bias_a`, `capacity_ah`, `capacity_sigma_ah`,
+//!   `capacity_identified`, `soc_sigma`, `soc_ocv_weight`,
 //!   `ocv_offset_v`. A pack record
 //!   (`time_s,current_a,cell_1_v,…,cell_N_v`) builds the pack firmware for
 //!   its N cells and prints `{"cells": [{"cell", "r_i", "r_ct", "q",
@@ -521,8 +521,8 @@ fn insert_published(s: &Summary, k: u64, out: &mut serde_json::Map<String, serde
 
 /// What cell `k` says of its state of charge (its `SOC` line, with an OCV
 /// table): `soc` (the observer's, published), `soc_coulomb`,
-/// `current_bias_a`, `capacity_ah`, `capacity_sigma_ah`, `soc_sigma`,
-/// `soc_ocv_weight`,
+/// `current_bias_a`, `capacity_ah`, `capacity_sigma_ah`,
+/// `capacity_identified` (a boolean), `soc_sigma`, `soc_ocv_weight`,
 /// `ocv_offset_v` (null where not a number; nothing without the line).
 fn insert_soc(s: &Summary, k: u64, out: &mut serde_json::Map<String, serde_json::Value>) {
     let Some(m) = s.get(&format!("SOC{k}")) else {
@@ -545,6 +545,8 @@ fn insert_soc(s: &Summary, k: u64, out: &mut serde_json::Map<String, serde_json:
             .map_or(serde_json::Value::Null, serde_json::Value::Number);
         out.insert(key.into(), v);
     }
+    let identified = m.get("capacity_identified").map(String::as_str) == Some("true");
+    out.insert("capacity_identified".into(), identified.into());
 }
 
 /// The JSON of a pack image's final report: `{"cells": [{"cell", "r_i",

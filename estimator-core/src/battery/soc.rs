@@ -97,6 +97,9 @@ pub struct SocSettings<T> {
     pub bias_walk_a: T,
     /// The prior spread of the capacity, relative. Default 0.15.
     pub capacity_sigma: T,
+    /// The capacity is published as identified when its standard deviation
+    /// is at most this fraction of it. Default 0.02.
+    pub capacity_identify: T,
     /// The spread added to the SOC by a gap of unknown charge. Default 0.5.
     pub gap_soc_sigma: T,
     /// The smallest slope `|OCV'|` (V per unit SOC) an observation is
@@ -121,6 +124,7 @@ impl<T: Real> SocSettings<T> {
             bias_sigma_a: capacity_ah / T::lit(50.0),
             bias_walk_a: capacity_ah / T::lit(1000.0),
             capacity_sigma: T::lit(0.15),
+            capacity_identify: T::lit(0.02),
             gap_soc_sigma: T::lit(0.5),
             min_slope: T::lit(1e-3),
         }
@@ -138,10 +142,16 @@ pub struct SocEstimate<T> {
     pub sigma: T,
     /// The current sensor's estimated bias (A): measured − true.
     pub current_bias_a: T,
-    /// The estimated capacity (A·h).
+    /// The published capacity (A·h): the filter's when the data identify
+    /// it (`capacity_identified`), else the last value they identified, or
+    /// the nominal one before any.
     pub capacity_ah: T,
-    /// Its standard deviation (A·h).
+    /// The filter's standard deviation of the capacity now (A·h).
     pub capacity_sigma_ah: T,
+    /// Whether the data identify the capacity now: its standard deviation
+    /// is within [`SocSettings::capacity_identify`] of it. A test that
+    /// only discharges at an even pace does not tell it from the bias.
+    pub capacity_identified: bool,
     /// The gain of the last OCV observation on the SOC, 0..1: near 1 where
     /// the curve is steep and the count uncertain, near 0 on a flat part
     /// of the curve (0 before the first).
@@ -160,6 +170,7 @@ impl<T: Real> SocEstimate<T> {
             current_bias_a: f(self.current_bias_a),
             capacity_ah: f(self.capacity_ah),
             capacity_sigma_ah: f(self.capacity_sigma_ah),
+            capacity_identified: self.capacity_identified,
             ocv_weight: f(self.ocv_weight),
             observations: self.observations,
         }
@@ -179,6 +190,8 @@ pub struct SocObserver<T> {
     rest: Option<Rest<T>>,
     ocv_weight: T,
     observations: u32,
+    /// The last capacity the data identified (A·h).
+    capacity_held: Option<T>,
     /// A state of charge set, and a gap, to be taken at the next sample
     /// (with the settings it brings).
     set: Option<T>,
@@ -196,6 +209,7 @@ impl<T: Real> SocObserver<T> {
             rest: None,
             ocv_weight: T::ZERO,
             observations: 0,
+            capacity_held: None,
             set: None,
             gap: false,
         };
@@ -259,18 +273,32 @@ impl<T: Real> SocObserver<T> {
 
     /// The estimate now (`None` before the start SOC is known).
     pub fn estimate(&self, s: &SocSettings<T>) -> Option<SocEstimate<T>> {
-        let [soc, b, g] = self.x?;
-        let c = s.capacity_ah / g;
+        let [soc, b, _] = self.x?;
+        let (c, sd, identified) = self.capacity(s)?;
         Some(SocEstimate {
             soc,
             sigma: self.p[0].max(T::ZERO).sqrt(),
             current_bias_a: b,
-            capacity_ah: c,
-            // d(C/g) = −C/g² dg
-            capacity_sigma_ah: c / g * self.p[5].max(T::ZERO).sqrt(),
+            capacity_ah: if identified {
+                c
+            } else {
+                self.capacity_held.unwrap_or(s.capacity_ah)
+            },
+            capacity_sigma_ah: sd,
+            capacity_identified: identified,
             ocv_weight: self.ocv_weight,
             observations: self.observations,
         })
+    }
+
+    /// The filter's capacity, its standard deviation, and whether that is
+    /// within [`SocSettings::capacity_identify`] of it.
+    fn capacity(&self, s: &SocSettings<T>) -> Option<(T, T, bool)> {
+        let g = self.x?[2];
+        let c = s.capacity_ah / g;
+        // d(C/g) = −C/g² dg
+        let sd = c / g * self.p[5].max(T::ZERO).sqrt();
+        Some((c, sd, sd <= s.capacity_identify * c))
     }
 
     /// Counts one sample (current in A, positive when charging; terminal
@@ -306,13 +334,13 @@ impl<T: Real> SocObserver<T> {
                 self.observe(s, table, rest.mean, s.unrelaxed_sigma_v);
                 rest.early = true;
             } else if !rest.done && rest.len >= s.rest_max_s {
-                self.observe(s, table, rest.relaxed(), s.voltage_sigma_v);
+                self.observe(s, table, rest.mean, s.voltage_sigma_v);
                 rest.done = true;
             }
             self.rest = Some(rest);
         } else {
             if let Some(r) = self.rest.filter(|r| !r.done && r.len >= s.rest_s) {
-                self.observe(s, table, r.relaxed(), s.voltage_sigma_v);
+                self.observe(s, table, r.mean, s.voltage_sigma_v);
             }
             self.rest = None;
         }
@@ -396,6 +424,9 @@ impl<T: Real> SocObserver<T> {
         ];
         self.ocv_weight = gain[0];
         self.observations = self.observations.saturating_add(1);
+        if let Some((c, _, true)) = self.capacity(s) {
+            self.capacity_held = Some(c);
+        }
     }
 }
 
@@ -405,7 +436,11 @@ impl<T: Real> SocObserver<T> {
 struct Rest<T> {
     /// Length (s): the rested samples so far times the period.
     len: T,
-    /// The mean of about the last half minute of the rest.
+    /// The mean of about the last half minute of the rest: the rested
+    /// voltage read. Not extrapolated to the rest's end: a power law's
+    /// asymptote from three means (Aitken's Δ²) overshot DFN relaxations,
+    /// past their power-law part after minutes, by 13 mV
+    /// (docs/bms-states.md).
     mean: T,
     /// Whether the rest has given its early observation (of an unknown
     /// SOC) and its observation.
@@ -427,14 +462,6 @@ impl<T: Real> Rest<T> {
         self.len = self.len + s.h;
         let a = (s.h / T::lit(30.0)).min(T::ONE);
         self.mean = self.mean + a * (voltage - self.mean);
-    }
-
-    /// The rested voltage: the last mean. Not extrapolated: a power law's
-    /// asymptote from three means (Aitken's Δ²) overshot DFN relaxations,
-    /// which are past their power-law part after minutes, by 13 mV
-    /// (docs/bms-states.md).
-    fn relaxed(&self) -> T {
-        self.mean
     }
 }
 
@@ -500,6 +527,8 @@ mod tests {
         assert!(e.observations >= 4, "{e:?}");
         assert!((counted - soc).abs() > 0.015, "{counted} vs {soc}");
         assert!((e.soc - soc).abs() < 0.004, "{} vs {soc}", e.soc);
+        // Not the capacity: it is published as the nominal one.
+        assert!(!e.capacity_identified && e.capacity_ah == 5.0, "{e:?}");
     }
 
     #[test]
@@ -509,6 +538,9 @@ mod tests {
         assert!((e.soc - soc).abs() < 0.004, "{} vs {soc}", e.soc);
         assert!((e.current_bias_a - 0.05).abs() < 0.01, "{e:?}");
         assert!((e.capacity_ah - 5.0).abs() < 0.25, "{e:?}");
+        // SOC swings of 0.17 do not pin the capacity to 2 %: the nominal
+        // one is published, and said to be.
+        assert!(!e.capacity_identified, "{e:?}");
     }
 
     #[test]

@@ -337,15 +337,11 @@ impl<T: Real + Send + Sync, const N: usize> Step for Sized<T, N> {
     }
 
     fn published_soc(&self, mode: soc::SocMode) -> Option<f64> {
-        let coulomb = self.est.state_of_charge().map(|z| z.to_f64());
         match mode {
-            soc::SocMode::Observer => self
-                .est
-                .soc_estimate(&self.s)
-                .map(|e| e.soc.to_f64())
-                .or(coulomb),
-            soc::SocMode::Coulomb => coulomb,
+            soc::SocMode::Observer => self.est.published_state_of_charge(&self.s),
+            soc::SocMode::Coulomb => self.est.state_of_charge(),
         }
+        .map(|z| z.to_f64())
     }
 
     fn set_prior(&mut self, p: &Prior<f64>) {
@@ -569,8 +565,8 @@ pub struct OnlineReport {
 /// `capacity_ah`, `capacity_sigma_ah`, `soc_sigma`, `soc_ocv_weight` the
 /// observer's
 /// ([`soc::SOC_HEADER`]); `soh_r` the published R_i over the prior's or
-/// map's.
-pub const TRACK_HEADER: &str = "time_s,r_i,r_ct,q,alpha,u_oc,status,soc,ocv_offset_v,bv_a_v,bv_i0_a,predicted_v,r_i_status,r_ct_status,q_status,alpha_status,step_resistance_ohm,window_r_i,window_r_ct,window_q,window_alpha,soc_coulomb,current_bias_a,capacity_ah,capacity_sigma_ah,soc_sigma,soc_ocv_weight,soh_r";
+/// map's; `capacity_status` whether the data identify `capacity_ah`.
+pub const TRACK_HEADER: &str = "time_s,r_i,r_ct,q,alpha,u_oc,status,soc,ocv_offset_v,bv_a_v,bv_i0_a,predicted_v,r_i_status,r_ct_status,q_status,alpha_status,step_resistance_ohm,window_r_i,window_r_ct,window_q,window_alpha,soc_coulomb,current_bias_a,capacity_ah,capacity_sigma_ah,soc_sigma,soc_ocv_weight,soh_r,capacity_status";
 
 /// `online battery`: reads the record `input`, runs the online estimator
 /// over it as `o` says and writes the track to `out` (columns
@@ -659,7 +655,7 @@ pub fn battery_file(input: &Path, out: &Path, o: &OnlineBatteryOptions) -> Resul
                 for x in r.soc_detail.columns() {
                     write!(w, ",{}", g(x))?;
                 }
-                write!(w, ",{}", g(r.soh_r))?;
+                write!(w, ",{},{}", g(r.soh_r), r.soc_detail.capacity_status())?;
                 for p in &r.power[..o.power.horizons().len()] {
                     write!(
                         w,

@@ -129,6 +129,19 @@ impl SocRow {
     }
 }
 
+impl SocRow {
+    /// `capacity_status`: `identified` or `not_identified` (the capacity
+    /// published is then the last identified, or the nominal), empty
+    /// without the observer.
+    pub fn capacity_status(&self) -> &'static str {
+        match self.observer {
+            Some(e) if e.capacity_identified => "identified",
+            Some(_) => "not_identified",
+            None => "",
+        }
+    }
+}
+
 /// The SOC columns the track carries after the estimator's (empty without
 /// an OCV curve; all but `soc_coulomb` empty with `--soc coulomb`).
 pub const SOC_HEADER: [&str; 6] = [

@@ -115,7 +115,7 @@ pub struct OnlineBatteryArgs {
     /// bv_a_v,bv_i0_a,predicted_v,r_i_status,r_ct_status,q_status,
     /// alpha_status,step_resistance_ohm,window_r_i,window_r_ct,window_q,
     /// window_alpha,soc_coulomb,current_bias_a,capacity_ah,
-    /// capacity_sigma_ah,soc_sigma,soc_ocv_weight,soh_r`, then the state-of-power columns (r_i…alpha:
+    /// capacity_sigma_ah,soc_sigma,soc_ocv_weight,soh_r,capacity_status`, then the state-of-power columns (r_i…alpha:
     /// the published values, docs/real-cells.md; soc: see --soc; soh_r: the
     /// published R_i over the prior's or map's; u_oc: the open-circuit voltage now,
     /// OCV(SOC) + ΔU with --ocv; soc and ocv_offset_v empty without --ocv;
