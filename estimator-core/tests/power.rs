@@ -7,8 +7,9 @@ mod common;
 use common::nmc_table;
 
 use estimator_core::battery::ocv::OcvModel;
-use estimator_core::battery::online::{CellEstimator, OnlineSettings};
-use estimator_core::battery::power::PowerLimits;
+use estimator_core::battery::online::{CellEstimator, OnlineSettings, Status};
+use estimator_core::battery::pack::{PackEstimator, PackSettings};
+use estimator_core::battery::power::{PowerLimits, PowerSettings};
 use estimator_core::battery::profile::{ocv_nmc, Profile};
 use estimator_core::battery::simulate::simulate;
 use estimator_core::battery::CellParameters;
@@ -132,5 +133,162 @@ fn the_state_of_power_reaches_the_limits() {
                 "{k} s, {current} A: {real} vs {limit}"
             );
         }
+    }
+}
+
+/// The record of [`record`] with a rest of `rest` samples before the
+/// pulse: the polarization relaxes through a rest longer than the window.
+fn record_after_rest(at: usize, rest: usize, pulse: f64, k: usize) -> (Vec<f64>, Vec<f64>) {
+    let (i0, _) = record(at, 0.0, rest + k);
+    let mut i = i0;
+    for x in &mut i[at + rest..] {
+        *x = pulse;
+    }
+    let truth = CellParameters::<f64>::cell_18650();
+    let len = i.len();
+    let mut soc = vec![0.0; len];
+    let mut z = 0.9;
+    for l in 0..len {
+        z += i[l] / (CAPACITY_AH * 3600.0);
+        soc[l] = z;
+    }
+    let mut w = Box::new(GlWeights::<f64, 4096>::new(truth.alpha, 1.0, len).unwrap());
+    let (mut up, mut v) = (vec![0.0; len], vec![0.0; len]);
+    simulate(&truth, &mut w, &i, |l| ocv_nmc(soc[l]), &mut up, &mut v).unwrap();
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+    let nd = Normal::new(0.0, 0.001).unwrap();
+    for x in &mut v[..at + rest] {
+        *x += nd.sample(&mut rng);
+    }
+    (i, v)
+}
+
+/// Through a rest the polarization is carried sample by sample while the
+/// window still reaches back to the fit; after a rest longer than the
+/// window (no fit in its last part: the window holds no excitation) the
+/// state of power is no longer published. Before that, the 10 s pulse is
+/// predicted within 10 % of its true drop; after it, it would have been 4.1 %
+/// off at 10 s and 11.5 % at 30 s on this own-model record, and 22–41 %
+/// on the measured cell (docs/bms-states.md).
+#[test]
+fn a_pulse_is_predicted_through_a_rest_until_the_window_has_passed() {
+    let truth = CellParameters::<f64>::cell_18650();
+    let s = OnlineSettings::new(1.0, 64, truth).with_ocv(nmc());
+    let at = 1100;
+    let limits = PowerLimits {
+        voltage_min: 3.0,
+        voltage_max: 4.2,
+        current_limit: 50.0,
+    };
+    for (rest, k) in [(250, 10), (600, 10)] {
+        let (i, v) = record_after_rest(at, rest, -5.0, k);
+        let mut est = Box::new(CellEstimator::<f64, 256, 64>::new(&s).unwrap());
+        let mut carried = 0;
+        for l in 0..at + rest {
+            est.push(&s, i[l], v[l]);
+            if l >= at && est.pulse_predictor(&s).is_some() {
+                carried += 1;
+            }
+        }
+        let ps = PowerSettings::new(limits, &[k as u32], Some(-5.0)).unwrap();
+        let report = est.state_of_power(&s, &ps);
+        if rest > 256 {
+            assert!(report.is_none(), "{rest} s of rest");
+            assert!(carried < rest, "{carried} of {rest}");
+            continue;
+        }
+        let pred = est.pulse_predictor(&s).expect("carried through the rest");
+        let got = pred.pulse_voltage(-5.0, k);
+        let want = v[at + rest + k - 1];
+        let drop = (v[at + rest - 1] - want).abs();
+        let rel = (got - want).abs() / drop;
+        println!(
+            "after {rest} s of rest ({carried} samples carried), {k} s at -5 A: predicted \
+             {got:.5} V, true {want:.5} V, drop {drop:.4} V: {:.2} %",
+            100.0 * rel
+        );
+        assert_eq!(carried, rest);
+        assert!(rel <= 0.10, "{k}: {rel}");
+        assert_eq!(report.unwrap().horizons()[0].pulse_v, Some(got));
+    }
+}
+
+/// A pack's cell has the state of power it has alone (bit for bit: the
+/// same tail, carried the same way, whichever cell the working area
+/// holds), and the string's is the weakest cell's at every horizon.
+#[test]
+fn the_string_has_its_weakest_cells_state_of_power() {
+    let base = CellParameters::<f64>::cell_18650();
+    let cells = [
+        base,
+        CellParameters {
+            r_i: 1.6 * base.r_i,
+            r_ct: 1.4 * base.r_ct,
+            ..base
+        },
+    ];
+    let at = 1100 + 300;
+    let (i, _) = record_after_rest(1100, 300, 0.0, 1);
+    let mut volts = Vec::new();
+    for p in &cells {
+        let len = i.len();
+        let mut soc = vec![0.0; len];
+        let mut z = 0.9;
+        for l in 0..len {
+            z += i[l] / (CAPACITY_AH * 3600.0);
+            soc[l] = z;
+        }
+        let mut w = Box::new(GlWeights::<f64, 4096>::new(p.alpha, 1.0, len).unwrap());
+        let (mut up, mut v) = (vec![0.0; len], vec![0.0; len]);
+        simulate(p, &mut w, &i, |l| ocv_nmc(soc[l]), &mut up, &mut v).unwrap();
+        volts.push(v);
+    }
+    let s = OnlineSettings::new(1.0, 64, base).with_ocv(nmc());
+    let ps = PackSettings::new(s);
+    let mut pack = Box::new(PackEstimator::<f64, 256, 64, 2>::new(&ps, 2).unwrap());
+    let mut alone: Vec<_> = (0..2)
+        .map(|_| Box::new(CellEstimator::<f64, 256, 64>::new(&s).unwrap()))
+        .collect();
+    // Both cells rest at the end: the tail of the cell the area does not
+    // hold is carried by the pack alone.
+    for l in 0..at {
+        pack.push(&ps, i[l], &[volts[0][l], volts[1][l]]).unwrap();
+        for (k, est) in alone.iter_mut().enumerate() {
+            est.push(&s, i[l], volts[k][l]);
+        }
+    }
+    let limits = PowerLimits {
+        voltage_min: 3.3,
+        voltage_max: 4.2,
+        current_limit: 50.0,
+    };
+    let power = PowerSettings::new(limits, &[2, 10, 30], Some(-5.0)).unwrap();
+    let each: Vec<_> = (0..2)
+        .map(|k| {
+            // At rest, no fit: the tails were carried, not taken.
+            assert_eq!(pack.cell(k).unwrap().status(), Status::NotExcited);
+            let r = pack.state_of_power(k, &s, &power).expect("published");
+            assert_eq!(Some(r), alone[k].state_of_power(&s, &power), "cell {k}");
+            r
+        })
+        .collect();
+    let string = pack.pack_state_of_power(&s, &power).unwrap();
+    for (j, h) in string.horizons().iter().enumerate() {
+        let (a, b) = (each[0].horizons()[j], each[1].horizons()[j]);
+        println!(
+            "{} s: discharge {:.3} / {:.3} A, charge {:.3} / {:.3} A, string {:.3} / {:.3} A",
+            h.sop.steps,
+            a.sop.discharge_a,
+            b.sop.discharge_a,
+            a.sop.charge_a,
+            b.sop.charge_a,
+            h.sop.discharge_a,
+            h.sop.charge_a
+        );
+        // The resistive cell limits the string.
+        assert!(b.sop.discharge_a < a.sop.discharge_a);
+        assert_eq!(h.sop.discharge_a, b.sop.discharge_a);
+        assert_eq!(h.sop.charge_a, a.sop.charge_a.min(b.sop.charge_a));
+        assert_eq!(h.pulse_v, Some(a.pulse_v.unwrap() + b.pulse_v.unwrap()));
     }
 }

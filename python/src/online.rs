@@ -162,7 +162,7 @@ impl OnlineCell {
         iterations_per_sample = 1, tail = false, prior = None, prior_factor = 2.0,
         prior_alpha_sigma = 0.1, prior_noise_mv = 100.0, horizons = vec![10.0, 30.0],
         voltage_min = None, voltage_max = None, current_limit = None, pulse_current_a = None,
-        soc = "observer", soc_rest_s = None, soc_bias_sigma_a = None
+        soc = "observer", soc_rest_s = None, soc_bias_sigma_a = None, sop_carry_s = None
     ))]
     #[allow(clippy::too_many_arguments)]
     fn new(
@@ -191,6 +191,7 @@ impl OnlineCell {
         soc: &str,
         soc_rest_s: Option<f64>,
         soc_bias_sigma_a: Option<f64>,
+        sop_carry_s: Option<f64>,
     ) -> PyResult<Self> {
         if !(h.is_finite() && h > 0.0) {
             return Err(PyValueError::new_err(format!(
@@ -246,6 +247,7 @@ impl OnlineCell {
                 p.voltage_max = voltage_max;
                 p.current_limit = current_limit;
                 p.pulse_current_a = pulse_current_a;
+                p.carry_s = sop_carry_s;
                 p
             },
             soc: SocOptions {

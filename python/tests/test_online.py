@@ -92,6 +92,28 @@ def test_with_an_ocv_curve_equals_the_cli(host_sim, tmp_path):
     assert np.all(py["soc_ocv_weight"] == 0)
 
 
+def test_the_state_of_power_carry_equals_the_cli(host_sim, tmp_path):
+    ocv_file = REPO / "data" / "pybamm" / "chen2020-ocv.csv"
+    rec = REPO / "data" / "pybamm" / "chen2020-hppc.csv"
+    cap = 5.153198325955154
+    c, o = read_csv(rec), read_csv(ocv_file)
+    published = {}
+    for carry in (0.0, None):
+        args = ["--ocv", ocv_file, "--capacity-ah", str(cap)]
+        if carry is not None:
+            args += ["--sop-carry-s", str(carry)]
+        cli = cli_track(host_sim, rec, tmp_path, *args)
+        cell = fracbms.OnlineCell(ocv=(o["soc"], o["ocv_v"]), capacity_ah=cap, sop_carry_s=carry)
+        py = cell.run(c["current_a"], c["voltage_v"])
+        assert_same_track(py, cli)
+        published[carry] = int(np.isfinite(py["sop_discharge_a_10s"]).sum())
+    # Carried through no sample, fewer are published than through the window.
+    assert 0 < published[0.0] < published[None]
+    with pytest.raises(ValueError):
+        fracbms.OnlineCell(ocv=(o["soc"], o["ocv_v"]), capacity_ah=cap, sop_carry_s=-1.0).run(
+            c["current_a"][:10], c["voltage_v"][:10])
+
+
 def test_a_bad_sample_is_rejected_not_raised(cell_record):
     c = read_csv(cell_record)
     cell = fracbms.OnlineCell()

@@ -48,7 +48,7 @@
 
 use super::output_error::RefinementWork;
 use super::pack::PackEstimator;
-use super::power::PulsePredictor;
+use super::power::{PowerReport, PowerSettings, PulsePredictor};
 use super::CellParameters;
 use crate::error::Error;
 use crate::frac::GlWeights;
@@ -155,40 +155,23 @@ impl<T: Real, const N: usize, const MEM: usize> CellEstimator<T, N, MEM> {
 
     /// The model and the polarization the cell carries now, to predict a
     /// constant-current pulse and the state of power from
-    /// ([`crate::battery::power`]): the last good estimate, its polarization
-    /// as its last fit simulated it, carried forward through the samples
-    /// pushed since with their currents. `None` before an estimate, after
-    /// an update whose fit was refused (until the next accepted one), and
-    /// when more samples have been pushed since the fit than the window
-    /// still holds (their currents are gone). With an OCV curve the
-    /// open-circuit voltage follows the pulse's charge from the state of
-    /// charge now.
+    /// ([`PackEstimator::pulse_predictor`]).
     pub fn pulse_predictor<'a, const P: usize>(
-        &'a self,
+        &self,
         s: &'a OnlineSettings<T, P>,
     ) -> Option<PulsePredictor<'a, T, MEM, P>> {
-        let c = self.state();
-        let p = c.window_estimate()?;
-        let (up, stamp, w) = self.pack.work.polarization_of(0, p)?;
-        let ocv = match (&s.ocv, c.state_of_charge()) {
-            (Some(m), Some(z)) => Some((m, z)),
-            (Some(_), None) => return None,
-            (None, _) => None,
-        };
-        let since = c.window_version().wrapping_sub(stamp) as usize;
-        let window = self.window();
-        if since > window.len() {
-            return None;
-        }
-        let mut pred = PulsePredictor::new(p, w, up, ocv)?;
-        let mut newer = [T::zero(); N];
-        for (j, (i, _)) in window.newest_first().take(since).enumerate() {
-            newer[since - 1 - j] = i;
-        }
-        for &i in &newer[..since] {
-            pred.advance(i);
-        }
-        Some(pred)
+        self.pack.pulse_predictor(0, s)
+    }
+
+    /// The state of power now for `power`'s horizons, when every
+    /// parameter of the model is published
+    /// ([`PackEstimator::state_of_power`]).
+    pub fn state_of_power<const P: usize>(
+        &self,
+        s: &OnlineSettings<T, P>,
+        power: &PowerSettings<T>,
+    ) -> Option<PowerReport<T>> {
+        self.pack.state_of_power(0, s, power)
     }
 
     /// The record resumes after a gap of unknown charge

@@ -22,7 +22,13 @@
 //!    work of every period is the same bounded amount and every cell is
 //!    updated at least every `⌈cells / updates⌉` periods
 //!    ([`PackEstimator::refresh_periods`]).
-//! 3. **Health.** [`PackEstimator::health`] sets each cell's `R_i` and
+//! 3. **Polarization.** Every cell's [`PolarizationTail`] follows its
+//!    estimate's polarization: taken from a fresh fit's simulation,
+//!    carried one sample on otherwise (rests of any length included), so
+//!    any cell's state of power can be asked at any time
+//!    ([`PackEstimator::state_of_power`]; the string's,
+//!    the weakest cell's: [`PackEstimator::pack_state_of_power`]).
+//! 4. **Health.** [`PackEstimator::health`] sets each cell's `R_i` and
 //!    `R_ct` beside the pack's median and flags a cell whose resistance
 //!    stands out by more than [`PackSettings::flag_ratio`] (an aged or
 //!    failing cell).
@@ -31,11 +37,13 @@
 //! [`super::online`]'s (a [`super::online::CellEstimator`] is the one-cell
 //! pack).
 
+use super::power::{PolarizationTail, PowerReport, PowerSettings, PulsePredictor};
 use super::tracker::{
     check_limits, CellState, CellWindow, CurrentHistory, OnlineSettings, SampleReport, WorkingArea,
 };
 use super::CellParameters;
 use crate::error::Error;
+use crate::frac::GlWeights;
 use crate::real::Real;
 
 /// Settings of a pack: the cells' online settings (one value for all
@@ -112,6 +120,8 @@ pub struct PackEstimator<T, const N: usize, const MEM: usize, const CELLS: usize
     /// Cells in use (`≤ CELLS`).
     pub(super) active: usize,
     pub(super) work: WorkingArea<T, N, MEM>,
+    /// Each cell's polarization under its estimate, now.
+    pub(super) tails: [PolarizationTail<T, MEM>; CELLS],
     /// The cell the next period's updates start at.
     pub(super) next: usize,
 }
@@ -284,6 +294,7 @@ impl<T: Real, const N: usize, const MEM: usize, const CELLS: usize>
             cells: core::array::from_fn(|_| cell.clone()),
             active: cells,
             work: WorkingArea::new(s)?,
+            tails: [PolarizationTail::default(); CELLS],
             next: 0,
         })
     }
@@ -332,8 +343,162 @@ impl<T: Real, const N: usize, const MEM: usize, const CELLS: usize>
             let scheduled = (k + cells - first) % cells < updates;
             let r = self.cells[k].update(s, &self.history, &mut self.work, k, scheduled);
             report(k, r);
+            // While the working area is still this cell's.
+            self.follow_polarization(s, k, stored);
         }
         self.next = (first + updates) % cells;
         Ok(())
+    }
+
+    /// Moves cell `k`'s [`PolarizationTail`] to this sample (right after
+    /// its update, while the working area may still be its): from its
+    /// fit's simulation when the working area holds one of the estimate
+    /// that is new (or of this sample), carried forward through the
+    /// samples the simulation has not seen; else one sample on through
+    /// `stored` under the same estimate; cleared when neither is possible
+    /// (a new estimate whose simulation is gone).
+    fn follow_polarization<const P: usize>(
+        &mut self,
+        s: &OnlineSettings<T, P>,
+        k: usize,
+        stored: Option<T>,
+    ) {
+        {
+            let c = &self.cells[k];
+            let tail = &mut self.tails[k];
+            let Some(p) = c.window_estimate() else {
+                tail.clear();
+                return;
+            };
+            let follows = tail.model() == Some(p);
+            let fresh = self
+                .work
+                .polarization_of(k, p)
+                .filter(|(_, stamp, _)| !follows || *stamp == c.window_version());
+            if let Some((up, stamp, w)) = fresh {
+                let since = c.window_version().wrapping_sub(stamp) as usize;
+                let window = CellWindow::new(&self.history, c);
+                let pred = (since <= window.len())
+                    .then(|| PulsePredictor::<T, MEM, 0>::new(p, w, up, None))
+                    .flatten();
+                match pred {
+                    Some(mut pred) => {
+                        let mut newer = [T::zero(); N];
+                        for (j, (i, _)) in window.newest_first().take(since).enumerate() {
+                            newer[since - 1 - j] = i;
+                        }
+                        for &i in &newer[..since] {
+                            pred.advance(i);
+                        }
+                        tail.set(&pred);
+                    }
+                    None => tail.clear(),
+                }
+            } else if follows {
+                if let Some(i) = stored {
+                    if self.work.weights().alpha() == p.alpha {
+                        tail.advance(self.work.weights(), i);
+                    } else {
+                        match GlWeights::<T, MEM>::new(p.alpha, s.battery.h, s.battery.memory) {
+                            Ok(w) => tail.advance(&w, i),
+                            Err(_) => tail.clear(),
+                        }
+                    }
+                }
+            } else {
+                tail.clear();
+            }
+        }
+    }
+
+    /// Cell `k`'s model and the polarization it carries now, to predict a
+    /// constant-current pulse and the state of power from
+    /// ([`crate::battery::power`]): its last good estimate (window
+    /// coordinates) and the polarization that estimate's fit simulated,
+    /// carried forward through every sample since. `None` before an
+    /// estimate, after a new estimate until its simulation is taken, when
+    /// more samples have passed since the fit than the window holds (a
+    /// long rest, a restart), and with an OCV curve before the state of
+    /// charge is known (the open-circuit voltage follows the pulse's
+    /// charge from the count).
+    pub fn pulse_predictor<'a, const P: usize>(
+        &self,
+        k: usize,
+        s: &'a OnlineSettings<T, P>,
+    ) -> Option<PulsePredictor<'a, T, MEM, P>> {
+        self.predictor_within(k, s, None)
+    }
+
+    /// [`pulse_predictor`](Self::pulse_predictor) carried at most `carry`
+    /// samples from its fit (`None`: as far as the window reaches).
+    fn predictor_within<'a, const P: usize>(
+        &self,
+        k: usize,
+        s: &'a OnlineSettings<T, P>,
+        carry: Option<u32>,
+    ) -> Option<PulsePredictor<'a, T, MEM, P>> {
+        let c = self.cell(k)?;
+        let tail = &self.tails[k];
+        let p = c.window_estimate()?;
+        // Carried no farther from its fit than the window reaches (after a
+        // restart: none). Farther, the model's relaxation is not what was
+        // fitted: on the measured Panasonic cell, pulses after rests longer
+        // than the window were predicted 22–41 % of their drop off
+        // (docs/bms-states.md, bench/sop_pulses.py).
+        let reach = carry.map_or_else(|| CellWindow::new(&self.history, c).len(), |n| n as usize);
+        if tail.model() != Some(p) || tail.since_fit() as usize > reach {
+            return None;
+        }
+        let ocv = match (&s.ocv, c.state_of_charge()) {
+            (Some(m), Some(z)) => Some((m, z)),
+            (Some(_), None) => return None,
+            (None, _) => None,
+        };
+        // The working area's weights when they are at this order (the
+        // cell it holds), else new ones.
+        let held = self.work.weights();
+        let w =
+            if held.alpha() == p.alpha && held.h() == s.battery.h && held.len() == s.battery.memory
+            {
+                held.clone()
+            } else {
+                GlWeights::new(p.alpha, s.battery.h, s.battery.memory).ok()?
+            };
+        PulsePredictor::from_tail(tail, w, ocv)
+    }
+
+    /// Cell `k`'s state of power now for `power`'s horizons: `None` unless
+    /// every parameter of its model is published
+    /// ([`CellState::model_published`]: identified, from the step, or
+    /// held) and its [`pulse_predictor`](Self::pulse_predictor) exists
+    /// (carried from the fit at most [`PowerSettings::carry`] samples). A
+    /// model the data do not identify gives no state of power.
+    pub fn state_of_power<const P: usize>(
+        &self,
+        k: usize,
+        s: &OnlineSettings<T, P>,
+        power: &PowerSettings<T>,
+    ) -> Option<PowerReport<T>> {
+        if !self.cell(k)?.model_published() {
+            return None;
+        }
+        Some(self.predictor_within(k, s, power.carry)?.power(power))
+    }
+
+    /// The string's state of power: at each horizon the weakest cell's
+    /// currents (a series string carries one current) and the sum of the
+    /// cells' pulse voltages ([`PowerReport::series`]); `None` while any
+    /// cell in use has none (a string is only as known as its least known
+    /// cell).
+    pub fn pack_state_of_power<const P: usize>(
+        &self,
+        s: &OnlineSettings<T, P>,
+        power: &PowerSettings<T>,
+    ) -> Option<PowerReport<T>> {
+        let mut out = self.state_of_power(0, s, power)?;
+        for k in 1..self.active {
+            out = out.series(&self.state_of_power(k, s, power)?);
+        }
+        Some(out)
     }
 }

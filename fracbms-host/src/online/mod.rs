@@ -375,7 +375,11 @@ impl Tracker {
                 window.saturating_sub(8)
             );
         }
+        o.power.check()?;
         let power = o.power.resolve(o.cell);
+        if let Some(p) = &power {
+            p.check()?;
+        }
         let reference_r_i = match (o.prior_map, o.prior) {
             (Some(m), _) => Some(m.prior_at(soc0, None).center.r_i),
             (None, Some(p)) => Some(p.center.r_i),

@@ -10,12 +10,12 @@
 use crate::bail;
 use crate::error::Result;
 use crate::ocv::CellOcv;
-use estimator_core::battery::online::{CellEstimator, OnlineSettings, PublishedParameters};
-use estimator_core::battery::power::PowerLimits;
+use estimator_core::battery::online::{CellEstimator, OnlineSettings};
+use estimator_core::battery::power::{PowerLimits, PowerSettings};
 use estimator_core::Real;
 
 /// The most horizons a track carries.
-pub const MAX_HORIZONS: usize = 8;
+pub use estimator_core::battery::power::MAX_HORIZONS;
 
 /// What the state-of-power columns say, as `online battery`'s flags give
 /// it. The default: horizons of 10 and 30 s; the voltage limits the OCV
@@ -37,6 +37,10 @@ pub struct PowerOptions {
     /// The current of the `pulse_v_{H}s` columns (A, + charging; default:
     /// a 1C discharge from the capacity).
     pub pulse_current_a: Option<f64>,
+    /// How long (s) the prediction may be carried from the last fit
+    /// without a new one (default: as far as the window reaches;
+    /// [`PowerSettings::carry`]).
+    pub carry_s: Option<f64>,
 }
 
 impl Default for PowerOptions {
@@ -50,6 +54,7 @@ impl Default for PowerOptions {
             voltage_max: None,
             current_limit: None,
             pulse_current_a: None,
+            carry_s: None,
         }
     }
 }
@@ -79,6 +84,27 @@ impl PowerOptions {
         o.horizons_s[..horizons_s.len()].copy_from_slice(horizons_s);
         o.count = horizons_s.len();
         Ok(o)
+    }
+
+    /// The flags that need no table: the pulse's current and the carry.
+    ///
+    /// # Errors
+    /// A pulse current that is not finite, a carry that is negative or not
+    /// finite.
+    pub fn check(&self) -> Result<()> {
+        if self.pulse_current_a.is_some_and(|i| !i.is_finite()) {
+            bail!(
+                Options,
+                "--pulse-current-a: must be a finite number of amperes"
+            );
+        }
+        if let Some(c) = self.carry_s.filter(|c| !(c.is_finite() && *c >= 0.0)) {
+            bail!(
+                Options,
+                "--sop-carry-s {c}: must be a number of seconds, 0 or more"
+            );
+        }
+        Ok(())
     }
 
     /// The horizons (s).
@@ -135,6 +161,40 @@ pub(crate) struct ResolvedPower {
 }
 
 impl ResolvedPower {
+    /// The limits as the core takes them.
+    ///
+    /// # Errors
+    /// A voltage minimum not below the maximum, a current limit that is not
+    /// positive, or a value that is not finite.
+    pub(crate) fn check(&self) -> Result<()> {
+        let l = &self.limits;
+        if !(l.voltage_min.is_finite()
+            && l.voltage_max.is_finite()
+            && l.voltage_min < l.voltage_max)
+        {
+            bail!(
+                Options,
+                "--voltage-min {} --voltage-max {}: the minimum must be below the maximum",
+                l.voltage_min,
+                l.voltage_max
+            );
+        }
+        if !(l.current_limit.is_finite() && l.current_limit > 0.0) {
+            bail!(
+                Options,
+                "--current-limit {}: must be a positive number of amperes",
+                l.current_limit
+            );
+        }
+        if self.pulse_current_a.is_some_and(|i| !i.is_finite()) {
+            bail!(
+                Options,
+                "--pulse-current-a: must be a finite number of amperes"
+            );
+        }
+        Ok(())
+    }
+
     /// The columns after the cell's last sample (all empty where its
     /// model is not published, or its fit is not the estimate).
     pub(crate) fn rows<T: Real, const N: usize, const P: usize>(
@@ -143,34 +203,41 @@ impl ResolvedPower {
         s: &OnlineSettings<T, P>,
     ) -> [PowerRow; MAX_HORIZONS] {
         let mut out = [PowerRow::default(); MAX_HORIZONS];
-        if !published_model(&est.published()) {
-            return out;
-        }
-        let Some(pred) = est.pulse_predictor(s) else {
+        let Some(settings) = self.settings(s.battery.h.to_f64()) else {
             return out;
         };
+        let Some(report) = est.state_of_power(s, &settings) else {
+            return out;
+        };
+        for (row, h) in out.iter_mut().zip(report.horizons()) {
+            *row = PowerRow {
+                discharge_a: Some(h.sop.discharge_a.to_f64()),
+                charge_a: Some(h.sop.charge_a.to_f64()),
+                pulse_v: h.pulse_v.map(|v| v.to_f64()),
+            };
+        }
+        out
+    }
+
+    /// The core's settings for sample period `h` (s): each horizon `H/h`
+    /// samples, rounded (at least 1).
+    fn settings<T: Real>(&self, h: f64) -> Option<PowerSettings<T>> {
+        let mut steps = [0u32; MAX_HORIZONS];
+        let horizons = self.options.horizons();
+        for (k, &hz) in steps.iter_mut().zip(horizons) {
+            *k = ((hz / h).round() as u32).max(1);
+        }
         let limits = PowerLimits {
             voltage_min: T::lit(self.limits.voltage_min),
             voltage_max: T::lit(self.limits.voltage_max),
             current_limit: T::lit(self.limits.current_limit),
         };
-        let h = s.battery.h.to_f64();
-        for (row, &horizon) in out.iter_mut().zip(self.options.horizons()) {
-            let steps = ((horizon / h).round() as usize).max(1);
-            let sop = pred.state_of_power(&limits, steps);
-            *row = PowerRow {
-                discharge_a: Some(sop.discharge_a.to_f64()),
-                charge_a: Some(sop.charge_a.to_f64()),
-                pulse_v: self
-                    .pulse_current_a
-                    .map(|i| pred.pulse_voltage(T::lit(i), steps).to_f64()),
-            };
-        }
-        out
+        let mut p = PowerSettings::new(
+            limits,
+            &steps[..horizons.len()],
+            self.pulse_current_a.map(T::lit),
+        )?;
+        p.carry = self.options.carry_s.map(|c| (c / h).round() as u32);
+        Some(p)
     }
-}
-
-/// Every parameter of the model has a published value.
-fn published_model<T: Copy>(p: &PublishedParameters<T>) -> bool {
-    p.named().iter().all(|(_, x)| x.value.is_some())
 }

@@ -96,6 +96,12 @@ pub struct OnlineBatteryArgs {
     /// 1C discharge, −capacity).
     #[arg(long, allow_hyphen_values = true)]
     pub pulse_current_a: Option<f64>,
+    /// How long (s) the state of power may be predicted from the last fit
+    /// without a new one, the polarization carried through a rest by the
+    /// model (default: as far back as the window reaches; beyond it the
+    /// model's relaxation was not fitted, docs/bms-states.md).
+    #[arg(long)]
+    pub sop_carry_s: Option<f64>,
     /// The `soc` column (with --ocv): `observer` (the default; coulomb
     /// counting corrected at each rest of --soc-rest-s by the OCV table,
     /// with the current sensor's bias and the capacity estimated, columns
@@ -203,6 +209,7 @@ pub(super) fn battery(a: OnlineBatteryArgs) -> Result<()> {
             p.voltage_max = a.voltage_max;
             p.current_limit = a.current_limit;
             p.pulse_current_a = a.pulse_current_a;
+            p.carry_s = a.sop_carry_s;
             p
         },
         soc: online_track::soc::SocOptions {

@@ -349,4 +349,83 @@ fn the_track_carries_the_state_of_power() {
         let err = String::from_utf8_lossy(&o.stderr);
         assert_eq!(err.trim_end().lines().count(), 1, "{bad}: {err}");
     }
+    // Limits the core refuses, a carry that is no time: one line each.
+    for bad in [
+        &["--voltage-min", "4.2", "--voltage-max", "3.0"][..],
+        &[
+            "--voltage-min",
+            "3.0",
+            "--voltage-max",
+            "4.2",
+            "--current-limit",
+            "0",
+        ],
+        &[
+            "--voltage-min",
+            "3.0",
+            "--voltage-max",
+            "4.2",
+            "--sop-carry-s",
+            "-1",
+        ],
+    ] {
+        let mut args = vec!["online", "battery", "--input", s(&own), "--out", s(&out)];
+        args.extend_from_slice(bad);
+        let o = run(&args);
+        assert!(!o.status.success(), "{bad:?}");
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(err.trim_end().lines().count(), 1, "{bad:?}: {err}");
+    }
+}
+
+/// `--sop-carry-s` bounds how far the state of power is carried from the
+/// last fit: 0 publishes it only at the samples a fit refreshed; the
+/// default (the window's reach) at least as often; a long carry at least
+/// as often again, through the HPPC record's rests.
+#[test]
+fn the_state_of_power_is_carried_no_farther_than_asked() {
+    let data = |n: &str| {
+        Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../data")
+            .join(n)
+    };
+    let rec = data("pybamm/chen2020-hppc.csv");
+    let ocv = data("pybamm/chen2020-ocv.csv");
+    let published = |carry: Option<&str>| {
+        let out = tmp(&format!("sop-carry-{}.csv", carry.unwrap_or("default")));
+        let mut args = vec![
+            "online",
+            "battery",
+            "--input",
+            s(&rec),
+            "--ocv",
+            s(&ocv),
+            "--capacity-ah",
+            "5.153198",
+            "--out",
+            s(&out),
+        ];
+        if let Some(c) = carry {
+            args.extend_from_slice(&["--sop-carry-s", c]);
+        }
+        let o = run(&args);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let t = std::fs::read_to_string(&out).unwrap();
+        let mut lines = t.lines();
+        let head: Vec<&str> = lines.next().unwrap().split(',').collect();
+        let k = head
+            .iter()
+            .position(|h| *h == "sop_discharge_a_10s")
+            .unwrap();
+        lines
+            .filter(|l| !l.split(',').nth(k).unwrap().is_empty())
+            .count()
+    };
+    let (none, window, long) = (
+        published(Some("0")),
+        published(None),
+        published(Some("100000")),
+    );
+    println!("published: carry 0 {none}, the window {window}, 100000 s {long}");
+    assert!(none < window && window < long, "{none} {window} {long}");
 }

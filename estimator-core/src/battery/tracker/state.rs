@@ -88,6 +88,12 @@ impl<T: Real, const N: usize, const MEM: usize> WorkingArea<T, N, MEM> {
             .then_some((up, stamp, &self.pw))
     }
 
+    /// The one-step prediction's weights (at the order of the cell last
+    /// predicted or published).
+    pub(crate) fn weights(&self) -> &GlWeights<T, MEM> {
+        &self.pw
+    }
+
     pub(crate) fn new<const P: usize>(s: &OnlineSettings<T, P>) -> Result<Self, Error> {
         Ok(Self {
             gi: PaperRegressionGi::new(&s.battery, s.alpha0)?,
@@ -180,6 +186,15 @@ impl<T: Real, const N: usize> CellState<T, N> {
     /// [`estimate`](Self::estimate) is the window's fit, identified or not.
     pub fn published(&self) -> PublishedParameters<T> {
         self.published
+    }
+
+    /// Every parameter of the model has a published value (identified,
+    /// from the step, or held): what the state of power needs.
+    pub fn model_published(&self) -> bool {
+        self.published
+            .named()
+            .iter()
+            .all(|(_, x)| x.value.is_some())
     }
 
     /// The resistance of the last current step precise enough to judge
