@@ -23,6 +23,12 @@
 #endif
 
 /**
+ * The cell index `fracbms_pack_state_of_power` takes for the whole
+ * string.
+ */
+#define FRACBMS_PACK_STRING UINT16_MAX
+
+/**
  * Largest OCV table the C interface takes (points).
  */
 #define FRACBMS_OCV_POINTS_MAX 128
@@ -31,6 +37,12 @@
  * Largest parameter map the C interface takes (levels).
  */
 #define FRACBMS_MAP_LEVELS_MAX 64
+
+/**
+ * The most horizons one state-of-power request asks for (the core's
+ * `MAX_HORIZONS`).
+ */
+#define FRACBMS_HORIZONS_MAX 8
 
 /**
  * What a call did: `FRACBMS_OK`, or why it did nothing.
@@ -563,6 +575,92 @@ typedef struct FracbmsEstimate {
 } FracbmsEstimate;
 
 /**
+ * What a state-of-power request asks (`fracbms_cell_state_of_power`,
+ * `fracbms_pack_state_of_power`): as `host-sim online battery`'s
+ * `--voltage-min`, `--voltage-max`, `--current-limit`, `--horizons` and
+ * `--pulse-current-a`. Currents positive when charging.
+ */
+typedef struct FracbmsPowerRequest {
+  /**
+   * The lowest terminal voltage a pulse may reach (V).
+   */
+  float voltage_min;
+  /**
+   * The highest (V).
+   */
+  float voltage_max;
+  /**
+   * The largest current magnitude (A).
+   */
+  float current_limit;
+  /**
+   * The horizons (s), the first `horizon_count` used; each is `H/h`
+   * samples, rounded (at least 1; so is `carry_s`).
+   */
+  float horizons_s[FRACBMS_HORIZONS_MAX];
+  /**
+   * Horizons used (1 to `FRACBMS_HORIZONS_MAX`).
+   */
+  uint32_t horizon_count;
+  /**
+   * The current (A) of the pulse whose voltage is predicted at each
+   * horizon's end; NaN for none.
+   */
+  float pulse_current;
+  /**
+   * How long (s) the prediction may be carried from the last fit
+   * without a new one (`--sop-carry-s`); NaN: as far as the window
+   * reaches.
+   */
+  float carry_s;
+} FracbmsPowerRequest;
+
+/**
+ * One horizon's state of power, as `host-sim online battery`'s
+ * `sop_discharge_a_{H}s`, `sop_charge_a_{H}s` and `pulse_v_{H}s`.
+ */
+typedef struct FracbmsHorizonPower {
+  /**
+   * The horizon (s) as asked.
+   */
+  float horizon_s;
+  /**
+   * The largest constant discharge current magnitude (A) that keeps
+   * the predicted voltage at or above the minimum for the horizon.
+   */
+  float discharge_a;
+  /**
+   * The same for charge and the maximum.
+   */
+  float charge_a;
+  /**
+   * The predicted voltage (V) at the end of the request's pulse (NaN
+   * without one); for a pack's string, the sum of its cells'.
+   */
+  float pulse_v;
+} FracbmsHorizonPower;
+
+/**
+ * A state of power: `published` false (and the horizons zero) where the
+ * model is not published (a parameter not identified) or has no present
+ * polarization yet.
+ */
+typedef struct FracbmsPower {
+  /**
+   * Whether the horizons hold a state of power.
+   */
+  bool published;
+  /**
+   * Horizons filled.
+   */
+  uint32_t horizon_count;
+  /**
+   * Each horizon's, in the request's order.
+   */
+  struct FracbmsHorizonPower horizons[FRACBMS_HORIZONS_MAX];
+} FracbmsPower;
+
+/**
  * What one sample period did to a pack.
  */
 typedef struct FracbmsPackReport {
@@ -790,6 +888,24 @@ FracbmsCode fracbms_cell_estimate(const struct FracbmsCell *cell, struct Fracbms
 FracbmsCode fracbms_cell_set_state_of_charge(struct FracbmsCell *cell, float soc);
 
 /**
+ * Writes a cell's state of power now (after its last sample) for
+ * `request` to `power`: at each horizon the largest constant discharge
+ * and charge currents that keep the predicted voltage within the limits,
+ * and the request's pulse voltage at its end (the core's
+ * `CellEstimator::state_of_power`, as `host-sim online battery`'s
+ * `sop_*`/`pulse_v_*` columns). `power->published` is false where the
+ * model is not published (a parameter not identified) or its present
+ * polarization is not known yet.
+ *
+ * # Safety
+ * As `fracbms_cell_push`; `request` is null or valid for a read, `power`
+ * null or valid for a write.
+ */
+FracbmsCode fracbms_cell_state_of_power(const struct FracbmsCell *cell,
+                                        const struct FracbmsPowerRequest *request,
+                                        struct FracbmsPower *power);
+
+/**
  * The size and alignment (bytes) of a pack's state for window `window`,
  * memory `memory` and `cells` cells (1 to 16; the state has room for 4, 8
  * or 16 cells, the next at or above `cells`).
@@ -848,6 +964,22 @@ FracbmsCode fracbms_pack_push(struct FracbmsPack *pack,
 FracbmsCode fracbms_pack_cell(const struct FracbmsPack *pack,
                               uint16_t k,
                               struct FracbmsEstimate *estimate);
+
+/**
+ * Writes a pack's state of power now for `request` to `power`: cell
+ * `k`'s (0-based), or for `k` = `FRACBMS_PACK_STRING` the string's: at
+ * each horizon the weakest cell's currents (one current flows through a
+ * series string) and the sum of the cells' pulse voltages; not published
+ * while any cell's is not.
+ *
+ * # Safety
+ * As `fracbms_pack_push`; `request` is null or valid for a read, `power`
+ * null or valid for a write.
+ */
+FracbmsCode fracbms_pack_state_of_power(const struct FracbmsPack *pack,
+                                        uint16_t k,
+                                        const struct FracbmsPowerRequest *request,
+                                        struct FracbmsPower *power);
 
 /**
  * The number of cells of a pack (0 for a null or uninitialized handle).

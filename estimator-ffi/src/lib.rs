@@ -69,9 +69,10 @@ mod types;
 pub use identify::{FracbmsFit, FracbmsIdentifyOptions};
 pub use map::{fracbms_cell_follow_map, fracbms_cell_set_prior, fracbms_map_cell_at};
 pub use types::{
-    FracbmsCode, FracbmsEstimate, FracbmsIdentification, FracbmsMapLevel, FracbmsMethod,
-    FracbmsModel, FracbmsParameters, FracbmsPublished, FracbmsRejection, FracbmsSettings,
-    FracbmsSoc, FracbmsStatus, FRACBMS_MAP_LEVELS_MAX, FRACBMS_OCV_POINTS_MAX,
+    FracbmsCode, FracbmsEstimate, FracbmsHorizonPower, FracbmsIdentification, FracbmsMapLevel,
+    FracbmsMethod, FracbmsModel, FracbmsParameters, FracbmsPower, FracbmsPowerRequest,
+    FracbmsPublished, FracbmsRejection, FracbmsSettings, FracbmsSoc, FracbmsStatus,
+    FRACBMS_HORIZONS_MAX, FRACBMS_MAP_LEVELS_MAX, FRACBMS_OCV_POINTS_MAX,
 };
 
 use state::{CellOp, PackOp, PackOut};
@@ -255,6 +256,37 @@ pub unsafe extern "C" fn fracbms_cell_set_state_of_charge(
     code(unsafe { state::cell_op(cell.cast(), CellOp::SetSoc(soc)) }.map(|_| ()))
 }
 
+/// Writes a cell's state of power now (after its last sample) for
+/// `request` to `power`: at each horizon the largest constant discharge
+/// and charge currents that keep the predicted voltage within the limits,
+/// and the request's pulse voltage at its end (the core's
+/// `CellEstimator::state_of_power`, as `host-sim online battery`'s
+/// `sop_*`/`pulse_v_*` columns). `power->published` is false where the
+/// model is not published (a parameter not identified) or its present
+/// polarization is not known yet.
+///
+/// # Safety
+/// As `fracbms_cell_push`; `request` is null or valid for a read, `power`
+/// null or valid for a write.
+#[no_mangle]
+pub unsafe extern "C" fn fracbms_cell_state_of_power(
+    cell: *const FracbmsCell,
+    request: *const FracbmsPowerRequest,
+    power: *mut FracbmsPower,
+) -> FracbmsCode {
+    if request.is_null() {
+        return FRACBMS_ERROR_NULL;
+    }
+    // SAFETY: non-null and valid for a read by the caller's contract.
+    let req = unsafe { request.read() };
+    // SAFETY: forwarded from the caller; read only.
+    match unsafe { state::cell_power(cell.cast(), &req) } {
+        // SAFETY: forwarded from the caller.
+        Ok(p) => code(unsafe { put(power, p) }),
+        Err(c) => c,
+    }
+}
+
 /// The size and alignment (bytes) of a pack's state for window `window`,
 /// memory `memory` and `cells` cells (1 to 16; the state has room for 4, 8
 /// or 16 cells, the next at or above `cells`).
@@ -384,6 +416,40 @@ pub unsafe extern "C" fn fracbms_pack_cell(
         Err(c) => c,
     }
 }
+
+/// Writes a pack's state of power now for `request` to `power`: cell
+/// `k`'s (0-based), or for `k` = `FRACBMS_PACK_STRING` the string's: at
+/// each horizon the weakest cell's currents (one current flows through a
+/// series string) and the sum of the cells' pulse voltages; not published
+/// while any cell's is not.
+///
+/// # Safety
+/// As `fracbms_pack_push`; `request` is null or valid for a read, `power`
+/// null or valid for a write.
+#[no_mangle]
+pub unsafe extern "C" fn fracbms_pack_state_of_power(
+    pack: *const FracbmsPack,
+    k: u16,
+    request: *const FracbmsPowerRequest,
+    power: *mut FracbmsPower,
+) -> FracbmsCode {
+    if request.is_null() {
+        return FRACBMS_ERROR_NULL;
+    }
+    // SAFETY: non-null and valid for a read by the caller's contract.
+    let req = unsafe { request.read() };
+    let cell = (k != FRACBMS_PACK_STRING).then_some(usize::from(k));
+    // SAFETY: forwarded from the caller; read only.
+    match unsafe { state::pack_power(pack.cast(), cell, &req) } {
+        // SAFETY: forwarded from the caller.
+        Ok(p) => code(unsafe { put(power, p) }),
+        Err(c) => c,
+    }
+}
+
+/// The cell index `fracbms_pack_state_of_power` takes for the whole
+/// string.
+pub const FRACBMS_PACK_STRING: u16 = u16::MAX;
 
 /// The number of cells of a pack (0 for a null or uninitialized handle).
 ///

@@ -12,7 +12,8 @@ use estimator_core::battery::pack::{PackEstimator, PackSettings};
 use estimator_core::battery::Prior;
 
 use crate::types::{
-    FracbmsCode, FracbmsEstimate, FracbmsParameters, FracbmsSoc, Settings, FRACBMS_OCV_POINTS_MAX,
+    FracbmsCode, FracbmsEstimate, FracbmsParameters, FracbmsPower, FracbmsPowerRequest, FracbmsSoc,
+    Settings, FRACBMS_OCV_POINTS_MAX,
 };
 
 /// Written at the start of a cell's memory by `init`.
@@ -440,4 +441,71 @@ pub(crate) unsafe fn pack_cells(state: *const u8) -> Result<usize, FracbmsCode> 
     // SAFETY: the magic says `init` wrote a `PackSlot` of these sizes.
     unsafe { by_pack!(h.window, h.capacity, run(state)) }
         .ok_or(FracbmsCode::FRACBMS_ERROR_NOT_INITIALIZED)
+}
+
+/// The state of power of a cell made by `init` for `req` (the core's
+/// [`CellEstimator::state_of_power`]).
+///
+/// # Safety
+/// As [`cell_op`] (read only).
+pub(crate) unsafe fn cell_power(
+    state: *const u8,
+    req: &FracbmsPowerRequest,
+) -> Result<FracbmsPower, FracbmsCode> {
+    unsafe fn run<const N: usize, const MEM: usize>(
+        state: *const u8,
+        req: &FracbmsPowerRequest,
+    ) -> Result<FracbmsPower, FracbmsCode> {
+        // SAFETY: the header named this layout.
+        let slot = unsafe { &*state.cast::<CellSlot<N, MEM>>() };
+        let s = &slot.settings;
+        let power = req
+            .settings(s.battery.h)
+            .ok_or(FracbmsCode::FRACBMS_ERROR_SETTINGS)?;
+        Ok(req.answer(slot.cell.state_of_power(s, &power)))
+    }
+    // SAFETY: forwarded from the caller.
+    let h = unsafe { header(state, CELL_MAGIC) }?;
+    // SAFETY: the magic says `init` wrote a `CellSlot` of this window.
+    unsafe { by_window!(h.window, run(state, req)) }
+        .ok_or(FracbmsCode::FRACBMS_ERROR_NOT_INITIALIZED)?
+}
+
+/// The state of power of a pack made by `init` for `req`: cell `k`'s
+/// (0-based), or the string's (the weakest cell's) for `None`.
+///
+/// # Safety
+/// As [`pack_op`] (read only).
+pub(crate) unsafe fn pack_power(
+    state: *const u8,
+    k: Option<usize>,
+    req: &FracbmsPowerRequest,
+) -> Result<FracbmsPower, FracbmsCode> {
+    unsafe fn run<const N: usize, const MEM: usize, const CELLS: usize>(
+        state: *const u8,
+        k: Option<usize>,
+        req: &FracbmsPowerRequest,
+    ) -> Result<FracbmsPower, FracbmsCode> {
+        // SAFETY: the header named this layout.
+        let slot = unsafe { &*state.cast::<PackSlot<N, MEM, CELLS>>() };
+        let s = &slot.settings.cell;
+        let power = req
+            .settings(s.battery.h)
+            .ok_or(FracbmsCode::FRACBMS_ERROR_SETTINGS)?;
+        let report = match k {
+            Some(k) => {
+                slot.pack
+                    .cell(k)
+                    .ok_or(FracbmsCode::FRACBMS_ERROR_CELL_COUNT)?;
+                slot.pack.state_of_power(k, s, &power)
+            }
+            None => slot.pack.pack_state_of_power(s, &power),
+        };
+        Ok(req.answer(report))
+    }
+    // SAFETY: forwarded from the caller.
+    let h = unsafe { header(state, PACK_MAGIC) }?;
+    // SAFETY: the magic says `init` wrote a `PackSlot` of these sizes.
+    unsafe { by_pack!(h.window, h.capacity, run(state, k, req)) }
+        .ok_or(FracbmsCode::FRACBMS_ERROR_NOT_INITIALIZED)?
 }

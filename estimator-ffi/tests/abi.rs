@@ -7,6 +7,7 @@ use std::mem::MaybeUninit;
 
 use estimator_core::battery::online::{CellEstimator, OnlineSettings};
 use estimator_core::battery::pack::{PackEstimator, PackSettings};
+use estimator_core::battery::power::{PowerLimits, PowerReport, PowerSettings};
 use estimator_core::battery::{CellParameters, Start};
 use fracbms::FracbmsCode::*;
 use fracbms::*;
@@ -40,6 +41,53 @@ fn memory(size: usize) -> Vec<u64> {
     vec![0; size.div_ceil(8)]
 }
 
+/// A state-of-power request: limits 3.0–4.2 V, 50 A, horizons 2, 10 and
+/// 30 s, a 2 A discharge pulse.
+fn power_request() -> FracbmsPowerRequest {
+    let mut horizons_s = [0.0; FRACBMS_HORIZONS_MAX];
+    horizons_s[..3].copy_from_slice(&[2.0, 10.0, 30.0]);
+    FracbmsPowerRequest {
+        voltage_min: 3.0,
+        voltage_max: 4.2,
+        current_limit: 50.0,
+        horizons_s,
+        horizon_count: 3,
+        pulse_current: -2.0,
+        carry_s: f32::NAN,
+    }
+}
+
+/// The core's answer to [`power_request`], as the ABI writes it.
+fn core_power(r: Option<PowerReport<f32>>) -> FracbmsPower {
+    let mut out = FracbmsPower::default();
+    if let Some(r) = r {
+        out.published = true;
+        out.horizon_count = r.horizons().len() as u32;
+        for (o, (h, hz)) in out
+            .horizons
+            .iter_mut()
+            .zip(r.horizons().iter().zip([2.0, 10.0, 30.0]))
+        {
+            *o = FracbmsHorizonPower {
+                horizon_s: hz,
+                discharge_a: h.sop.discharge_a,
+                charge_a: h.sop.charge_a,
+                pulse_v: h.pulse_v.unwrap(),
+            };
+        }
+    }
+    out
+}
+
+fn core_power_settings() -> PowerSettings<f32> {
+    let limits = PowerLimits {
+        voltage_min: 3.0,
+        voltage_max: 4.2,
+        current_limit: 50.0,
+    };
+    PowerSettings::new(limits, &[2, 10, 30], Some(-2.0)).unwrap()
+}
+
 fn core_settings() -> OnlineSettings<f32, FRACBMS_OCV_POINTS_MAX> {
     let mut s = OnlineSettings::new(1.0, 64, CellParameters::<f32>::cell_18650());
     s.battery.start = Start::AtRest;
@@ -65,12 +113,24 @@ fn a_cell_through_the_abi_is_the_core_estimator_bit_for_bit() {
     let cs = core_settings();
     let mut reference = Box::new(CellEstimator::<f32, 256, 64>::new(&cs).unwrap());
     let mut e = MaybeUninit::<FracbmsEstimate>::uninit();
-    for (&i, &v) in i.iter().zip(&v) {
+    let mut published_power = 0;
+    for (k, (&i, &v)) in i.iter().zip(&v).enumerate() {
         assert_eq!(
             unsafe { fracbms_cell_push(cell, i, v, e.as_mut_ptr()) },
             FRACBMS_OK
         );
         let r = reference.push(&cs, i, v);
+        // The state of power reaches C bit for bit.
+        if k % 25 == 24 {
+            let mut p = FracbmsPower::default();
+            assert_eq!(
+                unsafe { fracbms_cell_state_of_power(cell, &power_request(), &mut p) },
+                FRACBMS_OK
+            );
+            let want = reference.state_of_power(&cs, &core_power_settings());
+            assert_eq!(p, core_power(want), "sample {k}");
+            published_power += usize::from(p.published);
+        }
         let e = unsafe { e.assume_init() };
         assert_eq!(e.status, r.status.into());
         assert_eq!(e.iterations, r.iterations);
@@ -81,6 +141,7 @@ fn a_cell_through_the_abi_is_the_core_estimator_bit_for_bit() {
             step.unwrap_or(f32::NAN).to_bits()
         );
     }
+    assert!(published_power >= 20, "{published_power} of 40");
     // The pulse record identifies R_i (its statuses reach C).
     assert_ne!(
         e_status(&e, |p| p.r_i_status),
@@ -307,7 +368,55 @@ fn a_pack_through_the_abi_is_the_core_pack_bit_for_bit() {
         same_published(&e.published, &want.published().into());
         assert_eq!(e.rejected, if c == 3 { 10 } else { 0 });
         assert!(!e.flagged, "cells differ by an offset only");
+        // Each cell's state of power is the core pack's, bit for bit.
+        let mut got = FracbmsPower::default();
+        assert_eq!(
+            unsafe { fracbms_pack_state_of_power(pack, c, &power_request(), &mut got) },
+            FRACBMS_OK
+        );
+        let want = reference.state_of_power(usize::from(c), &ps.cell, &core_power_settings());
+        assert!(
+            want.is_some(),
+            "cell {c}: a state of power after the record"
+        );
+        assert_eq!(got, core_power(want), "cell {c}");
     }
+    // The string's: the weakest cell's.
+    let mut got = FracbmsPower::default();
+    assert_eq!(
+        unsafe {
+            fracbms_pack_state_of_power(pack, FRACBMS_PACK_STRING, &power_request(), &mut got)
+        },
+        FRACBMS_OK
+    );
+    let want = reference.pack_state_of_power(&ps.cell, &core_power_settings());
+    assert_eq!(got, core_power(want));
+    let weakest = (0..usize::from(cells))
+        .map(|c| {
+            reference
+                .state_of_power(c, &ps.cell, &core_power_settings())
+                .unwrap()
+                .horizons()[1]
+                .sop
+                .discharge_a
+        })
+        .fold(f32::INFINITY, f32::min);
+    assert_eq!(got.horizons[1].discharge_a, weakest);
+    // A request the core refuses, and a cell out of range, are codes.
+    let mut bad = power_request();
+    bad.voltage_min = 4.5;
+    assert_eq!(
+        unsafe { fracbms_pack_state_of_power(pack, 0, &bad, &mut got) },
+        FRACBMS_ERROR_SETTINGS
+    );
+    assert_eq!(
+        unsafe { fracbms_pack_state_of_power(pack, cells, &power_request(), &mut got) },
+        FRACBMS_ERROR_CELL_COUNT
+    );
+    assert_eq!(
+        unsafe { fracbms_pack_state_of_power(pack, 0, std::ptr::null(), &mut got) },
+        FRACBMS_ERROR_NULL
+    );
     let mut e = MaybeUninit::uninit();
     assert_eq!(
         unsafe { fracbms_pack_cell(pack, cells, e.as_mut_ptr()) },
@@ -518,6 +627,7 @@ fn a_map_through_the_abi_is_the_cores() {
     let mut follower = MapFollower::new();
     let (i, v) = record();
     let (mut taken_count, mut e) = (0, MaybeUninit::<FracbmsEstimate>::uninit());
+    let mut published_power = 0;
     let temperature = |k: usize| if k < 500 { 25.0 } else { f32::NAN };
     for (k, (&i, &v)) in i.iter().zip(&v).enumerate() {
         let mut taken = false;
@@ -549,7 +659,21 @@ fn a_map_through_the_abi_is_the_cores() {
             want.state_of_charge.to_bits()
         );
         assert_eq!(got.soc, want);
+        // So does the state of power, with the OCV curve.
+        if k % 50 == 49 {
+            let mut p = FracbmsPower::default();
+            assert_eq!(
+                unsafe { fracbms_cell_state_of_power(cell, &power_request(), &mut p) },
+                FRACBMS_OK
+            );
+            let want = reference.state_of_power(&cs, &core_power_settings());
+            assert_eq!(p, core_power(want), "sample {k}");
+            published_power += usize::from(p.published);
+        }
     }
+    // This record does not identify R_ct under the map's prior: nothing
+    // published, in C as in the core.
+    assert_eq!(published_power, 0);
     let e = unsafe { e.assume_init() };
     assert_eq!(e.parameters, reference.estimate().unwrap().into());
     assert_eq!(e.state_of_charge, reference.state_of_charge().unwrap());

@@ -168,6 +168,30 @@ static int replay(const char *path)
         fprintf(stderr, "host_test: no estimate after the record\n");
         return 1;
     }
+    /* The state of power now: 10 and 30 s, 3.0-4.2 V, 20 A, a 2 A discharge. */
+    FracbmsPowerRequest req;
+    memset(&req, 0, sizeof req);
+    req.voltage_min = 3.0f;
+    req.voltage_max = 4.2f;
+    req.current_limit = 20.0f;
+    req.horizons_s[0] = 10.0f;
+    req.horizons_s[1] = 30.0f;
+    req.horizon_count = 2;
+    req.pulse_current = -2.0f;
+    req.carry_s = NAN;
+    FracbmsPower pw;
+    CHECK_CODE(fracbms_cell_state_of_power(cell, &req, &pw), FRACBMS_OK);
+    if (pw.published) {
+        CHECK(pw.horizon_count == 2);
+        CHECK(pw.horizons[1].discharge_a > 0.0f && pw.horizons[1].discharge_a <= 20.0f);
+        CHECK(pw.horizons[1].discharge_a <= pw.horizons[0].discharge_a);
+        CHECK(pw.horizons[0].pulse_v < 4.2f);
+        fprintf(stderr, "host_test: state of power 10 s: %g A discharge, %g A charge\n",
+                (double)pw.horizons[0].discharge_a, (double)pw.horizons[0].charge_a);
+    }
+    req.voltage_min = 4.5f; /* above the maximum: refused */
+    CHECK_CODE(fracbms_cell_state_of_power(cell, &req, &pw), FRACBMS_ERROR_SETTINGS);
+    CHECK_CODE(fracbms_cell_state_of_power(cell, NULL, &pw), FRACBMS_ERROR_NULL);
     const FracbmsParameters *p = &e.parameters;
     printf("RESULT r_i=%.7g r_ct=%.7g q=%.7g alpha=%.7g u_oc=%.7g samples=%u rejected=%u\n",
            (double)p->r_i, (double)p->r_ct, (double)p->q, (double)p->alpha, (double)p->u_oc,

@@ -16,7 +16,7 @@
  * never allocates. fracbms_cell_size() says how much a window/memory needs
  * (about 30 KB for window 256, memory 64); check it at start-up. */
 #ifndef STATE_BYTES
-#define STATE_BYTES (32u * 1024u)
+#define STATE_BYTES (34u * 1024u)
 #endif
 static uint8_t state[STATE_BYTES] __attribute__((aligned(8)));
 
