@@ -3,6 +3,7 @@
 
 use crate::board::{self, BoardApi};
 use estimator_core::battery::online::{CellState, CurrentHistory, WorkingArea};
+use estimator_core::battery::power::PolarizationTail;
 use firmware::config;
 use firmware::sampler::PackSampler;
 use firmware::ConfiguredTask;
@@ -176,7 +177,9 @@ fn main() -> ! {
     );
     defmt::println!(
         "MEM bytes_per_cell={=usize} shared_bytes={=usize}",
-        core::mem::size_of::<CellState<f32, { config::WINDOW }>>(),
+        // A cell's state and the polarization tail the pack carries for it.
+        core::mem::size_of::<CellState<f32, { config::WINDOW }>>()
+            + core::mem::size_of::<PolarizationTail<f32, { config::MEMORY }>>(),
         core::mem::size_of::<WorkingArea<f32, { config::WINDOW }, { config::MEMORY }>>()
             + core::mem::size_of::<CurrentHistory<f32, { config::WINDOW }>>()
     );
@@ -214,6 +217,7 @@ fn one_cell_result(
                 published_line(1, c);
                 soc_line(s, 1, c);
             }
+            power_line(s, task, Some(0));
             if e.is_butler_volmer() {
                 defmt::println!("BV bv_a_v={=f32} bv_i0_a={=f32}", e.bv_a, e.bv_i0);
             }
@@ -286,6 +290,43 @@ fn soc_line<const N: usize>(s: &firmware::task::TaskSettings, cell: usize, c: &C
     );
 }
 
+/// Cell `k`'s (0-based) state of power, or the string's (`None`), as
+/// `host-sim online battery`'s `sop_discharge_a_{H}s`, `sop_charge_a_{H}s`
+/// and `pulse_v_{H}s` at the horizons of
+/// [`firmware::task::POWER_HORIZONS_S`] (NaN, `published=false` where the
+/// model is not published); nothing without an OCV table.
+fn power_line(s: &firmware::task::TaskSettings, task: &ConfiguredTask, k: Option<usize>) {
+    if s.power.is_none() {
+        return;
+    }
+    let r = match k {
+        Some(k) => task.cell_power(s, k),
+        None => task.power(),
+    };
+    let h = |j: usize| {
+        r.and_then(|r| r.horizons().get(j).copied())
+            .map_or((f32::NAN, f32::NAN, f32::NAN), |h| {
+                (
+                    h.sop.discharge_a,
+                    h.sop.charge_a,
+                    h.pulse_v.unwrap_or(f32::NAN),
+                )
+            })
+    };
+    let ((d10, c10, v10), (d30, c30, v30)) = (h(0), h(1));
+    defmt::println!(
+        "SOP cell={=usize} published={=bool} sop_discharge_a_10s={=f32} sop_charge_a_10s={=f32} pulse_v_10s={=f32} sop_discharge_a_30s={=f32} sop_charge_a_30s={=f32} pulse_v_30s={=f32}",
+        k.map_or(0, |k| k + 1),
+        r.is_some(),
+        d10,
+        c10,
+        v10,
+        d30,
+        c30,
+        v30
+    );
+}
+
 /// The final report of a pack image: one `CELL` line per cell (its
 /// estimate, rejected samples, flag) and a `PACK` line; true when every
 /// cell has a physical estimate (or this is a cost measurement).
@@ -304,6 +345,7 @@ fn pack_result(
             published_line(k + 1, c);
             soc_line(s, k + 1, c);
         }
+        power_line(s, task, Some(k));
         match task.estimate_of(k) {
             Some(e) => {
                 defmt::println!(
@@ -344,5 +386,7 @@ fn pack_result(
             task.rejected()
         );
     }
+    // The string's: the weakest cell's (cell=0).
+    power_line(s, task, None);
     ok
 }

@@ -14,7 +14,9 @@
 //!    its one-step prediction (no sample is lost);
 //! 3. lets the core run the period's scheduled cell updates
 //!    ([`PackSettings::updates_per_period`], each with
-//!    [`OnlineSettings::iterations_per_sample`] iterations).
+//!    [`OnlineSettings::iterations_per_sample`] iterations);
+//! 4. with an OCV table, asks the string's state of power
+//!    ([`EstimatorTask::power`]: the weakest cell's).
 //!
 //! One cell is the one-cell pack (the core's `CellEstimator` is the same).
 //!
@@ -28,6 +30,7 @@ use estimator_core::battery::map::{MapFollower, ParameterMap};
 use estimator_core::battery::ocv::{OcvModel, OcvTable};
 use estimator_core::battery::online::{CellState, Method, OnlineSettings, SampleCounts};
 use estimator_core::battery::pack::{PackEstimator, PackHealth, PackReport, PackSettings};
+use estimator_core::battery::power::{PowerLimits, PowerReport, PowerSettings};
 use estimator_core::battery::{CellParameters, Prior, Start};
 use estimator_core::Error;
 
@@ -56,7 +59,17 @@ pub struct TaskSettings {
     /// prior's centre ([`Prior::new`]'s spreads), taken again as the core's
     /// [`MapFollower`] says. It takes the place of `pack.cell.battery.prior`.
     pub map: Option<ParameterMap<'static, f32>>,
+    /// What the state of power is asked, every period
+    /// ([`EstimatorTask::power`]): with the build-time OCV table, the
+    /// defaults of `host-sim online battery` ([`POWER_HORIZONS_S`]; the
+    /// table's lowest and highest voltage; the plausible current; a 1C
+    /// discharge pulse); without one, none.
+    pub power: Option<PowerSettings<f32>>,
 }
+
+/// The state of power's horizons (s), as `host-sim online battery`'s
+/// default `--horizons 10,30`.
+pub const POWER_HORIZONS_S: [f32; 2] = [10.0, 30.0];
 
 impl TaskSettings {
     /// Every cell's core settings.
@@ -95,13 +108,26 @@ impl TaskSettings {
                 bv_i0,
             }));
         }
+        let curve = configured_ocv();
+        let power = curve.as_ref().and_then(|m| {
+            let v = m.table.ocv_points();
+            let limits = PowerLimits {
+                voltage_min: *v.first()?,
+                voltage_max: *v.last()?,
+                current_limit: online.current_limit,
+            };
+            // Rounded to the nearest sample (no_std: no `f32::round`).
+            let steps = POWER_HORIZONS_S.map(|hz| ((hz / h + 0.5) as u32).max(1));
+            PowerSettings::new(limits, &steps, Some(-m.capacity_ah))
+        });
         Self {
-            pack: PackSettings::new(online.with_curve(configured_ocv())),
+            pack: PackSettings::new(online.with_curve(curve)),
             stuck_after: 4,
             stuck_current_span: 0.5,
             temperature_range: (-40.0, 85.0),
             // build.rs checked the same f32 levels with the same code.
             map: ParameterMap::new(&crate::config::MAP).ok(),
+            power,
         }
     }
 }
@@ -173,6 +199,8 @@ pub struct EstimatorTask<const N: usize, const MEM: usize, const C: usize> {
     /// The map's prior now, and where it was taken.
     map_prior: Option<Prior<f32>>,
     follower: MapFollower<f32>,
+    /// The string's state of power after the last period.
+    power: Option<PowerReport<f32>>,
 }
 
 impl<const N: usize, const MEM: usize, const C: usize> EstimatorTask<N, MEM, C> {
@@ -186,6 +214,7 @@ impl<const N: usize, const MEM: usize, const C: usize> EstimatorTask<N, MEM, C> 
             volts: [f32::NAN; C],
             map_prior: None,
             follower: MapFollower::new(),
+            power: None,
         })
     }
 
@@ -227,6 +256,12 @@ impl<const N: usize, const MEM: usize, const C: usize> EstimatorTask<N, MEM, C> 
             None => self.pack.push(&s.pack, current, &self.volts),
         }
         .unwrap_or_default();
+        // The state of power every period (the weakest cell's): part of
+        // the period's cost.
+        self.power = s
+            .power
+            .as_ref()
+            .and_then(|p| self.pack.pack_state_of_power(&s.pack.cell, p));
         Some(TaskReport { core, fault })
     }
 
@@ -345,6 +380,19 @@ impl<const N: usize, const MEM: usize, const C: usize> EstimatorTask<N, MEM, C> 
     /// True when cell `k` stands out from the pack's median.
     pub fn is_flagged(&self, s: &TaskSettings, health: &PackHealth<f32>, k: usize) -> bool {
         self.pack.is_flagged(&s.pack, health, k)
+    }
+
+    /// The string's state of power after the last period (the weakest
+    /// cell's at each horizon; `None` without [`TaskSettings::power`] or
+    /// while a cell's model is not published).
+    pub fn power(&self) -> Option<PowerReport<f32>> {
+        self.power
+    }
+
+    /// Cell `k`'s state of power now (0-based), as [`TaskSettings::power`]
+    /// asks.
+    pub fn cell_power(&self, s: &TaskSettings, k: usize) -> Option<PowerReport<f32>> {
+        self.pack.state_of_power(k, &s.pack.cell, s.power.as_ref()?)
     }
 
     /// The core pack estimator.

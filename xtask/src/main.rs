@@ -14,12 +14,17 @@
 //!   SOC observer's, as the track's `soc`), `soc_coulomb`,
 //!   `current_bias_a`, `capacity_ah`, `capacity_sigma_ah`,
 //!   `capacity_identified`, `soc_sigma`, `soc_ocv_weight`,
-//!   `ocv_offset_v`. A pack record
-//!   (`time_s,current_a,cell_1_v,…,cell_N_v`) builds the pack firmware for
-//!   its N cells and prints `{"cells": [{"cell", "r_i", "r_ct", "q",
-//!   "alpha", "u_oc", "rejected", "flagged", and the same published and
-//!   state-of-charge keys}, …], "samples", "rejected"}`. The exit status is non-zero when the
-//!   firmware failed.
+//!   `ocv_offset_v`, and the state of power at the track's default
+//!   horizons and limits: `sop_published`, `sop_discharge_a_10s`,
+//!   `sop_charge_a_10s`, `pulse_v_10s`, `sop_discharge_a_30s`,
+//!   `sop_charge_a_30s`, `pulse_v_30s` (null where not published). A pack
+//!   record (`time_s,current_a,cell_1_v,…,cell_N_v`) builds the pack
+//!   firmware for its N cells and prints `{"cells": [{"cell", "r_i",
+//!   "r_ct", "q", "alpha", "u_oc", "rejected", "flagged", and the same
+//!   published, state-of-charge and state-of-power keys}, …], "samples",
+//!   "rejected", "string_sop": {the state-of-power keys of the string: the
+//!   weakest cell's currents, the sum of the cells' pulse voltages}}`. The
+//!   exit status is non-zero when the firmware failed.
 //! * `cargo xtask run-elf ELF` runs a built image the same way (the
 //!   target's cargo runner).
 //! * `cargo xtask bench-target [--window L] [--memory M] [--iterations K]
@@ -54,6 +59,9 @@ use std::process::{Command, Stdio};
 mod c_demo;
 mod header;
 mod panic_sites;
+mod summary;
+
+use summary::{insert_published, insert_soc, insert_sop, int, number, pack_json, Summary};
 
 #[derive(Parser)]
 #[command(about = "fracbms helper commands", version)]
@@ -385,9 +393,6 @@ fn build(a: &QemuArgs) -> Result<PathBuf> {
     Ok(target_dir().join("thumbv7em-none-eabihf/release/firmware"))
 }
 
-/// What a firmware run printed: the `KEY a=b …` summary lines by key.
-type Summary = BTreeMap<String, BTreeMap<String, String>>;
-
 /// `timeout T qemu-system-arm` on the mps2-an386 board (Cortex-M4F) with
 /// semihosting and no serial or monitor: add `-kernel ELF` (the Rust
 /// firmware and the C example run on the same command line).
@@ -461,6 +466,7 @@ fn run_elf(elf: &Path, timeout: u32, icount: bool) -> Result<Summary> {
                 ("CELL", Some(n)) => format!("CELL{n}"),
                 ("PUBLISHED", Some(n)) => format!("PUBLISHED{n}"),
                 ("SOC", Some(n)) => format!("SOC{n}"),
+                ("SOP", Some(n)) => format!("SOP{n}"),
                 _ => key.to_owned(),
             };
             summary.insert(key, kv);
@@ -482,110 +488,6 @@ fn run_elf(elf: &Path, timeout: u32, icount: bool) -> Result<Summary> {
     }
 }
 
-fn number(s: &Summary, line: &str, key: &str) -> Result<serde_json::Value> {
-    let v = s
-        .get(line)
-        .and_then(|m| m.get(key))
-        .with_context(|| format!("the firmware printed no {line} {key}="))?;
-    if let Ok(n) = v.parse::<u64>() {
-        return Ok(n.into());
-    }
-    let x: f64 = v
-        .parse()
-        .with_context(|| format!("{line} {key}={v}: not a number"))?;
-    Ok(serde_json::Number::from_f64(x)
-        .with_context(|| format!("{line} {key}={v}: not finite"))?
-        .into())
-}
-
-/// What cell `k` (1-based) publishes, into `out`: `published_r_i` …
-/// `published_alpha` (null when nothing is published), `r_i_status` …
-/// `alpha_status` and `step_resistance_ohm` (null before a step).
-fn insert_published(s: &Summary, k: u64, out: &mut serde_json::Map<String, serde_json::Value>) {
-    let Some(m) = s.get(&format!("PUBLISHED{k}")) else {
-        return;
-    };
-    let num = |key: &str| {
-        m.get(key)
-            .and_then(|v| v.parse::<f64>().ok())
-            .and_then(serde_json::Number::from_f64)
-            .map_or(serde_json::Value::Null, serde_json::Value::Number)
-    };
-    for key in ["r_i", "r_ct", "q", "alpha"] {
-        out.insert(format!("published_{key}"), num(key));
-        let status = m.get(&format!("{key}_status")).cloned().unwrap_or_default();
-        out.insert(format!("{key}_status"), status.into());
-    }
-    out.insert("step_resistance_ohm".into(), num("step_resistance_ohm"));
-}
-
-/// What cell `k` says of its state of charge (its `SOC` line, with an OCV
-/// table): `soc` (the observer's, published), `soc_coulomb`,
-/// `current_bias_a`, `capacity_ah`, `capacity_sigma_ah`,
-/// `capacity_identified` (a boolean), `soc_sigma`, `soc_ocv_weight`,
-/// `ocv_offset_v` (null where not a number; nothing without the line).
-fn insert_soc(s: &Summary, k: u64, out: &mut serde_json::Map<String, serde_json::Value>) {
-    let Some(m) = s.get(&format!("SOC{k}")) else {
-        return;
-    };
-    for key in [
-        "soc",
-        "soc_coulomb",
-        "current_bias_a",
-        "capacity_ah",
-        "capacity_sigma_ah",
-        "soc_sigma",
-        "soc_ocv_weight",
-        "ocv_offset_v",
-    ] {
-        let v = m
-            .get(key)
-            .and_then(|v| v.parse::<f64>().ok())
-            .and_then(serde_json::Number::from_f64)
-            .map_or(serde_json::Value::Null, serde_json::Value::Number);
-        out.insert(key.into(), v);
-    }
-    let identified = m.get("capacity_identified").map(String::as_str) == Some("true");
-    out.insert("capacity_identified".into(), identified.into());
-}
-
-/// The JSON of a pack image's final report: `{"cells": [{"cell", "r_i",
-/// "r_ct", "q", "alpha", "u_oc", "rejected", "flagged", and what the cell
-/// publishes ([`insert_published`])}, …], "samples", "rejected"}` (a cell
-/// without an estimate has null parameters; `r_i` … are the window's fit).
-fn pack_json(s: &Summary) -> Result<serde_json::Value> {
-    let cells = int(s, "PACK", "cells")?;
-    let mut list = Vec::new();
-    for k in 1..=cells {
-        let line = format!("CELL{k}");
-        let mut c = serde_json::Map::new();
-        c.insert("cell".into(), k.into());
-        let has = s.get(&line).is_some_and(|m| m.contains_key("r_i"));
-        for key in ["r_i", "r_ct", "q", "alpha", "u_oc"] {
-            let v = if has {
-                number(s, &line, key)?
-            } else {
-                serde_json::Value::Null
-            };
-            c.insert(key.into(), v);
-        }
-        c.insert("rejected".into(), number(s, &line, "rejected")?);
-        let flagged = s.get(&line).and_then(|m| m.get("flagged"));
-        c.insert(
-            "flagged".into(),
-            (flagged.map(String::as_str) == Some("true")).into(),
-        );
-        insert_published(s, k, &mut c);
-        insert_soc(s, k, &mut c);
-        list.push(serde_json::Value::Object(c));
-    }
-    Ok(serde_json::json!({
-        "cells": list,
-        "samples": number(s, "PACK", "samples")?,
-        "rejected": number(s, "PACK", "rejected")?,
-    }))
-}
-
 fn qemu(a: &QemuArgs) -> Result<()> {
     let elf = build(a)?;
     let s = run_elf(&elf, a.timeout, a.icount)?;
@@ -599,6 +501,7 @@ fn qemu(a: &QemuArgs) -> Result<()> {
     }
     if a.ocv.is_some() {
         insert_soc(&s, 1, &mut out);
+        insert_sop(&s, 1, &mut out);
     }
     if a.map.is_some() {
         for (key, name) in [
@@ -621,12 +524,6 @@ fn qemu(a: &QemuArgs) -> Result<()> {
     }
     println!("{}", serde_json::Value::Object(out));
     Ok(())
-}
-
-fn int(s: &Summary, line: &str, key: &str) -> Result<u64> {
-    number(s, line, key)?
-        .as_u64()
-        .with_context(|| format!("{line} {key}: not an integer"))
 }
 
 fn bench_target(b: &BenchArgs) -> Result<()> {
