@@ -138,6 +138,7 @@ def main():
         "window 1024 (2048 s: the previous pulse in it)": ["--window", "1024"],
     }
     rows = {name: [] for name in variants}
+    r_ct = {name: [] for name in variants}
     for name, extra in variants.items():
         for c in currents:
             track = f"{a.out}/pulse{c}-{'-'.join(extra)}.csv"
@@ -170,8 +171,13 @@ def main():
                     rc = predict_1rc(model, soc[-1], ocv, cur, h) if model else np.nan
                     rows[name].append((h, c, start, float(p) if p else np.nan, measured,
                                        before - measured, rc))
+                if tr[k]["r_ct"]:
+                    r_ct[name].append(float(tr[k]["r_ct"]))
     for name in variants:
         print(f"== ours: {name}")
+        if r_ct[name]:
+            print(f"R_ct published at the samples before the pulses: "
+                  f"{1e3 * min(r_ct[name]):.1f} to {1e3 * max(r_ct[name]):.1f} mOhm")
         for h in HORIZONS:
             r = np.array([x[3:] for x in rows[name] if x[0] == h])
             if not len(r):

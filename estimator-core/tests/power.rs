@@ -29,7 +29,6 @@ fn nmc() -> OcvModel<f64, 101> {
 /// on the samples the estimator sees. Returns current, voltage (noisy
 /// before `at`, exact after).
 fn record(at: usize, pulse: f64, k: usize) -> (Vec<f64>, Vec<f64>) {
-    let truth = CellParameters::<f64>::cell_18650();
     let len = at + k;
     let i: Vec<f64> = (0..len)
         .map(|l| match l {
@@ -38,21 +37,35 @@ fn record(at: usize, pulse: f64, k: usize) -> (Vec<f64>, Vec<f64>) {
             _ => pulse,
         })
         .collect();
+    let v = noisy(truth_voltage(&CellParameters::cell_18650(), &i), at);
+    (i, v)
+}
+
+/// Cell `p`'s terminal voltage under current `i` through the NMC curve
+/// from SOC 0.9 (full-memory simulation).
+fn truth_voltage(p: &CellParameters<f64>, i: &[f64]) -> Vec<f64> {
+    let len = i.len();
     let mut soc = vec![0.0; len];
     let mut z = 0.9;
     for l in 0..len {
         z += i[l] / (CAPACITY_AH * 3600.0);
         soc[l] = z;
     }
-    let mut w = Box::new(GlWeights::<f64, 4096>::new(truth.alpha, 1.0, len).unwrap());
+    let mut w = Box::new(GlWeights::<f64, 4096>::new(p.alpha, 1.0, len).unwrap());
     let (mut up, mut v) = (vec![0.0; len], vec![0.0; len]);
-    simulate(&truth, &mut w, &i, |l| ocv_nmc(soc[l]), &mut up, &mut v).unwrap();
+    simulate(p, &mut w, i, |l| ocv_nmc(soc[l]), &mut up, &mut v).unwrap();
+    v
+}
+
+/// `v` with σ = 1 mV on its first `seen` samples (the ones the estimator
+/// sees).
+fn noisy(mut v: Vec<f64>, seen: usize) -> Vec<f64> {
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
     let nd = Normal::new(0.0, 0.001).unwrap();
-    for x in &mut v[..at] {
+    for x in &mut v[..seen] {
         *x += nd.sample(&mut rng);
     }
-    (i, v)
+    v
 }
 
 /// Own model, no prior, window 256, memory 64: at several instants of the
@@ -139,27 +152,11 @@ fn the_state_of_power_reaches_the_limits() {
 /// The record of [`record`] with a rest of `rest` samples before the
 /// pulse: the polarization relaxes through a rest longer than the window.
 fn record_after_rest(at: usize, rest: usize, pulse: f64, k: usize) -> (Vec<f64>, Vec<f64>) {
-    let (i0, _) = record(at, 0.0, rest + k);
-    let mut i = i0;
+    let (mut i, _) = record(at, 0.0, rest + k);
     for x in &mut i[at + rest..] {
         *x = pulse;
     }
-    let truth = CellParameters::<f64>::cell_18650();
-    let len = i.len();
-    let mut soc = vec![0.0; len];
-    let mut z = 0.9;
-    for l in 0..len {
-        z += i[l] / (CAPACITY_AH * 3600.0);
-        soc[l] = z;
-    }
-    let mut w = Box::new(GlWeights::<f64, 4096>::new(truth.alpha, 1.0, len).unwrap());
-    let (mut up, mut v) = (vec![0.0; len], vec![0.0; len]);
-    simulate(&truth, &mut w, &i, |l| ocv_nmc(soc[l]), &mut up, &mut v).unwrap();
-    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
-    let nd = Normal::new(0.0, 0.001).unwrap();
-    for x in &mut v[..at + rest] {
-        *x += nd.sample(&mut rng);
-    }
+    let v = noisy(truth_voltage(&CellParameters::cell_18650(), &i), at + rest);
     (i, v)
 }
 
@@ -229,20 +226,7 @@ fn the_string_has_its_weakest_cells_state_of_power() {
     ];
     let at = 1100 + 300;
     let (i, _) = record_after_rest(1100, 300, 0.0, 1);
-    let mut volts = Vec::new();
-    for p in &cells {
-        let len = i.len();
-        let mut soc = vec![0.0; len];
-        let mut z = 0.9;
-        for l in 0..len {
-            z += i[l] / (CAPACITY_AH * 3600.0);
-            soc[l] = z;
-        }
-        let mut w = Box::new(GlWeights::<f64, 4096>::new(p.alpha, 1.0, len).unwrap());
-        let (mut up, mut v) = (vec![0.0; len], vec![0.0; len]);
-        simulate(p, &mut w, &i, |l| ocv_nmc(soc[l]), &mut up, &mut v).unwrap();
-        volts.push(v);
-    }
+    let volts: Vec<Vec<f64>> = cells.iter().map(|p| truth_voltage(p, &i)).collect();
     let s = OnlineSettings::new(1.0, 64, base).with_ocv(nmc());
     let ps = PackSettings::new(s);
     let mut pack = Box::new(PackEstimator::<f64, 256, 64, 2>::new(&ps, 2).unwrap());

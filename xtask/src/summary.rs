@@ -24,6 +24,15 @@ pub(crate) fn number(s: &Summary, line: &str, key: &str) -> Result<serde_json::V
         .into())
 }
 
+/// A line's value of `key` as a JSON number; null where it is missing or
+/// not a finite number (a NaN the firmware printed for "none").
+fn number_or_null(m: &BTreeMap<String, String>, key: &str) -> serde_json::Value {
+    m.get(key)
+        .and_then(|v| v.parse::<f64>().ok())
+        .and_then(serde_json::Number::from_f64)
+        .map_or(serde_json::Value::Null, serde_json::Value::Number)
+}
+
 /// What cell `k` (1-based) publishes, into `out`: `published_r_i` …
 /// `published_alpha` (null when nothing is published), `r_i_status` …
 /// `alpha_status` and `step_resistance_ohm` (null before a step).
@@ -35,12 +44,7 @@ pub(crate) fn insert_published(
     let Some(m) = s.get(&format!("PUBLISHED{k}")) else {
         return;
     };
-    let num = |key: &str| {
-        m.get(key)
-            .and_then(|v| v.parse::<f64>().ok())
-            .and_then(serde_json::Number::from_f64)
-            .map_or(serde_json::Value::Null, serde_json::Value::Number)
-    };
+    let num = |key: &str| number_or_null(m, key);
     for key in ["r_i", "r_ct", "q", "alpha"] {
         out.insert(format!("published_{key}"), num(key));
         let status = m.get(&format!("{key}_status")).cloned().unwrap_or_default();
@@ -72,12 +76,7 @@ pub(crate) fn insert_soc(
         "soc_ocv_weight",
         "ocv_offset_v",
     ] {
-        let v = m
-            .get(key)
-            .and_then(|v| v.parse::<f64>().ok())
-            .and_then(serde_json::Number::from_f64)
-            .map_or(serde_json::Value::Null, serde_json::Value::Number);
-        out.insert(key.into(), v);
+        out.insert(key.into(), number_or_null(m, key));
     }
     let identified = m.get("capacity_identified").map(String::as_str) == Some("true");
     out.insert("capacity_identified".into(), identified.into());
@@ -110,12 +109,7 @@ pub(crate) fn insert_sop(
         (m.get("published").map(String::as_str) == Some("true")).into(),
     );
     for key in SOP_KEYS {
-        let v = m
-            .get(key)
-            .and_then(|v| v.parse::<f64>().ok())
-            .and_then(serde_json::Number::from_f64)
-            .map_or(serde_json::Value::Null, serde_json::Value::Number);
-        out.insert(key.into(), v);
+        out.insert(key.into(), number_or_null(m, key));
     }
 }
 

@@ -379,7 +379,11 @@ impl<T: Real, const N: usize, const MEM: usize, const CELLS: usize>
                 let since = c.window_version().wrapping_sub(stamp) as usize;
                 let window = CellWindow::new(&self.history, c);
                 let pred = (since <= window.len())
-                    .then(|| PulsePredictor::<T, MEM, 0>::new(p, w, up, None))
+                    // Only the last `M` values count (and are checked).
+                    .then(|| {
+                        let recent = &up[up.len().saturating_sub(MEM)..];
+                        PulsePredictor::<T, MEM, 0>::new(p, w, recent, None)
+                    })
                     .flatten();
                 match pred {
                     Some(mut pred) => {

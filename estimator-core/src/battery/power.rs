@@ -731,6 +731,21 @@ mod tests {
         assert_eq!(pred.state_of_power(&low, 10).discharge_a, 0.0);
     }
 
+    /// The largest `x` in `[0, bound]` that `passes` (monotone), by 200
+    /// bisections: the reference of the roots.
+    fn bisect(bound: f64, passes: impl Fn(f64) -> bool) -> f64 {
+        let (mut lo, mut hi) = (0.0, bound);
+        for _ in 0..200 {
+            let mid = 0.5 * (lo + hi);
+            if passes(mid) {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        lo
+    }
+
     /// One pass answers every horizon as each alone does (to the roots'
     /// precision, `1e−7` A here), and each answer is the largest safe
     /// current, within a horizon of the memory and beyond it: a bisection of 200 steps (a reference
@@ -777,20 +792,20 @@ mod tests {
                 // Reference: bisection on "every sample within the limit".
                 let passes =
                     |x: f64| (1..=k).all(|j| pred.pulse_voltage(-x, j) >= limits.voltage_min);
-                let (mut lo, mut hi) = (0.0, 100.0);
-                for _ in 0..200 {
-                    let mid = 0.5 * (lo + hi);
-                    if passes(mid) {
-                        lo = mid;
-                    } else {
-                        hi = mid;
-                    }
-                }
+                let lo = bisect(100.0, &passes);
                 assert!(
                     (h.sop.discharge_a - lo).abs() <= 1e-7,
                     "bv {bv} {k}: {h:?} vs {lo}"
                 );
                 assert!(passes(h.sop.discharge_a), "bv {bv} {k}");
+                let passes =
+                    |x: f64| (1..=k).all(|j| pred.pulse_voltage(x, j) <= limits.voltage_max);
+                let lo = bisect(100.0, &passes);
+                assert!(
+                    (h.sop.charge_a - lo).abs() <= 1e-7,
+                    "bv {bv} {k}: {h:?} vs {lo}"
+                );
+                assert!(passes(h.sop.charge_a), "bv {bv} {k}");
             }
         }
     }

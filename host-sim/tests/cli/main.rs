@@ -32,6 +32,13 @@ fn s(p: &Path) -> &str {
     p.to_str().unwrap()
 }
 
+/// A file under the repository's `data/`.
+fn data(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../data")
+        .join(name)
+}
+
 fn read_json(p: &Path) -> serde_json::Value {
     serde_json::from_str(&std::fs::read_to_string(p).unwrap()).unwrap()
 }

@@ -3,12 +3,6 @@
 
 use super::*;
 
-fn data(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../data")
-        .join(name)
-}
-
 fn table(path: &Path) -> Vec<(f64, f64)> {
     std::fs::read_to_string(path)
         .unwrap()

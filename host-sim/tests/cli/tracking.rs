@@ -237,11 +237,6 @@ fn pack_round_trip_tracks_every_cell_and_flags_the_aged_one() {
 #[test]
 fn the_track_carries_the_state_of_power() {
     let out = tmp("sop-track.csv");
-    let data = |n: &str| {
-        Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("../data")
-            .join(n)
-    };
     let rec = data("pybamm/chen2020-hppc.csv");
     let ocv = data("pybamm/chen2020-ocv.csv");
     let o = run(&[
@@ -384,11 +379,6 @@ fn the_track_carries_the_state_of_power() {
 /// as often again, through the HPPC record's rests.
 #[test]
 fn the_state_of_power_is_carried_no_farther_than_asked() {
-    let data = |n: &str| {
-        Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("../data")
-            .join(n)
-    };
     let rec = data("pybamm/chen2020-hppc.csv");
     let ocv = data("pybamm/chen2020-ocv.csv");
     let published = |carry: Option<&str>| {
