@@ -1,0 +1,222 @@
+//! Unit tests of the state of power: the prediction against the
+//! simulator, the roots against a bisection, one pass against each
+//! horizon alone.
+
+use super::*;
+use crate::battery::ocv::OcvTable;
+use crate::battery::profile::{ocv_nmc, Profile};
+use crate::battery::simulate::simulate;
+
+const N: usize = 400;
+
+fn table() -> OcvModel<f64, 101> {
+    let soc: [f64; 101] = core::array::from_fn(|k| k as f64 / 100.0);
+    let ocv: [f64; 101] = core::array::from_fn(|k| ocv_nmc(soc[k]));
+    OcvModel::new(OcvTable::new(&soc, &ocv).unwrap(), 2.5).unwrap()
+}
+
+/// A pulse record to sample `at`, then a constant `i` for `k`
+/// samples, simulated whole (memory 64, as the predictor): the
+/// voltage after the pulse, and the polarization history at `at`.
+fn truth(p: &CellParameters<f64>, at: usize, i: f64, k: usize, ocv: bool) -> (f64, [f64; N]) {
+    let mut current = [0.0; N];
+    for (l, c) in current.iter_mut().enumerate() {
+        *c = if l < at {
+            Profile::Pulse.current(l as f64, 4.0)
+        } else {
+            i
+        };
+    }
+    let m = table();
+    let mut soc = [0.0; N];
+    let mut z = 0.7;
+    for l in 0..N {
+        z += current[l] / (3600.0 * m.capacity_ah);
+        soc[l] = z;
+    }
+    let mut w = GlWeights::<f64, 64>::new(p.alpha, 1.0, 64).unwrap();
+    let (mut up, mut v) = ([0.0; N], [0.0; N]);
+    let u = |l: usize| if ocv { m.table.ocv(soc[l]) } else { p.u_oc };
+    simulate(p, &mut w, &current, u, &mut up, &mut v).unwrap();
+    (v[at + k - 1], up)
+}
+
+/// The prediction is the simulator's continuation, to rounding: with
+/// and without an OCV curve, linear and with the Butler–Volmer term.
+#[test]
+fn a_predicted_pulse_is_the_models_continuation() {
+    let m = table();
+    for bv in [false, true] {
+        let mut p = CellParameters::<f64>::cell_18650();
+        if bv {
+            p = p.with_butler_volmer(2.0);
+        }
+        let w = GlWeights::<f64, 64>::new(p.alpha, 1.0, 64).unwrap();
+        // 150 samples: longer than the memory (the recursion's chunks).
+        for (ocv, k) in [(false, 30), (true, 30), (true, 150)] {
+            let (at, i) = (200, -5.0);
+            let (want, up) = truth(&p, at, i, k, ocv);
+            // SOC at `at − 1` (after its sample), as the estimator counts.
+            let soc = 0.7
+                + (0..at)
+                    .map(|l| Profile::Pulse.current(l as f64, 4.0))
+                    .sum::<f64>()
+                    / (3600.0 * 2.5);
+            let q = CellParameters {
+                u_oc: if ocv { 0.0 } else { p.u_oc },
+                ..p
+            };
+            let pred = PulsePredictor::new(&q, &w, &up[..at], ocv.then_some((&m, soc))).unwrap();
+            let got = pred.pulse_voltage(i, k);
+            assert!(
+                (got - want).abs() < 1e-9,
+                "bv {bv} ocv {ocv}: {got} vs {want}"
+            );
+        }
+    }
+}
+
+/// Carried forward through the samples since, an older state predicts
+/// what the present one does.
+#[test]
+fn an_older_state_carried_forward_is_the_present_one() {
+    let p = CellParameters::<f64>::cell_18650();
+    let w = GlWeights::<f64, 64>::new(p.alpha, 1.0, 64).unwrap();
+    let (_, up) = truth(&p, 250, 0.0, 1, false);
+    let now = PulsePredictor::<f64, 64, 101>::new(&p, &w, &up[..250], None).unwrap();
+    let mut old = PulsePredictor::<f64, 64, 101>::new(&p, &w, &up[..230], None).unwrap();
+    for l in 230..250 {
+        old.advance(Profile::Pulse.current(l as f64, 4.0));
+    }
+    for k in [1, 10, 30] {
+        let (a, b) = (old.pulse_voltage(-3.0, k), now.pulse_voltage(-3.0, k));
+        assert!((a - b).abs() < 1e-12, "{k}: {a} vs {b}");
+    }
+}
+
+/// The state of power is consistent: its pulse reaches the limit within
+/// 1 % of the pulse's drop (here to 1e−9 V), and the limit current is
+/// capped where the voltage allows more.
+#[test]
+fn the_limit_currents_reach_the_limits() {
+    let m = table();
+    let p = CellParameters::<f64>::cell_18650();
+    let w = GlWeights::<f64, 64>::new(p.alpha, 1.0, 64).unwrap();
+    let (_, up) = truth(&p, 200, 0.0, 1, true);
+    let soc = 0.7;
+    let q = CellParameters { u_oc: 0.0, ..p };
+    let pred = PulsePredictor::new(&q, &w, &up[..200], Some((&m, soc))).unwrap();
+    let rest = pred.pulse_voltage(0.0, 0);
+    let limits = PowerLimits {
+        voltage_min: rest - 0.3,
+        voltage_max: rest + 0.2,
+        current_limit: 100.0,
+    };
+    for steps in [2, 10, 30] {
+        let sop = pred.state_of_power(&limits, steps);
+        assert!(sop.discharge_a > 0.0 && sop.discharge_a < 100.0, "{sop:?}");
+        assert!(sop.charge_a > 0.0 && sop.charge_a < 100.0, "{sop:?}");
+        // A discharge from rest falls monotonically: the end is the limit.
+        let v = pred.pulse_voltage(-sop.discharge_a, steps);
+        assert!((v - limits.voltage_min).abs() < 1e-9, "{steps}: {v}");
+        let v = pred.pulse_voltage(sop.charge_a, steps);
+        assert!((v - limits.voltage_max).abs() < 1e-9, "{steps}: {v}");
+    }
+    // Longer pulses allow less current.
+    let (s2, s30) = (
+        pred.state_of_power(&limits, 2),
+        pred.state_of_power(&limits, 30),
+    );
+    assert!(s30.discharge_a < s2.discharge_a && s30.charge_a < s2.charge_a);
+    // A generous window: capped by the current limit.
+    let wide = PowerLimits {
+        voltage_min: 0.0,
+        voltage_max: 10.0,
+        current_limit: 7.5,
+    };
+    let sop = pred.state_of_power(&wide, 10);
+    assert_eq!((sop.discharge_a, sop.charge_a), (7.5, 7.5));
+    // Already below the minimum: no discharge at all.
+    let low = PowerLimits {
+        voltage_min: rest + 0.01,
+        ..limits
+    };
+    assert_eq!(pred.state_of_power(&low, 10).discharge_a, 0.0);
+}
+
+/// The largest `x` in `[0, bound]` that `passes` (monotone), by 200
+/// bisections: the reference of the roots.
+fn bisect(bound: f64, passes: impl Fn(f64) -> bool) -> f64 {
+    let (mut lo, mut hi) = (0.0, bound);
+    for _ in 0..200 {
+        let mid = 0.5 * (lo + hi);
+        if passes(mid) {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    lo
+}
+
+/// One pass answers every horizon as each alone does (to the roots'
+/// precision, `1e−7` A here), and each answer is the largest safe
+/// current, within a horizon of the memory and beyond it: a bisection of 200 steps (a reference
+/// independent of the regula falsi) agrees to `1e−9` of the limit, and
+/// the answer itself is never past the limit.
+#[test]
+fn one_pass_answers_every_horizon_as_each_alone() {
+    let m = table();
+    for bv in [false, true] {
+        let mut p = CellParameters::<f64>::cell_18650();
+        if bv {
+            p = p.with_butler_volmer(2.0);
+        }
+        let w = GlWeights::<f64, 64>::new(p.alpha, 1.0, 64).unwrap();
+        let (_, up) = truth(&p, 200, 0.0, 1, true);
+        let q = CellParameters { u_oc: 0.0, ..p };
+        let pred = PulsePredictor::new(&q, &w, &up[..200], Some((&m, 0.7))).unwrap();
+        let rest = pred.pulse_voltage(0.0, 0);
+        let limits = PowerLimits {
+            voltage_min: rest - 0.3,
+            voltage_max: rest + 0.2,
+            current_limit: 100.0,
+        };
+        // 100 samples: longer than the memory, sample by sample.
+        let ps = PowerSettings::new(limits, &[30, 2, 10, 30], Some(-4.0)).unwrap();
+        let long = pred.power(&PowerSettings::new(limits, &[100], None).unwrap());
+        let long = (100, long.horizons()[0]);
+        let r = pred.power(&ps);
+        let each = r
+            .horizons()
+            .iter()
+            .zip(ps.horizons())
+            .map(|(h, &k)| (k as usize, *h));
+        for (k, h) in each.chain([long]) {
+            if k <= 64 {
+                // Alone, the root is solved from another bracket: the
+                // same within the roots' precision.
+                let alone = pred.state_of_power(&limits, k);
+                assert_eq!(alone.steps, k);
+                assert!((h.sop.discharge_a - alone.discharge_a).abs() <= 1e-7);
+                assert!((h.sop.charge_a - alone.charge_a).abs() <= 1e-7);
+                assert_eq!(h.pulse_v, Some(pred.pulse_voltage(-4.0, k)));
+            }
+            // Reference: bisection on "every sample within the limit".
+            let passes = |x: f64| (1..=k).all(|j| pred.pulse_voltage(-x, j) >= limits.voltage_min);
+            let lo = bisect(100.0, passes);
+            assert!(
+                (h.sop.discharge_a - lo).abs() <= 1e-7,
+                "bv {bv} {k}: {h:?} vs {lo}"
+            );
+            assert!(passes(h.sop.discharge_a), "bv {bv} {k}");
+            let passes = |x: f64| (1..=k).all(|j| pred.pulse_voltage(x, j) <= limits.voltage_max);
+            let lo = bisect(100.0, passes);
+            assert!(
+                (h.sop.charge_a - lo).abs() <= 1e-7,
+                "bv {bv} {k}: {h:?} vs {lo}"
+            );
+            assert!(passes(h.sop.charge_a), "bv {bv} {k}");
+        }
+    }
+}
