@@ -10,6 +10,7 @@
 
 pub mod battery;
 pub mod hammerstein;
+pub mod many;
 pub mod map;
 pub mod model_choice;
 

@@ -4,6 +4,7 @@ use super::{AlgorithmArg, BatteryMethodArg, HammersteinMethodArg, ModelArg, Reco
 use anyhow::{Context, Result};
 use fracbms_host::identify::battery::{self as battery_fit, BatteryFitOptions};
 use fracbms_host::identify::hammerstein::{self as hammerstein_fit, HammersteinOptions};
+use fracbms_host::identify::many::{self, FileSummary, ManyOptions};
 use fracbms_host::map::MapOptions;
 use fracbms_host::ocv::OcvOptions;
 use fracbms_host::{io, plot};
@@ -66,11 +67,26 @@ pub struct HammersteinFlags {
 #[derive(clap::Args, Debug)]
 pub struct IdBatteryArgs {
     /// Input: a record `time_s,current_a,voltage_v`, or a cycler export
-    /// (columns recognised or named with --columns).
+    /// (columns recognised or named with --columns). Or many: a directory
+    /// (its .csv, .txt, .tsv and .mat files) or a glob pattern in quotes
+    /// (`'logs/*/cell-*.csv'`), fitted on all cores, one line per file;
+    /// then --json and --map-out name directories (`NAME.json`,
+    /// `NAME-map.csv` per file).
     #[arg(long)]
     pub input: PathBuf,
     #[command(flatten)]
     pub record: RecordArgs,
+    /// Write one row per file (`file,status,error_kind,error,samples,
+    /// period_s,method,model,r_i,r_ct,q,alpha,u_oc,…,r_i_lo,r_i_hi,…,
+    /// identifiable,…,map_levels,…,fit_s`); a file that fails is a row
+    /// with `status` `error` and the others go on (exit status 1 if any
+    /// failed).
+    #[arg(long)]
+    pub summary_out: Option<PathBuf>,
+    /// Files fitted at once with a directory or pattern (default: every
+    /// core).
+    #[arg(long)]
+    pub jobs: Option<usize>,
     /// Method (default: refined, the most accurate).
     #[arg(long, value_enum, default_value = "refined")]
     pub method: BatteryMethodArg,
@@ -232,6 +248,9 @@ pub(super) fn battery(a: IdBatteryArgs) -> Result<()> {
         current_limit: a.current_limit,
         record: (&a.record).into(),
     };
+    if a.summary_out.is_some() || many::names_many(&a.input) {
+        return battery_many(&a, &o);
+    }
     let (f, map) = match &a.map_out {
         Some(_) => {
             let m = MapOptions {
@@ -348,4 +367,108 @@ pub(super) fn battery(a: IdBatteryArgs) -> Result<()> {
         eprintln!("wrote Figures 8–11 to {}", dir.display());
     }
     Ok(())
+}
+
+/// `identify battery` on many files (a directory, a pattern, or any input
+/// with --summary-out): every file on the pool, a line per file as it
+/// ends, the summary CSV, per-file JSON and maps into directories.
+fn battery_many(a: &IdBatteryArgs, o: &BatteryFitOptions) -> Result<()> {
+    for (flag, given) in [
+        ("--fit-out", a.fit_out.is_some()),
+        ("--plot", a.plot.is_some()),
+        ("--map-plot", a.map_plot.is_some()),
+        ("--levels-out", a.levels_out.is_some()),
+    ] {
+        if given && many::names_many(&a.input) {
+            anyhow::bail!("{flag} is for one record; with a directory or pattern give --summary-out, --json DIR or --map-out DIR");
+        }
+    }
+    let m = ManyOptions {
+        map: a.map_out.as_ref().map(|_| MapOptions {
+            min_rest_s: a.min_rest,
+            soc_bins: a.soc_bins,
+            temperature_c: a.temperature_c,
+            ..MapOptions::default()
+        }),
+        jobs: a.jobs,
+    };
+    many::check_options(o, &m)?;
+    let files = many::expand_inputs(&a.input)?;
+    let one = files.len() == 1 && !many::names_many(&a.input);
+    // One record keeps --json and --map-out as files; many write into
+    // directories.
+    let json_out = match (&a.json, one) {
+        (Some(p), true) => Some(vec![p.clone()]),
+        (Some(d), false) => Some(out_dir(d, &files, ".json")?),
+        (None, _) => None,
+    };
+    let map_out = match (&a.map_out, one) {
+        (Some(p), true) => Some(vec![p.clone()]),
+        (Some(d), false) => Some(out_dir(d, &files, "-map.csv")?),
+        (None, _) => None,
+    };
+    let index = |f: &std::path::Path| files.iter().position(|g| g == f).unwrap_or(0);
+    let total = files.len();
+    let ended = std::sync::atomic::AtomicUsize::new(0);
+    let rows = many::identify_many_with(
+        &files,
+        o,
+        &m,
+        |f, fit, map| {
+            let k = index(f);
+            if let Some(p) = json_out.as_ref().map(|v| &v[k]) {
+                io::write_json(p, &fit.result.json)?;
+            }
+            if let (Some(p), Some(map)) = (map_out.as_ref().map(|v| &v[k]), map) {
+                map.map.write_csv(p)?;
+            }
+            Ok(())
+        },
+        |row| {
+            let n = ended.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
+            println!("[{n}/{total}] {}", summary_line(row));
+        },
+    );
+    let failed = rows.iter().filter(|r| r.status != "ok").count();
+    if let Some(p) = &a.summary_out {
+        many::write_summary_csv(p, &rows)?;
+        eprintln!("wrote {}", p.display());
+    }
+    println!(
+        "{} files: {} fitted, {failed} failed",
+        rows.len(),
+        rows.len() - failed
+    );
+    if failed > 0 {
+        anyhow::bail!(
+            "{failed} of {} files failed (their rows say why)",
+            rows.len()
+        );
+    }
+    Ok(())
+}
+
+fn out_dir(dir: &std::path::Path, files: &[PathBuf], suffix: &str) -> Result<Vec<PathBuf>> {
+    std::fs::create_dir_all(dir).with_context(|| format!("{}: cannot create", dir.display()))?;
+    Ok(many::outputs_in(dir, files, suffix)?)
+}
+
+/// A file's line: its fit in brief, or its error.
+fn summary_line(r: &FileSummary) -> String {
+    match (&r.error, r.r_i, r.r_ct, r.q, r.alpha, r.rmse_v) {
+        // The messages name their file already.
+        (Some(e), ..) if e.starts_with(&r.file) => format!("error: {e}"),
+        (Some(e), ..) => format!("{}: error: {e}", r.file),
+        (None, Some(ri), Some(rct), Some(q), Some(alpha), Some(rmse)) => format!(
+            "{}: R_i = {ri:.6} Ω, R_ct = {rct:.6} Ω, Q = {q:.3}, alpha = {alpha:.4}, rmse = {rmse:.3e} V, {}{} ({:.1} s)",
+            r.file,
+            r.model.unwrap_or("linear"),
+            match r.identifiable {
+                Some(false) => ", not identifiable",
+                _ => "",
+            },
+            r.fit_s
+        ),
+        _ => format!("{}: fitted", r.file),
+    }
 }
