@@ -14,6 +14,10 @@ files, so that a notebook gets what the CLI prints for the same data.
   current record, from rest.
 - :class:`OnlineCell` tracks the parameters over a sliding window, sample by
   sample, as the firmware does: ``host-sim online battery``.
+- :func:`identify_files` fits many records read from files (a directory, a
+  glob pattern) on all cores, one summary row per file: ``host-sim identify
+  battery --input DIR --summary-out``; :mod:`fracbms.fleet` does the same
+  on a Dask cluster and returns a pandas DataFrame.
 - :func:`identify_hammerstein` identifies a fractional-order Hammerstein
   system (the paper's 2S-OP-GI / KT-2S-GI, then the prediction-error
   refinement): ``host-sim identify hammerstein --json``.
@@ -44,8 +48,11 @@ Example: simulate a cell, then identify it again.
 from ._fracbms import (
     MAX_BATTERY_ROWS,
     MAX_ROWS,
+    SUMMARY_COLUMNS,
     OnlineCell,
+    expand_inputs,
     identify_battery,
+    identify_files,
     identify_hammerstein,
     predict_battery,
     simulate_battery,
@@ -54,8 +61,11 @@ from ._fracbms import (
 __all__ = [
     "MAX_BATTERY_ROWS",
     "MAX_ROWS",
+    "SUMMARY_COLUMNS",
     "OnlineCell",
+    "expand_inputs",
     "identify_battery",
+    "identify_files",
     "identify_hammerstein",
     "predict_battery",
     "simulate_battery",

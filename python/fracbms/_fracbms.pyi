@@ -17,6 +17,47 @@ MAX_ROWS: int
 MAX_BATTERY_ROWS: int
 """Most rows identify_battery takes (262144)."""
 
+SUMMARY_COLUMNS: list[str]
+"""The keys of identify_files' rows, in the order of the CLI's --summary-out
+columns (file, status, error_kind, error, samples, period_s, method, model,
+r_i, r_ct, q, alpha, ..., fit_s)."""
+
+PathLike = Union[str, "os.PathLike[str]"]
+
+def identify_files(
+    paths: Union[PathLike, Sequence[PathLike]],
+    *,
+    ocv: Optional[PathLike] = None,
+    capacity_ah: Optional[float] = None,
+    soc0: Optional[float] = None,
+    method: Literal["refined", "paper"] = "refined",
+    model: Literal["auto", "linear", "butler-volmer"] = "auto",
+    iterations: int = 50,
+    memory: Optional[int] = None,
+    map: bool = False,
+    soc_bins: Optional[int] = None,
+    min_rest: float = 600.0,
+    temperature_c: Optional[float] = None,
+    columns: Optional[str] = None,
+    current_sign: Literal["charge-positive", "discharge-positive"] = "charge-positive",
+    period_s: Optional[float] = None,
+    voltage_min: Optional[float] = None,
+    voltage_max: Optional[float] = None,
+    current_limit: Optional[float] = None,
+    jobs: Optional[int] = None,
+) -> list[dict[str, Any]]:
+    """Fit records read from files, as ``host-sim identify battery --input
+    DIR_OR_GLOB --summary-out`` does, on ``jobs`` threads (default: every
+    core) without the GIL: one dict per file with the keys of
+    SUMMARY_COLUMNS. ``paths``: a file, a directory, a glob pattern, or a
+    sequence of files. A file that fails gives ``status="error"`` and its
+    message; options are checked first (ValueError)."""
+
+def expand_inputs(path: PathLike) -> list[str]:
+    """The files a path names as the CLI's --input does: a file, a
+    directory's .csv/.txt/.tsv/.mat files, or a glob pattern's matches,
+    sorted."""
+
 def identify_battery(
     time_s: ArrayLike,
     current_a: ArrayLike,

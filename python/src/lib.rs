@@ -12,6 +12,7 @@
 //! | `predict_battery` | `predict battery` ([`fracbms_host::predict::predict`], [`fracbms_host::predict::predict_map`]) |
 //! | `simulate_battery` | `simulate battery`'s noise-free voltage ([`fracbms_host::simulate::battery_voltage`]) |
 //! | `OnlineCell` | `online battery` ([`fracbms_host::online::Tracker`]; in `online.rs`) |
+//! | `identify_files` | `identify battery --input DIR_OR_GLOB --summary-out` ([`fracbms_host::identify::many`]; in `files.rs`) |
 //! | `identify_hammerstein` | `identify hammerstein --json` ([`fracbms_host::identify::hammerstein_fit`]) |
 //!
 //! Errors are the CLI's one-line messages, raised as `ValueError`; the data
@@ -54,6 +55,7 @@ use pyo3::exceptions::{PyUserWarning, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
+mod files;
 mod online;
 use online::OnlineCell;
 
@@ -568,7 +570,13 @@ fn _fracbms(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(predict_battery, m)?)?;
     m.add_function(wrap_pyfunction!(simulate_battery, m)?)?;
     m.add_function(wrap_pyfunction!(identify_hammerstein, m)?)?;
+    m.add_function(wrap_pyfunction!(files::identify_files, m)?)?;
+    m.add_function(wrap_pyfunction!(files::expand_inputs, m)?)?;
     m.add_class::<OnlineCell>()?;
+    m.add(
+        "SUMMARY_COLUMNS",
+        fracbms_host::identify::many::SUMMARY_HEADER.to_vec(),
+    )?;
     m.add("MAX_ROWS", MAX_ROWS)?;
     m.add("MAX_BATTERY_ROWS", MAX_BATTERY_ROWS)?;
     Ok(())
