@@ -32,12 +32,17 @@ use fracbms_host::online::soc::{SocMode, SocOptions};
 /// method : {"refined", "paper"}
 /// model : {"auto", "linear", "butler-volmer"}
 ///     `"auto"` is the prior's model, linear without a prior.
-/// prior : str or path, optional
+/// prior : str, path or dict, optional
 ///     The window fit's prior (``online battery --prior``): the JSON of
-///     ``identify battery`` (one fit), or a parameter map CSV
-///     (``identify battery --map-out``), whose cell at the counted SOC (and
-///     at the temperature given to ``push``/``run``) is the prior's centre as
-///     the cell moves; levels not identifiable are left out.
+///     ``identify battery`` (one fit) or the dict of ``identify_battery``;
+///     or a parameter map CSV (``identify battery --map-out``), whose cell
+///     at the counted SOC (and at the temperature given to ``push``/``run``)
+///     is the prior's centre as the cell moves; levels not identifiable are
+///     left out.
+/// map : str, path or dict, optional
+///     A parameter map as the prior (instead of ``prior``): its CSV, or the
+///     ``map`` of ``identify_battery(..., map=True)`` (that dict, or the
+///     whole result).
 /// prior_factor, prior_alpha_sigma, prior_noise_mv : float
 ///     The prior's spreads (``--prior-factor``, ``--prior-alpha-sigma``,
 ///     ``--prior-noise-mv``).
@@ -153,13 +158,83 @@ fn row_dict<'py>(py: Python<'py>, r: &TrackRow, horizons: &[f64]) -> PyResult<Bo
     Ok(d)
 }
 
+/// The prior of `prior=` or `map=` (`keyword`): a file (a map's CSV for
+/// `map=`), or a dict (a fit's, a map's `{"levels": …}`, or for `map=` a
+/// fit's with its `map`).
+fn prior_source(
+    py: Python<'_>,
+    value: &Bound<'_, PyAny>,
+    keyword: &str,
+    map_only: bool,
+    (factor, alpha_sigma, noise_mv): (f64, f64, f64),
+) -> PyResult<PriorSource> {
+    let spread = |e: fracbms_host::Error| {
+        PyValueError::new_err(
+            e.to_string()
+                .replace("--prior-factor ", "prior_factor=")
+                .replace("--prior-*", "prior_*"),
+        )
+    };
+    if let Ok(path) = value.extract::<std::path::PathBuf>() {
+        let is_csv = path
+            .extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case("csv"));
+        if map_only && !is_csv {
+            return Err(PyValueError::new_err(format!(
+                "map={}: give a map's CSV (identify battery --map-out) or the map of identify_battery(..., map=True)",
+                path.display()
+            )));
+        }
+        return read_prior_source(&path, factor, alpha_sigma, noise_mv).map_err(spread);
+    }
+    let Ok(d) = value.cast::<PyDict>() else {
+        return Err(PyValueError::new_err(format!(
+            "{keyword}=: give a path or a dict"
+        )));
+    };
+    // The numbers only: a result's arrays (`model_v`) are not read.
+    let numbers = PyDict::new(py);
+    for (k, v) in d.iter() {
+        if !v.hasattr("__array__")? {
+            numbers.set_item(k, v)?;
+        }
+    }
+    let text: String = py
+        .import("json")?
+        .call_method1("dumps", (numbers,))?
+        .extract()?;
+    let mut j: serde_json::Value = serde_json::from_str(&text)
+        .map_err(|e| PyValueError::new_err(format!("{keyword}=: not JSON ({e})")))?;
+    if map_only {
+        // The whole result of identify_battery(..., map=True): its map.
+        if j.get("levels").is_none() {
+            match j.get("map") {
+                Some(m) if m.get("levels").is_some() => j = m.clone(),
+                _ => {
+                    return Err(PyValueError::new_err(format!(
+                        "{keyword}=: no levels: give the map of identify_battery(..., map=True)"
+                    )))
+                }
+            }
+        }
+    }
+    fracbms_host::online::prior_source_from_json(
+        &j,
+        Path::new(keyword),
+        factor,
+        alpha_sigma,
+        noise_mv,
+    )
+    .map_err(spread)
+}
+
 #[pymethods]
 impl OnlineCell {
     #[new]
     #[pyo3(signature = (
         window = 256, memory = 64, h = 1.0, ocv = None, capacity_ah = None, *, soc0 = None,
         method = "refined", model = "auto", precision = "f64", start = "from-data",
-        iterations_per_sample = 1, tail = false, prior = None, prior_factor = 2.0,
+        iterations_per_sample = 1, tail = false, prior = None, map = None, prior_factor = 2.0,
         prior_alpha_sigma = 0.1, prior_noise_mv = 100.0, horizons = vec![10.0, 30.0],
         voltage_min = None, voltage_max = None, current_limit = None, pulse_current_a = None,
         soc = "observer", soc_rest_s = None, soc_bias_sigma_a = None, sop_carry_s = None
@@ -179,7 +254,8 @@ impl OnlineCell {
         start: &str,
         iterations_per_sample: u16,
         tail: bool,
-        prior: Option<std::path::PathBuf>,
+        prior: Option<Bound<'_, PyAny>>,
+        map: Option<Bound<'_, PyAny>>,
         prior_factor: f64,
         prior_alpha_sigma: f64,
         prior_noise_mv: f64,
@@ -208,10 +284,17 @@ impl OnlineCell {
             model: s.model,
             soc0: s.soc0.unwrap_or(f64::NAN),
         });
-        let source = prior
-            .map(|p| read_prior_source(&p, prior_factor, prior_alpha_sigma, prior_noise_mv))
-            .transpose()
-            .map_err(value_error)?;
+        let spreads = (prior_factor, prior_alpha_sigma, prior_noise_mv);
+        let source = match (prior, map) {
+            (Some(_), Some(_)) => {
+                return Err(PyValueError::new_err(
+                    "prior= and map=: give one (a map is a prior that follows the SOC)",
+                ))
+            }
+            (Some(p), None) => Some(prior_source(py, &p, "prior", false, spreads)?),
+            (None, Some(m)) => Some(prior_source(py, &m, "map", true, spreads)?),
+            (None, None) => None,
+        };
         if let Some(PriorSource::Map(m)) = &source {
             for why in &m.left_out {
                 let msg = CString::new(format!("prior map: {why} (left out)"))

@@ -112,3 +112,43 @@ def test_online_with_a_map_prior_equals_the_cli(host_sim, tmp_path):
     np.testing.assert_allclose(py["r_i"][tracking], CELL["r_i"], rtol=0.05)
     with pytest.raises(ValueError, match="no-such-map.csv"):
         fracbms.OnlineCell(prior=str(tmp_path / "no-such-map.csv"))
+
+
+def test_online_takes_a_fit_or_a_map_as_dicts(host_sim, tmp_path):
+    """OnlineCell(prior=dict) is `online battery --prior FIT.json` for the
+    dict identify_battery returns; OnlineCell(map=...) takes the map of
+    identify_battery(map=True) (or the whole result) as the CSV's map."""
+    from test_online import assert_same_track, cli_track
+    path = tmp_path / "hppc.csv"
+    t, i, v = hppc(path)
+    kw = dict(ocv=ocv_table(), capacity_ah=2.5, soc0=0.9)
+    fit = fracbms.identify_battery(t, i, v, model="linear", map=True, **kw)
+    # The fit as a dict: the CLI's run with the fit's JSON.
+    fit_json = tmp_path / "fit.json"
+    fit_json.write_text(json.dumps({k: v for k, v in fit.items() if k != "model_v"}))
+    cli = cli_track(host_sim, path, tmp_path, "--ocv", OCV, "--capacity-ah", "2.5", "--soc0",
+                    "0.9", "--prior", fit_json)
+    by_dict = fracbms.OnlineCell(prior=fit, **kw).run(i, v)
+    assert_same_track(by_dict, cli)
+    # The map as a dict, or inside the result: the same track as its CSV.
+    map_csv = tmp_path / "map.csv"
+    host_sim("identify", "battery", "--input", path, "--ocv", OCV, "--capacity-ah", "2.5",
+             "--soc0", "0.9", "--model", "linear", "--map-out", map_csv)
+    temp = np.full(len(i), 25.0)
+    by_csv = fracbms.OnlineCell(map=str(map_csv), **kw).run(i, v, temperature_c=temp)
+    for m in (fit["map"], fit):
+        by_map = fracbms.OnlineCell(map=m, **kw).run(i, v, temperature_c=temp)
+        assert list(by_map["status"]) == list(by_csv["status"])
+        # The CSV keeps 10 significant digits of the map's numbers.
+        np.testing.assert_allclose(by_map["r_i"], by_csv["r_i"], rtol=1e-6, equal_nan=True)
+        np.testing.assert_allclose(by_map["r_ct"], by_csv["r_ct"], rtol=1e-6, equal_nan=True)
+    tracking = by_csv["status"] == "tracking"
+    assert tracking.sum() > 1000
+    with pytest.raises(ValueError, match="give one"):
+        fracbms.OnlineCell(prior=fit, map=fit["map"], **kw)
+    with pytest.raises(ValueError, match="no levels"):
+        fracbms.OnlineCell(map={"r_i": 0.02}, **kw)
+    with pytest.raises(ValueError, match="map's CSV"):
+        fracbms.OnlineCell(map=str(fit_json), **kw)
+    with pytest.raises(ValueError, match="prior_factor=0.5"):
+        fracbms.OnlineCell(prior=fit, prior_factor=0.5, **kw)

@@ -19,7 +19,9 @@ use estimator_core::Real;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
-pub use prior::{read_prior, read_prior_source, PriorMap, PriorSource};
+pub use prior::{
+    prior_from_fit, prior_source_from_json, read_prior, read_prior_source, PriorMap, PriorSource,
+};
 
 pub mod power;
 mod prior;

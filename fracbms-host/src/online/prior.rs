@@ -185,6 +185,40 @@ pub fn read_prior_source(
     .map_err(|e| err!(Data, "{}: {}", path.display(), e.message()))
 }
 
+/// A prior from a JSON value: a fit's ([`prior_from_fit`]), or a parameter
+/// map's, `{"levels": [rows with the map CSV's columns]}` (the `map` of
+/// `identify battery --json --map-out`, or of the Python face's
+/// `identify_battery(..., map=True)`); `name` names it in errors.
+///
+/// # Errors
+/// As [`prior_from_fit`]; for a map, rows that are not the map's, or no
+/// level that can be a prior ([`PriorMap::new`]).
+pub fn prior_source_from_json(
+    j: &serde_json::Value,
+    name: &Path,
+    prior_factor: f64,
+    prior_alpha_sigma: f64,
+    prior_noise_mv: f64,
+) -> Result<PriorSource> {
+    let Some(levels) = j.get("levels") else {
+        return prior_from_fit(j, name, prior_factor, prior_alpha_sigma, prior_noise_mv)
+            .map(PriorSource::Fit);
+    };
+    check_factor(prior_factor)?;
+    let rows: Vec<crate::map::MapRow> = serde_json::from_value(levels.clone())
+        .map_err(|e| err!(Data, "{}: not a parameter map ({e})", name.display()))?;
+    let mut map = ParameterMap { rows };
+    map.sort();
+    PriorMap::new(
+        &map,
+        prior_factor.ln(),
+        prior_alpha_sigma,
+        prior_noise_mv * 1e-3,
+    )
+    .map(PriorSource::Map)
+    .map_err(|e| err!(Data, "{}: {}", name.display(), e.message()))
+}
+
 fn check_factor(prior_factor: f64) -> Result<()> {
     if !(prior_factor.is_finite() && prior_factor > 1.0) {
         bail!(Options, "--prior-factor {}: must be above 1", prior_factor);
@@ -205,7 +239,24 @@ pub fn read_prior(
     prior_noise_mv: f64,
 ) -> Result<Prior<f64>> {
     let j = crate::identify::battery::read_json_file(path)?;
-    let (center, _) = crate::identify::battery::cell_from_json(&j, path)?;
+    prior_from_fit(&j, path, prior_factor, prior_alpha_sigma, prior_noise_mv)
+}
+
+/// A prior from the JSON value of a fit (`identify battery --json`, or the
+/// Python face's dict of `identify_battery`); `name` names it in errors.
+///
+/// # Errors
+/// A value that is not a fit, a prior that is not physical, a spread that
+/// is not positive.
+pub fn prior_from_fit(
+    j: &serde_json::Value,
+    name: &Path,
+    prior_factor: f64,
+    prior_alpha_sigma: f64,
+    prior_noise_mv: f64,
+) -> Result<Prior<f64>> {
+    let path = name;
+    let (center, _) = crate::identify::battery::cell_from_json(j, path)?;
     check_factor(prior_factor)?;
     let p = Prior {
         center,
