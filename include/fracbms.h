@@ -783,6 +783,15 @@ typedef struct FracbmsFit {
    */
   bool converged;
   /**
+   * Rows rejected (not finite, out of range, spikes against the model),
+   * substituted and not fitted, as the CLI counts them.
+   */
+  uint32_t rejected;
+  /**
+   * The fit can be trusted (the JSON's `identifiable`, docs/trust.md).
+   */
+  bool identifiable;
+  /**
    * On an error: the CLI's one-line message (NUL-terminated).
    */
   char message[256];
@@ -1022,11 +1031,13 @@ FracbmsCode fracbms_identify_options_default(struct FracbmsIdentifyOptions *out)
 
 #if !defined(FRACBMS_BARE_METAL)
 /**
- * Identifies a whole record (`rows` samples at a uniform time step;
- * current positive when charging) as `host-sim identify battery` does, with
- * the same code: the result has its JSON's keys. `options` may be null
- * (the defaults). On an error `fit->message` holds the CLI's one-line
- * message. Host only (the fit allocates).
+ * Identifies a whole record (`rows` samples; current positive when
+ * charging) as `host-sim identify battery` does, with the same code: the
+ * result has its JSON's keys. Bad rows (a NaN or implausible current or
+ * voltage, a voltage spike) are rejected, substituted and counted in
+ * `fit->rejected`, as the CLI and Python do. `options` may be null (the
+ * defaults). On an error `fit->message` holds the CLI's one-line message.
+ * Host only (the fit allocates).
  *
  * # Safety
  * The three arrays hold `rows` values; `options` is null or valid, its OCV

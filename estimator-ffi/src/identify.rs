@@ -6,12 +6,11 @@
 use std::ffi::c_char;
 use std::path::Path;
 
-use estimator_core::battery::ocv::{OcvModel, OcvTable};
-use fracbms_host::identify::{
-    battery_identify, BatteryMethod, ModelRequest, Refine, MAX_BATTERY_ROWS,
-};
-use fracbms_host::io::{self, BatteryRecord, OCV_POINTS};
-use fracbms_host::ocv::CellOcv;
+use fracbms_host::identify::battery::battery_arrays;
+use fracbms_host::identify::{BatteryMethod, ModelRequest};
+use fracbms_host::io::{self, Columns};
+use fracbms_host::ocv::{OcvSpec, OcvSpecError};
+use fracbms_host::ErrorKind;
 
 use crate::types::{FracbmsCode, FracbmsMethod, FracbmsModel};
 
@@ -72,6 +71,11 @@ pub struct FracbmsFit {
     pub iterations: u32,
     /// The fit converged.
     pub converged: bool,
+    /// Rows rejected (not finite, out of range, spikes against the model),
+    /// substituted and not fitted, as the CLI counts them.
+    pub rejected: u32,
+    /// The fit can be trusted (the JSON's `identifiable`, docs/trust.md).
+    pub identifiable: bool,
     /// On an error: the CLI's one-line message (NUL-terminated).
     pub message: [c_char; 256],
 }
@@ -93,6 +97,8 @@ impl FracbmsFit {
             rmse_v: f64::NAN,
             iterations: 0,
             converged: false,
+            rejected: 0,
+            identifiable: false,
             message: [0; 256],
         }
     }
@@ -131,65 +137,31 @@ pub(crate) fn identify(
 ) -> FracbmsCode {
     *out = FracbmsFit::empty();
     let name = Path::new("record");
-    if time.len() > MAX_BATTERY_ROWS {
-        out.say(&format!(
-            "record: {} rows; at most {MAX_BATTERY_ROWS} are fitted",
-            time.len()
-        ));
-        return FracbmsCode::FRACBMS_ERROR_DATA;
-    }
-    for (k, ((t, i), v)) in time.iter().zip(current).zip(voltage).enumerate() {
-        for (x, col) in [(t, "time_s"), (i, "current_a"), (v, "voltage_v")] {
-            if !x.is_finite() {
-                out.say(&format!(
-                    "record: row {}, column `{col}`: not a finite number ({x})",
-                    k + 2
-                ));
-                return FracbmsCode::FRACBMS_ERROR_DATA;
-            }
-        }
-    }
-    let h = match io::uniform_step(name, time) {
-        Ok(h) => h,
-        Err(e) => {
-            out.say(&format!("{e:#}"));
-            return FracbmsCode::FRACBMS_ERROR_DATA;
-        }
-    };
-    let rec = BatteryRecord {
-        time: time.to_vec(),
-        current: current.to_vec(),
-        voltage: voltage.to_vec(),
-        h,
-    };
-    let cell_ocv = match ocv {
+    let spec = match ocv {
         None => None,
         Some((soc, v)) => {
-            let Ok(table) = OcvTable::<f64, OCV_POINTS>::new(soc, v) else {
-                out.say(
-                    "OCV table: SOC must be strictly increasing within [0, 1], at most 512 points",
-                );
-                return FracbmsCode::FRACBMS_ERROR_OCV;
-            };
-            let Ok(model) = OcvModel::new(table, o.capacity_ah) else {
-                out.say(&format!(
-                    "capacity {} A·h: not a positive capacity",
-                    o.capacity_ah
-                ));
-                return FracbmsCode::FRACBMS_ERROR_OCV;
-            };
-            let soc0 = if o.soc0.is_nan() {
-                match model.soc_at_rest(&rec.current, &rec.voltage) {
-                    Ok(z) => z,
-                    Err(_) => {
-                        out.say("record: the record does not start at rest, so its start SOC cannot be read from the OCV table; give soc0");
-                        return FracbmsCode::FRACBMS_ERROR_DATA;
-                    }
+            let table = match io::ocv_table(
+                Path::new("ocv"),
+                Columns::from_arrays(vec![soc.to_vec(), v.to_vec()]),
+            ) {
+                Ok(t) => t,
+                Err(e) => {
+                    out.say(&format!("{e:#}"));
+                    return FracbmsCode::FRACBMS_ERROR_OCV;
                 }
-            } else {
-                o.soc0
             };
-            Some(CellOcv { model, soc0 })
+            let soc0 = (!o.soc0.is_nan()).then_some(o.soc0);
+            match OcvSpec::new(table, o.capacity_ah, soc0) {
+                Ok(s) => Some(s),
+                Err(OcvSpecError::Capacity(c)) => {
+                    out.say(&format!("capacity {c} A·h: not a positive capacity"));
+                    return FracbmsCode::FRACBMS_ERROR_OCV;
+                }
+                Err(OcvSpecError::Soc0(z)) => {
+                    out.say(&format!("soc0 {z}: must be in [0, 1]"));
+                    return FracbmsCode::FRACBMS_ERROR_OCV;
+                }
+            }
         }
     };
     let method = match FracbmsMethod::from_i32(o.method) {
@@ -210,24 +182,27 @@ pub(crate) fn identify(
             return FracbmsCode::FRACBMS_ERROR_SETTINGS;
         }
     };
-    let refine = Refine {
-        model,
-        ..Refine::default()
-    };
     let run = std::panic::catch_unwind(|| {
-        battery_identify(
+        battery_arrays(
             name,
-            &rec,
-            cell_ocv.as_ref(),
+            time,
+            current,
+            voltage,
+            spec.as_ref(),
             method,
+            model,
             None,
             o.iterations,
-            false,
-            refine,
         )
     });
     let r = match run {
-        Ok(Ok(r)) => r,
+        Ok(Ok(r)) => r.result,
+        // What the data are refused for (a bad time, too many rows, every
+        // row rejected, a record that does not start at rest): data.
+        Ok(Err(e)) if e.kind() == ErrorKind::Data => {
+            out.say(&format!("{e:#}"));
+            return FracbmsCode::FRACBMS_ERROR_DATA;
+        }
         Ok(Err(e)) => {
             out.say(&format!("{e:#}"));
             return FracbmsCode::FRACBMS_ERROR_FIT;
@@ -256,5 +231,7 @@ pub(crate) fn identify(
     out.rmse_v = j.rmse_v;
     out.iterations = j.iterations;
     out.converged = j.converged;
+    out.rejected = j.rejected;
+    out.identifiable = j.identifiable;
     FracbmsCode::FRACBMS_OK
 }

@@ -553,11 +553,13 @@ pub unsafe extern "C" fn fracbms_identify_options_default(
     code(unsafe { put(out, identify::default_options()) })
 }
 
-/// Identifies a whole record (`rows` samples at a uniform time step;
-/// current positive when charging) as `host-sim identify battery` does, with
-/// the same code: the result has its JSON's keys. `options` may be null
-/// (the defaults). On an error `fit->message` holds the CLI's one-line
-/// message. Host only (the fit allocates).
+/// Identifies a whole record (`rows` samples; current positive when
+/// charging) as `host-sim identify battery` does, with the same code: the
+/// result has its JSON's keys. Bad rows (a NaN or implausible current or
+/// voltage, a voltage spike) are rejected, substituted and counted in
+/// `fit->rejected`, as the CLI and Python do. `options` may be null (the
+/// defaults). On an error `fit->message` holds the CLI's one-line message.
+/// Host only (the fit allocates).
 ///
 /// # Safety
 /// The three arrays hold `rows` values; `options` is null or valid, its OCV

@@ -468,40 +468,39 @@ fn whole_record_identification_is_the_clis() {
     };
     assert_eq!(code, FRACBMS_OK);
     let fit = unsafe { fit.assume_init() };
-    // The CLI on the same file.
+    // The CLI's own function on the same file.
     let path = concat!(
         env!("CARGO_MANIFEST_DIR"),
         "/../firmware/data/cell-pulse.csv"
     );
-    let rec = fracbms_host::io::read_battery(std::path::Path::new(path), None).unwrap();
-    let refine = fracbms_host::identify::Refine {
-        model: fracbms_host::identify::ModelRequest::Auto,
-        ..Default::default()
+    let cli = |p: &std::path::Path| {
+        fracbms_host::identify::battery::battery_file(p, &Default::default(), false)
+            .unwrap()
+            .result
+            .json
     };
-    let cli = fracbms_host::identify::battery_identify(
-        std::path::Path::new(path),
-        &rec,
-        None,
-        fracbms_host::identify::BatteryMethod::Refined,
-        None,
-        50,
-        false,
-        refine,
-    )
-    .unwrap();
-    assert_eq!(
-        (fit.r_i, fit.r_ct, fit.q, fit.alpha, fit.u_oc),
-        (
-            cli.json.r_i,
-            cli.json.r_ct,
-            cli.json.q,
-            cli.json.alpha,
-            cli.json.u_oc
-        )
-    );
-    assert_eq!(fit.converged, cli.json.converged);
-    // A NaN is one message, not a fit.
+    let same = |fit: &FracbmsFit, cli: &fracbms_host::identify::BatteryJson| {
+        assert_eq!(
+            (fit.r_i, fit.r_ct, fit.q, fit.alpha, fit.u_oc, fit.rmse_v),
+            (cli.r_i, cli.r_ct, cli.q, cli.alpha, cli.u_oc, cli.rmse_v)
+        );
+        assert_eq!(
+            (fit.converged, fit.rejected, fit.identifiable),
+            (cli.converged, cli.rejected, cli.identifiable)
+        );
+    };
+    same(&fit, &cli(std::path::Path::new(path)));
+    assert_eq!(fit.rejected, 0);
+    // A NaN voltage and a spike are rows rejected, substituted and counted,
+    // as the CLI does with the same file: the same fit.
     v[10] = f64::NAN;
+    v[200] += 0.4;
+    let bad_file = std::env::temp_dir().join(format!("fracbms-abi-bad-{}.csv", std::process::id()));
+    let mut csv = String::from("time_s,current_a,voltage_v\n");
+    for ((a, b), c) in t.iter().zip(&i).zip(&v) {
+        csv.push_str(&format!("{a},{b},{c}\n"));
+    }
+    std::fs::write(&bad_file, csv).unwrap();
     let mut bad = MaybeUninit::<FracbmsFit>::uninit();
     let code = unsafe {
         fracbms_identify_battery(
@@ -513,15 +512,38 @@ fn whole_record_identification_is_the_clis() {
             bad.as_mut_ptr(),
         )
     };
-    assert_eq!(code, FRACBMS_ERROR_DATA);
+    assert_eq!(code, FRACBMS_OK);
     let bad = unsafe { bad.assume_init() };
-    let msg = unsafe { std::ffi::CStr::from_ptr(bad.message.as_ptr()) }
+    let cli_bad = cli(&bad_file);
+    std::fs::remove_file(&bad_file).unwrap();
+    same(&bad, &cli_bad);
+    assert_eq!(bad.rejected, 2);
+    assert!(
+        (bad.r_i / fit.r_i - 1.0).abs() < 0.01,
+        "{} {}",
+        bad.r_i,
+        fit.r_i
+    );
+    // A NaN time is one message, not a fit (the CLI's).
+    let mut t_bad = t.clone();
+    t_bad[10] = f64::NAN;
+    let mut none = MaybeUninit::<FracbmsFit>::uninit();
+    let code = unsafe {
+        fracbms_identify_battery(
+            t_bad.as_ptr(),
+            i.as_ptr(),
+            v.as_ptr(),
+            t.len(),
+            std::ptr::null(),
+            none.as_mut_ptr(),
+        )
+    };
+    assert_eq!(code, FRACBMS_ERROR_DATA);
+    let none = unsafe { none.assume_init() };
+    let msg = unsafe { std::ffi::CStr::from_ptr(none.message.as_ptr()) }
         .to_str()
         .unwrap();
-    assert_eq!(
-        msg,
-        "record: row 12, column `voltage_v`: not a finite number (NaN)"
-    );
+    assert!(msg.starts_with("record: row 12, column `time_s`"), "{msg}");
 }
 
 /// A map of three levels around the 18650 cell (R_i 15, 20, 30 mΩ at SOC

@@ -38,8 +38,8 @@ use fracbms_host::choice::Choice;
 use fracbms_host::cycler;
 use fracbms_host::identify::hammerstein::HammersteinOptions;
 use fracbms_host::identify::{
-    battery_identify_screened, hammerstein_fit, Algorithm, BatteryMethod, HammersteinMethod,
-    ModelRequest, Refine, MAX_BATTERY_ROWS, MAX_ROWS,
+    hammerstein_fit, Algorithm, BatteryMethod, HammersteinMethod, ModelRequest, Refine,
+    MAX_BATTERY_ROWS, MAX_ROWS,
 };
 use fracbms_host::io::{self, BatteryRecord, Columns};
 use fracbms_host::ocv::{CellOcv, OcvSpec, OcvSpecError};
@@ -222,43 +222,40 @@ fn identify_battery<'py>(
     }
     // Read as the CLI reads a file: a non-uniform time is put on a uniform
     // period (the dict's `record` says how).
-    let read = cycler::record_from_arrays(
-        Path::new(RECORD),
-        &vec(&time_s),
-        &vec(&current_a),
-        &vec(&voltage_v),
-        &cycler::RecordOptions::default(),
-    )
-    .map_err(value_error)?;
-    let rec = read.record;
-    if rec.time.len() > MAX_BATTERY_ROWS {
-        return Err(PyValueError::new_err(format!(
-            "{RECORD}: {} rows; at most {MAX_BATTERY_ROWS} are identified (OnlineCell tracks longer records)",
-            rec.time.len()
-        )));
-    }
+    let name = Path::new(RECORD);
+    let (t, i, v) = (vec(&time_s), vec(&current_a), vec(&voltage_v));
+    let fracbms_host::identify::battery::BatteryArrays {
+        read,
+        result: r,
+        screened: sc,
+    } = py
+        .detach(|| {
+            on_worker(|| {
+                fracbms_host::identify::battery::battery_arrays(
+                    name,
+                    &t,
+                    &i,
+                    &v,
+                    spec.as_ref(),
+                    method,
+                    model,
+                    memory,
+                    iterations,
+                )
+            })
+        })
+        .map_err(|e| {
+            PyValueError::new_err(
+                e.to_string()
+                    .replace('\n', " ")
+                    .replace("the online estimator tracks", "OnlineCell tracks"),
+            )
+        })?;
+    let rec = &read.record;
     let refine = Refine {
         model: fracbms_host::identify::model_for(model, method),
         ..Refine::default()
     };
-    let name = Path::new(RECORD);
-    let (r, sc) = py
-        .detach(|| {
-            on_worker(|| {
-                battery_identify_screened(
-                    name,
-                    &rec,
-                    &Limits::default(),
-                    spec.as_ref(),
-                    method,
-                    memory,
-                    iterations,
-                    false,
-                    refine,
-                )
-            })
-        })
-        .map_err(value_error)?;
     if let Some(w) = sc.warning(name) {
         warn(py, w.strip_prefix("warning: ").unwrap_or(&w))?;
     }
@@ -278,7 +275,7 @@ fn identify_battery<'py>(
                 on_worker(|| {
                     fracbms_host::identify::map::build_map(
                         name,
-                        &rec,
+                        rec,
                         None,
                         &Limits::default(),
                         spec,
@@ -295,7 +292,7 @@ fn identify_battery<'py>(
         for why in &m.skipped {
             warn(py, &format!("{RECORD}: {why}"))?;
         }
-        json.map = Some(m.json(&rec, &r.model_voltage, &gaps));
+        json.map = Some(m.json(rec, &r.model_voltage, &gaps));
     }
     json.record = Some(read.report);
     let d = to_dict(py, &json)?;

@@ -680,6 +680,79 @@ fn battery_identify_unassessed(
     Ok(r)
 }
 
+/// What [`battery_arrays`] read and fitted.
+pub struct BatteryArrays {
+    /// The arrays as read (put on a uniform period as a file's rows are).
+    pub read: crate::cycler::CyclerRecord,
+    /// The fit, its JSON (with the `record` block) and its model voltage.
+    pub result: BatteryResult,
+    /// The rows rejected and substituted.
+    pub screened: trust::Screened,
+}
+
+/// `identify battery` on arrays rather than a file, for the faces that get
+/// arrays (Python's `identify_battery`, C's `fracbms_identify_battery`):
+/// the arrays are read as the file's columns `time_s,current_a,voltage_v`
+/// would be ([`crate::cycler::record_from_arrays`]: a non-finite time is an
+/// error, a non-uniform one put on a uniform period), then bad rows are
+/// rejected, substituted and counted with the default plausibility limits,
+/// and the record is fitted, as the CLI does. `name` names the data in the
+/// messages (`record`).
+///
+/// # Errors
+/// [`crate::ErrorKind::Data`] for arrays of unequal lengths, a bad time,
+/// more than [`MAX_BATTERY_ROWS`] samples, every row rejected; as
+/// [`battery_identify_screened`] otherwise.
+#[allow(clippy::too_many_arguments)]
+pub fn battery_arrays(
+    name: &Path,
+    time: &[f64],
+    current: &[f64],
+    voltage: &[f64],
+    ocv: Option<&crate::ocv::OcvSpec>,
+    method: BatteryMethod,
+    model: ModelRequest,
+    memory: Option<usize>,
+    iterations: u32,
+) -> Result<BatteryArrays> {
+    let read = crate::cycler::record_from_arrays(
+        name,
+        time,
+        current,
+        voltage,
+        &crate::cycler::RecordOptions::default(),
+    )?;
+    if read.record.time.len() > MAX_BATTERY_ROWS {
+        crate::bail!(
+            Data,
+            "{}: {} rows; at most {MAX_BATTERY_ROWS} are identified (the online estimator tracks longer records)",
+            name.display(),
+            read.record.time.len()
+        );
+    }
+    let refine = Refine {
+        model: model_for(model, method),
+        ..Refine::default()
+    };
+    let (mut result, screened) = battery_identify_screened(
+        name,
+        &read.record,
+        &trust::Limits::default(),
+        ocv,
+        method,
+        memory,
+        iterations,
+        false,
+        refine,
+    )?;
+    result.json.record = Some(read.report.clone());
+    Ok(BatteryArrays {
+        read,
+        result,
+        screened,
+    })
+}
+
 /// How `identify battery` fits a record: every flag but the files and the
 /// outputs. The default is the CLI's.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, serde::Deserialize)]
