@@ -23,7 +23,7 @@ def cli_track(host_sim, record, tmp_path, *args):
 
 def assert_same_track(py, cli):
     assert list(py["status"]) == list(cli["status"])
-    for k in STATUSES:
+    for k in STATUSES + ["rejected"]:
         # A column empty on every row reads as NaN from the CSV.
         want = ["" if isinstance(x, float) and np.isnan(x) else x for x in cli[k]]
         assert list(py[k]) == want, k
@@ -184,3 +184,33 @@ def test_the_observer_corrects_a_biased_sensor_and_coulomb_counting_does_not(hos
                                  soc0=0.9, soc="coulomb").run(b["current_a"][:2000], b["voltage_v"][:2000])
     np.testing.assert_array_equal(coulomb["soc"], coulomb["soc_coulomb"])
     assert np.all(np.isnan(coulomb["current_bias_a"]))
+
+
+def test_bad_rows_are_rejected_as_the_cli_rejects_them(host_sim, cell_record, tmp_path):
+    """3 NaN voltages and 30 spikes (±0.1 to 0.5 V): OnlineCell.run rejects
+    the same rows for the same reasons as `online battery`, and no other."""
+    c = read_csv(cell_record)
+    t, i, v = c["time_s"], c["current_a"], c["voltage_v"].copy()
+    rows = [10 + 29 * k for k in range(33)]
+    for n, k in enumerate(rows):
+        v[k] = np.nan if n < 3 else v[k] + (1 if n % 2 else -1) * (0.1 + 0.4 * n / 33)
+    path = tmp_path / "bad.csv"
+    with open(path, "w") as f:
+        f.write("time_s,current_a,voltage_v\n")
+        for row in zip(t, i, v):
+            f.write(",".join(repr(float(x)) for x in row) + "\n")
+    cli = cli_track(host_sim, path, tmp_path)
+    py = fracbms.OnlineCell().run(i, v)
+    assert_same_track(py, cli)
+    rejected = [k for k, r in enumerate(py["rejected"]) if r]
+    # No good row rejected; the NaNs all, and every spike but those that
+    # fall on a current step or the sample after one, before the first
+    # estimate (nothing to judge them by: docs/trust.md).
+    assert set(rejected) <= set(rows)
+    missed = sorted(set(rows) - set(rejected))
+    assert len(missed) <= 3, missed
+    for k in missed:
+        at_step = i[k] != i[k - 1] or i[k - 1] != i[k - 2]
+        assert at_step and py["status"][k] in ("filling", "starting"), k
+    assert list(py["rejected"][rows[:3]]) == ["non_finite"] * 3
+    assert all(py["rejected"][k] == "spike" for k in rejected if k not in rows[:3])

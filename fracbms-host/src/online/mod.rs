@@ -91,6 +91,12 @@ pub struct TrackSummary {
     pub samples: u64,
     /// Samples rejected (and substituted).
     pub rejected: u32,
+    /// Of which not finite.
+    pub non_finite: u32,
+    /// Of which out of the plausible range.
+    pub out_of_range: u32,
+    /// Of which voltage spikes.
+    pub spikes: u32,
     /// What the output-error refinement computed.
     pub work: RefinementWork,
 }
@@ -355,6 +361,9 @@ impl<T: Real + Send + Sync, const N: usize> Step for Sized<T, N> {
         TrackSummary {
             samples: c.samples,
             rejected: c.rejected(),
+            non_finite: c.non_finite,
+            out_of_range: c.out_of_range,
+            spikes: c.spikes,
             work: self.est.refinement_work(),
         }
     }
@@ -572,6 +581,10 @@ pub struct OnlineReport {
 /// observer's
 /// ([`soc::SOC_HEADER`]); `soh_r` the published R_i over the prior's or
 /// map's; `capacity_status` whether the data identify `capacity_ah`.
+/// The file then has the state-of-power columns
+/// ([`power::PowerOptions::header`]) and, last, `rejected`: why the sample
+/// was rejected and substituted (`non_finite`, `out_of_range`, `spike`),
+/// empty when it was accepted.
 pub const TRACK_HEADER: &str = "time_s,r_i,r_ct,q,alpha,u_oc,status,soc,ocv_offset_v,bv_a_v,bv_i0_a,predicted_v,r_i_status,r_ct_status,q_status,alpha_status,step_resistance_ohm,window_r_i,window_r_ct,window_q,window_alpha,soc_coulomb,current_bias_a,capacity_ah,capacity_sigma_ah,soc_sigma,soc_ocv_weight,soh_r,capacity_status";
 
 /// `online battery`: reads the record `input`, runs the online estimator
@@ -629,7 +642,7 @@ pub fn battery_file(input: &Path, out: &Path, o: &OnlineBatteryOptions) -> Resul
     let summary = {
         let mut res = Ok(TrackSummary::default());
         io::write_atomic(out, |w| {
-            writeln!(w, "{TRACK_HEADER}{}", o.power.header())?;
+            writeln!(w, "{TRACK_HEADER}{},rejected", o.power.header())?;
             let gaps = &read.report.resampling.gaps;
             res = track(&rec, &t, read.temperature.as_deref(), gaps, |r| {
                 let bv = r.estimate.filter(|p| p.is_butler_volmer());
@@ -671,7 +684,7 @@ pub fn battery_file(input: &Path, out: &Path, o: &OnlineBatteryOptions) -> Resul
                         g(p.pulse_v)
                     )?;
                 }
-                writeln!(w)?;
+                writeln!(w, ",{}", r.rejected.unwrap_or(""))?;
                 Ok(())
             });
             res.clone().map(|_| ())

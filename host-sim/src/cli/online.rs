@@ -228,10 +228,13 @@ pub(super) fn battery(a: OnlineBatteryArgs) -> Result<()> {
     }
     let s = r.summary;
     eprintln!(
-        "wrote {} ({} samples, {} rejected, {:.0} samples/s, model {})",
+        "wrote {} ({} samples, {} rejected: {} not finite, {} out of range, {} spikes; {:.0} samples/s, model {})",
         a.out.display(),
         s.samples,
         s.rejected,
+        s.non_finite,
+        s.out_of_range,
+        s.spikes,
         s.samples as f64 / r.seconds.max(1e-9),
         r.model.as_str()
     );

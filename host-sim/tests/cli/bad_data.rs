@@ -151,9 +151,11 @@ fn bad_ocv_tables_give_one_line_errors() {
 /// fit, every bad row counted (`rejected`, `rejected_rows`) and named in one
 /// warning line; the fit says it is identifiable, and its 95 % intervals
 /// hold the estimates and are narrow (R_i within ±2 %).
-#[test]
-fn bad_rows_are_rejected_offline_and_the_fit_goes_on() {
-    let clean = tmp("trust-clean.csv");
+/// The clean record of the bad-rows tests and the same record with 3 NaN
+/// voltages and 30 spikes (±0.1 to 0.5 V) at data rows 10, 39, …: the two
+/// files and the bad rows' indices (0-based, as the track's rows).
+fn bad_rows_record(name: &str) -> (PathBuf, PathBuf, Vec<usize>) {
+    let clean = tmp(&format!("{name}-clean.csv"));
     let o = run(&[
         "simulate",
         "battery",
@@ -169,6 +171,7 @@ fn bad_rows_are_rejected_offline_and_the_fit_goes_on() {
     assert!(o.status.success());
     let text = std::fs::read_to_string(&clean).unwrap();
     let mut lines: Vec<String> = text.lines().map(str::to_owned).collect();
+    let mut rows = vec![];
     // 33 distinct rows past the first few, by a fixed stride.
     for k in 0..33usize {
         let row = 10 + k * 29; // data rows 10, 39, … (all < 1000)
@@ -182,9 +185,16 @@ fn bad_rows_are_rejected_offline_and_the_fit_goes_on() {
         };
         f[2] = bad;
         lines[row] = f.join(",");
+        rows.push(row - 1);
     }
-    let bad = tmp("trust-bad.csv");
+    let bad = tmp(&format!("{name}-bad.csv"));
     std::fs::write(&bad, lines.join("\n") + "\n").unwrap();
+    (clean, bad, rows)
+}
+
+#[test]
+fn bad_rows_are_rejected_offline_and_the_fit_goes_on() {
+    let (clean, bad, _) = bad_rows_record("trust");
     let fit = |input: &Path, json: &Path| {
         let o = run(&[
             "identify",
@@ -332,4 +342,85 @@ fn meaningless_records_are_not_trusted() {
         .as_str()
         .unwrap()
         .contains("too wide"));
+}
+
+/// Issue 37: online, the bad rows are rejected with their reasons (3
+/// `non_finite`; `spike`: judged before the first estimate against the
+/// last accepted voltage at a steady current, after it against the model
+/// with a robust scale), and no other row; a spike is missed only on a
+/// current step or the sample after one, before the first estimate. No sample is lost (a track row
+/// each) and the estimate stays that of the clean record.
+#[test]
+fn bad_rows_are_rejected_online_by_reason_and_the_estimate_goes_on() {
+    let (clean, bad, rows) = bad_rows_record("online-trust");
+    let track = |input: &Path, out: &Path| {
+        let o = run(&["online", "battery", "--input", s(input), "--out", s(out)]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let mut r = csv::Reader::from_path(out).unwrap();
+        let h = r.headers().unwrap().clone();
+        let t: Vec<std::collections::HashMap<String, String>> = r
+            .records()
+            .map(|row| {
+                h.iter()
+                    .zip(row.unwrap().iter())
+                    .map(|(k, v)| (k.to_owned(), v.to_owned()))
+                    .collect()
+            })
+            .collect();
+        (t, String::from_utf8_lossy(&o.stderr).into_owned())
+    };
+    let (a, _) = track(&clean, &tmp("online-trust-clean-track.csv"));
+    let (b, err) = track(&bad, &tmp("online-trust-bad-track.csv"));
+    assert_eq!((a.len(), b.len()), (1000, 1000));
+    assert!(a.iter().all(|r| r["rejected"].is_empty()));
+    let rejected: Vec<usize> = (0..b.len())
+        .filter(|&k| !b[k]["rejected"].is_empty())
+        .collect();
+    // No good row rejected.
+    assert!(rejected.iter().all(|k| rows.contains(k)), "{rejected:?}");
+    for (n, &k) in rows.iter().enumerate() {
+        let why = if n < 3 { "non_finite" } else { "spike" };
+        if rejected.contains(&k) {
+            assert_eq!(b[k]["rejected"], why, "row {k}");
+        } else {
+            // Missed only where nothing can judge it: a spike on a current
+            // step, or on the sample after one, before the first estimate
+            // (3 of these 33 rows; none of bench/bad_rows.py's).
+            let current = |j: usize| lines_current(&bad, j);
+            assert!(
+                n >= 3
+                    && (current(k) != current(k - 1) || current(k - 1) != current(k - 2))
+                    && ["filling", "starting"].contains(&b[k]["status"].as_str()),
+                "row {k} missed: {:?}",
+                b[k]
+            );
+        }
+    }
+    assert!(rejected.len() >= 30, "{rejected:?}");
+    let line = format!(
+        "{} rejected: 3 not finite, 0 out of range, {} spikes",
+        rejected.len(),
+        rejected.len() - 3
+    );
+    assert!(err.contains(&line), "{err}");
+    // The last estimate is the clean record's, within 3 %.
+    let (x, y) = (&a[999], &b[999]);
+    for k in ["window_r_i", "window_r_ct", "window_q", "window_alpha"] {
+        let (p, q): (f64, f64) = (x[k].parse().unwrap(), y[k].parse().unwrap());
+        assert!((q / p - 1.0).abs() < 0.03, "{k}: {q} against the clean {p}");
+    }
+}
+
+/// The current of data row `k` (0-based) of a record `time_s,current_a,…`.
+fn lines_current(path: &Path, k: usize) -> f64 {
+    std::fs::read_to_string(path)
+        .unwrap()
+        .lines()
+        .nth(k + 1)
+        .unwrap()
+        .split(',')
+        .nth(1)
+        .unwrap()
+        .parse()
+        .unwrap()
 }

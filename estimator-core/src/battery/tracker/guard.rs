@@ -54,6 +54,9 @@ impl<T: Real, const N: usize> CellState<T, N> {
         y.is_finite().then_some(y)
     }
 
+    /// Why the sample is rejected, if it is, and its one-step innovation
+    /// `y − ŷ` when the current is steady and a prediction exists (what
+    /// [`Self::spike_scale`] learns from once the sample is accepted).
     pub(super) fn classify<const MEM: usize, const P: usize>(
         &self,
         s: &OnlineSettings<T, P>,
@@ -61,40 +64,99 @@ impl<T: Real, const N: usize> CellState<T, N> {
         w: &mut GlWeights<T, MEM>,
         current: T,
         voltage: T,
-    ) -> Option<Rejection> {
+    ) -> (Option<Rejection>, Option<T>) {
         if !(current.is_finite() && voltage.is_finite()) {
-            return Some(Rejection::NonFinite);
+            return (Some(Rejection::NonFinite), None);
         }
         if current.abs() > s.current_limit || voltage < s.voltage_min || voltage > s.voltage_max {
-            return Some(Rejection::OutOfRange);
+            return (Some(Rejection::OutOfRange), None);
         }
         let y = self.to_window(s, current, voltage);
-        if self.spikes_in_row < s.max_consecutive_spikes && self.is_spike(s, history, w, current, y)
-        {
-            return Some(Rejection::Spike);
+        let (spike, innovation) = self.spike_test(s, history, w, current, y);
+        if self.spikes_in_row < s.max_consecutive_spikes && spike {
+            return (Some(Rejection::Spike), None);
         }
-        None
+        (None, innovation)
     }
 
-    /// True when `y` (in the window's coordinates) is further than
-    /// `max(spike_sigmas·RMSE, spike_floor)` from the model's prediction
-    /// for `current`.
-    pub(super) fn is_spike<const MEM: usize, const P: usize>(
+    /// Whether `current` is steady against the last accepted sample's
+    /// (within 1 % of the larger, or 10⁻⁴ of the plausible range), and that
+    /// sample's voltage (window coordinates): a voltage that jumps without
+    /// the current is no cell's response.
+    fn steady<const P: usize>(&self, s: &OnlineSettings<T, P>, current: T) -> Option<(T, bool)> {
+        let (i0, u0, confirmed) = self.last_good?;
+        let tolerance =
+            (current.abs().max(i0.abs()) * T::lit(0.01)).max(s.current_limit * T::lit(1e-4));
+        ((current - i0).abs() <= tolerance).then_some((u0, confirmed))
+    }
+
+    /// The spike test of `y` (in the window's coordinates), and the
+    /// innovation `y − ŷ` at a steady current.
+    ///
+    /// * With an estimate and a fitted window: `y` is a spike when further
+    ///   than `max(spike_sigmas·σ, spike_floor)` from the model's
+    ///   prediction for `current`; `σ` is the robust
+    ///   [`Self::spike_scale`] (×1.2533, the mean absolute deviation of a
+    ///   normal law) at a steady current, else the window's RMSE (a
+    ///   current step's innovation holds the model's own error there).
+    /// * Before the first estimate: at a steady current, `y` is a spike when
+    ///   it is further than `spike_floor` from the last accepted sample (the
+    ///   voltage jumped without the current), when that sample's current
+    ///   was itself steady (a sample at a step is no reference: it may be a
+    ///   spike no test saw, and then the samples after it would look like
+    ///   jumps); at a step, nothing is judged.
+    /// * After a window restart (a believed step, a gap), until the window
+    ///   is fitted again: nothing is judged. The estimate held then cannot
+    ///   predict (its memory is gone), and a cell relaxing after a pulse
+    ///   moves by more than `spike_floor` in one sample at a low SOC
+    ///   (the Panasonic test at 2 s).
+    pub(super) fn spike_test<const MEM: usize, const P: usize>(
         &self,
         s: &OnlineSettings<T, P>,
         history: &CurrentHistory<T, N>,
         w: &mut GlWeights<T, MEM>,
         current: T,
         y: T,
-    ) -> bool {
-        if !self.rmse.is_finite() {
-            return false;
+    ) -> (bool, Option<T>) {
+        let steady = self.steady(s, current);
+        let pred = if self.rmse.is_finite() {
+            self.predict_window(history, w, current)
+        } else {
+            None
+        };
+        match (pred, steady) {
+            (Some(pred), steady) => {
+                let e = y - pred;
+                let robust = T::lit(1.2533) * self.spike_scale;
+                let sigma = match steady {
+                    Some(_) if robust.is_finite() => robust,
+                    _ => self.rmse,
+                };
+                let limit = (s.spike_sigmas * sigma).max(s.spike_floor);
+                (e.abs() > limit, steady.map(|_| e))
+            }
+            (None, Some((u0, true))) if self.estimate.is_none() => {
+                ((y - u0).abs() > s.spike_floor, None)
+            }
+            _ => (false, None),
         }
-        self.predict_window(history, w, current)
-            .is_some_and(|pred| {
-                let limit = (s.spike_sigmas * self.rmse).max(s.spike_floor);
-                (y - pred).abs() > limit
-            })
+    }
+
+    /// Learns the robust innovation scale from an accepted sample's
+    /// innovation `e`: a running mean of `|e|` over about 64 samples, each
+    /// clipped at 3 times the scale so that the spikes it misses do not
+    /// inflate it. It starts from the window's RMSE.
+    fn learn_spike_scale(&mut self, e: T) {
+        let m = if self.spike_scale.is_finite() {
+            self.spike_scale
+        } else {
+            self.rmse / T::lit(1.2533)
+        };
+        if !m.is_finite() {
+            return;
+        }
+        let clipped = e.abs().min(T::lit(3.0) * m);
+        self.spike_scale = m + (clipped - m) / T::lit(64.0);
     }
 
     /// Validates one sample, substitutes it when rejected and writes it
@@ -113,7 +175,10 @@ impl<T: Real, const N: usize> CellState<T, N> {
     ) -> Option<Rejection> {
         let w = &mut work.pw;
         self.counts.samples += 1;
-        let rejected = self.classify(s, history, w, current, voltage);
+        let (rejected, innovation) = self.classify(s, history, w, current, voltage);
+        if let Some(e) = innovation {
+            self.learn_spike_scale(e);
+        }
         if let (Some(m), None) = (&s.ocv, rejected) {
             let rest = current.abs() <= m.capacity_ah / T::lit(100.0);
             match (self.soc, self.rest_start) {
@@ -145,7 +210,7 @@ impl<T: Real, const N: usize> CellState<T, N> {
                 // SOC was just refined from this very sample.
                 let y = self.to_window(s, i, voltage);
                 if self.spikes_in_row >= s.max_consecutive_spikes
-                    && self.is_spike(s, history, w, i, y)
+                    && self.spike_test(s, history, w, i, y).0
                 {
                     // A step believed after max_consecutive_spikes
                     // rejections (a recalibrated sensor, a contactor): the
@@ -155,8 +220,11 @@ impl<T: Real, const N: usize> CellState<T, N> {
                     // sample is judged by it until it has been refitted.
                     self.clear_window();
                     self.rmse = T::infinity();
+                    self.spike_scale = T::nan();
                 }
                 self.spikes_in_row = 0;
+                let confirmed = self.steady(s, i).is_some();
+                self.last_good = Some((i, y, confirmed));
                 let two = {
                     let mut last = self.view(history).newest_first();
                     (last.next(), last.next())

@@ -43,6 +43,19 @@ pub struct CellState<T, const N: usize> {
     /// Standard deviation of the current over the window's fitted part (A).
     pub(super) current_std: T,
     pub(super) rmse: T,
+    /// The mean absolute one-step innovation `|y − ŷ|` over the accepted
+    /// samples at a steady current (V; NaN before the first): the robust
+    /// scale the spike test judges such samples by
+    /// ([`super::OnlineSettings::spike_sigmas`]). Spikes the window has
+    /// accepted inflate its `rmse`, not this.
+    pub(super) spike_scale: T,
+    /// The last accepted sample's current and voltage (the window's
+    /// coordinates), and whether its current was steady against the one
+    /// accepted before it: what a voltage jump is judged against before any
+    /// estimate (a substitute is no measurement; a sample taken at a
+    /// current step may itself be a spike no test saw). `None` after a
+    /// restart.
+    pub(super) last_good: Option<(T, T, bool)>,
     pub(super) status: Status,
     pub(super) counts: SampleCounts,
     pub(super) spikes_in_row: u8,
@@ -141,6 +154,8 @@ impl<T: Real, const N: usize> CellState<T, N> {
             rest_start: None,
             current_std: T::zero(),
             rmse: T::infinity(),
+            spike_scale: T::nan(),
+            last_good: None,
             status: Status::Filling,
             counts: SampleCounts::default(),
             spikes_in_row: 0,
@@ -281,6 +296,7 @@ impl<T: Real, const N: usize> CellState<T, N> {
     pub fn resume_after_gap(&mut self, rested: bool) {
         self.clear_window();
         self.rmse = T::infinity();
+        self.spike_scale = T::nan();
         self.soc_observer.resume_after_gap();
         if rested {
             self.soc = None;
@@ -291,6 +307,7 @@ impl<T: Real, const N: usize> CellState<T, N> {
     /// Restarts the window (the pack's ring keeps the currents); its past
     /// is forgotten.
     pub(super) fn clear_window(&mut self) {
+        self.last_good = None;
         self.len = 0;
         self.pushed = 0;
         self.version = self.version.wrapping_add(1);
