@@ -3,7 +3,8 @@
 (pulse, 1000 s, seed 3) with 30 voltage spikes (±0.1…0.5 V, random rows and
 signs) and 3 NaN voltages, fitted by `identify battery` beside the clean
 record; prints the relative differences, the rejected counts and the
-intervals, and what `online battery` rejects on the same bad record.
+intervals, and what `online battery` rejects on the same bad record (its
+track's `rejected` column against the bad rows).
 
     python3 bench/bad_rows.py        # builds host-sim (release)
 """
@@ -27,7 +28,8 @@ def main():
         rows = list(csv.reader(open(clean)))
         header, data = rows[0], rows[1:]
         rng = random.Random(5)
-        for k, i in enumerate(rng.sample(range(5, len(data)), 33)):
+        bad_rows = rng.sample(range(5, len(data)), 33)
+        for k, i in enumerate(bad_rows):
             v = float(data[i][2])
             data[i][2] = "NaN" if k < 3 else f"{v + rng.choice([-1, 1]) * rng.uniform(0.1, 0.5):.6f}"
         with open(bad, "w", newline="") as f:
@@ -43,9 +45,16 @@ def main():
             if name == "bad":
                 print([line for line in p.stderr.splitlines() if "rejected" in line][0])
         # The online estimator on the same bad record, for comparison.
-        p = subprocess.run([hs, "online", "battery", "--input", bad, "--out", os.path.join(d, "track.csv")],
+        track = os.path.join(d, "track.csv")
+        p = subprocess.run([hs, "online", "battery", "--input", bad, "--out", track],
                            check=True, capture_output=True, text=True)
         print("online battery:", [line for line in p.stderr.splitlines() if "rejected" in line][0])
+        # The track's `rejected` column: which rows, for what reason.
+        why = {k: r["rejected"] for k, r in enumerate(csv.DictReader(open(track))) if r["rejected"]}
+        hit = [k for k in bad_rows if k in why]
+        print(f"online: {len(hit)} of the {len(bad_rows)} bad rows rejected "
+              f"({sum(why[k] == 'non_finite' for k in hit)} non_finite, {sum(why[k] == 'spike' for k in hit)} spike), "
+              f"{len(set(why) - set(bad_rows))} other rows rejected")
         a, b = fits["clean"], fits["bad"]
         print("| | clean | 30 spikes + 3 NaN | difference |")
         print("|---|---|---|---|")
