@@ -6,7 +6,7 @@
 use std::ffi::c_char;
 use std::path::Path;
 
-use fracbms_host::identify::battery::battery_arrays;
+use fracbms_host::identify::record::battery_arrays;
 use fracbms_host::identify::{BatteryMethod, ModelRequest};
 use fracbms_host::io::{self, Columns};
 use fracbms_host::ocv::{OcvSpec, OcvSpecError};

@@ -474,7 +474,7 @@ fn whole_record_identification_is_the_clis() {
         "/../firmware/data/cell-pulse.csv"
     );
     let cli = |p: &std::path::Path| {
-        fracbms_host::identify::battery::battery_file(p, &Default::default(), false)
+        fracbms_host::identify::record::battery_file(p, &Default::default(), false)
             .unwrap()
             .result
             .json

@@ -6,8 +6,8 @@
 
 use super::{choice, to_dict, value_error};
 use fracbms_host::cycler::{ColumnMap, CurrentSign, RecordOptions};
-use fracbms_host::identify::battery::BatteryFitOptions;
 use fracbms_host::identify::many::{self, ManyOptions};
+use fracbms_host::identify::record::BatteryFitOptions;
 use fracbms_host::identify::{BatteryMethod, ModelRequest};
 use fracbms_host::map::MapOptions;
 use fracbms_host::ocv::OcvOptions;

@@ -224,14 +224,14 @@ fn identify_battery<'py>(
     // period (the dict's `record` says how).
     let name = Path::new(RECORD);
     let (t, i, v) = (vec(&time_s), vec(&current_a), vec(&voltage_v));
-    let fracbms_host::identify::battery::BatteryArrays {
+    let fracbms_host::identify::record::BatteryArrays {
         read,
         result: r,
         screened: sc,
     } = py
         .detach(|| {
             on_worker(|| {
-                fracbms_host::identify::battery::battery_arrays(
+                fracbms_host::identify::record::battery_arrays(
                     name,
                     &t,
                     &i,

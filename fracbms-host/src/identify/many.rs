@@ -5,7 +5,7 @@
 //! one-row-per-file summary ([`FileSummary`], its CSV
 //! [`SUMMARY_HEADER`]) and the pool that fits the files on all cores
 //! ([`identify_many`]). Each file is fitted exactly as a single
-//! `identify battery` run fits it ([`crate::identify::battery::battery_file`],
+//! `identify battery` run fits it ([`crate::identify::record::battery_file`],
 //! with the map of [`crate::identify::map::battery_file`] when asked), so a
 //! file's row does not depend on the other files, on the number of threads
 //! or on the machine that fitted it.
@@ -20,7 +20,7 @@
 //! rows).
 //!
 //! ```
-//! use fracbms_host::identify::battery::BatteryFitOptions;
+//! use fracbms_host::identify::record::BatteryFitOptions;
 //! use fracbms_host::identify::many::{expand_inputs, identify_many, ManyOptions};
 //!
 //! // Two records, one of them not a record at all.
@@ -49,8 +49,8 @@
 //! ```
 
 use crate::error::{Error, ErrorKind, Result};
-use crate::identify::battery::{battery_file, BatteryFile, BatteryFitOptions};
 use crate::identify::map::MapFit;
+use crate::identify::record::{battery_file, BatteryFile, BatteryFitOptions};
 use crate::map::MapOptions;
 use serde::Serialize;
 use std::path::{Path, PathBuf};

@@ -1,6 +1,6 @@
 //! The state-of-power columns of a track (issue 36): for each horizon `H`,
 //! `sop_discharge_a_{H}s`, `sop_charge_a_{H}s` and `pulse_v_{H}s`, from the
-//! core's [`PulsePredictor`] on the cell's estimate after each sample.
+//! core's [`PulsePredictor`](estimator_core::battery::power::PulsePredictor) on the cell's estimate after each sample.
 //!
 //! Owns the horizons, the limits' defaults and the columns; the prediction
 //! is the core's. Published only when every parameter of the model is

@@ -2,9 +2,9 @@
 
 use super::{AlgorithmArg, BatteryMethodArg, HammersteinMethodArg, ModelArg, RecordArgs};
 use anyhow::{Context, Result};
-use fracbms_host::identify::battery::{self as battery_fit, BatteryFitOptions};
 use fracbms_host::identify::hammerstein::{self as hammerstein_fit, HammersteinOptions};
 use fracbms_host::identify::many::{self, FileSummary, ManyOptions};
+use fracbms_host::identify::record::{self as battery_fit, BatteryFitOptions};
 use fracbms_host::map::MapOptions;
 use fracbms_host::ocv::OcvOptions;
 use fracbms_host::{io, plot};

@@ -410,26 +410,26 @@ pub fn write_levels(dir: &Path, fit: &MapFit, ocv: &OcvSpec, model: &str) -> Res
 }
 
 /// `identify battery --map-out` on the file `input`: the whole-record fit
-/// of [`crate::identify::battery::battery_file`], then the map of the
+/// of [`crate::identify::record::battery_file`], then the map of the
 /// record, in the fit's JSON (`map`) too. The OCV options are checked
 /// before the file is read.
 ///
 /// # Errors
-/// As [`crate::identify::battery::battery_file`] and [`build_map`];
+/// As [`crate::identify::record::battery_file`] and [`build_map`];
 /// [`crate::ErrorKind::Options`] without an OCV table.
 pub fn battery_file(
     input: &Path,
-    o: &crate::identify::battery::BatteryFitOptions,
+    o: &crate::identify::record::BatteryFitOptions,
     m: &MapOptions,
     print_table: bool,
-) -> Result<(crate::identify::battery::BatteryFile, MapFit)> {
+) -> Result<(crate::identify::record::BatteryFile, MapFit)> {
     let Some(spec) = OcvSpec::from_options(&o.ocv)? else {
         bail!(
             Options,
             "a parameter map needs --ocv and --capacity-ah (each level's SOC moves; `host-sim ocv` reads the table from the test)"
         );
     };
-    let mut f = crate::identify::battery::battery_file(input, o, print_table)?;
+    let mut f = crate::identify::record::battery_file(input, o, print_table)?;
     let limits = Limits::checked(o.voltage_min, o.voltage_max, o.current_limit)?;
     let refine = Refine {
         memory: o.refine_memory,
@@ -444,7 +444,7 @@ pub fn battery_file(
         &spec,
         o.method,
         o.iterations
-            .unwrap_or(crate::identify::battery::DEFAULT_ITERATIONS),
+            .unwrap_or(crate::identify::record::DEFAULT_ITERATIONS),
         refine,
         m,
         &f.report.resampling.gaps,
