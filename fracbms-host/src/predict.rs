@@ -267,13 +267,7 @@ fn errors(path: &Path, rec: &BatteryRecord, model_v: Vec<f64>, gap: &[bool]) -> 
 /// [`crate::ErrorKind::Data`] when it is neither.
 pub fn model_from_json(j: &serde_json::Value, path: &Path) -> Result<Model> {
     match j.get("levels") {
-        Some(levels) => {
-            let rows: Vec<crate::map::MapRow> = serde_json::from_value(levels.clone())
-                .map_err(|e| err!(Data, "{}: not a parameter map ({e})", path.display()))?;
-            let mut map = crate::map::ParameterMap { rows };
-            map.sort();
-            Ok(Model::Map(map))
-        }
+        Some(levels) => crate::map::ParameterMap::from_json_levels(levels, path).map(Model::Map),
         None => fit_from_json(j, path).map(Model::Fit),
     }
 }

@@ -491,17 +491,17 @@ pub fn identify_many(
     m: &ManyOptions,
     done: impl Fn(&FileSummary) + Sync,
 ) -> Vec<FileSummary> {
-    identify_many_with(files, o, m, |_, _, _| Ok(()), done)
+    identify_many_with(files, o, m, |_, _, _, _| Ok(()), done)
 }
 
-/// [`identify_many`] with `then` called on each fitted file (its path, fit
-/// and map) on the pool's thread, to write what the file gives: the CLI's
-/// per-file JSON and maps.
+/// [`identify_many`] with `then` called on each fitted file (its index in
+/// `files`, path, fit and map) on the pool's thread, to write what the file
+/// gives: the CLI's per-file JSON and maps.
 pub fn identify_many_with(
     files: &[PathBuf],
     o: &BatteryFitOptions,
     m: &ManyOptions,
-    then: impl Fn(&Path, &BatteryFile, Option<&MapFit>) -> Result<()> + Sync,
+    then: impl Fn(usize, &Path, &BatteryFile, Option<&MapFit>) -> Result<()> + Sync,
     done: impl Fn(&FileSummary) + Sync,
 ) -> Vec<FileSummary> {
     use rayon::prelude::*;
@@ -509,8 +509,8 @@ pub fn identify_many_with(
         .jobs
         .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
         .clamp(1, files.len().max(1));
-    let one = |f: &PathBuf| {
-        let row = summarize_file(f, o, m.map.as_ref(), |fit, map| then(f, fit, map));
+    let one = |(k, f): (usize, &PathBuf)| {
+        let row = summarize_file(f, o, m.map.as_ref(), |fit, map| then(k, f, fit, map));
         done(&row);
         row
     };
@@ -520,12 +520,13 @@ pub fn identify_many_with(
         .thread_name(|k| format!("fracbms-fit-{k}"))
         .build()
     {
-        Ok(pool) => pool.install(|| files.par_iter().map(one).collect()),
+        Ok(pool) => pool.install(|| files.par_iter().enumerate().map(one).collect()),
         // No pool (threads refused): one file after another on a worker.
         Err(_) => files
             .iter()
-            .map(|f| {
-                crate::worker::on_worker(|| Ok::<_, Error>(one(f))).unwrap_or_else(|e| {
+            .enumerate()
+            .map(|(k, f)| {
+                crate::worker::on_worker(|| Ok::<_, Error>(one((k, f)))).unwrap_or_else(|e| {
                     let row = FileSummary::failed(f, &e, 0.0);
                     done(&row);
                     row

@@ -73,6 +73,21 @@ pub fn in_gaps(rec: &BatteryRecord, gaps: &[Gap]) -> Vec<bool> {
 }
 
 impl ParameterMap {
+    /// The map of a JSON array of levels, each with the map CSV's columns
+    /// (the `levels` of `identify battery --json --map-out`'s `map`, or of
+    /// the Python face's `identify_battery(..., map=True)`), sorted; `name`
+    /// names it in errors.
+    ///
+    /// # Errors
+    /// [`crate::ErrorKind::Data`] when the rows are not a map's.
+    pub fn from_json_levels(levels: &serde_json::Value, name: &Path) -> Result<Self> {
+        let rows: Vec<MapRow> = serde_json::from_value(levels.clone())
+            .map_err(|e| crate::err!(Data, "{}: not a parameter map ({e})", name.display()))?;
+        let mut map = ParameterMap { rows };
+        map.sort();
+        Ok(map)
+    }
+
     /// Sorts the levels by temperature (unknown first), then SOC.
     pub fn sort(&mut self) {
         self.rows.sort_by(|a, b| {

@@ -175,14 +175,27 @@ pub fn read_prior_source(
     }
     check_factor(prior_factor)?;
     let map = ParameterMap::read_csv(path)?;
+    map_prior(&map, path, prior_factor, prior_alpha_sigma, prior_noise_mv)
+}
+
+/// The map `map` (named `name` in errors) as a prior with the `--prior-*`
+/// spreads.
+fn map_prior(
+    map: &ParameterMap,
+    name: &Path,
+    prior_factor: f64,
+    prior_alpha_sigma: f64,
+    prior_noise_mv: f64,
+) -> Result<PriorSource> {
+    check_factor(prior_factor)?;
     PriorMap::new(
-        &map,
+        map,
         prior_factor.ln(),
         prior_alpha_sigma,
         prior_noise_mv * 1e-3,
     )
     .map(PriorSource::Map)
-    .map_err(|e| err!(Data, "{}: {}", path.display(), e.message()))
+    .map_err(|e| err!(Data, "{}: {}", name.display(), e.message()))
 }
 
 /// A prior from a JSON value: a fit's ([`prior_from_fit`]), or a parameter
@@ -205,18 +218,8 @@ pub fn prior_source_from_json(
             .map(PriorSource::Fit);
     };
     check_factor(prior_factor)?;
-    let rows: Vec<crate::map::MapRow> = serde_json::from_value(levels.clone())
-        .map_err(|e| err!(Data, "{}: not a parameter map ({e})", name.display()))?;
-    let mut map = ParameterMap { rows };
-    map.sort();
-    PriorMap::new(
-        &map,
-        prior_factor.ln(),
-        prior_alpha_sigma,
-        prior_noise_mv * 1e-3,
-    )
-    .map(PriorSource::Map)
-    .map_err(|e| err!(Data, "{}: {}", name.display(), e.message()))
+    let map = ParameterMap::from_json_levels(levels, name)?;
+    map_prior(&map, name, prior_factor, prior_alpha_sigma, prior_noise_mv)
 }
 
 fn check_factor(prior_factor: f64) -> Result<()> {

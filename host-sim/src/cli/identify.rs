@@ -407,15 +407,13 @@ fn battery_many(a: &IdBatteryArgs, o: &BatteryFitOptions) -> Result<()> {
         (Some(d), false) => Some(out_dir(d, &files, "-map.csv")?),
         (None, _) => None,
     };
-    let index = |f: &std::path::Path| files.iter().position(|g| g == f).unwrap_or(0);
     let total = files.len();
     let ended = std::sync::atomic::AtomicUsize::new(0);
     let rows = many::identify_many_with(
         &files,
         o,
         &m,
-        |f, fit, map| {
-            let k = index(f);
+        |k, _, fit, map| {
             if let Some(p) = json_out.as_ref().map(|v| &v[k]) {
                 io::write_json(p, &fit.result.json)?;
             }
