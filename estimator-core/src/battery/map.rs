@@ -141,34 +141,41 @@ impl<'a, T: Real> ParameterMap<'a, T> {
     /// temperature is nearer than an unknown one).
     pub fn slice(&self, temperature_c: Option<T>) -> &'a [MapLevel<T>] {
         let l = self.levels;
-        let want = temperature_c.filter(|t| t.is_finite());
-        // The start of the run of the chosen temperature.
-        let mut best = 0;
-        if let Some(t) = want {
-            let dist = |x: Option<T>| x.map(|x| (x - t).abs());
+        // The run of levels at one temperature that starts at `start`.
+        let run_at = |start: usize| -> &'a [MapLevel<T>] {
+            let rest = l.get(start..).unwrap_or_default();
+            let t0 = rest.first().map(|x| x.temperature_c);
+            let len = rest
+                .iter()
+                .take_while(|x| Some(x.temperature_c) == t0)
+                .count();
+            rest.get(..len).unwrap_or_default()
+        };
+        let mut best = run_at(0);
+        if let Some(t) = temperature_c.filter(|t| t.is_finite()) {
+            let dist = |run: &[MapLevel<T>]| {
+                run.first()
+                    .and_then(|x| x.temperature_c)
+                    .map(|x| (x - t).abs())
+            };
             let mut k = 0;
             while k < l.len() {
-                let better = match (dist(l[k].temperature_c), dist(l[best].temperature_c)) {
+                let run = run_at(k);
+                if run.is_empty() {
+                    break;
+                }
+                let better = match (dist(run), dist(best)) {
                     (Some(d), Some(b)) => d < b,
                     (Some(_), None) => true,
                     _ => false,
                 };
                 if better {
-                    best = k;
+                    best = run;
                 }
-                // Next run.
-                let tk = l[k].temperature_c;
-                while k < l.len() && l[k].temperature_c == tk {
-                    k += 1;
-                }
+                k += run.len();
             }
         }
-        let t0 = l[best].temperature_c;
-        let mut end = best;
-        while end < l.len() && l[end].temperature_c == t0 {
-            end += 1;
-        }
-        &l[best..end]
+        best
     }
 
     /// The cell at SOC `soc` and the temperature nearest `temperature_c`:
@@ -177,22 +184,41 @@ impl<'a, T: Real> ParameterMap<'a, T> {
     /// middle level's cell).
     pub fn cell_at(&self, soc: T, temperature_c: Option<T>) -> CellParameters<T> {
         let rows = self.slice(temperature_c);
-        let n = rows.len();
+        // A map has a level (`new`), so a run has one; NaN if it had none.
+        let (Some(first), Some(last), Some(middle)) =
+            (rows.first(), rows.last(), rows.get(rows.len() / 2))
+        else {
+            let nan = T::nan();
+            return CellParameters {
+                r_i: nan,
+                r_ct: nan,
+                q: nan,
+                alpha: nan,
+                u_oc: nan,
+                bv_a: nan,
+                bv_i0: nan,
+            };
+        };
         if !soc.is_finite() {
-            return rows[n / 2].cell;
+            return middle.cell;
         }
-        if soc <= rows[0].soc {
-            return rows[0].cell;
+        if soc <= first.soc {
+            return first.cell;
         }
-        if soc >= rows[n - 1].soc {
-            return rows[n - 1].cell;
+        if soc >= last.soc {
+            return last.cell;
         }
-        // rows[0].soc < soc < rows[n-1].soc: some j has rows[j].soc ≤ soc < rows[j+1].soc.
-        let mut j = 0;
-        while j + 2 < n && rows[j + 1].soc <= soc {
-            j += 1;
-        }
-        let (a, b) = (&rows[j], &rows[j + 1]);
+        // first.soc < soc < last.soc: the first pair of neighbours whose
+        // upper level is above soc (the last pair if none is).
+        let above = |p: &&[MapLevel<T>]| matches!(p, [_, b] if b.soc > soc);
+        let Some([a, b]) = rows
+            .windows(2)
+            .find(above)
+            .or_else(|| rows.windows(2).last())
+            .and_then(|p| <&[MapLevel<T>; 2]>::try_from(p).ok())
+        else {
+            return last.cell;
+        };
         let w = if b.soc > a.soc {
             (soc - a.soc) / (b.soc - a.soc)
         } else {

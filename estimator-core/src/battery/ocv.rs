@@ -127,12 +127,13 @@ impl<T: Real, const P: usize> OcvTable<T, P> {
 
     /// The SOC column.
     pub fn soc_points(&self) -> &[T] {
-        &self.soc[..self.len]
+        // `new` refuses more than P points; the clamp lets the optimizer see it.
+        &self.soc[..self.len.min(P)]
     }
 
     /// The OCV column (V).
     pub fn ocv_points(&self) -> &[T] {
-        &self.ocv[..self.len]
+        &self.ocv[..self.len.min(P)]
     }
 
     /// Converts to another scalar type (a host table into the firmware's
@@ -153,10 +154,10 @@ impl<T: Real, const P: usize> OcvTable<T, P> {
     /// Index `k` of the segment `[x_k, x_{k+1}]` of `xs` that holds `x`
     /// (the first or last segment outside the range). O(log P).
     fn segment(xs: &[T], x: T) -> usize {
-        let (mut lo, mut hi) = (0usize, xs.len() - 1);
+        let (mut lo, mut hi) = (0usize, xs.len().saturating_sub(1));
         while hi - lo > 1 {
             let mid = (lo + hi) / 2;
-            if x < xs[mid] {
+            if xs.get(mid).is_some_and(|&m| x < m) {
                 hi = mid;
             } else {
                 lo = mid;
@@ -165,18 +166,36 @@ impl<T: Real, const P: usize> OcvTable<T, P> {
         lo
     }
 
+    /// `ys` at `x`, linear on segment `k` of `xs` (`segment` gives
+    /// `k + 1 < len`; NaN if it did not).
+    fn along(xs: &[T], ys: &[T], k: usize, x: T) -> T {
+        match (xs.get(k..=k + 1), ys.get(k..=k + 1)) {
+            (Some(&[x0, x1]), Some(&[y0, y1])) => y0 + (y1 - y0) * (x - x0) / (x1 - x0),
+            _ => T::nan(),
+        }
+    }
+
+    /// `ys` at `x`: linear between points, the end values outside (NaN for
+    /// a NaN `x`, or an empty table, which `new` refuses).
+    fn interpolate(xs: &[T], ys: &[T], x: T) -> T {
+        let (Some((&x0, &y0)), Some((&xl, &yl))) =
+            (xs.first().zip(ys.first()), xs.last().zip(ys.last()))
+        else {
+            return T::nan();
+        };
+        if x <= x0 {
+            return y0;
+        }
+        if x >= xl {
+            return yl;
+        }
+        Self::along(xs, ys, Self::segment(xs, x), x)
+    }
+
     /// `OCV(soc)` (V), linear between points, the end values outside.
     /// A NaN SOC gives NaN.
     pub fn ocv(&self, soc: T) -> T {
-        let (z, v) = (self.soc_points(), self.ocv_points());
-        if soc <= z[0] {
-            return v[0];
-        }
-        if soc >= z[self.len - 1] {
-            return v[self.len - 1];
-        }
-        let k = Self::segment(z, soc);
-        v[k] + (v[k + 1] - v[k]) * (soc - z[k]) / (z[k + 1] - z[k])
+        Self::interpolate(self.soc_points(), self.ocv_points(), soc)
     }
 
     /// The slope `dOCV/dSOC` (V per unit SOC) of the segment that holds
@@ -184,21 +203,16 @@ impl<T: Real, const P: usize> OcvTable<T, P> {
     pub fn slope(&self, soc: T) -> T {
         let (z, v) = (self.soc_points(), self.ocv_points());
         let k = Self::segment(z, soc);
-        (v[k + 1] - v[k]) / (z[k + 1] - z[k])
+        match (z.get(k..=k + 1), v.get(k..=k + 1)) {
+            (Some(&[z0, z1]), Some(&[v0, v1])) => (v1 - v0) / (z1 - z0),
+            _ => T::nan(),
+        }
     }
 
     /// The inverse: the SOC whose OCV is `ocv` (a rested cell's voltage),
     /// clamped to the table's SOC range.
     pub fn soc_from_ocv(&self, ocv: T) -> T {
-        let (z, v) = (self.soc_points(), self.ocv_points());
-        if ocv <= v[0] {
-            return z[0];
-        }
-        if ocv >= v[self.len - 1] {
-            return z[self.len - 1];
-        }
-        let k = Self::segment(v, ocv);
-        z[k] + (z[k + 1] - z[k]) * (ocv - v[k]) / (v[k + 1] - v[k])
+        Self::interpolate(self.ocv_points(), self.soc_points(), ocv)
     }
 }
 

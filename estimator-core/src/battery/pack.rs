@@ -180,12 +180,12 @@ impl<T: Real, const N: usize, const MEM: usize, const CELLS: usize>
 
     /// Cell `k`'s state (0-based; `None` beyond the cells in use).
     pub fn cell(&self, k: usize) -> Option<&CellState<T, N>> {
-        self.cells[..self.active].get(k)
+        self.cells.get(k).filter(|_| k < self.active)
     }
 
     /// Cell `k`'s state, to set its state of charge (0-based).
     pub fn cell_mut(&mut self, k: usize) -> Option<&mut CellState<T, N>> {
-        self.cells[..self.active].get_mut(k)
+        self.cells.get_mut(k).filter(|_| k < self.active)
     }
 
     /// Cell `k`'s window (the pack's currents with its voltages). Cell
@@ -387,11 +387,14 @@ impl<T: Real, const N: usize, const MEM: usize, const CELLS: usize>
                     .flatten();
                 match pred {
                     Some(mut pred) => {
+                        // The currents since, oldest first (since ≤ the
+                        // window's length ≤ N).
                         let mut newer = [T::zero(); N];
-                        for (j, (i, _)) in window.newest_first().take(since).enumerate() {
-                            newer[since - 1 - j] = i;
+                        let newer = &mut newer[..since.min(N)];
+                        for (slot, (i, _)) in newer.iter_mut().rev().zip(window.newest_first()) {
+                            *slot = i;
                         }
-                        for &i in &newer[..since] {
+                        for &i in newer.iter() {
                             pred.advance(i);
                         }
                         tail.set(&pred);

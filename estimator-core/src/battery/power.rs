@@ -113,7 +113,7 @@ impl<T: Real> PowerSettings<T> {
 
     /// The horizons (samples), in the order given.
     pub fn horizons(&self) -> &[u32] {
-        &self.horizons[..self.count]
+        &self.horizons[..self.count.min(MAX_HORIZONS)]
     }
 
     /// The longest horizon (samples).
@@ -146,7 +146,7 @@ pub struct PowerReport<T> {
 impl<T: Real> PowerReport<T> {
     /// Each horizon's answer, in the settings' order.
     pub fn horizons(&self) -> &[HorizonPower<T>] {
-        &self.horizons[..self.count]
+        &self.horizons[..self.count.min(MAX_HORIZONS)]
     }
 
     /// The weaker of two cells' reports for the same settings, as a series
@@ -156,7 +156,12 @@ impl<T: Real> PowerReport<T> {
     /// either has none).
     pub fn series(&self, other: &Self) -> Self {
         let mut out = *self;
-        for (a, b) in out.horizons[..self.count].iter_mut().zip(other.horizons()) {
+        for (a, b) in out
+            .horizons
+            .iter_mut()
+            .take(self.count)
+            .zip(other.horizons())
+        {
             a.sop.discharge_a = a.sop.discharge_a.min(b.sop.discharge_a);
             a.sop.charge_a = a.sop.charge_a.min(b.sop.charge_a);
             a.pulse_v = a.pulse_v.zip(b.pulse_v).map(|(x, y)| x + y);
@@ -244,8 +249,10 @@ fn advance_past<T: Real, const MEM: usize>(
     let wts = w.weights();
     let m = wts.len().min(MEM);
     let a = p.tau() * w.scale();
-    let h = wts[1..m]
+    let h = wts
         .iter()
+        .take(m)
+        .skip(1)
         .zip(past.iter())
         .fold(T::zero(), |s, (&w, &x)| s + w * x);
     let x = (p.r_ct * current - a * h) / (T::one() + a);
@@ -364,16 +371,20 @@ impl<'a, T: Real, const MEM: usize, const P: usize> PulsePredictor<'a, T, MEM, P
         for k in 1..=steps {
             let nf = n.min(m.saturating_sub(1));
             let (mut hf, mut hg) = (T::zero(), T::zero());
-            for j in 1..=nf {
-                hf = hf + wts[j] * fresh_f[n - j];
-                hg = hg + wts[j] * fresh_g[n - j];
+            // Taps 1..=nf on this chunk, newest first: fresh[n − j].
+            let fresh = fresh_f.iter().zip(&fresh_g).take(n).rev();
+            for (&wj, (&xf, &xg)) in wts.iter().skip(1).take(nf).zip(fresh) {
+                hf = hf + wj * xf;
+                hg = hg + wj * xg;
             }
-            for j in nf + 1..m {
-                hf = hf + wts[j] * past_f[j - n - 1];
+            // Taps nf + 1..m on the past: past[j − n − 1], from past[0]
+            // (the range is empty unless nf = n).
+            for (&wj, &x) in wts.iter().take(m).skip(nf + 1).zip(&past_f) {
+                hf = hf + wj * x;
             }
             if g_past {
-                for j in nf + 1..m {
-                    hg = hg + wts[j] * past_g[j - n - 1];
+                for (&wj, &x) in wts.iter().take(m).skip(nf + 1).zip(&past_g) {
+                    hg = hg + wj * x;
                 }
             }
             let f = -(a * hf) * inv;
@@ -478,23 +489,34 @@ impl<'a, T: Real, const MEM: usize, const P: usize> PulsePredictor<'a, T, MEM, P
             // fails), in order of the horizons' lengths. The same bounds
             // as sample by sample (below), with fewer roots.
             let (mut fs, mut gs) = ([T::zero(); MEM], [T::zero(); MEM]);
+            // (k runs 1..=longest ≤ MEM.)
             self.responses(longest, |k, f, g| {
-                fs[k - 1] = f;
-                gs[k - 1] = g;
+                let at = k.wrapping_sub(1);
+                if let (Some(x), Some(y)) = (fs.get_mut(at), gs.get_mut(at)) {
+                    (*x, *y) = (f, g);
+                }
             });
             let mut order = [0usize; MAX_HORIZONS];
             for (j, o) in order.iter_mut().enumerate().take(out.count) {
                 *o = j;
             }
             let order = &mut order[..out.count];
-            order.sort_unstable_by_key(|&j| out.horizons[j].sop.steps);
+            sort_by_steps(order, &out.horizons);
             let mut checked = 0;
             for &j in order.iter() {
-                let end = out.horizons[j].sop.steps;
+                let Some(end) = out.horizons.get(j).map(|o| o.sop.steps) else {
+                    continue;
+                };
                 if end == 0 {
                     continue;
                 }
-                let at = |k: usize| (fs[k - 1], gs[k - 1]);
+                // (k runs 1..=end ≤ longest ≤ MEM.)
+                let at = |k: usize| {
+                    let at = k.wrapping_sub(1);
+                    fs.get(at)
+                        .zip(gs.get(at))
+                        .map_or((T::nan(), T::nan()), |(&f, &g)| (f, g))
+                };
                 let (fe, ge) = at(end);
                 d = largest(d, limits.voltage_min, |x| discharge(x, end, fe, ge));
                 c = largest(c, limits.voltage_max, |x| charge(x, end, fe, ge));
@@ -508,17 +530,18 @@ impl<'a, T: Real, const MEM: usize, const P: usize> PulsePredictor<'a, T, MEM, P
                     }
                 }
                 checked = checked.max(end);
-                let o = &mut out.horizons[j];
-                o.sop.discharge_a = d;
-                o.sop.charge_a = c;
-                o.pulse_v = pulse.map(|i| self.voltage(i, end, fe, ge));
+                if let Some(o) = out.horizons.get_mut(j) {
+                    o.sop.discharge_a = d;
+                    o.sop.charge_a = c;
+                    o.pulse_v = pulse.map(|i| self.voltage(i, end, fe, ge));
+                }
             }
             return out;
         }
         self.responses(longest, |k, f, g| {
             d = largest(d, limits.voltage_min, |x| discharge(x, k, f, g));
             c = largest(c, limits.voltage_max, |x| charge(x, k, f, g));
-            for o in out.horizons[..out.count].iter_mut() {
+            for o in out.horizons.iter_mut().take(out.count) {
                 if o.sop.steps == k {
                     o.sop.discharge_a = d;
                     o.sop.charge_a = c;
@@ -588,3 +611,17 @@ fn largest<T: Real>(bound: T, limit: T, f: impl Fn(T) -> T) -> T {
 
 #[cfg(test)]
 mod tests;
+
+/// Sorts the horizon indices `order` by their lengths, stably (an
+/// insertion sort: at most [`MAX_HORIZONS`] of them, and no range checks as
+/// in `core`'s sort). An index past `horizons` sorts first.
+fn sort_by_steps<T>(order: &mut [usize], horizons: &[HorizonPower<T>]) {
+    let steps = |j: usize| horizons.get(j).map_or(0, |o| o.sop.steps);
+    for a in 1..order.len() {
+        let mut b = a;
+        while b > 0 && steps(order[b - 1]) > steps(order[b]) {
+            order.swap(b - 1, b);
+            b -= 1;
+        }
+    }
+}

@@ -22,9 +22,12 @@ use crate::real::Real;
 #[inline]
 pub(crate) fn history<T: Real>(w: &[T], x: &[T], l: usize) -> T {
     let taps = (l + 1).min(w.len());
-    w[1..taps]
-        .iter()
-        .zip(x[l + 1 - taps..l].iter().rev())
+    // `1 ≤ taps ≤ l + 1` and `l ≤ x.len()` at every caller; NaN if broken.
+    let (Some(w), Some(x)) = (w.get(1..taps), x.get(l + 1 - taps..l)) else {
+        return T::nan();
+    };
+    w.iter()
+        .zip(x.iter().rev())
         .fold(T::zero(), |s, (&w, &x)| s + w * x)
 }
 
@@ -59,15 +62,31 @@ pub(crate) fn cpe_filter<T: Real>(
             seen(l, x[l], h);
             l += 1;
         }
+        let (Some(w0), Some(w_far)) = (w.first_chunk::<ROW_BLOCK>(), w.get(ROW_BLOCK..)) else {
+            return;
+        };
         while l + ROW_BLOCK <= n {
-            let known = row_block(&w[ROW_BLOCK..], &x[l + 1 - m..l]);
+            // l + 1 ≥ m > ROW_BLOCK here: the loop above has run the short rows.
+            let Some(past) = x.get(l + 1 - m..l) else {
+                break;
+            };
+            let known = row_block(w_far, past);
+            // The block's rows and the ROW_BLOCK − 1 samples before them:
+            // t[ROW_BLOCK − 1 + k] is x(l + k).
+            let Some(Ok(t)) = x
+                .get_mut(l + 1 - ROW_BLOCK..l + ROW_BLOCK)
+                .map(<&mut [T; 2 * ROW_BLOCK - 1]>::try_from)
+            else {
+                break;
+            };
             for (k, mut h) in known.into_iter().enumerate() {
                 let r = l + k;
                 for j in (1..ROW_BLOCK).rev() {
-                    h = h + w[j] * x[r - j];
+                    h = h + w0[j] * t[ROW_BLOCK - 1 + k - j];
                 }
-                x[r] = (drive(r) - a * h) * inv;
-                seen(r, x[r], h);
+                let xr = (drive(r) - a * h) * inv;
+                t[ROW_BLOCK - 1 + k] = xr;
+                seen(r, xr, h);
             }
             l += ROW_BLOCK;
         }
@@ -96,33 +115,52 @@ pub(crate) fn cpe_filter_pair<T: Real>(
     let inv = T::one() / (T::one() + a);
     let (m, n) = (w.len(), x.len().min(y.len()));
     let mut l = warm;
-    let mut solve = |x: &mut [T], y: &mut [T], l: usize, hx: T, hy: T| {
+    let mut solve = |l: usize, hx: T, hy: T| {
         let (dx, dy) = drive(l);
-        x[l] = (dx - a * hx) * inv;
-        y[l] = (dy - a * hy) * inv;
+        ((dx - a * hx) * inv, (dy - a * hy) * inv)
     };
     if m > ROW_BLOCK {
         while l < n && l + 1 < m {
             let (hx, hy) = (history(w, x, l), history(w, y, l));
-            solve(x, y, l, hx, hy);
+            let Some((xl, yl)) = x.get_mut(l).zip(y.get_mut(l)) else {
+                return;
+            };
+            (*xl, *yl) = solve(l, hx, hy);
             l += 1;
         }
+        let (Some(w0), Some(w_far)) = (w.first_chunk::<ROW_BLOCK>(), w.get(ROW_BLOCK..)) else {
+            return;
+        };
         while l + ROW_BLOCK <= n {
-            let (kx, ky) = row_block_pair(&w[ROW_BLOCK..], &x[l + 1 - m..l], &y[l + 1 - m..l]);
+            // As in `cpe_filter`: l + 1 ≥ m here, and t[ROW_BLOCK − 1 + k] is x(l + k).
+            let (Some(px), Some(py)) = (x.get(l + 1 - m..l), y.get(l + 1 - m..l)) else {
+                break;
+            };
+            let (kx, ky) = row_block_pair(w_far, px, py);
+            let rows = l + 1 - ROW_BLOCK..l + ROW_BLOCK;
+            let (Some(Ok(tx)), Some(Ok(ty))) = (
+                x.get_mut(rows.clone())
+                    .map(<&mut [T; 2 * ROW_BLOCK - 1]>::try_from),
+                y.get_mut(rows).map(<&mut [T; 2 * ROW_BLOCK - 1]>::try_from),
+            ) else {
+                break;
+            };
             for (k, (mut hx, mut hy)) in kx.into_iter().zip(ky).enumerate() {
-                let r = l + k;
                 for j in (1..ROW_BLOCK).rev() {
-                    hx = hx + w[j] * x[r - j];
-                    hy = hy + w[j] * y[r - j];
+                    hx = hx + w0[j] * tx[ROW_BLOCK - 1 + k - j];
+                    hy = hy + w0[j] * ty[ROW_BLOCK - 1 + k - j];
                 }
-                solve(x, y, r, hx, hy);
+                (tx[ROW_BLOCK - 1 + k], ty[ROW_BLOCK - 1 + k]) = solve(l + k, hx, hy);
             }
             l += ROW_BLOCK;
         }
     }
     while l < n {
         let (hx, hy) = (history(w, x, l), history(w, y, l));
-        solve(x, y, l, hx, hy);
+        let Some((xl, yl)) = x.get_mut(l).zip(y.get_mut(l)) else {
+            return;
+        };
+        (*xl, *yl) = solve(l, hx, hy);
         l += 1;
     }
 }

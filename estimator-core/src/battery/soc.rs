@@ -393,7 +393,11 @@ impl<T: Real> SocObserver<T> {
     ) {
         let Some(x) = &mut self.x else { return };
         let v = table.ocv_points();
-        if !(voltage > v[0] && voltage < v[v.len() - 1]) {
+        let inside = v
+            .first()
+            .zip(v.last())
+            .is_some_and(|(&lo, &hi)| voltage > lo && voltage < hi);
+        if !inside {
             return;
         }
         let z = table.soc_from_ocv(voltage);

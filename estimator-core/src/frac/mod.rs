@@ -124,11 +124,11 @@ impl<T: Real, const MEM: usize> GlWeights<T, MEM> {
     }
     /// The weights `w_0 … w_{M−1}`, without the `h^(−α)` scale.
     pub fn weights(&self) -> &[T] {
-        &self.w[..self.len]
+        &self.w[..self.len.min(MEM)]
     }
     /// The order derivatives `∂w_0/∂α … ∂w_{M−1}/∂α`.
     pub fn weight_derivatives(&self) -> &[T] {
-        &self.dw[..self.len]
+        &self.dw[..self.len.min(MEM)]
     }
 
     /// `Δ^α x(l)`: the fractional difference of the sequence `x` at index
@@ -173,7 +173,7 @@ impl<T: Real, const MEM: usize> GlWeights<T, MEM> {
     /// memory are summed several at a time, sharing each weight and sample.
     pub fn for_each_difference(&self, x: &[T], rows: Range<usize>, mut f: impl FnMut(usize, T)) {
         let s = self.scale;
-        single_sums(&self.w[..self.len], x, rows, |l, a| f(l, s * a));
+        single_sums(&self.w[..self.len.min(MEM)], x, rows, |l, a| f(l, s * a));
     }
 
     /// Calls `f(l, D x(l))` for every `l` in `rows` (up to `x.len()`), where
@@ -189,7 +189,7 @@ impl<T: Real, const MEM: usize> GlWeights<T, MEM> {
         mut f: impl FnMut(usize, T),
     ) {
         let s = self.scale;
-        single_sums(&self.dw[..self.len], x, rows, |l, a| f(l, s * a));
+        single_sums(&self.dw[..self.len.min(MEM)], x, rows, |l, a| f(l, s * a));
     }
 
     /// Calls `f(l, Δ^α x(l), ∂(Δ^α x(l))/∂α)` for every `l` in `rows` (up
@@ -235,7 +235,7 @@ impl<T: Real, const MEM: usize> GlWeights<T, MEM> {
         mut f: impl FnMut(usize, T, T),
     ) {
         let s = self.scale;
-        pair_sums(&self.w[..self.len], x, y, rows, |l, a, b| {
+        pair_sums(&self.w[..self.len.min(MEM)], x, y, rows, |l, a, b| {
             f(l, s * a, s * b)
         });
     }
@@ -254,7 +254,7 @@ impl<T: Real, const MEM: usize> GlWeights<T, MEM> {
         mut f: impl FnMut(usize, T, T),
     ) {
         let s = self.scale;
-        pair_sums(&self.dw[..self.len], x, y, rows, |l, a, b| {
+        pair_sums(&self.dw[..self.len.min(MEM)], x, y, rows, |l, a, b| {
             f(l, s * a, s * b)
         });
     }
@@ -347,7 +347,11 @@ pub(crate) const BLOCK: usize = 4;
 #[cfg_attr(not(target_arch = "arm"), allow(dead_code))]
 fn block_sums<T: Real>(w: &[T], xs: &[T]) -> [T; BLOCK] {
     let m = w.len();
-    let xs = &xs[..m + BLOCK - 1];
+    // Every caller passes exactly `m + 3` samples; the check is for the
+    // optimizer, which cannot see it across the call (NaN if ever broken).
+    let Some(xs) = xs.get(..m + BLOCK - 1) else {
+        return [T::nan(); BLOCK];
+    };
     // The samples of rows 1..3 at the current tap.
     let mut xr = [xs[m], xs[m + 1], xs[m + 2]];
     let mut s = [T::zero(); BLOCK];
@@ -457,8 +461,9 @@ impl<T: Real, F: FnMut(usize, T)> SingleBlocks<'_, T, F> {
                 let s = row_block(&w[..taps], &x[..l + ROW_BLOCK]);
                 for (k, mut a) in s.into_iter().enumerate() {
                     let r = l + k;
-                    for j in taps..=r {
-                        a = a + w[j] * x[r - j];
+                    // Taps `taps..=r` against x[r − taps], …, x[0].
+                    for (&wj, &xj) in w.iter().take(r + 1).skip(taps).zip(x.iter().take(k).rev()) {
+                        a = a + wj * xj;
                     }
                     f(r, a);
                 }
@@ -469,14 +474,21 @@ impl<T: Real, F: FnMut(usize, T)> SingleBlocks<'_, T, F> {
             }
         }
         while l + ROW_BLOCK <= end {
-            let s = row_block(w, &x[l + 1 - m..l + ROW_BLOCK]);
+            // l + 1 ≥ m here: the loop above has run the short rows.
+            let Some(xs) = x.get(l + 1 - m..l + ROW_BLOCK) else {
+                break;
+            };
+            let s = row_block(w, xs);
             for (k, sk) in s.into_iter().enumerate() {
                 f(l + k, sk);
             }
             l += ROW_BLOCK;
         }
         while l < end {
-            f(l, dot_rev(w, &x[l + 1 - m..=l]));
+            let Some(xs) = x.get(l + 1 - m..=l) else {
+                break;
+            };
+            f(l, dot_rev(w, xs));
             l += 1;
         }
         l
@@ -514,9 +526,11 @@ impl<T: Real, F: FnMut(usize, T, T)> PairBlocks<'_, T, F> {
                 for k in 0..ROW_BLOCK {
                     let r = l + k;
                     let (mut a, mut b) = (s[k], d[k]);
-                    for j in taps..=r {
-                        a = a + w[j] * x[r - j];
-                        b = b + w[j] * y[r - j];
+                    // Taps `taps..=r` against x[r − taps], …, x[0] (and y).
+                    let xy = x.iter().take(k).rev().zip(y.iter().take(k).rev());
+                    for (&wj, (&xj, &yj)) in w.iter().take(r + 1).skip(taps).zip(xy) {
+                        a = a + wj * xj;
+                        b = b + wj * yj;
                     }
                     f(r, a, b);
                 }
@@ -527,7 +541,13 @@ impl<T: Real, F: FnMut(usize, T, T)> PairBlocks<'_, T, F> {
             }
         }
         while l + ROW_BLOCK <= end {
-            let (xs, ys) = (&x[l + 1 - m..l + ROW_BLOCK], &y[l + 1 - m..l + ROW_BLOCK]);
+            // l + 1 ≥ m here, as in `SingleBlocks::run`.
+            let (Some(xs), Some(ys)) = (
+                x.get(l + 1 - m..l + ROW_BLOCK),
+                y.get(l + 1 - m..l + ROW_BLOCK),
+            ) else {
+                break;
+            };
             let (a, b) = row_block_pair(w, xs, ys);
             for k in 0..ROW_BLOCK {
                 f(l + k, a[k], b[k]);
@@ -535,7 +555,9 @@ impl<T: Real, F: FnMut(usize, T, T)> PairBlocks<'_, T, F> {
             l += ROW_BLOCK;
         }
         while l < end {
-            let (xs, ys) = (&x[l + 1 - m..=l], &y[l + 1 - m..=l]);
+            let (Some(xs), Some(ys)) = (x.get(l + 1 - m..=l), y.get(l + 1 - m..=l)) else {
+                break;
+            };
             f(l, dot_rev(w, xs), dot_rev(w, ys));
             l += 1;
         }
@@ -657,7 +679,10 @@ pub(crate) const ROW_BLOCK: usize = 8;
 #[cfg_attr(not(target_arch = "arm"), allow(dead_code))]
 fn block_sums_pair<T: Real>(w: &[T], xs: &[T], ys: &[T]) -> ([T; BLOCK], [T; BLOCK]) {
     let m = w.len();
-    let (xs, ys) = (&xs[..m + BLOCK - 1], &ys[..m + BLOCK - 1]);
+    // As in [`block_sums`]: every caller passes `m + 3` samples of each.
+    let (Some(xs), Some(ys)) = (xs.get(..m + BLOCK - 1), ys.get(..m + BLOCK - 1)) else {
+        return ([T::nan(); BLOCK], [T::nan(); BLOCK]);
+    };
     // x[1..4]: the samples of rows 1..3 at the current tap.
     let mut xr = [xs[m], xs[m + 1], xs[m + 2]];
     let mut yr = [ys[m], ys[m + 1], ys[m + 2]];

@@ -95,13 +95,16 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
     /// residuals the last normal equations left in the trial buffer (0
     /// for fewer than two rows or zero residuals).
     pub(super) fn residual_lag1(&self) -> T {
-        let r = &self.trial[self.warm..self.n];
+        let n = self.n.min(N);
+        let r = &self.trial[self.warm.min(n)..n];
         let (mut num, mut den) = (T::zero(), T::zero());
-        for (k, &x) in r.iter().enumerate() {
+        let mut previous = None;
+        for &x in r {
             den = den + x * x;
-            if k > 0 {
-                num = num + x * r[k - 1];
+            if let Some(before) = previous {
+                num = num + x * before;
             }
+            previous = Some(x);
         }
         if den > T::zero() {
             num / den

@@ -169,7 +169,8 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
             (trial.q / p.q).ln().abs(),
             (trial.alpha - p.alpha).abs(),
             (trial.u_oc - p.u_oc).abs() / scale,
-            (beta - self.beta).abs() * self.c[self.warm].abs() / scale,
+            // (warm < n ≤ N: the charge at the first fitted sample.)
+            (beta - self.beta).abs() * self.c.get(self.warm).map_or(T::zero(), |c| c.abs()) / scale,
             if p.is_butler_volmer() {
                 (trial.bv_a / p.bv_a).ln().abs()
             } else {
@@ -237,7 +238,9 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
     ) -> Result<RefinementStep<T>, Error> {
         s.check::<MEM>()?;
         self.load(s, win)?;
-        let (n, warm) = (self.n, self.warm);
+        // `load` keeps warm < n ≤ N; the clamps let the optimizer see it.
+        let n = self.n.min(N);
+        let warm = self.warm.min(n);
         if current_std(&self.i[warm..n]) <= s.min_current_std {
             return Err(Error::NotExcited);
         }

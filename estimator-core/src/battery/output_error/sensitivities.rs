@@ -59,7 +59,9 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
     /// held in `up` and `e`; with `tail`, of the model with the taps beyond
     /// the memory ([`BatterySettings::tail`]).
     pub(super) fn sensitivities(&mut self, slope: bool, kinetic: bool, tail: bool) {
-        let (n, warm) = (self.n, self.warm);
+        // `load` keeps warm < n ≤ N; the clamps let the optimizer see it.
+        let n = self.n.min(N);
+        let warm = self.warm.min(n);
         let wts = self.w.weights();
         let g = self.w.scale();
         let ln_h = self.w.h().ln();
@@ -101,12 +103,16 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
         // the simulation.
         let dup = &mut self.trial;
         self.solver
-            .weight_derivative(&self.w, &self.up[..n], warm..n, |l, d| dup[l] = d);
+            .weight_derivative(&self.w, &self.up[..n], warm..n, |l, d| {
+                if let Some(x) = dup.get_mut(l) {
+                    *x = d;
+                }
+            });
         if let Some((t, dc)) = &tails {
             let mut z = z_up;
             for (l, dl) in dup.iter_mut().enumerate().take(n).skip(warm) {
-                if l >= memory {
-                    let x = self.up[l - memory];
+                // The sample leaving the memory, when there is one.
+                if let Some(&x) = l.checked_sub(memory).and_then(|k| self.up.get(k)) {
                     for (zk, &r) in z.iter_mut().zip(&t.rates) {
                         *zk = r * *zk + x;
                     }
@@ -130,7 +136,11 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
         }
         // Two recursions at a time through the pair kernel (same weights
         // and `a`): each gets the values it would get alone.
-        let rct_q = |l: usize| (i[l] - p.q * g * e[l], -p.r_ct * g * e[l]);
+        // (The filters call back with l < n ≤ N: NaN past it, never read.)
+        let rct_q = |l: usize| match (i.get(l), e.get(l)) {
+            (Some(&il), Some(&el)) => (il - p.q * g * el, -p.r_ct * g * el),
+            _ => (T::nan(), T::nan()),
+        };
         match &tails {
             Some((t, _)) => cpe_filter_pair_tail(
                 wts,
@@ -151,7 +161,10 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
                 rct_q,
             ),
         }
-        let order = |l: usize| a * ln_h * e[l] - tau * dup[l];
+        let order = |l: usize| match (e.get(l), dup.get(l)) {
+            (Some(&el), Some(&dl)) => a * ln_h * el - tau * dl,
+            _ => T::nan(),
+        };
         if warm == 0 {
             // From rest: no history, so no free responses (and no stale
             // ones from an earlier window).
@@ -274,7 +287,7 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
     pub(super) fn jacobian_columns(&mut self, s: &BatterySettings<T>) {
         let p = self.p;
         let kinetic = s.model == CellModel::ButlerVolmer;
-        for l in self.warm..self.n {
+        for l in self.warm..self.n.min(N) {
             let (i, eta) = (self.i[l], self.eta[l]);
             self.s_ri[l] = p.r_i * (i + self.s_ri[l]);
             self.s_rct[l] = p.r_ct * self.s_rct[l];
@@ -343,7 +356,8 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
     /// registers. Every sum still adds its rows in order:
     /// the same values as one pass.
     pub(super) fn accumulate<const C: usize>(&self) -> (Square<T>, [T; COLUMNS]) {
-        let (warm, n) = (self.warm, self.n);
+        let n = self.n.min(N);
+        let warm = self.warm.min(n);
         let cols: [&[T]; COLUMNS + 1] = [
             &self.s_ri[warm..n],
             &self.s_rct[warm..n],
@@ -375,11 +389,15 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
                     )*
                     debug_assert_eq!(k, P);
                 }
+                // (x < COLUMNS and y ≤ COLUMNS: the literals above.)
                 for (&(x, y), v) in pairs.iter().zip(sums) {
-                    if y == COLUMNS {
-                        b[x] = v;
+                    let slot = if y == COLUMNS {
+                        b.get_mut(x)
                     } else {
-                        a[x][y] = v;
+                        a.get_mut(x).and_then(|row| row.get_mut(y))
+                    };
+                    if let Some(slot) = slot {
+                        *slot = v;
                     }
                 }
             }};

@@ -99,22 +99,24 @@ pub(super) fn cpe_filter_tail<T: Real>(
     while start < n {
         let end = (start + CHUNK.min(m)).min(n);
         let mut tb = [T::zero(); CHUNK];
-        for l in start..end {
-            if l >= m {
-                let xn = x[l - m];
+        for (l, tl) in (start..end).zip(tb.iter_mut()) {
+            // The sample leaving the memory, when there is one (l − m < l < n).
+            if let Some(&xn) = l.checked_sub(m).and_then(|k| x.get(k)) {
                 for (zk, &r) in z.iter_mut().zip(&t.rates) {
                     *zk = r * *zk + xn;
                 }
             }
-            tb[l - start] = t.c.iter().zip(&z).fold(T::zero(), |s, (&c, &z)| s + c * z);
+            *tl = t.c.iter().zip(&z).fold(T::zero(), |s, (&c, &z)| s + c * z);
         }
+        // The filter calls back with start ≤ l < end ≤ start + CHUNK.
+        let tail_at = |l: usize| tb.get(l.wrapping_sub(start)).map_or(T::nan(), |&t| t);
         cpe_filter(
             w,
             a,
             start,
-            &mut x[..end],
-            |l| drive(l) - a * tb[l - start],
-            |l, xv, h| seen(l, xv, h + tb[l - start]),
+            x.get_mut(..end).unwrap_or_default(),
+            |l| drive(l) - a * tail_at(l),
+            |l, xv, h| seen(l, xv, h + tail_at(l)),
         );
         start = end;
     }
@@ -140,9 +142,10 @@ pub(super) fn cpe_filter_pair_tail<T: Real>(
     while start < n {
         let end = (start + CHUNK.min(m)).min(n);
         let (mut bx, mut by) = ([T::zero(); CHUNK], [T::zero(); CHUNK]);
-        for l in start..end {
-            if l >= m {
-                let (xn, yn) = (x[l - m], y[l - m]);
+        for (l, (bxl, byl)) in (start..end).zip(bx.iter_mut().zip(by.iter_mut())) {
+            // The samples leaving the memory, as in `cpe_filter_tail`.
+            let leaving = l.checked_sub(m);
+            if let Some((&xn, &yn)) = leaving.and_then(|k| x.get(k).zip(y.get(k))) {
                 for k in 0..MODES {
                     px[k] = tx.rates[k] * px[k] + xn;
                     py[k] = tx.rates[k] * py[k] + yn;
@@ -153,12 +156,20 @@ pub(super) fn cpe_filter_pair_tail<T: Real>(
                 sx = sx + tx.c[k] * px[k];
                 sy = sy + tx.c[k] * py[k];
             }
-            bx[l - start] = sx;
-            by[l - start] = sy;
+            *bxl = sx;
+            *byl = sy;
         }
-        cpe_filter_pair(w, a, start, &mut x[..end], &mut y[..end], |l| {
+        let (Some(xe), Some(ye)) = (x.get_mut(..end), y.get_mut(..end)) else {
+            return;
+        };
+        cpe_filter_pair(w, a, start, xe, ye, |l| {
             let (dx, dy) = drive(l);
-            (dx - a * bx[l - start], dy - a * by[l - start])
+            let k = l.wrapping_sub(start);
+            let (tx, ty) = (bx.get(k), by.get(k));
+            (
+                dx - a * tx.map_or(T::nan(), |&t| t),
+                dy - a * ty.map_or(T::nan(), |&t| t),
+            )
         });
         start = end;
     }
@@ -190,8 +201,9 @@ pub(super) fn simulate_window<T: Real, const MEM: usize>(
         ..
     } = *data;
     fill_kinetic(p, i, eta);
-    for l in 0..warm {
-        buf[l] = residual(v[l], p, beta, c[l], i[l], eta[l], T::zero());
+    let given = buf.iter_mut().zip(v).zip(c).zip(i).zip(eta.iter());
+    for ((((b, &v), &c), &i), &eta) in given.take(warm) {
+        *b = residual(v, p, beta, c, i, eta, T::zero());
     }
     let a = p.tau() * w.scale();
     match tail.and_then(|t| Some((t, TailKernel::new(p.alpha).ok()?))) {
@@ -211,8 +223,8 @@ pub(super) fn simulate_window<T: Real, const MEM: usize>(
                 warm,
                 buf,
                 &tl,
-                |l| p.r_ct * i[l],
-                |l, x, h| e[l] = x + h,
+                |l| drive_of(p, i, l),
+                |l, x, h| store_sum(e, l, x, h),
             );
         }
         None => solver.filter(
@@ -220,11 +232,26 @@ pub(super) fn simulate_window<T: Real, const MEM: usize>(
             a,
             warm,
             buf,
-            |l| p.r_ct * i[l],
-            |l, x, h| e[l] = x + h,
+            |l| drive_of(p, i, l),
+            |l, x, h| store_sum(e, l, x, h),
         ),
     }
     window_cost(data, p, beta, eta, buf)
+}
+
+/// The drive `R_ct·I(l)` of the constant-phase recursion (NaN past the
+/// window: the filters call back with `l < n ≤ i.len()`).
+#[inline(always)]
+fn drive_of<T: Real>(p: &CellParameters<T>, i: &[T], l: usize) -> T {
+    i.get(l).map_or(T::nan(), |&i| p.r_ct * i)
+}
+
+/// `e[l] = x + h` (nothing past `e`: the filters call back with `l < n`).
+#[inline(always)]
+fn store_sum<T: Real>(e: &mut [T], l: usize, x: T, h: T) {
+    if let Some(e) = e.get_mut(l) {
+        *e = x + h;
+    }
 }
 
 /// `eta[l] = η(I(l))`, the kinetic voltage of `p` at each sample of `i`
@@ -238,7 +265,7 @@ pub(super) fn fill_kinetic<T: Real>(p: &CellParameters<T>, i: &[T], eta: &mut [T
             *e = p.kinetic_voltage(il);
         }
     } else {
-        eta[..i.len()].fill(T::zero());
+        eta.iter_mut().zip(i).for_each(|(e, _)| *e = T::zero());
     }
 }
 
@@ -275,8 +302,9 @@ pub(super) fn window_cost<T: Real>(
 ) -> T {
     let WindowData { i, v, c, warm, .. } = *data;
     let mut cost = T::zero();
-    for l in warm..up.len() {
-        let r = residual(v[l], p, beta, c[l], i[l], eta[l], up[l]);
+    let rows = up.iter().zip(v).zip(c).zip(i).zip(eta);
+    for ((((&up, &v), &c), &i), &eta) in rows.skip(warm) {
+        let r = residual(v, p, beta, c, i, eta, up);
         cost = cost + r * r;
     }
     cost / T::lit(2.0)

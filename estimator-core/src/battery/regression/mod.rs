@@ -50,6 +50,7 @@ use crate::frac::GlWeights;
 use crate::gi::{Iteration, OrderStep, P0};
 use crate::real::{dot, norm, Real};
 use crate::window::Window;
+use rows::{slide_one, store_derivatives, store_regressors};
 
 /// Fewest regression rows an iteration accepts (four parameters and α).
 pub const MIN_ROWS: usize = 8;
@@ -315,7 +316,9 @@ impl<T: Real, const N: usize, const MEM: usize> PaperRegressionGi<T, N, MEM> {
     }
 
     fn rows(&self) -> core::ops::Range<usize> {
-        (self.w.len() - 1)..self.n
+        // n ≤ N always (`load`); the clamps let the optimizer see it.
+        let n = self.n.min(N);
+        (self.w.len() - 1).min(n)..n
     }
 
     /// Whether a voltage `u` is too far from the centre `c` to be kept
@@ -331,7 +334,7 @@ impl<T: Real, const N: usize, const MEM: usize> PaperRegressionGi<T, N, MEM> {
     /// `∂k/∂α = h^(−α)·Σ_j ∂w_j/∂α − ln h·k`: `H[U_t] = H[v] + vref·k`.
     fn unit_history(w: &GlWeights<T, MEM>) -> (T, T) {
         let g = w.scale();
-        let k = g * w.weights()[1..].iter().fold(T::zero(), |s, &x| s + x);
+        let k = g * w.weights().iter().skip(1).fold(T::zero(), |s, &x| s + x);
         let dk = g * w.weight_derivatives().iter().fold(T::zero(), |s, &x| s + x) - w.ln_h() * k;
         (k, dk)
     }
@@ -363,7 +366,7 @@ impl<T: Real, const N: usize, const MEM: usize> PaperRegressionGi<T, N, MEM> {
             return Ok(());
         }
         let need = s.memory - 1 + MIN_ROWS;
-        let n = win.len();
+        let n = win.len().min(N);
         if let (Some((version, n0, alpha)), Some((i, v)), Some(c)) =
             (self.stamp, win.recent().next(), self.vref)
         {
@@ -371,29 +374,31 @@ impl<T: Real, const N: usize, const MEM: usize> PaperRegressionGi<T, N, MEM> {
             if one_more && (n == n0 || n == n0 + 1) && !Self::off_centre(c, v) {
                 if n == n0 {
                     for x in [&mut self.i, &mut self.v, &mut self.di, &mut self.hv] {
-                        x.copy_within(1..n, 0);
+                        slide_one(&mut x[..n]);
                     }
                     if self.derivatives {
-                        self.ddi.copy_within(1..n, 0);
-                        self.dhv.copy_within(1..n, 0);
+                        slide_one(&mut self.ddi[..n]);
+                        slide_one(&mut self.dhv[..n]);
                     }
                 }
-                self.i[n - 1] = i;
-                self.v[n - 1] = v - c;
+                // n ≥ need ≥ 1 here.
+                let last = n.saturating_sub(1);
+                self.i[last] = i;
+                self.v[last] = v - c;
                 self.n = n;
-                self.regressor_row(n - 1);
+                self.regressor_row(last);
                 self.stamp = Some(key);
                 return Ok(());
             }
         }
-        self.n = win.copy_into(&mut self.i, &mut self.v);
+        self.n = win.copy_into(&mut self.i, &mut self.v).min(N);
         if self.n < need {
             self.stamp = None;
             return Err(Error::NotEnoughData { have: self.n, need });
         }
         let v = &mut self.v[..self.n];
         let c = match self.vref {
-            Some(c) if !Self::off_centre(c, v[self.n - 1]) => c,
+            Some(c) if !v.last().is_some_and(|&u| Self::off_centre(c, u)) => c,
             _ => v.iter().fold(T::zero(), |s, &x| s + x) / T::lit(self.n as f64),
         };
         for x in v.iter_mut() {
@@ -413,10 +418,10 @@ impl<T: Real, const N: usize, const MEM: usize> PaperRegressionGi<T, N, MEM> {
         let Self {
             w, i, v, di, hv, n, ..
         } = self;
-        let (g, v) = (w.scale(), &v[..*n]);
-        w.for_each_difference_pair(&i[..*n], v, rows, |l, d, dv| {
-            di[l] = d;
-            hv[l] = dv - g * v[l];
+        let n = (*n).min(N);
+        let (g, v) = (w.scale(), &v[..n]);
+        w.for_each_difference_pair(&i[..n], v, rows, |l, d, dv| {
+            store_regressors(di, hv, v, g, l, d, dv);
         });
         self.derivatives = false;
     }
@@ -442,9 +447,9 @@ impl<T: Real, const N: usize, const MEM: usize> PaperRegressionGi<T, N, MEM> {
             ..
         } = self;
         let ln_h = w.ln_h();
-        w.for_each_weight_derivative_pair(&i[..*n], &v[..*n], rows, |l, a, b| {
-            ddi[l] = a - ln_h * di[l];
-            dhv[l] = b - ln_h * hv[l];
+        let n = (*n).min(N);
+        w.for_each_weight_derivative_pair(&i[..n], &v[..n], rows, |l, a, b| {
+            store_derivatives(ddi, dhv, di, hv, ln_h, l, a, b);
         });
         self.derivatives = true;
     }
@@ -490,13 +495,17 @@ impl<T: Real, const N: usize, const MEM: usize> PaperRegressionGi<T, N, MEM> {
                 ..
             } = self;
             let ln_h = w.ln_h();
-            for l in 0..*n {
-                z[l] = th[1] * i[l] - th[2] * v[l];
+            let n = (*n).min(N);
+            for ((z, &i), &v) in z.iter_mut().zip(i.iter()).zip(v.iter()).take(n) {
+                *z = th[1] * i - th[2] * v;
             }
-            w.for_each_weight_derivative(&z[..*n], rows, |l, a| {
-                let d = a - ln_h * (th[1] * di[l] - th[2] * hv[l]) - shift;
-                dd = dd + d * d;
-                dr = dr + d * res[l];
+            w.for_each_weight_derivative(&z[..n], rows, |l, a| {
+                // (l is a row: l < n ≤ N.)
+                if let (Some(&dl), Some(&hl), Some(&rl)) = (di.get(l), hv.get(l), res.get(l)) {
+                    let d = a - ln_h * (th[1] * dl - th[2] * hl) - shift;
+                    dd = dd + d * d;
+                    dr = dr + d * rl;
+                }
             });
         }
         (dd, dr)
@@ -516,15 +525,14 @@ impl<T: Real, const N: usize, const MEM: usize> PaperRegressionGi<T, N, MEM> {
             n,
             ..
         } = self;
-        let (g, ln_h, v) = (w.scale(), w.ln_h(), &v[..*n]);
-        w.for_each_difference_pair(&i[..*n], v, l..l + 1, |l, d, dv| {
-            di[l] = d;
-            hv[l] = dv - g * v[l];
+        let n = (*n).min(N);
+        let (g, ln_h, v) = (w.scale(), w.ln_h(), &v[..n]);
+        w.for_each_difference_pair(&i[..n], v, l..l + 1, |l, d, dv| {
+            store_regressors(di, hv, v, g, l, d, dv);
         });
         if self.derivatives {
-            w.for_each_weight_derivative_pair(&i[..*n], v, l..l + 1, |l, a, b| {
-                ddi[l] = a - ln_h * di[l];
-                dhv[l] = b - ln_h * hv[l];
+            w.for_each_weight_derivative_pair(&i[..n], v, l..l + 1, |l, a, b| {
+                store_derivatives(ddi, dhv, di, hv, ln_h, l, a, b);
             });
         }
     }
@@ -566,7 +574,7 @@ impl<T: Real, const N: usize, const MEM: usize> PaperRegressionGi<T, N, MEM> {
         w.set_order(alpha)?;
         let g = w.scale();
         let th = self.theta;
-        let n = self.n;
+        let n = self.n.min(N);
         let (k, _) = Self::unit_history(&w);
         let b = self.centred_constant(&th, k, self.vref.unwrap_or(T::zero()));
         for l in 0..n {
@@ -575,8 +583,11 @@ impl<T: Real, const N: usize, const MEM: usize> PaperRegressionGi<T, N, MEM> {
         let mut c = T::zero();
         let (i, v, z) = (&self.i, &self.v, &self.res[..n]);
         w.for_each_difference(z, self.rows(), |l, dz| {
-            let r = v[l] - th[0] * i[l] - th[2] * g * v[l] - b - dz;
-            c = c + r * r;
+            // (l is a row: l < n ≤ N.)
+            if let (Some(&vl), Some(&il)) = (v.get(l), i.get(l)) {
+                let r = vl - th[0] * il - th[2] * g * vl - b - dz;
+                c = c + r * r;
+            }
         });
         Ok(c / T::lit(2.0))
     }
@@ -601,13 +612,20 @@ impl<T: Real, const N: usize, const MEM: usize> PaperRegressionGi<T, N, MEM> {
             n,
             ..
         } = self;
-        let (g, i, v) = (w.scale(), &i[..*n], &v[..*n]);
+        let n = (*n).min(N);
+        let (g, i, v) = (w.scale(), &i[..n], &v[..n]);
         let mut c = T::zero();
         w.for_each_difference_pair(i, v, rows, |l, d, dv| {
-            let hv = dv - g * v[l];
-            trial_di[l] = d;
-            trial_hv[l] = hv;
-            let r = v[l] - (th[0] * i[l] + th[1] * d - th[2] * hv + b);
+            // (l is a row: l < n ≤ N.)
+            let (Some(&vl), Some(&il), Some(tdi), Some(thv)) =
+                (v.get(l), i.get(l), trial_di.get_mut(l), trial_hv.get_mut(l))
+            else {
+                return;
+            };
+            let hv = dv - g * vl;
+            *tdi = d;
+            *thv = hv;
+            let r = vl - (th[0] * il + th[1] * d - th[2] * hv + b);
             c = c + r * r;
         });
         Ok(c / T::lit(2.0))
@@ -765,5 +783,6 @@ impl<T: Real, const N: usize, const MEM: usize> PaperRegressionGi<T, N, MEM> {
     }
 }
 
+mod rows;
 #[cfg(test)]
 mod tests;

@@ -45,12 +45,15 @@ impl<T: Real, const N: usize> CurrentHistory<T, N> {
     /// The ring slot the next current (and every cell's next voltage) goes
     /// to.
     pub(super) fn slot(&self) -> usize {
-        self.head
+        // `head` is always reduced mod N; reducing again lets the optimizer
+        // see the slot in the ring (a mask for the power-of-two windows).
+        self.head % N
     }
 
     pub(crate) fn push(&mut self, current: T) {
-        self.i[self.head] = current;
-        self.head = (self.head + 1) % N;
+        let slot = self.slot();
+        self.i[slot] = current;
+        self.head = (slot + 1) % N;
         self.count = (self.count + 1).min(N);
     }
 }
@@ -88,7 +91,7 @@ impl<'a, T: Real, const N: usize> CellWindow<'a, T, N> {
     /// The held pairs `(I, U)`, newest first ([`Window::recent`] for the
     /// view's whole lifetime).
     pub fn newest_first(self) -> impl Iterator<Item = (T, T)> + 'a {
-        let head = self.history.head;
+        let head = self.history.slot();
         let (i, u) = (&self.history.i, &self.cell.u);
         let currents = i[..head].iter().rev().chain(i[head..].iter().rev());
         let voltages = u[..head].iter().rev().chain(u[head..].iter().rev());
@@ -123,7 +126,7 @@ impl<T: Real, const N: usize> Window<T> for CellWindow<'_, T, N> {
     }
     fn copy_into(&self, u: &mut [T], y: &mut [T]) -> usize {
         let len = usize::from(self.cell.len).min(u.len()).min(y.len());
-        let head = self.history.head;
+        let head = self.history.slot();
         let (si, sv) = (&self.history.i, &self.cell.u);
         // The oldest `len` of the held samples are the ones copied when
         // the slices are short (as `SampleWindow::copy_into`).
