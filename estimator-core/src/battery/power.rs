@@ -371,19 +371,27 @@ impl<'a, T: Real, const MEM: usize, const P: usize> PulsePredictor<'a, T, MEM, P
         for k in 1..=steps {
             let nf = n.min(m.saturating_sub(1));
             let (mut hf, mut hg) = (T::zero(), T::zero());
-            // Taps 1..=nf on this chunk, newest first: fresh[n − j].
-            let fresh = fresh_f.iter().zip(&fresh_g).take(n).rev();
-            for (&wj, (&xf, &xg)) in wts.iter().skip(1).take(nf).zip(fresh) {
+            // Taps 1..=nf on this chunk, newest first: fresh[n − j]
+            // (nf ≤ n ≤ MEM and nf < m: the slices always exist).
+            let (near, far) = (
+                wts.get(1..=nf).unwrap_or_default(),
+                wts.get(nf + 1..m).unwrap_or_default(),
+            );
+            let (ff, fg) = (
+                fresh_f.get(..n).unwrap_or_default(),
+                fresh_g.get(..n).unwrap_or_default(),
+            );
+            for (&wj, (&xf, &xg)) in near.iter().zip(ff.iter().rev().zip(fg.iter().rev())) {
                 hf = hf + wj * xf;
                 hg = hg + wj * xg;
             }
             // Taps nf + 1..m on the past: past[j − n − 1], from past[0]
             // (the range is empty unless nf = n).
-            for (&wj, &x) in wts.iter().take(m).skip(nf + 1).zip(&past_f) {
+            for (&wj, &x) in far.iter().zip(&past_f) {
                 hf = hf + wj * x;
             }
             if g_past {
-                for (&wj, &x) in wts.iter().take(m).skip(nf + 1).zip(&past_g) {
+                for (&wj, &x) in far.iter().zip(&past_g) {
                     hg = hg + wj * x;
                 }
             }

@@ -461,8 +461,12 @@ impl<T: Real, F: FnMut(usize, T)> SingleBlocks<'_, T, F> {
                 let s = row_block(&w[..taps], &x[..l + ROW_BLOCK]);
                 for (k, mut a) in s.into_iter().enumerate() {
                     let r = l + k;
-                    // Taps `taps..=r` against x[r − taps], …, x[0].
-                    for (&wj, &xj) in w.iter().take(r + 1).skip(taps).zip(x.iter().take(k).rev()) {
+                    // Taps `taps..=r` against x[r − taps], …, x[0] (k of each).
+                    let (wt, xt) = (
+                        w.get(taps..=r).unwrap_or_default(),
+                        x.get(..k).unwrap_or_default(),
+                    );
+                    for (&wj, &xj) in wt.iter().zip(xt.iter().rev()) {
                         a = a + wj * xj;
                     }
                     f(r, a);
@@ -527,8 +531,12 @@ impl<T: Real, F: FnMut(usize, T, T)> PairBlocks<'_, T, F> {
                     let r = l + k;
                     let (mut a, mut b) = (s[k], d[k]);
                     // Taps `taps..=r` against x[r − taps], …, x[0] (and y).
-                    let xy = x.iter().take(k).rev().zip(y.iter().take(k).rev());
-                    for (&wj, (&xj, &yj)) in w.iter().take(r + 1).skip(taps).zip(xy) {
+                    let (xt, yt) = (
+                        x.get(..k).unwrap_or_default(),
+                        y.get(..k).unwrap_or_default(),
+                    );
+                    let xy = xt.iter().rev().zip(yt.iter().rev());
+                    for (&wj, (&xj, &yj)) in w.get(taps..=r).unwrap_or_default().iter().zip(xy) {
                         a = a + wj * xj;
                         b = b + wj * yj;
                     }
