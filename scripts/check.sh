@@ -57,6 +57,11 @@ done
 echo "== firmware for thumbv7em-none-eabihf (QEMU board), with clippy"
 cargo clippy -p firmware --target thumbv7em-none-eabihf --release -- -D warnings
 cargo build -p firmware --target thumbv7em-none-eabihf --release
+echo "== no panic path in the firmware's sample step (docs/panic-paths.md): the default image, and one with an OCV table, Butler-Volmer and the tail"
+cargo xtask panic-sites --deny-reachable | tail -1
+FRACBMS_REPLAY="$PWD/data/pybamm/chen2020-hppc.csv" FRACBMS_OCV="$PWD/data/pybamm/chen2020-ocv.csv" \
+  FRACBMS_CAPACITY_AH=5.153198 FRACBMS_MODEL=butler-volmer FRACBMS_TAIL=1 \
+  cargo xtask panic-sites --deny-reachable | tail -1
 echo "== numpy reference of the battery 2S-OP-GI iteration agrees with host-sim to 1e-9"
 python3 -c "import numpy" 2>/dev/null || python3 -m pip install --quiet numpy
 python3 bench/compare.py --runs 1 --iterations 100
