@@ -1075,6 +1075,9 @@ FracbmsCode fracbms_map_cell_at(const struct FracbmsMapLevel *levels,
  * one sigma, 0.1 on α, the data weighed at 0.1 V). A null `center` clears
  * the prior. `FRACBMS_ERROR_SETTINGS` for a centre that is not a physical
  * cell. It holds until changed (by this call or `fracbms_cell_follow_map`).
+ * Set before the first `fracbms_cell_push`, it is the start too: the
+ * refinement starts at `center`, without the 2S-OP-GI start-up, as a cell
+ * built with a prior (`host-sim online battery --prior FIT.json`).
  *
  * # Safety
  * `cell` as in `fracbms_cell_push`; `center` is null or valid for a read.
@@ -1085,12 +1088,15 @@ FracbmsCode fracbms_cell_set_prior(struct FracbmsCell *cell,
 /**
  * Lets a cell's prior follow a parameter map: call it before each
  * `fracbms_cell_push` with the cell's temperature (°C; NaN: the last one
- * given). The prior's centre is the map's cell at the cell's counted SOC
- * (with an OCV table; the middle level's without a SOC) and that
+ * given). The prior's centre is the map's cell at the cell's published SOC
+ * (the observer's, else the count; with an OCV table; the middle level's
+ * without a SOC) and that
  * temperature, taken again when the SOC has moved by 0.001 or the
  * temperature by 0.5 °C since it was last taken (then `*taken` is true),
  * with the spreads of `fracbms_cell_set_prior`. The map is read during
  * the call only. Without an OCV table a level's `u_oc` is not used.
+ * Called before the first push, the map's cell is the start too, as with
+ * `fracbms_cell_set_prior`.
  *
  * # Safety
  * `cell` as in `fracbms_cell_push`; `levels` as in `fracbms_map_cell_at`;

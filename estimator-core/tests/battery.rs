@@ -451,3 +451,47 @@ fn f32_paper_method_follows_f64() {
     assert!(rel(b.r_i, a.r_i) < 1e-4, "{a:?} {b:?}");
     assert!(rel(b.r_ct, a.r_ct) < 1e-3, "{a:?} {b:?}");
 }
+
+/// A prior given before the cell's first sample (as the C ABI's
+/// `fracbms_cell_set_prior` after `init`, or a map followed before the first
+/// push) is the start, exactly as a prior given when the cell is built: the
+/// refinement starts at its centre without the 2S-OP-GI start-up, and the
+/// two cells give the same reports bit for bit. Given after the first
+/// sample, it is not the start (the start-up runs): the reports part.
+#[test]
+fn a_prior_set_before_the_first_sample_starts_the_cell_as_one_given_at_construction() {
+    use estimator_core::battery::Prior;
+    let truth = CellParameters::<f64>::cell_18650();
+    let without = OnlineSettings::new(1.0, 16, truth);
+    let mut with = without;
+    with.battery.prior = Some(Prior::new(CellParameters {
+        r_i: truth.r_i * 1.3,
+        r_ct: truth.r_ct * 0.8,
+        ..truth
+    }));
+    let mut built = CellEstimator::<f64, 64, 16>::new(&with).unwrap();
+    let mut before = CellEstimator::<f64, 64, 16>::new(&without).unwrap();
+    let mut after = CellEstimator::<f64, 64, 16>::new(&without).unwrap();
+    assert!(built.cell_state().is_refining());
+    assert!(!before.cell_state().is_refining());
+    // A square wave of ±2 A every 10 s through R_i and a first-order R_ct
+    // branch.
+    let mut up = 0.0;
+    let mut parted = false;
+    for k in 0..300 {
+        let i = if (k / 10) % 2 == 0 { 2.0 } else { -2.0 };
+        up = 0.9 * up + 0.1 * truth.r_ct * i;
+        let v = truth.u_oc + truth.r_i * i + up;
+        let a = built.push(&with, i, v);
+        let b = before.push(&with, i, v);
+        let c = after.push(if k == 0 { &without } else { &with }, i, v);
+        assert_eq!(format!("{a:?}"), format!("{b:?}"), "sample {k}");
+        parted |= format!("{a:?}") != format!("{c:?}");
+    }
+    assert!(before.cell_state().is_refining());
+    assert!(built.estimate().is_some());
+    assert!(
+        parted,
+        "a prior given after the first sample must not be the start"
+    );
+}

@@ -32,8 +32,10 @@ Which operation runs on which faces, and why:
   table): the online run with a parameter map as the prior (``--prior
   MAP.csv``, ``OnlineCell(map=...)``, ``fracbms_cell_follow_map`` before
   each push); the map has a level that is not identifiable, which every
-  face leaves out (counted alike). ``map_c`` is a strict xfail: the C face
-  disagrees today, for the two causes in KNOWN. ``fracbms_map_cell_at``
+  face leaves out (counted alike). ``map_c`` holds because a prior set
+  before the first sample starts the refinement at its centre on every
+  face (the core takes the start at the first sample), and an ``f32``
+  estimator follows the map in ``f32`` on every face. ``fracbms_map_cell_at``
   itself is C only: the CLI and Python have no call that returns the map's
   cell at a SOC (they use it only inside ``online`` and ``predict``), so it
   is checked here through the prior it gives.
@@ -140,29 +142,7 @@ def applies(op, name):
     return True
 
 
-# Where the faces disagree today (issue 37's findings), each with its cause.
-KNOWN = {
-    # Two causes, both in where the prior is taken, not in the estimator:
-    # 1. The CLI and Python (fracbms_host::online::TrackOptions::settings)
-    #    build the cell with the map's prior at the start SOC, so the
-    #    refinement starts at the map's cell without the 2S-OP-GI start-up;
-    #    the C cell is built by fracbms_cell_init, which takes no prior, and
-    #    gets it at the first fracbms_cell_follow_map (as the Rust firmware's
-    #    --map): it runs the start-up (`starting` for 200 samples where the
-    #    CLI tracks).
-    # 2. With that start aligned (an experiment: no prior at construction),
-    #    the tracks agree bit for bit until the SOC has moved and the prior
-    #    is taken again (row 271 of dfn-drive), then differ in the last f32
-    #    digits: the host follows the map in f64 (MapFollower<f64>, the
-    #    levels and the interpolation in f64, then cast to f32), C and the
-    #    firmware in f32.
-    "map_c": "the C cell takes a map prior after it is built (the 2S-OP-GI start-up runs, "
-             "as in the Rust firmware) where the CLI and Python build it with the prior; and "
-             "the host follows the map in f64, C in f32 (docs/c-abi.md, Parity across faces)",
-}
-CASES = [pytest.param(name, op, id=f"{name}-{op}",
-                      marks=[pytest.mark.xfail(strict=True, reason=KNOWN[op])] if op in KNOWN
-                      else [])
+CASES = [pytest.param(name, op, id=f"{name}-{op}")
          for name in RECORDS for op in FACES if applies(op, name)]
 
 # The track's columns each face gives, by operation (numbers; names apart).

@@ -263,12 +263,20 @@ pub struct Tracker {
     /// prior was last taken (the core's follower, as in the firmware).
     map: Option<PriorMap>,
     temperature: Option<f64>,
-    follower: MapFollower<f64>,
+    /// The follower in the estimator's precision: an `f32` estimator
+    /// follows the map in `f32`, as the C ABI and the firmware do.
+    follower: Follower,
     /// What `soc` publishes.
     soc_mode: soc::SocMode,
     /// The prior's `R_i`, or the map's where the prior was last taken:
     /// `soh_r`'s reference.
     reference_r_i: Option<f64>,
+}
+
+/// Where a map prior was last taken, in the estimator's precision.
+enum Follower {
+    F64(MapFollower<f64>),
+    F32(MapFollower<f32>),
 }
 
 /// [`Tracker`]'s estimator behind one type for every window and precision.
@@ -404,7 +412,10 @@ impl Tracker {
             cell,
             map: o.prior_map.cloned(),
             temperature: None,
-            follower: MapFollower::new(),
+            follower: match o.precision {
+                Precision::F64 => Follower::F64(MapFollower::new()),
+                Precision::F32 => Follower::F32(MapFollower::new()),
+            },
             soc_mode: o.soc.mode,
             reference_r_i,
         })
@@ -435,7 +446,11 @@ impl Tracker {
             return;
         };
         let t = self.temperature.unwrap_or(f64::NAN);
-        if let Some(c) = m.follow(&mut self.follower, z, t) {
+        let taken = match &mut self.follower {
+            Follower::F64(f) => m.follow(f, z, t),
+            Follower::F32(f) => m.follow_f32(f, z as f32, t as f32),
+        };
+        if let Some(c) = taken {
             self.reference_r_i = Some(c.center.r_i);
             self.cell.set_prior(&c);
         }

@@ -39,6 +39,9 @@ pub struct PriorMap {
     pub noise_v: f64,
     /// The kept levels as the core's (checked: never empty, physical).
     levels: Vec<MapLevel<f64>>,
+    /// The same levels rounded to `f32`, which an `f32` estimator follows
+    /// (as the C ABI and the firmware do: the same prior bit for bit).
+    levels_f32: Vec<MapLevel<f32>>,
 }
 
 impl PriorMap {
@@ -78,8 +81,18 @@ impl PriorMap {
             );
         }
         kept.sort();
+        let levels = kept.levels();
+        let levels_f32 = levels
+            .iter()
+            .map(|l| MapLevel {
+                temperature_c: l.temperature_c.map(|t| t as f32),
+                soc: l.soc as f32,
+                cell: l.cell.cast(),
+            })
+            .collect();
         let p = PriorMap {
-            levels: kept.levels(),
+            levels,
+            levels_f32,
             map: kept,
             left_out,
             log_sigma,
@@ -124,6 +137,20 @@ impl PriorMap {
     pub fn follow(&self, follower: &mut MapFollower<f64>, z: f64, t: f64) -> Option<Prior<f64>> {
         let m = self.core()?;
         follower.follow(&m, z, t).map(|c| self.around(c))
+    }
+
+    /// [`PriorMap::follow`] in `f32`, as an `f32` estimator (the C ABI's,
+    /// the firmware's) follows the map: the levels, the SOC and the
+    /// temperature rounded to `f32`, the cell between the levels computed
+    /// in `f32` (then exactly as `f64`).
+    pub fn follow_f32(
+        &self,
+        follower: &mut MapFollower<f32>,
+        z: f32,
+        t: f32,
+    ) -> Option<Prior<f64>> {
+        let m = CoreMap::new(&self.levels_f32).ok()?;
+        follower.follow(&m, z, t).map(|c| self.around(c.cast()))
     }
 
     /// One line: the levels the prior follows.

@@ -173,6 +173,9 @@ impl<T: Real, const N: usize> CellState<T, N> {
         current: T,
         voltage: T,
     ) -> Option<Rejection> {
+        if self.counts.samples == 0 {
+            self.take_start::<MEM, P>(s);
+        }
         let w = &mut work.pw;
         self.counts.samples += 1;
         let (rejected, innovation) = self.classify(s, history, w, current, voltage);

@@ -145,9 +145,7 @@ impl<T: Real, const N: usize> CellState<T, N> {
             version: 0,
             gi: PaperRegressionGi::<T, N, MEM>::initial_state(s.alpha0),
             oe: OutputErrorRefinement::<T, N, MEM>::initial_state(s.initial_in_window()),
-            // With a prior the refinement starts at its centre: the paper
-            // method's start-up is not needed.
-            refining: s.method == Method::Refined && s.battery.prior.is_some(),
+            refining: Self::starts_refining(s),
             estimate: None,
             soc: None,
             ocv_now: None,
@@ -165,6 +163,26 @@ impl<T: Real, const N: usize> CellState<T, N> {
             soc_observer: SocObserver::new(&s.soc, None),
             step: None,
         }
+    }
+
+    /// With a prior the refinement starts at its centre: the paper
+    /// method's start-up is not needed.
+    fn starts_refining<const P: usize>(s: &OnlineSettings<T, P>) -> bool {
+        s.method == Method::Refined && s.battery.prior.is_some()
+    }
+
+    /// Takes the start again from the settings, before the first sample:
+    /// a prior set after the cell was built (the C ABI's
+    /// `fracbms_cell_set_prior`, a map followed before the first push, as
+    /// the firmware and `fracbms_cell_follow_map` do) then starts the
+    /// refinement at its centre, as a prior given at construction does
+    /// (`host-sim online battery --prior`).
+    pub(super) fn take_start<const MEM: usize, const P: usize>(
+        &mut self,
+        s: &OnlineSettings<T, P>,
+    ) {
+        self.oe = OutputErrorRefinement::<T, N, MEM>::initial_state(s.initial_in_window());
+        self.refining = Self::starts_refining(s);
     }
 
     pub(super) fn view<'a>(&'a self, history: &'a CurrentHistory<T, N>) -> CellWindow<'a, T, N> {
