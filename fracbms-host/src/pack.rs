@@ -8,6 +8,9 @@
 
 use crate::error::{IoContext, Result};
 use crate::io::{self, OCV_POINTS};
+use crate::ocv::{CellOcv, OcvOptions};
+use crate::online::power::{PowerOptions, PowerRow, ResolvedPower, MAX_HORIZONS};
+use crate::online::soc::{SocMode, SocOptions, SocRow, SOC_HEADER};
 use crate::online::Precision;
 use crate::online::TrackOptions;
 use crate::presets;
@@ -142,8 +145,23 @@ pub struct SimulatePack {
     pub seed: u64,
     /// Sample period (s).
     pub h: f64,
+    /// An OCV table (`soc,ocv_v`) every cell's open-circuit voltage follows
+    /// as its charge moves (its own `Q` spread aside, one chemistry);
+    /// `None`: the preset's constant `U_oc`.
+    #[serde(default)]
+    pub ocv: Option<PathBuf>,
+    /// Every cell's SOC before the first sample (with `ocv`).
+    #[serde(default = "default_soc0")]
+    pub soc0: f64,
+    /// Capacity (A·h) for the SOC (with `ocv`; default: the preset's).
+    #[serde(default)]
+    pub capacity_ah: Option<f64>,
     /// Output CSV; the truth goes beside it ([`truth_path`]).
     pub out: PathBuf,
+}
+
+fn default_soc0() -> f64 {
+    0.9
 }
 
 /// `simulate pack`: writes the pack record `a.out` and the truth beside it
@@ -193,12 +211,31 @@ pub fn simulate_file(a: &SimulatePack) -> Result<()> {
         amplitude,
         mean: 0.0,
     };
+    if !(0.0..=1.0).contains(&a.soc0) {
+        bail!(Options, "--soc0 {}: must be in [0, 1]", a.soc0);
+    }
+    let capacity_ah = a.capacity_ah.unwrap_or(preset.capacity_ah);
+    if !(capacity_ah.is_finite() && capacity_ah > 0.0) {
+        bail!(
+            Options,
+            "--capacity-ah {capacity_ah}: must be finite and positive"
+        );
+    }
+    let table = a.ocv.as_deref().map(io::read_ocv).transpose()?;
+    let curve = match &table {
+        Some(table) => OcvCurve::Table {
+            table,
+            soc0: a.soc0,
+            capacity_ah,
+        },
+        None => OcvCurve::Constant,
+    };
     let mut volts = Vec::with_capacity(a.cells);
     let mut current = Vec::new();
     for (k, p) in cells.iter().enumerate() {
         // Each cell its own noise.
         let seed = a.seed.wrapping_mul(1_000).wrapping_add(k as u64 + 1);
-        let d = battery_data(p, drive, sigma, a.length, seed, a.h, OcvCurve::Constant)?;
+        let d = battery_data(p, drive, sigma, a.length, seed, a.h, curve)?;
         current = d.current;
         volts.push(d.voltage);
     }
@@ -233,6 +270,9 @@ pub fn simulate_file(a: &SimulatePack) -> Result<()> {
         "length": a.length,
         "h": a.h,
         "seed": a.seed,
+        "ocv": a.ocv,
+        "soc0": table.as_ref().map(|_| a.soc0),
+        "capacity_ah": table.as_ref().map(|_| capacity_ah),
     });
     let json = truth_path(&a.out);
     io::write_atomic(&json, |w| {
@@ -258,6 +298,16 @@ pub struct PackRow {
     pub rejected: bool,
     /// It stands out from the pack's median (after this sample).
     pub flagged: bool,
+    /// Its state of charge (with an OCV table): the count and the
+    /// observer's, as `--soc` publishes them.
+    pub soc: SocRow,
+    /// Its state of power at each horizon (empty where its model is not
+    /// published, or without voltage limits).
+    pub power: [PowerRow; MAX_HORIZONS],
+    /// The string's state of power after this sample (the same for every
+    /// cell of the sample): the weakest cell's currents, the sum of the
+    /// cells' pulse voltages; empty while any cell has none.
+    pub string_power: [PowerRow; MAX_HORIZONS],
 }
 
 /// What a pack run ended with: per cell, samples rejected.
@@ -281,6 +331,10 @@ pub struct PackOptions<'a> {
     pub updates_per_period: u16,
     /// The flag threshold (fraction above the median).
     pub flag_ratio: f64,
+    /// Every cell's SOC at the start (with an OCV table in `track.cell`;
+    /// `None`: each cell's read by the core from its own first rested
+    /// voltages, as the firmware does).
+    pub soc0: Option<f64>,
 }
 
 /// Runs the pack estimator over `rec`, calling `sink` for every cell after
@@ -307,15 +361,38 @@ pub fn track_pack(
     if !(o.flag_ratio.is_finite() && o.flag_ratio > 0.0) {
         bail!(Options, "--flag-ratio {}: must be positive", o.flag_ratio);
     }
-    match o.track.precision {
-        Precision::F64 => sized(&o.track.settings::<f64>(rec.h)?, o, rec, sink),
-        Precision::F32 => sized(&o.track.settings::<f32>(rec.h)?, o, rec, sink),
+    if let Some(z) = o.soc0.filter(|z| !(0.0..=1.0).contains(z)) {
+        bail!(Options, "--soc0 {z}: must be in [0, 1]");
     }
+    o.track.power.check()?;
+    let power = o.track.power.resolve(o.track.cell);
+    if let Some(p) = &power {
+        p.check()?;
+    }
+    let states = States {
+        power,
+        soc: o.track.soc.mode,
+        soc0: o.soc0.filter(|_| o.track.cell.is_some()),
+    };
+    match o.track.precision {
+        Precision::F64 => sized(&o.track.settings::<f64>(rec.h)?, o, states, rec, sink),
+        Precision::F32 => sized(&o.track.settings::<f32>(rec.h)?, o, states, rec, sink),
+    }
+}
+
+/// What a pack run publishes beside the parameters: its state of power's
+/// limits, how its SOC is published, and the start SOC.
+#[derive(Clone, Copy)]
+struct States {
+    power: Option<ResolvedPower>,
+    soc: SocMode,
+    soc0: Option<f64>,
 }
 
 fn sized<T: Real>(
     s: &OnlineSettings<T, OCV_POINTS>,
     o: &PackOptions,
+    states: States,
     rec: &PackRecord,
     sink: impl FnMut(PackRow) -> Result<()>,
 ) -> Result<PackSummary> {
@@ -323,11 +400,11 @@ fn sized<T: Real>(
     ps.updates_per_period = o.updates_per_period;
     ps.flag_ratio = T::lit(o.flag_ratio);
     match o.track.window {
-        64 => run::<T, 64>(&ps, rec, sink),
-        128 => run::<T, 128>(&ps, rec, sink),
-        256 => run::<T, 256>(&ps, rec, sink),
-        512 => run::<T, 512>(&ps, rec, sink),
-        1024 => run::<T, 1024>(&ps, rec, sink),
+        64 => run::<T, 64>(&ps, states, rec, sink),
+        128 => run::<T, 128>(&ps, states, rec, sink),
+        256 => run::<T, 256>(&ps, states, rec, sink),
+        512 => run::<T, 512>(&ps, states, rec, sink),
+        1024 => run::<T, 1024>(&ps, states, rec, sink),
         w => bail!(
             Options,
             "--window {w}: must be one of 64, 128, 256, 512, 1024"
@@ -337,12 +414,26 @@ fn sized<T: Real>(
 
 fn run<T: Real, const N: usize>(
     s: &PackSettings<T, OCV_POINTS>,
+    states: States,
     rec: &PackRecord,
     mut sink: impl FnMut(PackRow) -> Result<()>,
 ) -> Result<PackSummary> {
     let cells = rec.cells.len();
     let mut pack =
         Box::new(PackEstimator::<T, N, N, MAX_CELLS>::new(s, cells).map_err(crate::Error::from)?);
+    if let Some(z) = states.soc0 {
+        for k in 0..cells {
+            if let Some(c) = pack.cell_mut(k) {
+                c.set_state_of_charge(T::lit(z));
+            }
+        }
+    }
+    let no_power = [PowerRow::default(); MAX_HORIZONS];
+    let power = |pack: &PackEstimator<T, N, N, MAX_CELLS>, k: Option<usize>| {
+        states
+            .power
+            .map_or(no_power, |p| p.pack_rows(pack, k, &s.cell))
+    };
     let mut volts = vec![T::zero(); cells];
     let mut iterations = 0u64;
     for (l, (&t, &i)) in rec.time.iter().zip(&rec.current).enumerate() {
@@ -354,8 +445,13 @@ fn run<T: Real, const N: usize>(
             .map_err(crate::Error::from)?;
         iterations += u64::from(r.iterations);
         let health = pack.health();
+        let string_power = power(&pack, None);
         for k in 0..cells {
             let c = pack.cell(k).ok_or_else(|| err!(Internal, "cell index"))?;
+            let soc = SocRow {
+                coulomb: c.state_of_charge().map(|z| z.to_f64()),
+                observer: c.soc_estimate(&s.cell).map(|e| e.cast()),
+            };
             sink(PackRow {
                 t,
                 cell: k + 1,
@@ -364,6 +460,9 @@ fn run<T: Real, const N: usize>(
                 status: c.status().as_str(),
                 rejected: c.last_rejection().is_some(),
                 flagged: health.is_some_and(|h| pack.is_flagged(s, &h, k)),
+                soc: soc.in_mode(states.soc),
+                power: power(&pack, Some(k)),
+                string_power,
             })?;
         }
     }
@@ -398,6 +497,16 @@ pub struct OnlinePack {
     pub start: estimator_core::battery::Start,
     /// The short-memory correction.
     pub tail: bool,
+    /// The cells' OCV curve and capacity (one chemistry), and the start SOC
+    /// of every cell (`--soc0`; default: each cell's read by the core from
+    /// its own first rested voltages).
+    pub ocv: OcvOptions,
+    /// Each cell's and the string's state of power (`--horizons`,
+    /// `--voltage-min`, … as `online battery`).
+    pub power: PowerOptions,
+    /// How each cell's SOC is published (`--soc`, `--soc-rest-s`,
+    /// `--soc-bias-sigma-a`).
+    pub soc: SocOptions,
 }
 
 impl Default for OnlinePack {
@@ -411,6 +520,9 @@ impl Default for OnlinePack {
             precision: Precision::F64,
             start: estimator_core::battery::Start::FromData,
             tail: false,
+            ocv: OcvOptions::default(),
+            power: PowerOptions::default(),
+            soc: SocOptions::default(),
         }
     }
 }
@@ -422,6 +534,25 @@ impl Default for OnlinePack {
 /// `*_status`; `window_*` is the window's fit, identified or not.
 pub const PACK_TRACK_HEADER: &str = "time_s,cell,r_i,r_ct,q,alpha,u_oc,status,rejected,flagged,r_i_status,r_ct_status,q_status,alpha_status,window_r_i,window_r_ct,window_q,window_alpha";
 
+/// The whole header of `online pack`'s track: [`PACK_TRACK_HEADER`], then
+/// the cell's state of charge as `online battery`'s (`soc`, then
+/// [`SOC_HEADER`], `capacity_status`; empty without `--ocv`), the cell's
+/// state of power (`sop_discharge_a_{H}s`, `sop_charge_a_{H}s`,
+/// `pulse_v_{H}s` for each of `power`'s horizons) and the string's
+/// (`pack_sop_discharge_a_{H}s`, `pack_sop_charge_a_{H}s`,
+/// `pack_pulse_v_{H}s`: the weakest cell's currents and the sum of the
+/// cells' pulse voltages, the same on every cell's row of a sample).
+pub fn pack_track_header(power: &PowerOptions) -> String {
+    let cell = power.header();
+    let string = cell
+        .replace(",sop_", ",pack_sop_")
+        .replace(",pulse_v_", ",pack_pulse_v_");
+    format!(
+        "{PACK_TRACK_HEADER},soc,{},capacity_status{cell}{string}",
+        SOC_HEADER.join(",")
+    )
+}
+
 /// `online pack`: reads the pack record `input`, runs the pack estimator
 /// over it as `a` says and writes the long-format track to `out` (columns
 /// [`PACK_TRACK_HEADER`], one row per cell and sample). Returns the
@@ -429,26 +560,36 @@ pub const PACK_TRACK_HEADER: &str = "time_s,cell,r_i,r_ct,q,alpha,u_oc,status,re
 pub fn online_file(input: &Path, out: &Path, a: &OnlinePack) -> Result<(PackSummary, usize)> {
     let rec = read_pack(input)?;
     let memory = a.memory.unwrap_or(a.window / 4);
+    // The curve and capacity; the start SOC is per cell (`PackOptions::soc0`).
+    let cell = crate::ocv::model(&a.ocv)?.map(|model| CellOcv {
+        model,
+        soc0: a.ocv.soc0.unwrap_or(f64::NAN),
+    });
     let mut track = TrackOptions::new(a.window, memory);
     track.iterations_per_sample = a.iterations_per_sample;
     track.precision = a.precision;
     track.start = a.start;
     track.tail = a.tail;
+    track.cell = cell.as_ref();
+    track.power = a.power;
+    track.soc = a.soc;
     let o = PackOptions {
         track,
         updates_per_period: a.updates_per_period.unwrap_or(u16::MAX),
         flag_ratio: a.flag_ratio,
+        soc0: a.ocv.soc0,
     };
+    let horizons = a.power.horizons().len();
     let f = |x: f64| format!("{x:.9e}");
     let mut res = Ok(PackSummary::default());
     io::write_atomic(out, |w| {
-        writeln!(w, "{PACK_TRACK_HEADER}")?;
+        writeln!(w, "{}", pack_track_header(&a.power))?;
         res = track_pack(&rec, &o, |r| {
             let g = |x: Option<f64>| x.map(f).unwrap_or_default();
             let pb = &r.published;
             let statuses = pb.named().map(|(_, x)| x.status.as_str()).join(",");
             let e = r.estimate;
-            writeln!(
+            write!(
                 w,
                 "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
                 r.t,
@@ -467,6 +608,30 @@ pub fn online_file(input: &Path, out: &Path, a: &OnlinePack) -> Result<(PackSumm
                 g(e.map(|p| p.q)),
                 g(e.map(|p| p.alpha)),
             )?;
+            write!(w, ",{}", g(r.soc.published()))?;
+            for x in r.soc.columns() {
+                write!(w, ",{}", g(x))?;
+            }
+            write!(w, ",{}", r.soc.capacity_status())?;
+            for p in r.power.iter().take(horizons) {
+                write!(
+                    w,
+                    ",{},{},{}",
+                    g(p.discharge_a),
+                    g(p.charge_a),
+                    g(p.pulse_v)
+                )?;
+            }
+            for p in r.string_power.iter().take(horizons) {
+                write!(
+                    w,
+                    ",{},{},{}",
+                    g(p.discharge_a),
+                    g(p.charge_a),
+                    g(p.pulse_v)
+                )?;
+            }
+            writeln!(w)?;
             Ok(())
         });
         res.clone().map(|_| ())

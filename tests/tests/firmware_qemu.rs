@@ -6,6 +6,8 @@
 
 #[path = "firmware_qemu/harness.rs"]
 mod harness;
+#[path = "firmware_qemu/pack_states.rs"]
+mod pack_states;
 
 use harness::*;
 use std::path::Path;

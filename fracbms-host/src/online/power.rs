@@ -11,7 +11,8 @@ use crate::bail;
 use crate::error::Result;
 use crate::ocv::CellOcv;
 use estimator_core::battery::online::{CellEstimator, OnlineSettings};
-use estimator_core::battery::power::{PowerLimits, PowerSettings};
+use estimator_core::battery::pack::PackEstimator;
+use estimator_core::battery::power::{PowerLimits, PowerReport, PowerSettings};
 use estimator_core::Real;
 
 /// The most horizons a track carries.
@@ -202,11 +203,35 @@ impl ResolvedPower {
         est: &CellEstimator<T, N, N>,
         s: &OnlineSettings<T, P>,
     ) -> [PowerRow; MAX_HORIZONS] {
+        let report = self
+            .settings(s.battery.h.to_f64())
+            .and_then(|settings| est.state_of_power(s, &settings));
+        Self::columns(report)
+    }
+
+    /// The columns of a pack's cell `k` (0-based), or of the string with
+    /// `None` (at each horizon the weakest cell's currents and the sum of
+    /// the cells' pulse voltages, [`PackEstimator::pack_state_of_power`];
+    /// empty while any cell has none), as [`Self::rows`].
+    pub(crate) fn pack_rows<T: Real, const N: usize, const C: usize, const P: usize>(
+        &self,
+        pack: &PackEstimator<T, N, N, C>,
+        k: Option<usize>,
+        s: &OnlineSettings<T, P>,
+    ) -> [PowerRow; MAX_HORIZONS] {
+        let report = self
+            .settings(s.battery.h.to_f64())
+            .and_then(|settings| match k {
+                Some(k) => pack.state_of_power(k, s, &settings),
+                None => pack.pack_state_of_power(s, &settings),
+            });
+        Self::columns(report)
+    }
+
+    /// A core report as the columns (all empty for `None`).
+    fn columns<T: Real>(report: Option<PowerReport<T>>) -> [PowerRow; MAX_HORIZONS] {
         let mut out = [PowerRow::default(); MAX_HORIZONS];
-        let Some(settings) = self.settings(s.battery.h.to_f64()) else {
-            return out;
-        };
-        let Some(report) = est.state_of_power(s, &settings) else {
+        let Some(report) = report else {
             return out;
         };
         for (row, h) in out.iter_mut().zip(report.horizons()) {

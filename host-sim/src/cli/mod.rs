@@ -83,7 +83,7 @@ enum OnlineCmd {
     Battery(Box<online::OnlineBatteryArgs>),
     /// Track every cell of a pack record (`time_s,current_a,cell_1_v,…`),
     /// as the firmware's pack estimator does.
-    Pack(online::OnlinePackArgs),
+    Pack(Box<online::OnlinePackArgs>),
 }
 
 /// A flag's values (clap) for one of the library's option enums, with the
@@ -310,7 +310,7 @@ fn run(cli: Cli) -> Result<()> {
         Command::Identify(IdentifyCmd::Hammerstein(a)) => identify::hammerstein(a),
         Command::Identify(IdentifyCmd::Battery(a)) => identify::battery(*a),
         Command::Online(OnlineCmd::Battery(a)) => online::battery(*a),
-        Command::Online(OnlineCmd::Pack(a)) => online::pack(a),
+        Command::Online(OnlineCmd::Pack(a)) => online::pack(*a),
         Command::Predict(PredictCmd::Battery(a)) => predict::battery(a),
         Command::Ocv(a) => ocv::run(a),
         Command::Reproduce(a) => reproduce::run(a),

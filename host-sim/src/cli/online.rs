@@ -73,6 +73,37 @@ pub struct OnlineBatteryArgs {
     pub tail: bool,
     #[command(flatten)]
     pub cell: OcvArgs,
+    #[command(flatten)]
+    pub states: StateArgs,
+    /// Output CSV `time_s,r_i,r_ct,q,alpha,u_oc,status,soc,ocv_offset_v,
+    /// bv_a_v,bv_i0_a,predicted_v,r_i_status,r_ct_status,q_status,
+    /// alpha_status,step_resistance_ohm,window_r_i,window_r_ct,window_q,
+    /// window_alpha,soc_coulomb,current_bias_a,capacity_ah,
+    /// capacity_sigma_ah,soc_sigma,soc_ocv_weight,soh_r,capacity_status`, then the state-of-power columns (r_i…alpha:
+    /// the published values, docs/real-cells.md; soc: see --soc; soh_r: the
+    /// published R_i over the prior's or map's; u_oc: the open-circuit voltage now,
+    /// OCV(SOC) + ΔU with --ocv; soc and ocv_offset_v empty without --ocv;
+    /// bv_a_v and bv_i0_a empty for the linear model; predicted_v: the
+    /// one-step prediction of this row's voltage from the estimate before
+    /// it, empty before the first estimate). The status after each sample:
+    /// filling (the window is not full enough yet), starting (2S-OP-GI runs,
+    /// no physical estimate yet), tracking (updated from this window),
+    /// not_excited (the current barely varies: held), held (an iteration
+    /// failed: held), unphysical (the window's estimate has a non-positive
+    /// resistance or Q, or α outside (0, 1]: held), at_bound (α at the
+    /// search's bound, or R_ct so small that its branch swing R_ct·σ_I is
+    /// below the fit's RMSE: held), slow_relaxation (the branch relaxes slower
+    /// than the window can see, τ^(1/α) beyond the fitted window: held),
+    /// ocv_implausible (U_oc outside the plausible voltage range, or |ΔU|
+    /// above 0.15 V with --ocv: held). "Held" keeps the last good estimate.
+    #[arg(long, verbatim_doc_comment)]
+    pub out: PathBuf,
+}
+
+/// The state of charge and the state of power: the flags `online battery`
+/// and `online pack` share.
+#[derive(clap::Args, Debug)]
+pub struct StateArgs {
     /// State of power: the horizons (s) of the columns
     /// `sop_discharge_a_{H}s`, `sop_charge_a_{H}s` (the largest constant
     /// current magnitudes whose predicted voltage stays within the limits
@@ -117,29 +148,28 @@ pub struct OnlineBatteryArgs {
     /// estimates (default C/50; 0: a calibrated sensor, no bias state).
     #[arg(long)]
     pub soc_bias_sigma_a: Option<f64>,
-    /// Output CSV `time_s,r_i,r_ct,q,alpha,u_oc,status,soc,ocv_offset_v,
-    /// bv_a_v,bv_i0_a,predicted_v,r_i_status,r_ct_status,q_status,
-    /// alpha_status,step_resistance_ohm,window_r_i,window_r_ct,window_q,
-    /// window_alpha,soc_coulomb,current_bias_a,capacity_ah,
-    /// capacity_sigma_ah,soc_sigma,soc_ocv_weight,soh_r,capacity_status`, then the state-of-power columns (r_i…alpha:
-    /// the published values, docs/real-cells.md; soc: see --soc; soh_r: the
-    /// published R_i over the prior's or map's; u_oc: the open-circuit voltage now,
-    /// OCV(SOC) + ΔU with --ocv; soc and ocv_offset_v empty without --ocv;
-    /// bv_a_v and bv_i0_a empty for the linear model; predicted_v: the
-    /// one-step prediction of this row's voltage from the estimate before
-    /// it, empty before the first estimate). The status after each sample:
-    /// filling (the window is not full enough yet), starting (2S-OP-GI runs,
-    /// no physical estimate yet), tracking (updated from this window),
-    /// not_excited (the current barely varies: held), held (an iteration
-    /// failed: held), unphysical (the window's estimate has a non-positive
-    /// resistance or Q, or α outside (0, 1]: held), at_bound (α at the
-    /// search's bound, or R_ct so small that its branch swing R_ct·σ_I is
-    /// below the fit's RMSE: held), slow_relaxation (the branch relaxes slower
-    /// than the window can see, τ^(1/α) beyond the fitted window: held),
-    /// ocv_implausible (U_oc outside the plausible voltage range, or |ΔU|
-    /// above 0.15 V with --ocv: held). "Held" keeps the last good estimate.
-    #[arg(long, verbatim_doc_comment)]
-    pub out: PathBuf,
+}
+
+impl StateArgs {
+    /// The state-of-power options.
+    fn power(&self) -> Result<online_track::power::PowerOptions> {
+        let mut p = online_track::power::PowerOptions::default().with_horizons(&self.horizons)?;
+        p.voltage_min = self.voltage_min;
+        p.voltage_max = self.voltage_max;
+        p.current_limit = self.current_limit;
+        p.pulse_current_a = self.pulse_current_a;
+        p.carry_s = self.sop_carry_s;
+        Ok(p)
+    }
+
+    /// The state-of-charge options.
+    fn soc(&self) -> online_track::soc::SocOptions {
+        online_track::soc::SocOptions {
+            mode: self.soc.into(),
+            rest_s: self.soc_rest_s,
+            bias_sigma_a: self.soc_bias_sigma_a,
+        }
+    }
 }
 
 /// `online pack`.
@@ -177,11 +207,27 @@ pub struct OnlinePackArgs {
     /// model, memory ≥ 64).
     #[arg(long)]
     pub tail: bool,
+    /// The cells' OCV table and capacity (one chemistry): each cell's SOC
+    /// and state of power. --soc0 sets every cell's start SOC; without it
+    /// each cell's is read from its own first rested voltages (as the
+    /// firmware does).
+    #[command(flatten)]
+    pub cell: OcvArgs,
+    #[command(flatten)]
+    pub states: StateArgs,
     /// Output CSV in long format, one row per cell and sample:
     /// `time_s,cell,r_i,r_ct,q,alpha,u_oc,status,rejected,flagged` (cell
     /// 1-based; the estimate empty before the cell's first; status as in
     /// `online battery`; rejected 1 when this sample of the cell was
-    /// rejected; flagged 1 when the cell stands out from the median).
+    /// rejected; flagged 1 when the cell stands out from the median),
+    /// `r_i_status…alpha_status`, `window_r_i…window_alpha` (the window's
+    /// fit), then as `online battery`'s: `soc`, `soc_coulomb`,
+    /// `current_bias_a`, `capacity_ah`, `capacity_sigma_ah`, `soc_sigma`,
+    /// `soc_ocv_weight`, `capacity_status` (empty without --ocv), the
+    /// cell's `sop_discharge_a_{H}s,sop_charge_a_{H}s,pulse_v_{H}s` and the
+    /// string's `pack_sop_discharge_a_{H}s,pack_sop_charge_a_{H}s,
+    /// pack_pulse_v_{H}s` (the weakest cell's currents, the sum of the
+    /// cells' pulse voltages; the same on every cell's row of a sample).
     #[arg(long)]
     pub out: PathBuf,
 }
@@ -203,20 +249,8 @@ pub(super) fn battery(a: OnlineBatteryArgs) -> Result<()> {
         tail: a.tail,
         ocv: (&a.cell).into(),
         record: (&a.record).into(),
-        power: {
-            let mut p = online_track::power::PowerOptions::default().with_horizons(&a.horizons)?;
-            p.voltage_min = a.voltage_min;
-            p.voltage_max = a.voltage_max;
-            p.current_limit = a.current_limit;
-            p.pulse_current_a = a.pulse_current_a;
-            p.carry_s = a.sop_carry_s;
-            p
-        },
-        soc: online_track::soc::SocOptions {
-            mode: a.soc.into(),
-            rest_s: a.soc_rest_s,
-            bias_sigma_a: a.soc_bias_sigma_a,
-        },
+        power: a.states.power()?,
+        soc: a.states.soc(),
     };
     let r = online_track::battery_file(&a.input, &a.out, &o)?;
     super::print_record(&a.input, &r.record);
@@ -262,6 +296,9 @@ pub(super) fn pack(a: OnlinePackArgs) -> Result<()> {
         precision: a.precision.into(),
         start: a.start.into(),
         tail: a.tail,
+        ocv: (&a.cell).into(),
+        power: a.states.power()?,
+        soc: a.states.soc(),
     };
     let (summary, cells) = pack::online_file(&a.input, &a.out, &o)?;
     let secs = t0.elapsed().as_secs_f64();

@@ -122,6 +122,18 @@ pub struct SimPackArgs {
     /// Sample period (s).
     #[arg(long, default_value_t = 1.0)]
     pub h: f64,
+    /// An OCV table FILE.csv (`soc,ocv_v`) every cell's open-circuit
+    /// voltage follows as its charge moves (default: the preset's constant
+    /// U_oc).
+    #[arg(long)]
+    pub ocv: Option<PathBuf>,
+    /// Every cell's state of charge before the first sample (with --ocv).
+    #[arg(long, default_value_t = 0.9)]
+    pub soc0: f64,
+    /// Capacity (A·h) for the state of charge (with --ocv; default: the
+    /// preset's, 2.5 for cell, 100 for paper).
+    #[arg(long)]
+    pub capacity_ah: Option<f64>,
     /// Output CSV; the truth goes beside it as FILE.json (`cells`: cell,
     /// r_i, r_ct, q, alpha, u_oc, aged).
     #[arg(long)]
@@ -188,6 +200,9 @@ pub(super) fn pack(a: SimPackArgs) -> Result<()> {
         length: a.length,
         seed: a.seed,
         h: a.h,
+        ocv: a.ocv,
+        soc0: a.soc0,
+        capacity_ah: a.capacity_ah,
         out: a.out,
     };
     pack::simulate_file(&o)?;

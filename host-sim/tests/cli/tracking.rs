@@ -419,3 +419,147 @@ fn the_state_of_power_is_carried_no_farther_than_asked() {
     println!("published: carry 0 {none}, the window {window}, 100000 s {long}");
     assert!(none < window && window < long, "{none} {window} {long}");
 }
+
+/// `online pack` with the cells' OCV table (issue 36): every cell's SOC and
+/// state of power as `online battery`'s columns, and the string's state of
+/// power: at each horizon the weakest cell's currents and the sum of the
+/// cells' pulse voltages, empty while any cell has none. On a simulated
+/// 4-cell string (HPPC, the Chen2020 table, cell 3 aged 1.5x) from a known
+/// start SOC, the counted SOC is the truth's, the aged cell limits the
+/// string, and a bad --soc0 is one line.
+#[test]
+fn pack_with_an_ocv_table_publishes_each_cells_soc_and_power_and_the_strings() {
+    let csv = tmp("pack-ocv.csv");
+    let track = tmp("pack-ocv-track.csv");
+    let ocv = data("pybamm/chen2020-ocv.csv");
+    let o = run(&[
+        "simulate",
+        "pack",
+        "--cells",
+        "4",
+        "--profile",
+        "hppc",
+        "--spread",
+        "0.1",
+        "--aged",
+        "3",
+        "--sigma",
+        "0.001",
+        "--length",
+        "1500",
+        "--ocv",
+        s(&ocv),
+        "--soc0",
+        "0.7",
+        "--out",
+        s(&csv),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let truth = read_json(&csv.with_extension("json"));
+    assert_eq!(truth["soc0"], 0.7);
+    assert_eq!(truth["capacity_ah"], 2.5);
+    let o = run(&[
+        "online",
+        "pack",
+        "--input",
+        s(&csv),
+        "--ocv",
+        s(&ocv),
+        "--capacity-ah",
+        "2.5",
+        "--soc0",
+        "0.7",
+        "--tail",
+        "--out",
+        s(&track),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let t = std::fs::read_to_string(&track).unwrap();
+    let mut lines = t.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
+    assert!(header.starts_with(&["time_s", "cell", "r_i", "r_ct", "q", "alpha", "u_oc"]));
+    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+    assert_eq!(rows.len(), 4 * 1500);
+    let num = |r: &[&str], name: &str| r[col(name)].parse::<f64>().ok();
+    // The true SOC from the record's current (every cell carries it).
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let charge: f64 = text
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').nth(1).unwrap().parse::<f64>().unwrap())
+        .sum();
+    let soc_end = 0.7 + charge / (3600.0 * 2.5);
+    let mut strings = 0;
+    for sample in rows.chunks(4) {
+        for h in ["10s", "30s"] {
+            let d = |r: &[&str]| num(r, &format!("sop_discharge_a_{h}"));
+            let c = |r: &[&str]| num(r, &format!("sop_charge_a_{h}"));
+            let v = |r: &[&str]| num(r, &format!("pulse_v_{h}"));
+            let pack = |name: &str| num(&sample[0], &format!("pack_{name}_{h}"));
+            let all: Option<Vec<(f64, f64, f64)>> =
+                sample.iter().map(|r| Some((d(r)?, c(r)?, v(r)?))).collect();
+            match all {
+                None => assert!(pack("sop_discharge_a").is_none(), "{sample:?}"),
+                Some(cells) => {
+                    strings += 1;
+                    let min = |f: fn(&(f64, f64, f64)) -> f64| {
+                        cells.iter().map(f).fold(f64::INFINITY, f64::min)
+                    };
+                    assert_eq!(pack("sop_discharge_a"), Some(min(|x| x.0)));
+                    assert_eq!(pack("sop_charge_a"), Some(min(|x| x.1)));
+                    let sum: f64 = cells.iter().map(|x| x.2).sum();
+                    let pv = pack("pulse_v").unwrap();
+                    assert!((pv / sum - 1.0).abs() < 1e-8, "{pv} {sum}");
+                }
+            }
+            // The same string on every cell's row.
+            assert!(sample
+                .iter()
+                .all(|r| r[col(&format!("pack_sop_discharge_a_{h}"))]
+                    == sample[0][col(&format!("pack_sop_discharge_a_{h}"))]));
+        }
+    }
+    assert!(
+        strings > 1000,
+        "the string's state of power published {strings} times"
+    );
+    let last = &rows[rows.len() - 4..];
+    for r in last {
+        let z = num(r, "soc_coulomb").unwrap();
+        assert!(
+            (z - soc_end).abs() < 1e-6,
+            "count {z}, truth {soc_end}: {r:?}"
+        );
+        assert!((num(r, "soc").unwrap() - soc_end).abs() < 0.01, "{r:?}");
+    }
+    // The aged cell (3) is the string's limit.
+    let d10 = |r: &[&str]| num(r, "sop_discharge_a_10s").unwrap();
+    assert_eq!(
+        num(&last[0], "pack_sop_discharge_a_10s"),
+        Some(d10(&last[2]))
+    );
+    assert!(last
+        .iter()
+        .enumerate()
+        .all(|(k, r)| k == 2 || d10(r) > d10(&last[2])));
+
+    let o = run(&[
+        "online",
+        "pack",
+        "--input",
+        s(&csv),
+        "--ocv",
+        s(&ocv),
+        "--capacity-ah",
+        "2.5",
+        "--soc0",
+        "1.5",
+        "--out",
+        s(&track),
+    ]);
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+    assert!(err.contains("--soc0 1.5"), "{err}");
+}
