@@ -310,6 +310,63 @@ pub struct PackRow {
     pub string_power: [PowerRow; MAX_HORIZONS],
 }
 
+/// One value of a pack track row, in [`pack_track_header`]'s order: the
+/// CSV prints a `Number` as `{:.9e}` (empty for `None`), a `Flag` as 0/1;
+/// Python's `online_pack` makes a column of each.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum PackField {
+    /// `time_s`.
+    Time(f64),
+    /// `cell` (1-based).
+    Cell(usize),
+    /// A number, `None` when empty.
+    Number(Option<f64>),
+    /// `rejected`, `flagged`.
+    Flag(bool),
+    /// A status or a name.
+    Text(&'static str),
+}
+
+impl PackRow {
+    /// The row's values in [`pack_track_header`]'s order, for `horizons`
+    /// state-of-power horizons.
+    pub fn fields(&self, horizons: usize) -> Vec<PackField> {
+        use PackField::{Flag, Number, Text};
+        let (pb, e) = (&self.published, self.estimate);
+        let mut out = vec![
+            PackField::Time(self.t),
+            PackField::Cell(self.cell),
+            Number(pb.r_i.value),
+            Number(pb.r_ct.value),
+            Number(pb.q.value),
+            Number(pb.alpha.value),
+            Number(e.map(|p| p.u_oc)),
+            Text(self.status),
+            Flag(self.rejected),
+            Flag(self.flagged),
+        ];
+        out.extend(pb.named().map(|(_, x)| Text(x.status.as_str())));
+        out.extend([
+            Number(e.map(|p| p.r_i)),
+            Number(e.map(|p| p.r_ct)),
+            Number(e.map(|p| p.q)),
+            Number(e.map(|p| p.alpha)),
+            Number(self.soc.published()),
+        ]);
+        out.extend(self.soc.columns().map(Number));
+        out.push(Text(self.soc.capacity_status()));
+        for p in self
+            .power
+            .iter()
+            .take(horizons)
+            .chain(self.string_power.iter().take(horizons))
+        {
+            out.extend([Number(p.discharge_a), Number(p.charge_a), Number(p.pulse_v)]);
+        }
+        out
+    }
+}
+
 /// What a pack run ended with: per cell, samples rejected.
 #[derive(Clone, Debug, Default)]
 pub struct PackSummary {
@@ -585,51 +642,15 @@ pub fn online_file(input: &Path, out: &Path, a: &OnlinePack) -> Result<(PackSumm
     io::write_atomic(out, |w| {
         writeln!(w, "{}", pack_track_header(&a.power))?;
         res = track_pack(&rec, &o, |r| {
-            let g = |x: Option<f64>| x.map(f).unwrap_or_default();
-            let pb = &r.published;
-            let statuses = pb.named().map(|(_, x)| x.status.as_str()).join(",");
-            let e = r.estimate;
-            write!(
-                w,
-                "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
-                r.t,
-                r.cell,
-                g(pb.r_i.value),
-                g(pb.r_ct.value),
-                g(pb.q.value),
-                g(pb.alpha.value),
-                g(e.map(|p| p.u_oc)),
-                r.status,
-                u8::from(r.rejected),
-                u8::from(r.flagged),
-                statuses,
-                g(e.map(|p| p.r_i)),
-                g(e.map(|p| p.r_ct)),
-                g(e.map(|p| p.q)),
-                g(e.map(|p| p.alpha)),
-            )?;
-            write!(w, ",{}", g(r.soc.published()))?;
-            for x in r.soc.columns() {
-                write!(w, ",{}", g(x))?;
-            }
-            write!(w, ",{}", r.soc.capacity_status())?;
-            for p in r.power.iter().take(horizons) {
-                write!(
-                    w,
-                    ",{},{},{}",
-                    g(p.discharge_a),
-                    g(p.charge_a),
-                    g(p.pulse_v)
-                )?;
-            }
-            for p in r.string_power.iter().take(horizons) {
-                write!(
-                    w,
-                    ",{},{},{}",
-                    g(p.discharge_a),
-                    g(p.charge_a),
-                    g(p.pulse_v)
-                )?;
+            for (k, x) in r.fields(horizons).into_iter().enumerate() {
+                let sep = if k == 0 { "" } else { "," };
+                match x {
+                    PackField::Time(t) => write!(w, "{sep}{t}")?,
+                    PackField::Cell(c) => write!(w, "{sep}{c}")?,
+                    PackField::Number(v) => write!(w, "{sep}{}", v.map(f).unwrap_or_default())?,
+                    PackField::Flag(b) => write!(w, "{sep}{}", u8::from(b))?,
+                    PackField::Text(t) => write!(w, "{sep}{t}")?,
+                }
             }
             writeln!(w)?;
             Ok(())

@@ -14,6 +14,9 @@ files, so that a notebook gets what the CLI prints for the same data.
   current record, from rest.
 - :class:`OnlineCell` tracks the parameters over a sliding window, sample by
   sample, as the firmware does: ``host-sim online battery``.
+- :func:`online_pack` runs a series string's record (one current, every
+  cell's voltage) through the pack estimator: each cell's parameters, state
+  of charge and state of power and the string's: ``host-sim online pack``.
 - :func:`identify_files` fits many records read from files (a directory, a
   glob pattern) on all cores, one summary row per file: ``host-sim identify
   battery --input DIR --summary-out``; :mod:`fracbms.fleet` does the same
@@ -54,6 +57,7 @@ from ._fracbms import (
     identify_battery,
     identify_files,
     identify_hammerstein,
+    online_pack,
     predict_battery,
     simulate_battery,
 )
@@ -67,6 +71,7 @@ __all__ = [
     "identify_battery",
     "identify_files",
     "identify_hammerstein",
+    "online_pack",
     "predict_battery",
     "simulate_battery",
 ]

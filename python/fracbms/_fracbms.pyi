@@ -99,6 +99,42 @@ def simulate_battery(
     """The terminal voltage (V) of a cell over a current record (A, positive
     when charging), from rest: ``host-sim simulate battery`` without noise."""
 
+def online_pack(
+    current_a: ArrayLike,
+    cells_v: npt.ArrayLike,
+    h: float = 1.0,
+    window: Literal[64, 128, 256, 512, 1024] = 256,
+    memory: Optional[int] = None,
+    *,
+    iterations_per_sample: int = 1,
+    updates_per_period: Optional[int] = None,
+    flag_ratio: float = 0.3,
+    precision: Literal["f64", "f32"] = "f64",
+    start: Literal["from-data", "at-rest"] = "from-data",
+    tail: bool = False,
+    ocv: Optional[OcvTable] = None,
+    capacity_ah: Optional[float] = None,
+    soc0: Optional[float] = None,
+    horizons: Sequence[float] = (10.0, 30.0),
+    voltage_min: Optional[float] = None,
+    voltage_max: Optional[float] = None,
+    current_limit: Optional[float] = None,
+    pulse_current_a: Optional[float] = None,
+    sop_carry_s: Optional[float] = None,
+    soc: Literal["observer", "coulomb"] = "observer",
+    soc_rest_s: Optional[float] = None,
+    soc_bias_sigma_a: Optional[float] = None,
+) -> dict[str, Any]:
+    """A series string's record (``current_a`` one per sample, ``cells_v``
+    shape ``(samples, cells)``) through the pack estimator: the columns of
+    ``host-sim online pack --out``, one row per sample and cell (cell 1
+    first): numbers as float arrays (NaN where empty), ``cell`` int,
+    ``rejected``/``flagged`` bool, statuses as lists of str. With ``ocv``
+    and ``capacity_ah``, each cell's SOC and state of power
+    (``sop_discharge_a_{H}s``…) and the string's (``pack_sop_*``,
+    ``pack_pulse_v_*``: the weakest cell's currents, the sum of the pulse
+    voltages)."""
+
 class OnlineCell:
     """The online estimator of one cell (``host-sim online battery``): a
     sliding window refitted after every sample, as the firmware runs it."""

@@ -57,6 +57,7 @@ use pyo3::types::PyDict;
 
 mod files;
 mod online;
+mod pack;
 use online::OnlineCell;
 
 /// A 1-D float array argument (lists, tuples and integer arrays are
@@ -569,6 +570,7 @@ fn _fracbms(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(identify_hammerstein, m)?)?;
     m.add_function(wrap_pyfunction!(files::identify_files, m)?)?;
     m.add_function(wrap_pyfunction!(files::expand_inputs, m)?)?;
+    m.add_function(wrap_pyfunction!(pack::online_pack, m)?)?;
     m.add_class::<OnlineCell>()?;
     m.add(
         "SUMMARY_COLUMNS",

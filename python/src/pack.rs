@@ -1,0 +1,202 @@
+//! `online_pack`: a series string's record through the pack estimator, as
+//! `host-sim online pack` runs it (`fracbms_host::pack::track_pack`). This
+//! module only converts: numpy in, the CLI's long-format track out as a
+//! dict of columns.
+
+use estimator_core::battery::Start;
+use fracbms_host::ocv::CellOcv;
+use fracbms_host::online::power::PowerOptions;
+use fracbms_host::online::soc::{SocMode, SocOptions};
+use fracbms_host::online::{Precision, TrackOptions};
+use fracbms_host::pack::{pack_track_header, track_pack, PackField, PackOptions, PackRecord};
+use fracbms_host::worker::on_worker;
+use numpy::{AllowTypeChange, PyArray1, PyArrayLike2};
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+use pyo3::types::{PyDict, PyList};
+
+use crate::{choice, ocv_spec, vec, Floats};
+
+/// Runs the pack estimator over a series string's record and returns its
+/// track, as `host-sim online pack --out` writes it.
+///
+/// `current_a` is the string's current (A, + charging), one per sample;
+/// `cells_v` the cells' voltages (V), shape `(samples, cells)` (the
+/// columns `cell_1_v…` of a pack record); samples every `h` seconds. The
+/// keywords are the CLI's flags; with `ocv=(soc, ocv_v)` and
+/// `capacity_ah` every cell gets a state of charge and a state of power,
+/// and the string its state of power. `soc0` sets every cell's start SOC
+/// (default: each cell's read from its own first rested voltages).
+///
+/// Returns a dict of the track's columns ([`pack_track_header`]), one row
+/// per sample and cell (cell 1 first): numbers as float arrays (NaN where
+/// the CSV is empty), `time_s` float, `cell` int, `rejected` and
+/// `flagged` bool arrays, statuses as lists of str. `pandas.DataFrame(d)`
+/// is the CSV.
+#[pyfunction]
+#[pyo3(signature = (
+    current_a, cells_v, h = 1.0, window = 256, memory = None, *, iterations_per_sample = 1,
+    updates_per_period = None, flag_ratio = 0.3, precision = "f64", start = "from-data",
+    tail = false, ocv = None, capacity_ah = None, soc0 = None, horizons = vec![10.0, 30.0],
+    voltage_min = None, voltage_max = None, current_limit = None, pulse_current_a = None,
+    sop_carry_s = None, soc = "observer", soc_rest_s = None, soc_bias_sigma_a = None
+))]
+#[allow(clippy::too_many_arguments)]
+pub fn online_pack<'py>(
+    py: Python<'py>,
+    current_a: Floats<'py>,
+    cells_v: PyArrayLike2<'py, f64, AllowTypeChange>,
+    h: f64,
+    window: usize,
+    memory: Option<usize>,
+    iterations_per_sample: u16,
+    updates_per_period: Option<u16>,
+    flag_ratio: f64,
+    precision: &str,
+    start: &str,
+    tail: bool,
+    ocv: Option<(Floats<'py>, Floats<'py>)>,
+    capacity_ah: Option<f64>,
+    soc0: Option<f64>,
+    horizons: Vec<f64>,
+    voltage_min: Option<f64>,
+    voltage_max: Option<f64>,
+    current_limit: Option<f64>,
+    pulse_current_a: Option<f64>,
+    sop_carry_s: Option<f64>,
+    soc: &str,
+    soc_rest_s: Option<f64>,
+    soc_bias_sigma_a: Option<f64>,
+) -> PyResult<Bound<'py, PyDict>> {
+    if !(h.is_finite() && h > 0.0) {
+        return Err(PyValueError::new_err(format!(
+            "h={h}: must be finite and positive"
+        )));
+    }
+    let current = vec(&current_a);
+    let v = cells_v.as_array();
+    let (samples, cells) = v.dim();
+    if samples != current.len() {
+        return Err(PyValueError::new_err(format!(
+            "cells_v has {samples} rows, current_a {} values (cells_v: shape (samples, cells))",
+            current.len()
+        )));
+    }
+    let rec = PackRecord {
+        time: (0..samples).map(|k| k as f64 * h).collect(),
+        current,
+        cells: (0..cells).map(|c| v.column(c).to_vec()).collect(),
+        h,
+    };
+    let precision: Precision = choice("precision", precision)?;
+    let start: Start = choice("start", start)?;
+    let mode: SocMode = choice("soc", soc)?;
+    let spec = ocv_spec(ocv, capacity_ah, soc0)?;
+    let cell = spec.map(|s| CellOcv {
+        model: s.model,
+        soc0: s.soc0.unwrap_or(f64::NAN),
+    });
+    let mut power = PowerOptions::default()
+        .with_horizons(&horizons)
+        .map_err(|e| PyValueError::new_err(format!("{e:#}").replace("--horizons", "horizons=")))?;
+    power.voltage_min = voltage_min;
+    power.voltage_max = voltage_max;
+    power.current_limit = current_limit;
+    power.pulse_current_a = pulse_current_a;
+    power.carry_s = sop_carry_s;
+    let mut track = TrackOptions::new(window, memory.unwrap_or(window / 4));
+    track.iterations_per_sample = iterations_per_sample;
+    track.precision = precision;
+    track.start = start;
+    track.tail = tail;
+    track.cell = cell.as_ref();
+    track.power = power;
+    track.soc = SocOptions {
+        mode,
+        rest_s: soc_rest_s,
+        bias_sigma_a: soc_bias_sigma_a,
+    };
+    let o = PackOptions {
+        track,
+        updates_per_period: updates_per_period.unwrap_or(u16::MAX),
+        flag_ratio,
+        soc0: spec.and_then(|s| s.soc0),
+    };
+    let n = power.horizons().len();
+    let rows = py
+        .detach(|| {
+            on_worker(|| {
+                let mut rows = Vec::with_capacity(samples * cells);
+                track_pack(&rec, &o, |r| {
+                    rows.push(r.fields(n));
+                    Ok(())
+                })
+                .map(|_| rows)
+            })
+        })
+        .map_err(|e| {
+            // The CLI's flags are this function's keywords.
+            PyValueError::new_err(
+                format!("{e:#}")
+                    .replace("--memory ", "memory=")
+                    .replace("--window ", "window=")
+                    .replace("--soc0 ", "soc0=")
+                    .replace("--updates-per-period", "updates_per_period=")
+                    .replace("--flag-ratio ", "flag_ratio="),
+            )
+        })?;
+    columns(py, &pack_track_header(&power), &rows)
+}
+
+/// The rows as a dict of columns named by `header`.
+fn columns<'py>(
+    py: Python<'py>,
+    header: &str,
+    rows: &[Vec<PackField>],
+) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    for (k, name) in header.split(',').enumerate() {
+        let at = |r: &Vec<PackField>| r.get(k).copied();
+        match rows.first().and_then(at) {
+            Some(PackField::Cell(_)) => {
+                let c: Vec<i64> = rows
+                    .iter()
+                    .map(|r| match at(r) {
+                        Some(PackField::Cell(c)) => c as i64,
+                        _ => 0,
+                    })
+                    .collect();
+                d.set_item(name, PyArray1::from_vec(py, c))?;
+            }
+            Some(PackField::Flag(_)) => {
+                let c: Vec<bool> = rows
+                    .iter()
+                    .map(|r| matches!(at(r), Some(PackField::Flag(true))))
+                    .collect();
+                d.set_item(name, PyArray1::from_vec(py, c))?;
+            }
+            Some(PackField::Text(_)) => {
+                let c: Vec<&str> = rows
+                    .iter()
+                    .map(|r| match at(r) {
+                        Some(PackField::Text(t)) => t,
+                        _ => "",
+                    })
+                    .collect();
+                d.set_item(name, PyList::new(py, c)?)?;
+            }
+            _ => {
+                let c: Vec<f64> = rows
+                    .iter()
+                    .map(|r| match at(r) {
+                        Some(PackField::Time(t)) => t,
+                        Some(PackField::Number(Some(x))) => x,
+                        _ => f64::NAN,
+                    })
+                    .collect();
+                d.set_item(name, PyArray1::from_vec(py, c))?;
+            }
+        }
+    }
+    Ok(d)
+}
