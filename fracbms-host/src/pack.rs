@@ -16,6 +16,7 @@ use crate::online::TrackOptions;
 use crate::presets;
 use crate::simulate::{battery_data, Current, OcvCurve};
 use crate::{bail, err};
+use estimator_core::battery::ocv::OcvModel;
 use estimator_core::battery::online::{OnlineSettings, PublishedParameters};
 use estimator_core::battery::pack::{PackEstimator, PackSettings};
 use estimator_core::battery::CellParameters;
@@ -211,16 +212,8 @@ pub fn simulate_file(a: &SimulatePack) -> Result<()> {
         amplitude,
         mean: 0.0,
     };
-    if !(0.0..=1.0).contains(&a.soc0) {
-        bail!(Options, "--soc0 {}: must be in [0, 1]", a.soc0);
-    }
-    let capacity_ah = a.capacity_ah.unwrap_or(preset.capacity_ah);
-    if !(capacity_ah.is_finite() && capacity_ah > 0.0) {
-        bail!(
-            Options,
-            "--capacity-ah {capacity_ah}: must be finite and positive"
-        );
-    }
+    let capacity_ah =
+        crate::simulate::state_of_charge_options(a.soc0, a.capacity_ah, preset.capacity_ah)?;
     let table = a.ocv.as_deref().map(io::read_ocv).transpose()?;
     let curve = match &table {
         Some(table) => OcvCurve::Table {
@@ -600,25 +593,26 @@ pub const PACK_TRACK_HEADER: &str = "time_s,cell,r_i,r_ct,q,alpha,u_oc,status,re
 /// `pack_pulse_v_{H}s`: the weakest cell's currents and the sum of the
 /// cells' pulse voltages, the same on every cell's row of a sample).
 pub fn pack_track_header(power: &PowerOptions) -> String {
-    let cell = power.header();
-    let string = cell
-        .replace(",sop_", ",pack_sop_")
-        .replace(",pulse_v_", ",pack_pulse_v_");
+    let (cell, string) = (power.header(), power.header_prefixed("pack_"));
     format!(
         "{PACK_TRACK_HEADER},soc,{},capacity_status{cell}{string}",
         SOC_HEADER.join(",")
     )
 }
 
-/// `online pack`: reads the pack record `input`, runs the pack estimator
-/// over it as `a` says and writes the long-format track to `out` (columns
-/// [`PACK_TRACK_HEADER`], one row per cell and sample). Returns the
-/// summary and the number of cells.
-pub fn online_file(input: &Path, out: &Path, a: &OnlinePack) -> Result<(PackSummary, usize)> {
-    let rec = read_pack(input)?;
+/// Runs the pack estimator over `rec` as `a` says (the CLI's flags), with
+/// the cells' curve and capacity `model` (the CLI reads it from `a.ocv`;
+/// Python's `online_pack` gives it as arrays); `a.ocv.soc0` sets every
+/// cell's start SOC. Calls `sink` for every cell after every sample.
+pub fn run_pack(
+    rec: &PackRecord,
+    a: &OnlinePack,
+    model: Option<OcvModel<f64, OCV_POINTS>>,
+    sink: impl FnMut(PackRow) -> Result<()>,
+) -> Result<PackSummary> {
     let memory = a.memory.unwrap_or(a.window / 4);
     // The curve and capacity; the start SOC is per cell (`PackOptions::soc0`).
-    let cell = crate::ocv::model(&a.ocv)?.map(|model| CellOcv {
+    let cell = model.map(|model| CellOcv {
         model,
         soc0: a.ocv.soc0.unwrap_or(f64::NAN),
     });
@@ -636,12 +630,22 @@ pub fn online_file(input: &Path, out: &Path, a: &OnlinePack) -> Result<(PackSumm
         flag_ratio: a.flag_ratio,
         soc0: a.ocv.soc0,
     };
+    track_pack(rec, &o, sink)
+}
+
+/// `online pack`: reads the pack record `input`, runs the pack estimator
+/// over it as `a` says and writes the long-format track to `out` (columns
+/// [`PACK_TRACK_HEADER`], one row per cell and sample). Returns the
+/// summary and the number of cells.
+pub fn online_file(input: &Path, out: &Path, a: &OnlinePack) -> Result<(PackSummary, usize)> {
+    let rec = read_pack(input)?;
+    let model = crate::ocv::model(&a.ocv)?;
     let horizons = a.power.horizons().len();
     let f = |x: f64| format!("{x:.9e}");
     let mut res = Ok(PackSummary::default());
     io::write_atomic(out, |w| {
         writeln!(w, "{}", pack_track_header(&a.power))?;
-        res = track_pack(&rec, &o, |r| {
+        res = run_pack(&rec, a, model, |r| {
             for (k, x) in r.fields(horizons).into_iter().enumerate() {
                 let sep = if k == 0 { "" } else { "," };
                 match x {

@@ -282,6 +282,26 @@ pub struct SimulateBattery {
     pub out: PathBuf,
 }
 
+/// Checks `--soc0` and `--capacity-ah` of a simulation (`simulate
+/// battery|pack`); returns the capacity (A·h), the preset's when not given.
+pub(crate) fn state_of_charge_options(
+    soc0: f64,
+    capacity_ah: Option<f64>,
+    preset_ah: f64,
+) -> Result<f64> {
+    if !(0.0..=1.0).contains(&soc0) {
+        bail!(Options, "--soc0 {soc0}: must be in [0, 1]");
+    }
+    let capacity_ah = capacity_ah.unwrap_or(preset_ah);
+    if !(capacity_ah.is_finite() && capacity_ah > 0.0) {
+        bail!(
+            Options,
+            "--capacity-ah {capacity_ah}: must be finite and positive"
+        );
+    }
+    Ok(capacity_ah)
+}
+
 /// `simulate battery`: a cell of a preset over a profile, with noise,
 /// written to `a.out`.
 pub fn battery_file(a: &SimulateBattery) -> Result<()> {
@@ -291,16 +311,7 @@ pub fn battery_file(a: &SimulateBattery) -> Result<()> {
         bail!(Options, "--length must be at least 1");
     }
     let sigma = a.sigma.unwrap_or(preset.sigma);
-    if !(0.0..=1.0).contains(&a.soc0) {
-        bail!(Options, "--soc0 {}: must be in [0, 1]", a.soc0);
-    }
-    let capacity_ah = a.capacity_ah.unwrap_or(preset.capacity_ah);
-    if !(capacity_ah.is_finite() && capacity_ah > 0.0) {
-        bail!(
-            Options,
-            "--capacity-ah {capacity_ah}: must be finite and positive"
-        );
-    }
+    let capacity_ah = state_of_charge_options(a.soc0, a.capacity_ah, preset.capacity_ah)?;
     let table;
     let curve = match a.ocv.as_str() {
         "constant" => OcvCurve::Constant,

@@ -104,6 +104,27 @@ fn warn(py: Python<'_>, message: &str) -> PyResult<()> {
     PyErr::warn(py, &py.get_type::<PyUserWarning>(), &text, 1)
 }
 
+/// The state-of-power keywords (`horizons=`, `voltage_min=`, …,
+/// `sop_carry_s=`) as the CLI's flags, checked as the CLI checks them.
+fn power_options(
+    horizons: &[f64],
+    voltage_min: Option<f64>,
+    voltage_max: Option<f64>,
+    current_limit: Option<f64>,
+    pulse_current_a: Option<f64>,
+    carry_s: Option<f64>,
+) -> PyResult<fracbms_host::online::power::PowerOptions> {
+    let mut p = fracbms_host::online::power::PowerOptions::default()
+        .with_horizons(horizons)
+        .map_err(|e| PyValueError::new_err(format!("{e:#}").replace("--horizons", "horizons=")))?;
+    p.voltage_min = voltage_min;
+    p.voltage_max = voltage_max;
+    p.current_limit = current_limit;
+    p.pulse_current_a = pulse_current_a;
+    p.carry_s = carry_s;
+    Ok(p)
+}
+
 /// The OCV curve of the `ocv=(soc, ocv_v)`, `capacity_ah=`, `soc0=`
 /// keywords, checked as the CLI checks `--ocv`, `--capacity-ah`, `--soc0`.
 fn ocv_spec(

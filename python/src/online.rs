@@ -2,7 +2,6 @@
 //! (`host-sim online battery`), over `fracbms_host::online::Tracker`.
 
 use super::*;
-use fracbms_host::online::power::PowerOptions;
 use fracbms_host::online::soc::{SocMode, SocOptions};
 
 /// The online estimator of one cell (`host-sim online battery`).
@@ -320,19 +319,14 @@ impl OnlineCell {
             cell: cell.as_ref(),
             model,
             tail,
-            power: {
-                let mut p = PowerOptions::default()
-                    .with_horizons(&horizons)
-                    .map_err(|e| {
-                        PyValueError::new_err(format!("{e:#}").replace("--horizons", "horizons="))
-                    })?;
-                p.voltage_min = voltage_min;
-                p.voltage_max = voltage_max;
-                p.current_limit = current_limit;
-                p.pulse_current_a = pulse_current_a;
-                p.carry_s = sop_carry_s;
-                p
-            },
+            power: power_options(
+                &horizons,
+                voltage_min,
+                voltage_max,
+                current_limit,
+                pulse_current_a,
+                sop_carry_s,
+            )?,
             soc: SocOptions {
                 mode: soc,
                 rest_s: soc_rest_s,

@@ -3,19 +3,16 @@
 //! module only converts: numpy in, the CLI's long-format track out as a
 //! dict of columns.
 
-use estimator_core::battery::Start;
-use fracbms_host::ocv::CellOcv;
-use fracbms_host::online::power::PowerOptions;
-use fracbms_host::online::soc::{SocMode, SocOptions};
-use fracbms_host::online::{Precision, TrackOptions};
-use fracbms_host::pack::{pack_track_header, track_pack, PackField, PackOptions, PackRecord};
+use fracbms_host::ocv::OcvOptions;
+use fracbms_host::online::soc::SocOptions;
+use fracbms_host::pack::{pack_track_header, run_pack, OnlinePack, PackField, PackRecord};
 use fracbms_host::worker::on_worker;
 use numpy::{AllowTypeChange, PyArray1, PyArrayLike2};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 
-use crate::{choice, ocv_spec, vec, Floats};
+use crate::{choice, ocv_spec, power_options, vec, Floats};
 
 /// Runs the pack estimator over a series string's record and returns its
 /// track, as `host-sim online pack --out` writes it.
@@ -88,46 +85,41 @@ pub fn online_pack<'py>(
         cells: (0..cells).map(|c| v.column(c).to_vec()).collect(),
         h,
     };
-    let precision: Precision = choice("precision", precision)?;
-    let start: Start = choice("start", start)?;
-    let mode: SocMode = choice("soc", soc)?;
+    let power = power_options(
+        &horizons,
+        voltage_min,
+        voltage_max,
+        current_limit,
+        pulse_current_a,
+        sop_carry_s,
+    )?;
     let spec = ocv_spec(ocv, capacity_ah, soc0)?;
-    let cell = spec.map(|s| CellOcv {
-        model: s.model,
-        soc0: s.soc0.unwrap_or(f64::NAN),
-    });
-    let mut power = PowerOptions::default()
-        .with_horizons(&horizons)
-        .map_err(|e| PyValueError::new_err(format!("{e:#}").replace("--horizons", "horizons=")))?;
-    power.voltage_min = voltage_min;
-    power.voltage_max = voltage_max;
-    power.current_limit = current_limit;
-    power.pulse_current_a = pulse_current_a;
-    power.carry_s = sop_carry_s;
-    let mut track = TrackOptions::new(window, memory.unwrap_or(window / 4));
-    track.iterations_per_sample = iterations_per_sample;
-    track.precision = precision;
-    track.start = start;
-    track.tail = tail;
-    track.cell = cell.as_ref();
-    track.power = power;
-    track.soc = SocOptions {
-        mode,
-        rest_s: soc_rest_s,
-        bias_sigma_a: soc_bias_sigma_a,
-    };
-    let o = PackOptions {
-        track,
-        updates_per_period: updates_per_period.unwrap_or(u16::MAX),
+    let a = OnlinePack {
+        window,
+        memory,
+        iterations_per_sample,
+        updates_per_period,
         flag_ratio,
-        soc0: spec.and_then(|s| s.soc0),
+        precision: choice("precision", precision)?,
+        start: choice("start", start)?,
+        tail,
+        ocv: OcvOptions {
+            soc0: spec.and_then(|s| s.soc0),
+            ..OcvOptions::default()
+        },
+        power,
+        soc: SocOptions {
+            mode: choice("soc", soc)?,
+            rest_s: soc_rest_s,
+            bias_sigma_a: soc_bias_sigma_a,
+        },
     };
     let n = power.horizons().len();
     let rows = py
         .detach(|| {
             on_worker(|| {
                 let mut rows = Vec::with_capacity(samples * cells);
-                track_pack(&rec, &o, |r| {
+                run_pack(&rec, &a, spec.map(|s| s.model), |r| {
                     rows.push(r.fields(n));
                     Ok(())
                 })
