@@ -5,6 +5,10 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
+# A check runs from scratch: incremental caches would only fill the disk
+# (1.9 GB on a clean run), and a CI machine's disk once ran out.
+export CARGO_INCREMENTAL=0
+
 # rust-toolchain.toml pins the toolchain, the thumbv7em-none-eabihf target
 # and the clippy/rustfmt/llvm-tools components; rustup installs them on first
 # use. Make sure they are present even with an older rustup.
@@ -108,6 +112,7 @@ else
   echo "test result: FAILED. 0 passed; 1 failed; (pip install ./python)" >> target/test-output.txt
 fi
 set -e
+echo "== disk: target/ holds $(du -sh target 2>/dev/null | cut -f1) after the run"
 
 # Finish on a one-line summary of every test binary and of pytest (a cargo
 # test run that did not finish counts as one failure).
