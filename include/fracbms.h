@@ -29,6 +29,11 @@
 #define FRACBMS_PACK_STRING UINT16_MAX
 
 /**
+ * `UINT32_MAX`: a time the caller does not know.
+ */
+#define FRACBMS_TIME_UNKNOWN UINT32_MAX
+
+/**
  * Largest OCV table the C interface takes (points).
  */
 #define FRACBMS_OCV_POINTS_MAX 128
@@ -106,6 +111,32 @@ enum FracbmsCode
    * physical cell.
    */
   FRACBMS_ERROR_MAP = -11,
+  /**
+   * Restore: the bytes are not a snapshot (bad magic, e.g. erased
+   * flash) or are shorter than the snapshot they start.
+   */
+  FRACBMS_ERROR_SNAPSHOT_INVALID = -12,
+  /**
+   * Restore: the snapshot's CRC does not match (corrupt).
+   */
+  FRACBMS_ERROR_SNAPSHOT_CRC = -13,
+  /**
+   * Restore: written by another layout version (another firmware).
+   */
+  FRACBMS_ERROR_SNAPSHOT_VERSION = -14,
+  /**
+   * Restore: written under other settings (sample period, method,
+   * model, OCV table or capacity).
+   */
+  FRACBMS_ERROR_SNAPSHOT_SETTINGS = -15,
+  /**
+   * Restore: older than the given maximum age, or saved after "now".
+   */
+  FRACBMS_ERROR_SNAPSHOT_STALE = -16,
+  /**
+   * Restore: the snapshot holds values no estimator publishes.
+   */
+  FRACBMS_ERROR_SNAPSHOT_IMPLAUSIBLE = -17,
 };
 #ifndef __cplusplus
 #if __STDC_VERSION__ >= 202311L
@@ -233,12 +264,49 @@ enum FracbmsIdentification
    * nothing is published (NaN).
    */
   FRACBMS_IDENTIFICATION_EXPIRED = 4,
+  /**
+   * From a snapshot restored at start-up (`fracbms_*_snapshot_restore`):
+   * what was published before the reset, until a window identifies it
+   * again.
+   */
+  FRACBMS_IDENTIFICATION_RESTORED = 5,
 };
 #ifndef __cplusplus
 #if __STDC_VERSION__ >= 202311L
 typedef enum FracbmsIdentification FracbmsIdentification;
 #else
 typedef int32_t FracbmsIdentification;
+#endif // __STDC_VERSION__ >= 202311L
+#endif // __cplusplus
+
+/**
+ * How a cell started (`estimator_core::battery::snapshot::Restoration`;
+ * as `host-sim online battery`'s `restoration` column).
+ */
+enum FracbmsRestoration
+#if defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+  : int32_t
+#endif // defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+ {
+  /**
+   * Started clean (no snapshot restored).
+   */
+  FRACBMS_RESTORATION_CLEAN = 0,
+  /**
+   * Started from a snapshot; its SOC stands.
+   */
+  FRACBMS_RESTORATION_RESTORED = 1,
+  /**
+   * Started from a snapshot whose SOC a rested first voltage
+   * contradicted: read again through the OCV table.
+   */
+  FRACBMS_RESTORATION_SOC_REREAD = 2,
+};
+#ifndef __cplusplus
+#if __STDC_VERSION__ >= 202311L
+typedef enum FracbmsRestoration FracbmsRestoration;
+#else
+typedef int32_t FracbmsRestoration;
 #endif // __STDC_VERSION__ >= 202311L
 #endif // __cplusplus
 
@@ -572,6 +640,11 @@ typedef struct FracbmsEstimate {
    * start SOC is known). `state_of_charge` is the count.
    */
   struct FracbmsSoc soc;
+  /**
+   * Whether the cell started from a snapshot, and whether its SOC stood
+   * against the first rested voltage.
+   */
+  FracbmsRestoration restoration;
 } FracbmsEstimate;
 
 /**
@@ -1107,6 +1180,90 @@ FracbmsCode fracbms_cell_follow_map(struct FracbmsCell *cell,
                                     uint16_t n_levels,
                                     float temperature_c,
                                     bool *taken);
+
+/**
+ * Writes to `size` the bytes of this cell's snapshot (140).
+ *
+ * # Safety
+ * `cell` is null or a handle from `fracbms_cell_init`; `size` is null or
+ * valid for a write.
+ */
+FracbmsCode fracbms_cell_snapshot_size(const struct FracbmsCell *cell, size_t *size_out);
+
+/**
+ * Writes what the cell has learned into `buf` (`len` bytes, at least
+ * `fracbms_cell_snapshot_size`) and the bytes written to `written` (may
+ * be null). `saved_at_s` is the caller's clock (s; `FRACBMS_TIME_UNKNOWN`
+ * without one), judged at restore. `FRACBMS_ERROR_TOO_SMALL` (nothing
+ * written) for a short buffer. No allocation.
+ *
+ * # Safety
+ * `cell` as in `fracbms_cell_snapshot_size`; `buf` is null or valid for
+ * writes of `len` bytes; `written` is null or valid for a write.
+ */
+FracbmsCode fracbms_cell_snapshot_save(const struct FracbmsCell *cell,
+                                       uint32_t saved_at_s,
+                                       uint8_t *buf,
+                                       size_t len,
+                                       size_t *written);
+
+/**
+ * Restores a cell from a snapshot in `buf` (`len` bytes), before its
+ * first sample: its magic, version, CRC, cell count and settings are
+ * checked, its age against `now_s` (`FRACBMS_TIME_UNKNOWN`: not judged)
+ * and `max_age_s` (0: 90 days), and its values. On an error
+ * (`FRACBMS_ERROR_SNAPSHOT_*`, `FRACBMS_ERROR_CELL_COUNT`) nothing is
+ * changed: the cell starts clean. The restored parameters are published
+ * as `FRACBMS_IDENTIFICATION_RESTORED` until a window identifies them;
+ * the estimate's `restoration` says whether the stored SOC stood against
+ * the first rested voltage.
+ *
+ * # Safety
+ * `cell` is null or a handle from `fracbms_cell_init`, not used elsewhere
+ * during the call; `buf` is null or valid for reads of `len` bytes.
+ */
+FracbmsCode fracbms_cell_snapshot_restore(struct FracbmsCell *cell,
+                                          const uint8_t *buf,
+                                          size_t len,
+                                          uint32_t now_s,
+                                          uint32_t max_age_s);
+
+/**
+ * Writes to `size` the bytes of this pack's snapshot (20 + 116 per cell
+ * + 4: 1880 for 16 cells).
+ *
+ * # Safety
+ * `pack` is null or a handle from `fracbms_pack_init`; `size` is null or
+ * valid for a write.
+ */
+FracbmsCode fracbms_pack_snapshot_size(const struct FracbmsPack *pack, size_t *size_out);
+
+/**
+ * As `fracbms_cell_snapshot_save`, for every cell of a pack and the
+ * position of its update schedule.
+ *
+ * # Safety
+ * As `fracbms_cell_snapshot_save`, with a handle from `fracbms_pack_init`.
+ */
+FracbmsCode fracbms_pack_snapshot_save(const struct FracbmsPack *pack,
+                                       uint32_t saved_at_s,
+                                       uint8_t *buf,
+                                       size_t len,
+                                       size_t *written);
+
+/**
+ * As `fracbms_cell_snapshot_restore`, for a pack (the snapshot's cell
+ * count must be the pack's).
+ *
+ * # Safety
+ * As `fracbms_cell_snapshot_restore`, with a handle from
+ * `fracbms_pack_init`.
+ */
+FracbmsCode fracbms_pack_snapshot_restore(struct FracbmsPack *pack,
+                                          const uint8_t *buf,
+                                          size_t len,
+                                          uint32_t now_s,
+                                          uint32_t max_age_s);
 
 #ifdef __cplusplus
 }  // extern "C"

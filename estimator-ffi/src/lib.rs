@@ -62,17 +62,23 @@ use estimator_core::battery::pack::PackSettings;
 #[cfg(not(target_os = "none"))]
 mod identify;
 mod map;
+mod snapshot;
 mod state;
 mod types;
 
 #[cfg(not(target_os = "none"))]
 pub use identify::{FracbmsFit, FracbmsIdentifyOptions};
 pub use map::{fracbms_cell_follow_map, fracbms_cell_set_prior, fracbms_map_cell_at};
+pub use snapshot::{
+    fracbms_cell_snapshot_restore, fracbms_cell_snapshot_save, fracbms_cell_snapshot_size,
+    fracbms_pack_snapshot_restore, fracbms_pack_snapshot_save, fracbms_pack_snapshot_size,
+    FRACBMS_TIME_UNKNOWN,
+};
 pub use types::{
     FracbmsCode, FracbmsEstimate, FracbmsHorizonPower, FracbmsIdentification, FracbmsMapLevel,
     FracbmsMethod, FracbmsModel, FracbmsParameters, FracbmsPower, FracbmsPowerRequest,
-    FracbmsPublished, FracbmsRejection, FracbmsSettings, FracbmsSoc, FracbmsStatus,
-    FRACBMS_HORIZONS_MAX, FRACBMS_MAP_LEVELS_MAX, FRACBMS_OCV_POINTS_MAX,
+    FracbmsPublished, FracbmsRejection, FracbmsRestoration, FracbmsSettings, FracbmsSoc,
+    FracbmsStatus, FRACBMS_HORIZONS_MAX, FRACBMS_MAP_LEVELS_MAX, FRACBMS_OCV_POINTS_MAX,
 };
 
 use state::{CellOp, PackOp, PackOut};
@@ -497,6 +503,7 @@ pub extern "C" fn fracbms_identification_name(status: i32) -> *const c_char {
         Some(Identification::Held) => c"held",
         Some(Identification::Step) => c"step",
         Some(Identification::Expired) => c"expired",
+        Some(Identification::Restored) => c"restored",
     };
     name.as_ptr()
 }
@@ -518,6 +525,12 @@ pub extern "C" fn fracbms_code_message(code: i32) -> *const c_char {
         FRACBMS_ERROR_DATA,
         FRACBMS_ERROR_FIT,
         FRACBMS_ERROR_MAP,
+        FRACBMS_ERROR_SNAPSHOT_INVALID,
+        FRACBMS_ERROR_SNAPSHOT_CRC,
+        FRACBMS_ERROR_SNAPSHOT_VERSION,
+        FRACBMS_ERROR_SNAPSHOT_SETTINGS,
+        FRACBMS_ERROR_SNAPSHOT_STALE,
+        FRACBMS_ERROR_SNAPSHOT_IMPLAUSIBLE,
     ];
     let Some(code) = all.into_iter().find(|c| *c as i32 == code) else {
         return c"unknown code".as_ptr();
@@ -535,6 +548,12 @@ pub extern "C" fn fracbms_code_message(code: i32) -> *const c_char {
         FRACBMS_ERROR_DATA => c"the record is unusable",
         FRACBMS_ERROR_FIT => c"the fit failed",
         FRACBMS_ERROR_MAP => c"the parameter map is invalid",
+        FRACBMS_ERROR_SNAPSHOT_INVALID => c"not a snapshot, or truncated",
+        FRACBMS_ERROR_SNAPSHOT_CRC => c"the snapshot is corrupt (CRC)",
+        FRACBMS_ERROR_SNAPSHOT_VERSION => c"the snapshot is from another layout version",
+        FRACBMS_ERROR_SNAPSHOT_SETTINGS => c"the snapshot was written under other settings",
+        FRACBMS_ERROR_SNAPSHOT_STALE => c"the snapshot is stale",
+        FRACBMS_ERROR_SNAPSHOT_IMPLAUSIBLE => c"the snapshot holds implausible values",
     };
     m.as_ptr()
 }

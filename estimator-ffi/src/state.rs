@@ -9,6 +9,7 @@ use core::mem::{align_of, size_of};
 use estimator_core::battery::map::{MapFollower, ParameterMap};
 use estimator_core::battery::online::{CellEstimator, CellState, SampleReport};
 use estimator_core::battery::pack::{PackEstimator, PackSettings};
+use estimator_core::battery::snapshot::{RestorePolicy, SnapshotError};
 use estimator_core::battery::Prior;
 
 use crate::types::{
@@ -184,6 +185,7 @@ fn estimate_of<const N: usize>(
         published: c.published().into(),
         step_resistance: c.step_resistance().map_or(f32::NAN, |st| st.ohm),
         soc: c.soc_estimate(s).map_or(FracbmsSoc::NONE, FracbmsSoc::from),
+        restoration: c.restoration().into(),
     }
 }
 
@@ -507,5 +509,100 @@ pub(crate) unsafe fn pack_power(
     let h = unsafe { header(state, PACK_MAGIC) }?;
     // SAFETY: the magic says `init` wrote a `PackSlot` of these sizes.
     unsafe { by_pack!(h.window, h.capacity, run(state, k, req)) }
+        .ok_or(FracbmsCode::FRACBMS_ERROR_NOT_INITIALIZED)?
+}
+
+/// What a snapshot call does (`fracbms_*_snapshot_*`; the core's
+/// `battery::snapshot`).
+pub(crate) enum SnapshotOp<'a> {
+    /// The snapshot's size.
+    Size,
+    /// Save at this time (s; `None`: unknown) into the buffer.
+    Save(Option<u32>, &'a mut [u8]),
+    /// Restore from the buffer with this policy.
+    Restore(&'a [u8], RestorePolicy),
+}
+
+/// Runs a snapshot `op` through an estimator's `size`, `save` and
+/// `restore` (a cell's or a pack's): the bytes (size, written, read) or
+/// the error's code.
+fn snapshot_run<E>(
+    e: &mut E,
+    op: SnapshotOp<'_>,
+    size: impl FnOnce(&E) -> usize,
+    save: impl FnOnce(&E, Option<u32>, &mut [u8]) -> Result<usize, SnapshotError>,
+    restore: impl FnOnce(&mut E, &[u8], &RestorePolicy) -> Result<(), SnapshotError>,
+) -> Result<usize, FracbmsCode> {
+    match op {
+        SnapshotOp::Size => Ok(size(e)),
+        SnapshotOp::Save(at, buf) => save(e, at, buf).map_err(|e| match e {
+            SnapshotError::TooShort { .. } => FracbmsCode::FRACBMS_ERROR_TOO_SMALL,
+            e => e.into(),
+        }),
+        SnapshotOp::Restore(buf, policy) => restore(e, buf, &policy)
+            .map(|()| buf.len())
+            .map_err(Into::into),
+    }
+}
+
+/// Runs a snapshot `op` on a cell made by `init`.
+///
+/// # Safety
+/// As [`cell_op`] (`Size` and `Save` do not write the cell).
+pub(crate) unsafe fn cell_snapshot(
+    state: *mut u8,
+    op: SnapshotOp<'_>,
+) -> Result<usize, FracbmsCode> {
+    unsafe fn run<const N: usize, const MEM: usize>(
+        state: *mut u8,
+        op: SnapshotOp<'_>,
+    ) -> Result<usize, FracbmsCode> {
+        // SAFETY: the header named this layout; the caller guarantees
+        // exclusive access.
+        let slot = unsafe { &mut *state.cast::<CellSlot<N, MEM>>() };
+        let s = &slot.settings;
+        snapshot_run(
+            &mut slot.cell,
+            op,
+            |c| c.snapshot_size(),
+            |c, at, b| c.save(s, at, b),
+            |c, b, p| c.restore(s, b, p),
+        )
+    }
+    // SAFETY: forwarded from the caller.
+    let h = unsafe { header(state, CELL_MAGIC) }?;
+    // SAFETY: the magic says `init` wrote a `CellSlot` of this window.
+    unsafe { by_window!(h.window, run(state, op)) }
+        .ok_or(FracbmsCode::FRACBMS_ERROR_NOT_INITIALIZED)?
+}
+
+/// Runs a snapshot `op` on a pack made by `init`.
+///
+/// # Safety
+/// As [`pack_op`] (`Size` and `Save` do not write the pack).
+pub(crate) unsafe fn pack_snapshot(
+    state: *mut u8,
+    op: SnapshotOp<'_>,
+) -> Result<usize, FracbmsCode> {
+    unsafe fn run<const N: usize, const MEM: usize, const CELLS: usize>(
+        state: *mut u8,
+        op: SnapshotOp<'_>,
+    ) -> Result<usize, FracbmsCode> {
+        // SAFETY: the header named this layout; the caller guarantees
+        // exclusive access.
+        let slot = unsafe { &mut *state.cast::<PackSlot<N, MEM, CELLS>>() };
+        let s = &slot.settings.cell;
+        snapshot_run(
+            &mut slot.pack,
+            op,
+            |k| k.snapshot_size(),
+            |k, at, b| k.save(s, at, b),
+            |k, b, p| k.restore(s, b, p),
+        )
+    }
+    // SAFETY: forwarded from the caller.
+    let h = unsafe { header(state, PACK_MAGIC) }?;
+    // SAFETY: the magic says `init` wrote a `PackSlot` of these sizes.
+    unsafe { by_pack!(h.window, h.capacity, run(state, op)) }
         .ok_or(FracbmsCode::FRACBMS_ERROR_NOT_INITIALIZED)?
 }

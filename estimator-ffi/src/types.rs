@@ -9,6 +9,7 @@ use estimator_core::battery::online::{
     Status,
 };
 use estimator_core::battery::power::{PowerLimits, PowerReport, PowerSettings};
+use estimator_core::battery::snapshot::{Restoration, SnapshotError};
 use estimator_core::battery::soc::SocEstimate;
 use estimator_core::battery::{CellModel, CellParameters, Start};
 
@@ -105,6 +106,20 @@ pub enum FracbmsCode {
     /// sorted by temperature then SOC, or a level is not finite or not a
     /// physical cell.
     FRACBMS_ERROR_MAP = -11,
+    /// Restore: the bytes are not a snapshot (bad magic, e.g. erased
+    /// flash) or are shorter than the snapshot they start.
+    FRACBMS_ERROR_SNAPSHOT_INVALID = -12,
+    /// Restore: the snapshot's CRC does not match (corrupt).
+    FRACBMS_ERROR_SNAPSHOT_CRC = -13,
+    /// Restore: written by another layout version (another firmware).
+    FRACBMS_ERROR_SNAPSHOT_VERSION = -14,
+    /// Restore: written under other settings (sample period, method,
+    /// model, OCV table or capacity).
+    FRACBMS_ERROR_SNAPSHOT_SETTINGS = -15,
+    /// Restore: older than the given maximum age, or saved after "now".
+    FRACBMS_ERROR_SNAPSHOT_STALE = -16,
+    /// Restore: the snapshot holds values no estimator publishes.
+    FRACBMS_ERROR_SNAPSHOT_IMPLAUSIBLE = -17,
 }
 
 /// Health of the estimate after a sample (as `host-sim online battery`'s
@@ -358,6 +373,50 @@ pub struct FracbmsEstimate {
     /// The SOC observer's estimate (with an OCV table; all NaN before the
     /// start SOC is known). `state_of_charge` is the count.
     pub soc: FracbmsSoc,
+    /// Whether the cell started from a snapshot, and whether its SOC stood
+    /// against the first rested voltage.
+    pub restoration: FracbmsRestoration,
+}
+
+/// How a cell started (`estimator_core::battery::snapshot::Restoration`;
+/// as `host-sim online battery`'s `restoration` column).
+#[repr(i32)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum FracbmsRestoration {
+    /// Started clean (no snapshot restored).
+    #[default]
+    FRACBMS_RESTORATION_CLEAN = 0,
+    /// Started from a snapshot; its SOC stands.
+    FRACBMS_RESTORATION_RESTORED = 1,
+    /// Started from a snapshot whose SOC a rested first voltage
+    /// contradicted: read again through the OCV table.
+    FRACBMS_RESTORATION_SOC_REREAD = 2,
+}
+
+impl From<Restoration> for FracbmsRestoration {
+    fn from(r: Restoration) -> Self {
+        match r {
+            Restoration::Clean => Self::FRACBMS_RESTORATION_CLEAN,
+            Restoration::Restored => Self::FRACBMS_RESTORATION_RESTORED,
+            Restoration::SocReread => Self::FRACBMS_RESTORATION_SOC_REREAD,
+        }
+    }
+}
+
+impl From<SnapshotError> for FracbmsCode {
+    fn from(e: SnapshotError) -> Self {
+        match e {
+            SnapshotError::TooShort { .. } | SnapshotError::NotASnapshot => {
+                Self::FRACBMS_ERROR_SNAPSHOT_INVALID
+            }
+            SnapshotError::Crc => Self::FRACBMS_ERROR_SNAPSHOT_CRC,
+            SnapshotError::Version { .. } => Self::FRACBMS_ERROR_SNAPSHOT_VERSION,
+            SnapshotError::CellCount { .. } => Self::FRACBMS_ERROR_CELL_COUNT,
+            SnapshotError::Settings => Self::FRACBMS_ERROR_SNAPSHOT_SETTINGS,
+            SnapshotError::Stale { .. } => Self::FRACBMS_ERROR_SNAPSHOT_STALE,
+            SnapshotError::Implausible { .. } => Self::FRACBMS_ERROR_SNAPSHOT_IMPLAUSIBLE,
+        }
+    }
 }
 
 /// The SOC observer's estimate (`estimator_core::battery::soc`): coulomb
@@ -551,6 +610,10 @@ pub enum FracbmsIdentification {
     /// Identified at a state of charge too far from the present one:
     /// nothing is published (NaN).
     FRACBMS_IDENTIFICATION_EXPIRED = 4,
+    /// From a snapshot restored at start-up (`fracbms_*_snapshot_restore`):
+    /// what was published before the reset, until a window identifies it
+    /// again.
+    FRACBMS_IDENTIFICATION_RESTORED = 5,
 }
 
 impl From<Identification> for FracbmsIdentification {
@@ -561,6 +624,7 @@ impl From<Identification> for FracbmsIdentification {
             Identification::Held => Self::FRACBMS_IDENTIFICATION_HELD,
             Identification::Step => Self::FRACBMS_IDENTIFICATION_STEP,
             Identification::Expired => Self::FRACBMS_IDENTIFICATION_EXPIRED,
+            Identification::Restored => Self::FRACBMS_IDENTIFICATION_RESTORED,
         }
     }
 }
@@ -574,6 +638,7 @@ impl FracbmsIdentification {
             Identification::Held,
             Identification::Step,
             Identification::Expired,
+            Identification::Restored,
         ]
         .into_iter()
         .find(|&s| Self::from(s) as i32 == v)

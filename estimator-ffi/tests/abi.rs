@@ -12,34 +12,8 @@ use estimator_core::battery::{CellParameters, Start};
 use fracbms::FracbmsCode::*;
 use fracbms::*;
 
-fn record() -> (Vec<f32>, Vec<f32>) {
-    let text = std::fs::read_to_string(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../firmware/data/cell-pulse.csv"
-    ))
-    .unwrap();
-    text.lines()
-        .skip(1)
-        .map(|l| {
-            let f: Vec<f32> = l.split(',').map(|x| x.parse().unwrap()).collect();
-            (f[1], f[2])
-        })
-        .unzip()
-}
-
-fn defaults() -> FracbmsSettings {
-    let mut s = MaybeUninit::uninit();
-    assert_eq!(
-        unsafe { fracbms_settings_default(1.0, s.as_mut_ptr()) },
-        FRACBMS_OK
-    );
-    unsafe { s.assume_init() }
-}
-
-/// 8-byte aligned memory of at least `size` bytes.
-fn memory(size: usize) -> Vec<u64> {
-    vec![0; size.div_ceil(8)]
-}
+mod common;
+use common::{core_settings, defaults, memory, record};
 
 /// A state-of-power request: limits 3.0–4.2 V, 50 A, horizons 2, 10 and
 /// 30 s, a 2 A discharge pulse.
@@ -104,12 +78,6 @@ fn core_power_settings() -> PowerSettings<f32> {
         current_limit: 50.0,
     };
     PowerSettings::new(limits, &[2, 10, 30], Some(-2.0)).unwrap()
-}
-
-fn core_settings() -> OnlineSettings<f32, FRACBMS_OCV_POINTS_MAX> {
-    let mut s = OnlineSettings::new(1.0, 64, CellParameters::<f32>::cell_18650());
-    s.battery.start = Start::AtRest;
-    s.with_curve(None)
 }
 
 #[test]

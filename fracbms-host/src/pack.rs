@@ -11,6 +11,7 @@ use crate::io::{self, OCV_POINTS};
 use crate::ocv::{CellOcv, OcvOptions};
 use crate::online::power::{PowerOptions, PowerRow, ResolvedPower, MAX_HORIZONS};
 use crate::online::soc::{SocMode, SocOptions, SocRow, SOC_HEADER};
+use crate::online::state::{read_state, record_clock, write_state, StateIn};
 use crate::online::Precision;
 use crate::online::TrackOptions;
 use crate::presets;
@@ -19,6 +20,7 @@ use crate::{bail, err};
 use estimator_core::battery::ocv::OcvModel;
 use estimator_core::battery::online::{OnlineSettings, PublishedParameters};
 use estimator_core::battery::pack::{PackEstimator, PackSettings};
+use estimator_core::battery::snapshot::{Restoration, RestorePolicy};
 use estimator_core::battery::CellParameters;
 use estimator_core::Real;
 use rand::{Rng, SeedableRng};
@@ -301,6 +303,8 @@ pub struct PackRow {
     /// cell of the sample): the weakest cell's currents, the sum of the
     /// cells' pulse voltages; empty while any cell has none.
     pub string_power: [PowerRow; MAX_HORIZONS],
+    /// Whether the cell started from a snapshot (`--state-in`).
+    pub restoration: Restoration,
 }
 
 /// One value of a pack track row, in [`pack_track_header`]'s order: the
@@ -369,6 +373,10 @@ pub struct PackSummary {
     pub rejected: Vec<u32>,
     /// Iterations run (all cells).
     pub iterations: u64,
+    /// How [`PackOptions::state_in`]'s snapshot was taken.
+    pub state_in: Option<StateIn>,
+    /// The snapshot after the last sample ([`PackOptions::save_state`]).
+    pub state_out: Option<Vec<u8>>,
 }
 
 /// How `online pack` runs: the cell settings of `online battery` and the
@@ -385,6 +393,10 @@ pub struct PackOptions<'a> {
     /// `None`: each cell's read by the core from its own first rested
     /// voltages, as the firmware does).
     pub soc0: Option<f64>,
+    /// A snapshot to start from (the core's bytes; it overrides `soc0`).
+    pub state_in: Option<&'a [u8]>,
+    /// Save the snapshot after the last sample into the summary.
+    pub save_state: bool,
 }
 
 /// Runs the pack estimator over `rec`, calling `sink` for every cell after
@@ -423,6 +435,8 @@ pub fn track_pack(
         power,
         soc: o.track.soc.mode,
         soc0: o.soc0.filter(|_| o.track.cell.is_some()),
+        state_in: o.state_in,
+        save_state: o.save_state,
     };
     match o.track.precision {
         Precision::F64 => sized(&o.track.settings::<f64>(rec.h)?, o, states, rec, sink),
@@ -433,16 +447,18 @@ pub fn track_pack(
 /// What a pack run publishes beside the parameters: its state of power's
 /// limits, how its SOC is published, and the start SOC.
 #[derive(Clone, Copy)]
-struct States {
+struct States<'a> {
     power: Option<ResolvedPower>,
     soc: SocMode,
     soc0: Option<f64>,
+    state_in: Option<&'a [u8]>,
+    save_state: bool,
 }
 
 fn sized<T: Real>(
     s: &OnlineSettings<T, OCV_POINTS>,
     o: &PackOptions,
-    states: States,
+    states: States<'_>,
     rec: &PackRecord,
     sink: impl FnMut(PackRow) -> Result<()>,
 ) -> Result<PackSummary> {
@@ -464,7 +480,7 @@ fn sized<T: Real>(
 
 fn run<T: Real, const N: usize>(
     s: &PackSettings<T, OCV_POINTS>,
-    states: States,
+    states: States<'_>,
     rec: &PackRecord,
     mut sink: impl FnMut(PackRow) -> Result<()>,
 ) -> Result<PackSummary> {
@@ -478,6 +494,13 @@ fn run<T: Real, const N: usize>(
             }
         }
     }
+    let state_in = states.state_in.map(|bytes| {
+        let policy = RestorePolicy {
+            now_s: rec.time.first().and_then(|t| record_clock(*t)),
+            ..RestorePolicy::default()
+        };
+        StateIn::of(pack.restore(&s.cell, bytes, &policy))
+    });
     let no_power = [PowerRow::default(); MAX_HORIZONS];
     let power = |pack: &PackEstimator<T, N, N, MAX_CELLS>, k: Option<usize>| {
         states
@@ -513,6 +536,7 @@ fn run<T: Real, const N: usize>(
                 soc: soc.in_mode(states.soc),
                 power: power(&pack, Some(k)),
                 string_power,
+                restoration: c.restoration(),
             })?;
         }
     }
@@ -522,6 +546,15 @@ fn run<T: Real, const N: usize>(
             .map(|k| pack.cell(k).map_or(0, |c| c.counts().rejected()))
             .collect(),
         iterations,
+        state_in,
+        state_out: states.save_state.then(|| {
+            let mut buf = vec![0; pack.snapshot_size()];
+            let at = rec.time.last().and_then(|t| record_clock(*t));
+            // The buffer is the snapshot's size: saving cannot fail.
+            let n = pack.save(&s.cell, at, &mut buf).unwrap_or(0);
+            buf.truncate(n);
+            buf
+        }),
     })
 }
 
@@ -557,6 +590,10 @@ pub struct OnlinePack {
     /// How each cell's SOC is published (`--soc`, `--soc-rest-s`,
     /// `--soc-bias-sigma-a`).
     pub soc: SocOptions,
+    /// A snapshot to start from (`--state-in`, docs/persistence.md).
+    pub state_in: Option<PathBuf>,
+    /// Where to save the snapshot after the last sample (`--state-out`).
+    pub state_out: Option<PathBuf>,
 }
 
 impl Default for OnlinePack {
@@ -573,6 +610,8 @@ impl Default for OnlinePack {
             ocv: OcvOptions::default(),
             power: PowerOptions::default(),
             soc: SocOptions::default(),
+            state_in: None,
+            state_out: None,
         }
     }
 }
@@ -610,6 +649,7 @@ pub fn run_pack(
     model: Option<OcvModel<f64, OCV_POINTS>>,
     sink: impl FnMut(PackRow) -> Result<()>,
 ) -> Result<PackSummary> {
+    let state_in = a.state_in.as_deref().map(read_state).transpose()?;
     let memory = a.memory.unwrap_or(a.window / 4);
     // The curve and capacity; the start SOC is per cell (`PackOptions::soc0`).
     let cell = model.map(|model| CellOcv {
@@ -629,6 +669,8 @@ pub fn run_pack(
         updates_per_period: a.updates_per_period.unwrap_or(u16::MAX),
         flag_ratio: a.flag_ratio,
         soc0: a.ocv.soc0,
+        state_in: state_in.as_deref(),
+        save_state: a.state_out.is_some(),
     };
     track_pack(rec, &o, sink)
 }
@@ -643,8 +685,13 @@ pub fn online_file(input: &Path, out: &Path, a: &OnlinePack) -> Result<(PackSumm
     let horizons = a.power.horizons().len();
     let f = |x: f64| format!("{x:.9e}");
     let mut res = Ok(PackSummary::default());
+    let restoration = if a.state_in.is_some() {
+        ",restoration"
+    } else {
+        ""
+    };
     io::write_atomic(out, |w| {
-        writeln!(w, "{}", pack_track_header(&a.power))?;
+        writeln!(w, "{}{restoration}", pack_track_header(&a.power))?;
         res = run_pack(&rec, a, model, |r| {
             for (k, x) in r.fields(horizons).into_iter().enumerate() {
                 let sep = if k == 0 { "" } else { "," };
@@ -656,10 +703,17 @@ pub fn online_file(input: &Path, out: &Path, a: &OnlinePack) -> Result<(PackSumm
                     PackField::Text(t) => write!(w, "{sep}{t}")?,
                 }
             }
+            if a.state_in.is_some() {
+                write!(w, ",{}", r.restoration.as_str())?;
+            }
             writeln!(w)?;
             Ok(())
         });
         res.clone().map(|_| ())
     })?;
-    Ok((res?, rec.cells.len()))
+    let summary = res?;
+    if let (Some(p), Some(bytes)) = (&a.state_out, &summary.state_out) {
+        write_state(p, bytes)?;
+    }
+    Ok((summary, rec.cells.len()))
 }

@@ -113,6 +113,8 @@ pub fn online_pack<'py>(
             rest_s: soc_rest_s,
             bias_sigma_a: soc_bias_sigma_a,
         },
+        state_in: None,
+        state_out: None,
     };
     let n = power.horizons().len();
     let rows = py

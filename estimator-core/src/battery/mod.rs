@@ -62,6 +62,7 @@ pub mod power;
 pub mod profile;
 pub mod regression;
 pub mod simulate;
+pub mod snapshot;
 pub mod soc;
 mod tracker;
 

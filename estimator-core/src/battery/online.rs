@@ -49,6 +49,7 @@
 use super::output_error::RefinementWork;
 use super::pack::PackEstimator;
 use super::power::{PowerReport, PowerSettings, PulsePredictor};
+use super::snapshot::{RestorePolicy, SnapshotError};
 use super::CellParameters;
 use crate::error::Error;
 use crate::frac::GlWeights;
@@ -134,6 +135,39 @@ impl<T: Real, const N: usize, const MEM: usize> CellEstimator<T, N, MEM> {
     /// through the inverse OCV curve.
     pub fn set_state_of_charge(&mut self, soc: T) {
         self.pack.cells[0].set_state_of_charge(soc);
+    }
+
+    /// The size of this cell's snapshot (B, [`crate::battery::snapshot`]).
+    pub fn snapshot_size(&self) -> usize {
+        self.pack.snapshot_size()
+    }
+
+    /// Writes what the cell has learned into `buf`
+    /// ([`PackEstimator::save`]); returns the bytes written.
+    ///
+    /// # Errors
+    /// [`SnapshotError::TooShort`] when `buf` is too short.
+    pub fn save<const P: usize>(
+        &self,
+        s: &OnlineSettings<T, P>,
+        saved_at_s: Option<u32>,
+        buf: &mut [u8],
+    ) -> Result<usize, SnapshotError> {
+        self.pack.save(s, saved_at_s, buf)
+    }
+
+    /// Restores the cell from a snapshot ([`PackEstimator::restore`]); on
+    /// an error nothing is changed.
+    ///
+    /// # Errors
+    /// The first check that fails ([`SnapshotError`]).
+    pub fn restore<const P: usize>(
+        &mut self,
+        s: &OnlineSettings<T, P>,
+        buf: &[u8],
+        policy: &RestorePolicy,
+    ) -> Result<(), SnapshotError> {
+        self.pack.restore(s, buf, policy)
     }
 
     /// The SOC observer's estimate after the last sample (with an OCV

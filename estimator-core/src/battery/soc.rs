@@ -177,6 +177,19 @@ impl<T: Real> SocEstimate<T> {
     }
 }
 
+/// What a snapshot keeps of a [`SocObserver`] (its `parts`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct ObserverParts<T> {
+    pub x: Option<[T; 3]>,
+    pub p: [T; 6],
+    pub observations: u32,
+    pub capacity_held: Option<T>,
+    pub ocv_weight: T,
+    /// A rest in progress: its length (s), its voltage mean, and whether
+    /// it has given its early observation and its observation.
+    pub rest: Option<(T, T, bool, bool)>,
+}
+
 /// The SOC observer of one cell (module docs). State only: the settings
 /// and the curve are given with every sample. 72 B in f32.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -230,6 +243,47 @@ impl<T: Real> SocObserver<T> {
             T::ZERO,
             c * c,
         ];
+    }
+
+    /// What a snapshot keeps of the observer ([`crate::battery::snapshot`]):
+    /// the state `(SOC, b, g)` (`None` before the start), its covariance,
+    /// the observations so far, the last identified capacity, the last
+    /// observation's weight and a rest in progress. A pending set is not
+    /// kept.
+    pub(crate) fn parts(&self) -> ObserverParts<T> {
+        ObserverParts {
+            x: self.x,
+            p: self.p,
+            observations: self.observations,
+            capacity_held: self.capacity_held,
+            ocv_weight: self.ocv_weight,
+            rest: self.rest.map(|r| (r.len, r.mean, r.early, r.done)),
+        }
+    }
+
+    /// An observer from a snapshot's [`parts`](Self::parts); with `gap`,
+    /// resumed as after a gap ([`resume_after_gap`](Self::resume_after_gap)):
+    /// the charge while the estimator was off is unknown.
+    pub(crate) fn from_parts(parts: &ObserverParts<T>, gap: bool) -> Self {
+        let mut o = Self {
+            x: parts.x,
+            p: parts.p,
+            rest: parts.rest.map(|(len, mean, early, done)| Rest {
+                len,
+                mean,
+                early,
+                done,
+            }),
+            ocv_weight: parts.ocv_weight,
+            observations: parts.observations,
+            capacity_held: parts.capacity_held,
+            set: None,
+            gap: false,
+        };
+        if gap {
+            o.resume_after_gap();
+        }
+        o
     }
 
     /// The SOC is unknown again (a gap of unknown charge in the record, a

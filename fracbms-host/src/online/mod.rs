@@ -14,6 +14,7 @@ use estimator_core::battery::online::{
     CellEstimator, Method, OnlineSettings, PublishedParameter, PublishedParameters, Rejection,
 };
 use estimator_core::battery::output_error::RefinementWork;
+use estimator_core::battery::snapshot::{Restoration, RestorePolicy, SnapshotError};
 use estimator_core::battery::{CellModel, CellParameters, Prior, Start};
 use estimator_core::Real;
 use serde::{Deserialize, Serialize};
@@ -23,9 +24,13 @@ pub use prior::{
     prior_from_fit, prior_source_from_json, read_prior, read_prior_source, PriorMap, PriorSource,
 };
 
+mod file;
 pub mod power;
 mod prior;
 pub mod soc;
+pub mod state;
+
+pub use file::{battery_file, OnlineBatteryOptions, OnlineReport, TRACK_HEADER};
 
 /// Floating-point precision of an online estimator.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
@@ -82,6 +87,9 @@ pub struct TrackRow {
     /// The state of power at each of [`TrackOptions::power`]'s horizons
     /// (the rest empty).
     pub power: [power::PowerRow; power::MAX_HORIZONS],
+    /// Whether the estimator started from a snapshot (`--state-in`), and
+    /// whether its SOC stood against the first rested voltage.
+    pub restoration: Restoration,
 }
 
 /// What a track run did.
@@ -225,9 +233,22 @@ pub fn track(
     o: &TrackOptions,
     temperature: Option<&[f64]>,
     gaps: &[Gap],
-    mut sink: impl FnMut(TrackRow) -> Result<()>,
+    sink: impl FnMut(TrackRow) -> Result<()>,
 ) -> Result<TrackSummary> {
     let mut cell = Tracker::new(o, rec.h, o.cell.map(|c| c.soc0))?;
+    track_with(&mut cell, rec, o, temperature, gaps, sink)
+}
+
+/// [`track`] with a tracker the caller made (and may have restored, and
+/// saves after).
+pub fn track_with(
+    cell: &mut Tracker,
+    rec: &io::BatteryRecord,
+    o: &TrackOptions,
+    temperature: Option<&[f64]>,
+    gaps: &[Gap],
+    mut sink: impl FnMut(TrackRow) -> Result<()>,
+) -> Result<TrackSummary> {
     let rest = o.cell.map_or(0.0, |c| c.model.capacity_ah / 100.0);
     let mut ends = gaps.iter().map(|g| g.start_s + g.length_s).peekable();
     let pb = progress::bar(rec.current.len() as u64, "tracking");
@@ -288,6 +309,13 @@ trait Step: Send + Sync {
     /// The SOC `mode` publishes now.
     fn published_soc(&self, mode: soc::SocMode) -> Option<f64>;
     fn set_prior(&mut self, p: &Prior<f64>);
+    /// The core's snapshot ([`estimator_core::battery::snapshot`]).
+    fn save(&self, saved_at_s: Option<u32>) -> Vec<u8>;
+    fn restore(
+        &mut self,
+        bytes: &[u8],
+        now_s: Option<u32>,
+    ) -> std::result::Result<(), SnapshotError>;
 }
 
 /// The core's single-cell estimator with its settings.
@@ -341,7 +369,28 @@ impl<T: Real + Send + Sync, const N: usize> Step for Sized<T, N> {
                 .map_or([power::PowerRow::default(); power::MAX_HORIZONS], |p| {
                     p.rows(est, s)
                 }),
+            restoration: est.cell_state().restoration(),
         }
+    }
+
+    fn save(&self, saved_at_s: Option<u32>) -> Vec<u8> {
+        let mut buf = vec![0; self.est.snapshot_size()];
+        // The buffer is the snapshot's size: saving cannot fail.
+        let n = self.est.save(&self.s, saved_at_s, &mut buf).unwrap_or(0);
+        buf.truncate(n);
+        buf
+    }
+
+    fn restore(
+        &mut self,
+        bytes: &[u8],
+        now_s: Option<u32>,
+    ) -> std::result::Result<(), SnapshotError> {
+        let policy = RestorePolicy {
+            now_s,
+            ..RestorePolicy::default()
+        };
+        self.est.restore(&self.s, bytes, &policy)
     }
 
     fn set_state_of_charge(&mut self, soc: f64) {
@@ -478,6 +527,27 @@ impl Tracker {
         self.cell.summary()
     }
 
+    /// The snapshot of what the cell has learned
+    /// ([`estimator_core::battery::snapshot`]), saved at record time
+    /// `saved_at_s` (s; judged for its age at restore).
+    pub fn save_state(&self, saved_at_s: f64) -> Vec<u8> {
+        self.cell.save(state::record_clock(saved_at_s))
+    }
+
+    /// Restores the cell from a snapshot before its first sample, the
+    /// record's time now being `now_s`. A rejected snapshot leaves the
+    /// cell clean.
+    ///
+    /// # Errors
+    /// Why the snapshot was rejected.
+    pub fn restore_state(
+        &mut self,
+        bytes: &[u8],
+        now_s: f64,
+    ) -> std::result::Result<(), SnapshotError> {
+        self.cell.restore(bytes, state::record_clock(now_s))
+    }
+
     /// Sets the state of charge now (with a curve; a non-finite value is
     /// ignored), as [`CellEstimator::set_state_of_charge`].
     pub fn set_state_of_charge(&mut self, soc: f64) {
@@ -502,215 +572,4 @@ fn sized<T: Real + Send + Sync + 'static>(
             "--window {window}: must be one of 64, 128, 256, 512, 1024"
         ),
     }
-}
-
-/// How `online battery` runs: every flag but the files. The default is the
-/// CLI's.
-#[derive(Clone, Debug, PartialEq)]
-pub struct OnlineBatteryOptions {
-    /// Window length L (one of 64, 128, 256, 512, 1024).
-    pub window: usize,
-    /// Memory M (default L/4).
-    pub memory: Option<usize>,
-    /// Iterations per sample.
-    pub iterations_per_sample: u16,
-    /// The paper's 2S-OP-GI or the output-error refinement.
-    pub method: BatteryMethod,
-    /// f64, or f32 as the firmware runs it.
-    pub precision: Precision,
-    /// Where the model starts in the window.
-    pub start: Start,
-    /// A prior: the JSON of `identify battery` (see [`read_prior`]).
-    pub prior: Option<PathBuf>,
-    /// The prior's spread on R_i, R_ct and Q: a factor at one sigma.
-    pub prior_factor: f64,
-    /// The prior's spread on α at one sigma.
-    pub prior_alpha_sigma: f64,
-    /// The residual level (mV) at which the window's data are weighed
-    /// against the prior.
-    pub prior_noise_mv: f64,
-    /// The cell model (`auto`: the prior's, linear without one).
-    pub model: ModelRequest,
-    /// The short-memory correction.
-    pub tail: bool,
-    /// The cell's OCV curve, capacity and start SOC.
-    pub ocv: crate::ocv::OcvOptions,
-    /// How the record is read: columns, current sign, period.
-    pub record: crate::cycler::RecordOptions,
-    /// The state-of-power columns (`--horizons`, `--voltage-min`,
-    /// `--voltage-max`, `--current-limit`, `--pulse-current-a`).
-    pub power: power::PowerOptions,
-    /// How the SOC is published (`--soc`, `--soc-rest-s`).
-    pub soc: soc::SocOptions,
-}
-
-impl Default for OnlineBatteryOptions {
-    fn default() -> Self {
-        Self {
-            window: 256,
-            memory: None,
-            iterations_per_sample: 1,
-            method: BatteryMethod::Refined,
-            precision: Precision::F64,
-            start: Start::FromData,
-            prior: None,
-            prior_factor: 2.0,
-            prior_alpha_sigma: 0.1,
-            prior_noise_mv: 100.0,
-            model: ModelRequest::Auto,
-            tail: false,
-            ocv: crate::ocv::OcvOptions::default(),
-            record: crate::cycler::RecordOptions::default(),
-            power: power::PowerOptions::default(),
-            soc: soc::SocOptions::default(),
-        }
-    }
-}
-
-/// What [`battery_file`] did.
-#[derive(Clone, Debug)]
-pub struct OnlineReport {
-    /// Samples, rejections and the refinement's work.
-    pub summary: TrackSummary,
-    /// Wall time of the run (s).
-    pub seconds: f64,
-    /// The cell model the windows fitted.
-    pub model: CellModel,
-    /// What was read from the file.
-    pub record: crate::cycler::RecordReport,
-    /// With a map prior: one line on the levels it follows, and the levels
-    /// left out with why.
-    pub prior_map: Option<(String, Vec<String>)>,
-}
-
-/// The header of the track CSV `online battery` writes. `r_i`, `r_ct`, `q`
-/// and `alpha` are the published values: each the last window's that the
-/// data identified, empty before the first; its `*_status` column says
-/// `identified`, `held` or `not_identified` (`PublishedParameters`).
-/// `step_resistance_ohm` is the last precise current step's `ΔU/ΔI`;
-/// `window_r_i`… are the last good window's fit, identified or not (what
-/// the track's `r_i`… columns held before issue 35, and what the firmware
-/// still logs). `soc` is the published SOC ([`soc::SocOptions`]);
-/// `soc_coulomb` the estimator's count, and `current_bias_a`,
-/// `capacity_ah`, `capacity_sigma_ah`, `soc_sigma`, `soc_ocv_weight` the
-/// observer's
-/// ([`soc::SOC_HEADER`]); `soh_r` the published R_i over the prior's or
-/// map's; `capacity_status` whether the data identify `capacity_ah`.
-/// The file then has the state-of-power columns
-/// ([`power::PowerOptions::header`]) and, last, `rejected`: why the sample
-/// was rejected and substituted (`non_finite`, `out_of_range`, `spike`),
-/// empty when it was accepted.
-pub const TRACK_HEADER: &str = "time_s,r_i,r_ct,q,alpha,u_oc,status,soc,ocv_offset_v,bv_a_v,bv_i0_a,predicted_v,r_i_status,r_ct_status,q_status,alpha_status,step_resistance_ohm,window_r_i,window_r_ct,window_q,window_alpha,soc_coulomb,current_bias_a,capacity_ah,capacity_sigma_ah,soc_sigma,soc_ocv_weight,soh_r,capacity_status";
-
-/// `online battery`: reads the record `input`, runs the online estimator
-/// over it as `o` says and writes the track to `out` (columns
-/// [`TRACK_HEADER`]; atomically).
-///
-/// # Errors
-/// A file that cannot be read or written, data or options that are
-/// refused.
-pub fn battery_file(input: &Path, out: &Path, o: &OnlineBatteryOptions) -> Result<OnlineReport> {
-    let t0 = std::time::Instant::now();
-    let read = crate::cycler::read_record(input, &o.record)?;
-    let rec = read.record;
-    let cell = crate::ocv::resolve(&o.ocv, input, &rec)?;
-    let source = match &o.prior {
-        Some(p) => Some(read_prior_source(
-            p,
-            o.prior_factor,
-            o.prior_alpha_sigma,
-            o.prior_noise_mv,
-        )?),
-        None => None,
-    };
-    let (prior, prior_map) = match &source {
-        Some(PriorSource::Fit(p)) => (Some(p), None),
-        Some(PriorSource::Map(m)) => {
-            if cell.is_none() {
-                bail!(
-                    Options,
-                    "--prior {}: a parameter map needs --ocv and --capacity-ah (its prior follows the counted SOC)",
-                    o.prior.as_deref().unwrap_or(Path::new("")).display()
-                );
-            }
-            (None, Some(m))
-        }
-        None => (None, None),
-    };
-    let memory = o.memory.unwrap_or(o.window / 4);
-    let g = |x: Option<f64>| x.map(|x| format!("{x:.9e}")).unwrap_or_default();
-    let t = TrackOptions {
-        window: o.window,
-        memory,
-        iterations_per_sample: o.iterations_per_sample,
-        method: o.method,
-        precision: o.precision,
-        start: o.start,
-        prior,
-        prior_map,
-        cell: cell.as_ref(),
-        model: o.model,
-        tail: o.tail,
-        power: o.power,
-        soc: o.soc,
-    };
-    let summary = {
-        let mut res = Ok(TrackSummary::default());
-        io::write_atomic(out, |w| {
-            writeln!(w, "{TRACK_HEADER}{},rejected", o.power.header())?;
-            let gaps = &read.report.resampling.gaps;
-            res = track(&rec, &t, read.temperature.as_deref(), gaps, |r| {
-                let bv = r.estimate.filter(|p| p.is_butler_volmer());
-                let pb = &r.published;
-                let statuses = pb.named().map(|(_, x)| x.status.as_str()).join(",");
-                let pv = |x: PublishedParameter<f64>| g(x.value);
-                write!(
-                    w,
-                    "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
-                    r.t,
-                    pv(pb.r_i),
-                    pv(pb.r_ct),
-                    pv(pb.q),
-                    pv(pb.alpha),
-                    g(r.estimate.map(|p| p.u_oc)),
-                    r.status,
-                    g(r.soc),
-                    g(r.estimate.and(r.ocv_offset)),
-                    g(bv.map(|p| p.bv_a)),
-                    g(bv.map(|p| p.bv_i0)),
-                    g(r.predicted),
-                    statuses,
-                    g(r.step_resistance),
-                    g(r.estimate.map(|p| p.r_i)),
-                    g(r.estimate.map(|p| p.r_ct)),
-                    g(r.estimate.map(|p| p.q)),
-                    g(r.estimate.map(|p| p.alpha)),
-                )?;
-                for x in r.soc_detail.columns() {
-                    write!(w, ",{}", g(x))?;
-                }
-                write!(w, ",{},{}", g(r.soh_r), r.soc_detail.capacity_status())?;
-                for p in &r.power[..o.power.horizons().len()] {
-                    write!(
-                        w,
-                        ",{},{},{}",
-                        g(p.discharge_a),
-                        g(p.charge_a),
-                        g(p.pulse_v)
-                    )?;
-                }
-                writeln!(w, ",{}", r.rejected.unwrap_or(""))?;
-                Ok(())
-            });
-            res.clone().map(|_| ())
-        })?;
-        res?
-    };
-    Ok(OnlineReport {
-        summary,
-        seconds: t0.elapsed().as_secs_f64(),
-        model: t.cell_model(),
-        record: read.report,
-        prior_map: prior_map.map(|m| (m.describe(), m.left_out.clone())),
-    })
 }

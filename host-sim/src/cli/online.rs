@@ -75,6 +75,8 @@ pub struct OnlineBatteryArgs {
     pub cell: OcvArgs,
     #[command(flatten)]
     pub states: StateArgs,
+    #[command(flatten)]
+    pub snapshot: SnapshotArgs,
     /// Output CSV `time_s,r_i,r_ct,q,alpha,u_oc,status,soc,ocv_offset_v,
     /// bv_a_v,bv_i0_a,predicted_v,r_i_status,r_ct_status,q_status,
     /// alpha_status,step_resistance_ohm,window_r_i,window_r_ct,window_q,
@@ -172,6 +174,26 @@ impl StateArgs {
     }
 }
 
+/// What survives a reset: the flags `online battery` and `online pack`
+/// share (docs/persistence.md).
+#[derive(clap::Args, Debug)]
+pub struct SnapshotArgs {
+    /// Start from this snapshot (a `--state-out` file, the firmware's and
+    /// the C ABI's bytes): each cell's parameters, SOC, current bias and
+    /// capacity as they were (published with status `restored` until a
+    /// window identifies them), the SOC read again from the OCV table when
+    /// the first rested voltage contradicts it. A snapshot that is corrupt,
+    /// stale, from another layout version, cell count or settings is
+    /// rejected with a warning and the estimator starts clean. Adds the
+    /// column `restoration` (`restored`, `soc_reread`, `clean`).
+    #[arg(long, value_name = "FILE")]
+    pub state_in: Option<PathBuf>,
+    /// Save the snapshot after the last sample to this file (binary,
+    /// docs/persistence.md's layout).
+    #[arg(long, value_name = "FILE")]
+    pub state_out: Option<PathBuf>,
+}
+
 /// `online pack`.
 #[derive(clap::Args, Debug)]
 pub struct OnlinePackArgs {
@@ -215,6 +237,8 @@ pub struct OnlinePackArgs {
     pub cell: OcvArgs,
     #[command(flatten)]
     pub states: StateArgs,
+    #[command(flatten)]
+    pub snapshot: SnapshotArgs,
     /// Output CSV in long format, one row per cell and sample:
     /// `time_s,cell,r_i,r_ct,q,alpha,u_oc,status,rejected,flagged` (cell
     /// 1-based; the estimate empty before the cell's first; status as in
@@ -251,9 +275,19 @@ pub(super) fn battery(a: OnlineBatteryArgs) -> Result<()> {
         record: (&a.record).into(),
         power: a.states.power()?,
         soc: a.states.soc(),
+        state_in: a.snapshot.state_in.clone(),
+        state_out: a.snapshot.state_out.clone(),
     };
     let r = online_track::battery_file(&a.input, &a.out, &o)?;
     super::print_record(&a.input, &r.record);
+    if let Some(line) = a
+        .snapshot
+        .state_in
+        .as_ref()
+        .and_then(|p| r.state_in.describe(p))
+    {
+        eprintln!("{line}");
+    }
     if let (Some((line, left_out)), Some(p)) = (&r.prior_map, &a.prior) {
         eprintln!("{}: {line}", p.display());
         for why in left_out {
@@ -299,9 +333,16 @@ pub(super) fn pack(a: OnlinePackArgs) -> Result<()> {
         ocv: (&a.cell).into(),
         power: a.states.power()?,
         soc: a.states.soc(),
+        state_in: a.snapshot.state_in.clone(),
+        state_out: a.snapshot.state_out.clone(),
     };
     let (summary, cells) = pack::online_file(&a.input, &a.out, &o)?;
     let secs = t0.elapsed().as_secs_f64();
+    if let (Some(p), Some(st)) = (&a.snapshot.state_in, summary.state_in) {
+        if let Some(line) = st.describe(p) {
+            eprintln!("{line}");
+        }
+    }
     eprintln!(
         "wrote {} ({} samples of {} cells, {} rejected, {} iterations, {:.0} samples/s)",
         a.out.display(),

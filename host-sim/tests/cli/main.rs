@@ -11,6 +11,7 @@ mod hammerstein;
 mod many;
 mod map;
 mod ocv;
+mod persistence;
 mod predict;
 mod real;
 mod tracking;

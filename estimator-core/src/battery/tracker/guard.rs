@@ -184,6 +184,18 @@ impl<T: Real, const N: usize> CellState<T, N> {
         }
         if let (Some(m), None) = (&s.ocv, rejected) {
             let rest = current.abs() <= m.capacity_ah / T::lit(100.0);
+            if core::mem::take(&mut self.soc_check) && rest {
+                // A restored SOC against the first good sample at rest:
+                // a voltage further from its OCV than any offset the
+                // estimator publishes means the SOC is read again, as at a
+                // clean start.
+                if let Some(z) = self.soc {
+                    if (m.table.ocv(z) - voltage).abs() > s.max_ocv_offset {
+                        self.soc = None;
+                        self.restoration = Restoration::SocReread;
+                    }
+                }
+            }
             match (self.soc, self.rest_start) {
                 (None, _) => {
                     // The first good sample with a curve and no SOC given:

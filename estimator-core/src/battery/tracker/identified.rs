@@ -48,6 +48,10 @@ pub enum Identification {
     /// [`OnlineSettings::hold_soc_span`] from the present one: nothing is
     /// published until a window identifies it again.
     Expired,
+    /// The value comes from a snapshot restored at start-up
+    /// ([`crate::battery::snapshot`]): what the cell had published before
+    /// the reset, kept until a window of new data identifies it again.
+    Restored,
 }
 
 impl Identification {
@@ -59,6 +63,7 @@ impl Identification {
             Identification::Held => "held",
             Identification::Step => "step",
             Identification::Expired => "expired",
+            Identification::Restored => "restored",
         }
     }
 
@@ -66,7 +71,10 @@ impl Identification {
     pub fn is_published(&self) -> bool {
         matches!(
             self,
-            Identification::Identified | Identification::Held | Identification::Step
+            Identification::Identified
+                | Identification::Held
+                | Identification::Step
+                | Identification::Restored
         )
     }
 }
@@ -114,9 +122,10 @@ impl<T: Copy> PublishedParameter<T> {
         }
     }
 
-    /// No new evidence: an identified value becomes held.
+    /// No new evidence: an identified value becomes held (a restored one
+    /// stays restored).
     fn hold(&mut self) {
-        if self.value.is_some() {
+        if self.value.is_some() && self.status != Identification::Restored {
             self.status = Identification::Held;
         }
     }
@@ -166,6 +175,17 @@ impl<T: Copy> PublishedParameters<T> {
             ("q", self.q),
             ("alpha", self.alpha),
         ]
+    }
+
+    /// The same as restored from a snapshot: every published value marked
+    /// [`Identification::Restored`].
+    pub(crate) fn restored(mut self) -> Self {
+        for p in [&mut self.r_i, &mut self.r_ct, &mut self.q, &mut self.alpha] {
+            if p.value.is_some() {
+                p.status = Identification::Restored;
+            }
+        }
+        self
     }
 
     /// Every parameter held (no new evidence from this update).

@@ -21,6 +21,7 @@ mod guard;
 mod history;
 mod identified;
 mod iterate;
+mod restore;
 mod settings;
 mod state;
 mod status;
@@ -29,6 +30,8 @@ pub use history::{CellWindow, CurrentHistory};
 pub use identified::{
     Identification, PublishedParameter, PublishedParameters, StepResistance, STEP_PRECISION,
 };
+pub(crate) use restore::CellSnapshot;
+pub use restore::Restoration;
 pub(crate) use settings::check_limits;
 pub use settings::{Method, OnlineSettings};
 pub use state::{CellState, WorkingArea};

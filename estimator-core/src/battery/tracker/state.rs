@@ -71,6 +71,10 @@ pub struct CellState<T, const N: usize> {
     pub(super) step: Option<StepResistance<T>>,
     /// The SOC observer beside the count (with a curve).
     pub(super) soc_observer: SocObserver<T>,
+    /// Whether the cell started from a snapshot ([`crate::battery::snapshot`]).
+    pub(super) restoration: Restoration,
+    /// A restored SOC not yet checked against a rested first voltage.
+    pub(super) soc_check: bool,
 }
 
 /// The working area a pack's cells share, one cell at a time: the two
@@ -116,6 +120,12 @@ impl<T: Real, const N: usize, const MEM: usize> WorkingArea<T, N, MEM> {
         })
     }
 
+    /// The area is no cell's: the next iteration loads its cell's state
+    /// (after the cells were replaced, by a restore).
+    pub(crate) fn release(&mut self) {
+        self.owner = None;
+    }
+
     /// Loads cell `k`'s iteration state unless the area is already its.
     pub(super) fn take<const P: usize>(
         &mut self,
@@ -145,7 +155,7 @@ impl<T: Real, const N: usize> CellState<T, N> {
             version: 0,
             gi: PaperRegressionGi::<T, N, MEM>::initial_state(s.alpha0),
             oe: OutputErrorRefinement::<T, N, MEM>::initial_state(s.initial_in_window()),
-            refining: Self::starts_refining(s),
+            refining: s.method == Method::Refined && s.battery.prior.is_some(),
             estimate: None,
             soc: None,
             ocv_now: None,
@@ -162,13 +172,16 @@ impl<T: Real, const N: usize> CellState<T, N> {
             published: PublishedParameters::NONE,
             soc_observer: SocObserver::new(&s.soc, None),
             step: None,
+            restoration: Restoration::Clean,
+            soc_check: false,
         }
     }
 
-    /// With a prior the refinement starts at its centre: the paper
-    /// method's start-up is not needed.
-    fn starts_refining<const P: usize>(s: &OnlineSettings<T, P>) -> bool {
-        s.method == Method::Refined && s.battery.prior.is_some()
+    /// With a prior the refinement starts at its centre, and from a
+    /// restored estimate at that estimate: the paper method's start-up is
+    /// not needed.
+    fn starts_refining<const P: usize>(&self, s: &OnlineSettings<T, P>) -> bool {
+        s.method == Method::Refined && (s.battery.prior.is_some() || self.estimate.is_some())
     }
 
     /// Takes the start again from the settings, before the first sample:
@@ -176,13 +189,15 @@ impl<T: Real, const N: usize> CellState<T, N> {
     /// `fracbms_cell_set_prior`, a map followed before the first push, as
     /// the firmware and `fracbms_cell_follow_map` do) then starts the
     /// refinement at its centre, as a prior given at construction does
-    /// (`host-sim online battery --prior`).
+    /// (`host-sim online battery --prior`). A cell restored from a
+    /// snapshot starts from its restored estimate.
     pub(super) fn take_start<const MEM: usize, const P: usize>(
         &mut self,
         s: &OnlineSettings<T, P>,
     ) {
-        self.oe = OutputErrorRefinement::<T, N, MEM>::initial_state(s.initial_in_window());
-        self.refining = Self::starts_refining(s);
+        let start = self.estimate.unwrap_or(s.initial_in_window());
+        self.oe = OutputErrorRefinement::<T, N, MEM>::initial_state(start);
+        self.refining = self.starts_refining(s);
     }
 
     pub(super) fn view<'a>(&'a self, history: &'a CurrentHistory<T, N>) -> CellWindow<'a, T, N> {

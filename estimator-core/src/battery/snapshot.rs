@@ -1,0 +1,604 @@
+//! A snapshot of what the cells have learned, to survive a reset.
+//!
+//! A BMS microcontroller resets (brown-outs, watchdogs, firmware updates, a
+//! vehicle parked for a month). Without a snapshot every reset starts the
+//! estimator from nothing: the window refills and nothing is published
+//! until it is excited again. [`PackEstimator::save`] writes, per cell, what
+//! the cell has learned; [`PackEstimator::restore`] takes it back at boot,
+//! with judgement:
+//!
+//! * the snapshot's magic, layout version ([`SNAPSHOT_VERSION`]) and CRC
+//!   are right, its cell count is the pack's, and it was written under the
+//!   same settings (a fingerprint of the sample period, the method, the
+//!   model and the OCV table with the capacity: what the stored numbers
+//!   mean);
+//! * it is not stale ([`RestorePolicy::max_age_s`], when the caller has a
+//!   clock);
+//! * its values are plausible (finite, physical parameters, a state of
+//!   charge near `[0, 1]`);
+//! * at the first good sample, a rested voltage (current at most `C/100`)
+//!   that contradicts the stored SOC by more than the estimator allows an
+//!   OCV offset ([`OnlineSettings::max_ocv_offset`]) means the SOC is read
+//!   again through the OCV table: [`Restoration::SocReread`].
+//!
+//! A snapshot that fails a check is rejected with a [`SnapshotError`] and
+//! nothing of it is taken. The restored parameters are published with
+//! [`Identification::Restored`] until a window of new data identifies them
+//! again; the refinement starts from the restored estimate.
+//!
+//! # What is kept, per cell
+//! The last good estimate (window coordinates: its `u_oc` is the OCV
+//! offset `ΔU` with a table), the published `R_i`, `R_ct`, `Q`, α with
+//! the state of charge each was identified at, the counted state of
+//! charge, and the SOC observer's state (SOC, current bias, capacity, their
+//! covariance, the last identified capacity). For the pack: which cell the
+//! next period's updates start at. The window, the counters and the state
+//! of power's polarization are not kept: they refill from new samples.
+//!
+//! # Layout (a fixed layout, little-endian)
+//! A fixed layout rather than a serde format: the bytes are the same from
+//! the f32 firmware and the f64 host, a C team that owns its flash can
+//! read them from this table, and no derive or format crate is linked into
+//! the firmware. Every real number is an IEEE-754 `f32`; NaN means "none".
+//!
+//! | offset | bytes | field |
+//! |---|---|---|
+//! | 0 | 4 | magic `FBMS` |
+//! | 4 | 2 | layout version ([`SNAPSHOT_VERSION`]) |
+//! | 6 | 2 | cells `n` |
+//! | 8 | 4 | settings fingerprint (CRC-32 of the settings' bytes) |
+//! | 12 | 2 | the cell the next period's updates start at |
+//! | 14 | 2 | reserved (0) |
+//! | 16 | 4 | saved at (s, the caller's clock; `u32::MAX`: unknown) |
+//! | 20 | [`CELL_BYTES`]`·n` | the cells, cell 1 first |
+//! | 20 + 124·n | 4 | CRC-32 (ISO-HDLC) of every byte before |
+//!
+//! One cell ([`CELL_BYTES`] = 124): the estimate `R_i, R_ct, Q, α, u_oc,
+//! a, i₀` (28), the published values and their SOCs `R_i, R_ct, Q, α`
+//! (32), their statuses, 4 bits each (2), the counted SOC (4), the
+//! observer's `SOC, b, g` (12), its covariance's upper triangle (24), its
+//! observations (`u32`, 4), the last identified capacity (4), the last
+//! observation's weight (4), a rest in progress: its length (s) and
+//! voltage mean (8), and a flags word (2: bit 0, an estimate; bit 1, a
+//! rest; bits 2 and 3, the rest's early observation and observation
+//! given).
+//!
+//! Sizes: [`snapshot_bytes`]`(1)` = 148 B, `snapshot_bytes(16)` = 2008 B.
+//!
+//! This module owns the layout, its checks and the fingerprint; it must
+//! not decide what the tracker does with a restored cell (that is
+//! [`CellState`]'s restore) nor where the bytes are stored (the firmware's
+//! storage, the C caller's flash, host-sim's file).
+
+use super::pack::PackEstimator;
+use super::soc::ObserverParts;
+use super::tracker::check_limits;
+pub use super::tracker::Restoration;
+use super::tracker::{
+    CellSnapshot, CellState, CurrentHistory, Identification, OnlineSettings, PublishedParameter,
+    PublishedParameters,
+};
+use super::{CellModel, CellParameters};
+use crate::real::Real;
+
+/// The layout version a snapshot is written with; another is rejected
+/// ([`SnapshotError::Version`]).
+pub const SNAPSHOT_VERSION: u16 = 1;
+
+/// The first four bytes of a snapshot.
+pub const SNAPSHOT_MAGIC: [u8; 4] = *b"FBMS";
+
+/// Bytes before the cells.
+pub const HEADER_BYTES: usize = 20;
+
+/// Bytes per cell.
+pub const CELL_BYTES: usize = 124;
+
+/// Bytes of the closing CRC.
+pub const CRC_BYTES: usize = 4;
+
+/// The size of a snapshot of `cells` cells (B).
+///
+/// ```
+/// use estimator_core::battery::snapshot::snapshot_bytes;
+/// assert_eq!(snapshot_bytes(1), 148);
+/// assert_eq!(snapshot_bytes(16), 2008);
+/// ```
+pub const fn snapshot_bytes(cells: usize) -> usize {
+    HEADER_BYTES + CELL_BYTES * cells + CRC_BYTES
+}
+
+const CRC: crc::Crc<u32> = crc::Crc::<u32>::new(&crc::CRC_32_ISO_HDLC);
+
+/// Why a snapshot was not written or not taken. Small and `Copy`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum SnapshotError {
+    /// The buffer is shorter than the snapshot (`needed` bytes).
+    TooShort {
+        /// Bytes needed.
+        needed: usize,
+    },
+    /// The bytes do not start with [`SNAPSHOT_MAGIC`] (erased flash,
+    /// another record).
+    NotASnapshot,
+    /// Written by another layout version (another firmware).
+    Version {
+        /// The snapshot's version.
+        found: u16,
+    },
+    /// The CRC does not match: the bytes are corrupt.
+    Crc,
+    /// Written for another number of cells.
+    CellCount {
+        /// The snapshot's cells.
+        found: usize,
+        /// The pack's cells.
+        expected: usize,
+    },
+    /// Written under other settings (sample period, method, model, OCV
+    /// table or capacity).
+    Settings,
+    /// Older than [`RestorePolicy::max_age_s`], or saved after "now"
+    /// (a clock that went back).
+    Stale {
+        /// Seconds from the save to now (negative: saved in the future).
+        age_s: i64,
+    },
+    /// A value no estimator publishes (non-finite or unphysical
+    /// parameters, a SOC far outside `[0, 1]`, an unknown status).
+    Implausible {
+        /// The cell (0-based).
+        cell: usize,
+    },
+}
+
+impl core::fmt::Display for SnapshotError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            SnapshotError::TooShort { needed } => {
+                write!(f, "snapshot buffer too short ({needed} bytes needed)")
+            }
+            SnapshotError::NotASnapshot => write!(f, "not a fracbms snapshot (bad magic)"),
+            SnapshotError::Version { found } => write!(
+                f,
+                "snapshot layout version {found}, this build reads {SNAPSHOT_VERSION}"
+            ),
+            SnapshotError::Crc => write!(f, "snapshot CRC mismatch (corrupt)"),
+            SnapshotError::CellCount { found, expected } => {
+                write!(f, "snapshot of {found} cells, the pack has {expected}")
+            }
+            SnapshotError::Settings => write!(
+                f,
+                "snapshot written under other settings (period, method, model or OCV table)"
+            ),
+            SnapshotError::Stale { age_s } => write!(f, "snapshot is stale (age {age_s} s)"),
+            SnapshotError::Implausible { cell } => {
+                write!(f, "snapshot holds implausible values for cell {}", cell + 1)
+            }
+        }
+    }
+}
+
+/// How [`PackEstimator::restore`] judges a snapshot's age.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct RestorePolicy {
+    /// Now (s, the clock [`PackEstimator::save`] was given; `None`: no
+    /// clock, the age is not judged).
+    pub now_s: Option<u32>,
+    /// The oldest snapshot taken (s). Default 90 days: parameters age
+    /// slowly, and the SOC is checked against the first rested voltage.
+    pub max_age_s: u32,
+    /// A snapshot at most this old (s, by the clocks) resumes the count
+    /// as if no charge had passed (a watchdog reset, a record replayed in
+    /// halves); an older one, or one of unknown age, widens the SOC's
+    /// spread as after a gap ([`SocSettings::gap_soc_sigma`](super::soc::SocSettings::gap_soc_sigma)),
+    /// so that the next rest corrects it. Default 60 s.
+    pub resume_s: u32,
+}
+
+impl Default for RestorePolicy {
+    fn default() -> Self {
+        Self {
+            now_s: None,
+            max_age_s: 90 * 24 * 3600,
+            resume_s: 60,
+        }
+    }
+}
+
+/// A fingerprint of the settings a snapshot's numbers depend on: the
+/// sample period, the method, the cell model and, with a curve, the OCV
+/// table and the capacity (as `f32`, so that the f32 firmware and the f64
+/// host agree).
+pub fn settings_fingerprint<T: Real, const P: usize>(s: &OnlineSettings<T, P>) -> u32 {
+    let mut d = CRC.digest();
+    let f = |x: T| x.to_f64() as f32;
+    d.update(&f(s.battery.h).to_le_bytes());
+    d.update(&[
+        s.method as u8,
+        match s.battery.model {
+            CellModel::Linear => 0,
+            CellModel::ButlerVolmer => 1,
+        },
+    ]);
+    if let Some(m) = &s.ocv {
+        d.update(&f(m.capacity_ah).to_le_bytes());
+        for (z, v) in m.table.soc_points().iter().zip(m.table.ocv_points()) {
+            d.update(&f(*z).to_le_bytes());
+            d.update(&f(*v).to_le_bytes());
+        }
+    }
+    d.finalize()
+}
+
+/// A little-endian writer over a fixed buffer (the caller checked its
+/// length).
+struct Writer<'a> {
+    buf: &'a mut [u8],
+    at: usize,
+}
+
+impl Writer<'_> {
+    fn bytes(&mut self, b: &[u8]) {
+        if let Some(dst) = self.buf.get_mut(self.at..self.at + b.len()) {
+            dst.copy_from_slice(b);
+        }
+        self.at += b.len();
+    }
+    fn u16(&mut self, x: u16) {
+        self.bytes(&x.to_le_bytes());
+    }
+    fn u32(&mut self, x: u32) {
+        self.bytes(&x.to_le_bytes());
+    }
+    fn real<T: Real>(&mut self, x: T) {
+        self.bytes(&(x.to_f64() as f32).to_le_bytes());
+    }
+    fn opt<T: Real>(&mut self, x: Option<T>) {
+        self.real(x.unwrap_or(T::nan()));
+    }
+}
+
+/// A little-endian reader; reading past the end gives zeros (the caller
+/// checked the length first).
+struct Reader<'a> {
+    buf: &'a [u8],
+    at: usize,
+}
+
+impl Reader<'_> {
+    fn take<const K: usize>(&mut self) -> [u8; K] {
+        let mut out = [0; K];
+        if let Some(src) = self.buf.get(self.at..self.at + K) {
+            out.copy_from_slice(src);
+        }
+        self.at += K;
+        out
+    }
+    fn u16(&mut self) -> u16 {
+        u16::from_le_bytes(self.take())
+    }
+    fn u32(&mut self) -> u32 {
+        u32::from_le_bytes(self.take())
+    }
+    fn real<T: Real>(&mut self) -> T {
+        T::lit(f64::from(f32::from_le_bytes(self.take())))
+    }
+    fn opt<T: Real>(&mut self) -> Option<T> {
+        let x = self.real::<T>();
+        x.is_finite().then_some(x)
+    }
+}
+
+fn status_code(s: Identification) -> u16 {
+    match s {
+        Identification::NotIdentified => 0,
+        Identification::Identified => 1,
+        Identification::Held => 2,
+        Identification::Step => 3,
+        Identification::Expired => 4,
+        Identification::Restored => 5,
+    }
+}
+
+fn status_of(code: u16) -> Option<Identification> {
+    Some(match code {
+        0 => Identification::NotIdentified,
+        1 => Identification::Identified,
+        2 => Identification::Held,
+        3 => Identification::Step,
+        4 => Identification::Expired,
+        5 => Identification::Restored,
+        _ => return None,
+    })
+}
+
+impl<T: Real> CellSnapshot<T> {
+    fn write(&self, w: &mut Writer<'_>) {
+        let e = self.estimate;
+        let p = e.unwrap_or(CellParameters {
+            r_i: T::nan(),
+            r_ct: T::nan(),
+            q: T::nan(),
+            alpha: T::nan(),
+            u_oc: T::nan(),
+            bv_a: T::nan(),
+            bv_i0: T::nan(),
+        });
+        for x in [p.r_i, p.r_ct, p.q, p.alpha, p.u_oc, p.bv_a, p.bv_i0] {
+            w.real(x);
+        }
+        let named = self.published.named();
+        let mut codes = 0u16;
+        for (k, (_, x)) in named.iter().enumerate() {
+            w.opt(x.value);
+            w.opt(x.soc);
+            codes |= status_code(x.status) << (4 * k);
+        }
+        w.u16(codes);
+        w.opt(self.soc);
+        let o = &self.observer;
+        for x in o.x.unwrap_or([T::nan(); 3]) {
+            w.real(x);
+        }
+        for x in o.p {
+            w.real(x);
+        }
+        w.u32(o.observations);
+        w.opt(o.capacity_held);
+        w.real(o.ocv_weight);
+        let (len, mean, early, done) = o.rest.unwrap_or((T::nan(), T::nan(), false, false));
+        w.real(len);
+        w.real(mean);
+        let flag = |b: bool, bit: u16| u16::from(b) << bit;
+        w.u16(flag(e.is_some(), 0) | flag(o.rest.is_some(), 1) | flag(early, 2) | flag(done, 3));
+    }
+
+    /// One cell, or `None` when a value is implausible.
+    fn read(r: &mut Reader<'_>) -> Option<Self> {
+        let mut e = [T::zero(); 7];
+        for x in &mut e {
+            *x = r.real();
+        }
+        let mut values = [(None, None); 4];
+        for v in &mut values {
+            *v = (r.opt::<T>(), r.opt::<T>());
+        }
+        let codes = r.u16();
+        let mut statuses = [Identification::NotIdentified; 4];
+        for (k, st) in statuses.iter_mut().enumerate() {
+            *st = status_of((codes >> (4 * k)) & 0xF)?;
+        }
+        let soc = r.opt::<T>();
+        let mut x = [T::zero(); 3];
+        for v in &mut x {
+            *v = r.real();
+        }
+        let mut p = [T::zero(); 6];
+        for v in &mut p {
+            *v = r.real();
+        }
+        let observations = r.u32();
+        let capacity_held = r.opt::<T>();
+        let ocv_weight = r.real::<T>();
+        let (rest_len, rest_mean) = (r.real::<T>(), r.real::<T>());
+        let flags = r.u16();
+        let bit = |k: u16| flags >> k & 1 == 1;
+        let rest = bit(1).then_some((rest_len, rest_mean, bit(2), bit(3)));
+        let [r_i, r_ct, q, alpha, u_oc, bv_a, bv_i0] = e;
+        let estimate = bit(0).then_some(CellParameters {
+            r_i,
+            r_ct,
+            q,
+            alpha,
+            u_oc,
+            bv_a,
+            bv_i0,
+        });
+        let one = |k: usize| {
+            let (value, soc) = values.get(k).copied().unwrap_or((None, None));
+            let status = statuses
+                .get(k)
+                .copied()
+                .unwrap_or(Identification::NotIdentified);
+            PublishedParameter { value, status, soc }
+        };
+        let snap = Self {
+            estimate,
+            published: PublishedParameters {
+                r_i: one(0),
+                r_ct: one(1),
+                q: one(2),
+                alpha: one(3),
+            },
+            soc,
+            observer: ObserverParts {
+                x: x.iter().all(|v| v.is_finite()).then_some(x),
+                p,
+                observations,
+                capacity_held,
+                ocv_weight,
+                rest,
+            },
+        };
+        snap.plausible().then_some(snap)
+    }
+
+    /// Values an estimator could have published (module docs).
+    fn plausible(&self) -> bool {
+        let soc_ok = |z: Option<T>| z.is_none_or(|z| z > T::lit(-0.5) && z < T::lit(1.5));
+        let estimate_ok = self.estimate.is_none_or(|p| {
+            [p.r_i, p.r_ct, p.q, p.alpha, p.u_oc, p.bv_a, p.bv_i0]
+                .iter()
+                .all(|x| x.is_finite())
+                && p.r_i > T::zero()
+                && p.r_ct >= T::zero()
+                && p.q > T::zero()
+                && p.alpha > T::zero()
+                && p.alpha < T::lit(2.0)
+                && p.bv_i0 > T::zero()
+        });
+        let published_ok = self.published.named().iter().all(|(name, x)| {
+            let positive = x
+                .value
+                .is_none_or(|v| v > T::zero() || (*name == "r_ct" && v >= T::zero()));
+            // A published status needs a value, and the other way round.
+            positive && soc_ok(x.soc) && x.status.is_published() == x.value.is_some()
+        });
+        let o = &self.observer;
+        let observer_ok = o.p.iter().all(|v| v.is_finite())
+            && o.ocv_weight.is_finite()
+            && o.capacity_held.is_none_or(|c| c > T::zero())
+            && o.rest
+                .is_none_or(|(len, mean, ..)| len >= T::zero() && mean.is_finite())
+            && o.x.is_none_or(|x| soc_ok(Some(x[0])) && x[2] > T::zero());
+        estimate_ok && published_ok && soc_ok(self.soc) && observer_ok
+    }
+}
+
+impl<T: Real, const N: usize, const MEM: usize, const CELLS: usize>
+    PackEstimator<T, N, MEM, CELLS>
+{
+    /// The size of this pack's snapshot (B): [`snapshot_bytes`] of its
+    /// cells.
+    pub fn snapshot_size(&self) -> usize {
+        snapshot_bytes(self.active)
+    }
+
+    /// Writes what the cells have learned into `buf` (module docs) and
+    /// returns the bytes written. `saved_at_s` is the caller's clock
+    /// (seconds; `None`: unknown), judged by [`RestorePolicy`] at restore.
+    /// No allocation.
+    ///
+    /// # Errors
+    /// [`SnapshotError::TooShort`] when `buf` is shorter than
+    /// [`snapshot_size`](Self::snapshot_size) (nothing is written).
+    pub fn save<const P: usize>(
+        &self,
+        s: &OnlineSettings<T, P>,
+        saved_at_s: Option<u32>,
+        buf: &mut [u8],
+    ) -> Result<usize, SnapshotError> {
+        let n = self.snapshot_size();
+        let Some(out) = buf.get_mut(..n) else {
+            return Err(SnapshotError::TooShort { needed: n });
+        };
+        let mut w = Writer { buf: out, at: 0 };
+        w.bytes(&SNAPSHOT_MAGIC);
+        w.u16(SNAPSHOT_VERSION);
+        w.u16(self.active as u16);
+        w.u32(settings_fingerprint(s));
+        w.u16(self.next as u16);
+        w.u16(0);
+        w.u32(saved_at_s.unwrap_or(u32::MAX));
+        for cell in self.cells.iter().take(self.active) {
+            cell.snapshot().write(&mut w);
+        }
+        let body = n - CRC_BYTES;
+        let crc = CRC.checksum(w.buf.get(..body).unwrap_or(&[]));
+        w.u32(crc);
+        Ok(n)
+    }
+
+    /// Restores the cells from a snapshot `buf` written by
+    /// [`save`](Self::save) (module docs): every check first, then the
+    /// pack starts again with each cell's learned state (a new window, new
+    /// counters). On an error nothing is changed.
+    ///
+    /// # Errors
+    /// The first check that fails ([`SnapshotError`]).
+    pub fn restore<const P: usize>(
+        &mut self,
+        s: &OnlineSettings<T, P>,
+        buf: &[u8],
+        policy: &RestorePolicy,
+    ) -> Result<(), SnapshotError> {
+        // Settings that build no estimator: the one in use stays.
+        check_limits(s).map_err(|_| SnapshotError::Settings)?;
+        let (next, age_s) = check(s, buf, policy, self.active)?;
+        let gap = age_s.is_none_or(|a| a > i64::from(policy.resume_s));
+        // Every cell was read once to check it; read again to take it (no
+        // array of snapshots on the stack).
+        let mut r = Reader {
+            buf,
+            at: HEADER_BYTES,
+        };
+        self.history = CurrentHistory::new();
+        for cell in self.cells.iter_mut().take(self.active) {
+            *cell = CellState::new::<MEM, P>(s);
+            if let Some(snap) = CellSnapshot::read(&mut r) {
+                cell.restore::<MEM, P>(s, &snap, gap);
+            }
+        }
+        for tail in &mut self.tails {
+            tail.clear();
+        }
+        self.work.release();
+        self.next = next;
+        Ok(())
+    }
+}
+
+/// Checks a snapshot for a pack of `cells` cells, every cell's values
+/// included; returns the schedule position and the snapshot's age (s,
+/// when both clocks are known).
+fn check<T: Real, const P: usize>(
+    s: &OnlineSettings<T, P>,
+    buf: &[u8],
+    policy: &RestorePolicy,
+    cells: usize,
+) -> Result<(usize, Option<i64>), SnapshotError> {
+    let mut r = Reader { buf, at: 0 };
+    if buf.len() < HEADER_BYTES + CRC_BYTES {
+        return Err(SnapshotError::TooShort {
+            needed: snapshot_bytes(cells),
+        });
+    }
+    if r.take::<4>() != SNAPSHOT_MAGIC {
+        return Err(SnapshotError::NotASnapshot);
+    }
+    let version = r.u16();
+    if version != SNAPSHOT_VERSION {
+        return Err(SnapshotError::Version { found: version });
+    }
+    let found = usize::from(r.u16());
+    let n = snapshot_bytes(found);
+    let (Some(body), true) = (buf.get(..n - CRC_BYTES), buf.len() >= n) else {
+        return Err(SnapshotError::TooShort { needed: n });
+    };
+    let stored = buf
+        .get(n - CRC_BYTES..n)
+        .and_then(|b| b.try_into().ok())
+        .map(u32::from_le_bytes);
+    if stored != Some(CRC.checksum(body)) {
+        return Err(SnapshotError::Crc);
+    }
+    if found != cells {
+        return Err(SnapshotError::CellCount {
+            found,
+            expected: cells,
+        });
+    }
+    if r.u32() != settings_fingerprint(s) {
+        return Err(SnapshotError::Settings);
+    }
+    let next = usize::from(r.u16());
+    let _reserved = r.u16();
+    let saved = r.u32();
+    let age_s = policy
+        .now_s
+        .filter(|_| saved != u32::MAX)
+        .map(|now| i64::from(now) - i64::from(saved));
+    if let Some(age_s) = age_s.filter(|a| *a < 0 || *a > i64::from(policy.max_age_s)) {
+        return Err(SnapshotError::Stale { age_s });
+    }
+    for cell in 0..cells {
+        CellSnapshot::<T>::read(&mut r).ok_or(SnapshotError::Implausible { cell })?;
+    }
+    if next >= cells {
+        return Err(SnapshotError::Implausible { cell: next });
+    }
+    Ok((next, age_s))
+}

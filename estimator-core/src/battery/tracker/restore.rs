@@ -1,0 +1,85 @@
+//! What a cell keeps across a reset, the tracker's side of
+//! [`crate::battery::snapshot`]: the values a snapshot holds of a cell
+//! ([`CellSnapshot`]), how a cell started ([`Restoration`]), and
+//! [`CellState`]'s taking of a checked snapshot. The bytes and their checks
+//! are the snapshot module's; this one must not read or write bytes.
+
+use super::*;
+use crate::battery::soc::{ObserverParts, SocObserver};
+use crate::battery::CellParameters;
+use crate::real::Real;
+
+/// Whether a cell started from a snapshot, and what its first sample said.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Restoration {
+    /// Started clean (no snapshot restored).
+    #[default]
+    Clean,
+    /// Started from a snapshot; its SOC stands (the first sample was not
+    /// rested, or its voltage agreed with the stored SOC).
+    Restored,
+    /// Started from a snapshot whose SOC a rested first voltage
+    /// contradicted: the SOC was read again through the OCV table.
+    SocReread,
+}
+
+impl Restoration {
+    /// A short lower-case name (host-sim's `restoration` column).
+    pub fn as_str(&self) -> &'static str {
+        match self {
+            Restoration::Clean => "clean",
+            Restoration::Restored => "restored",
+            Restoration::SocReread => "soc_reread",
+        }
+    }
+}
+
+/// What a snapshot holds of one cell ([`crate::battery::snapshot`]), in
+/// the cell's float type.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct CellSnapshot<T> {
+    pub estimate: Option<CellParameters<T>>,
+    pub published: PublishedParameters<T>,
+    pub soc: Option<T>,
+    pub observer: ObserverParts<T>,
+}
+
+impl<T: Real, const N: usize> CellState<T, N> {
+    /// What a snapshot keeps of this cell ([`crate::battery::snapshot`]).
+    pub(crate) fn snapshot(&self) -> CellSnapshot<T> {
+        CellSnapshot {
+            estimate: self.estimate,
+            published: self.published,
+            soc: self.soc,
+            observer: self.soc_observer.parts(),
+        }
+    }
+
+    /// Takes a checked snapshot into this new cell: the estimate the
+    /// refinement starts from at the first sample ([`Self::take_start`]),
+    /// the published values marked [`Identification::Restored`], the
+    /// counted SOC (checked at the first good sample) and the SOC
+    /// observer, resumed as after a gap when `gap` (the charge while the
+    /// estimator was off is unknown).
+    pub(crate) fn restore<const MEM: usize, const P: usize>(
+        &mut self,
+        s: &OnlineSettings<T, P>,
+        snap: &CellSnapshot<T>,
+        gap: bool,
+    ) {
+        *self = Self::new::<MEM, P>(s);
+        self.estimate = snap.estimate;
+        self.published = snap.published.restored();
+        self.soc = snap.soc;
+        self.soc_observer = SocObserver::from_parts(&snap.observer, gap);
+        self.soc_check = s.ocv.is_some() && snap.soc.is_some();
+        self.restoration = Restoration::Restored;
+    }
+
+    /// How this cell started: clean, or from a snapshot (and whether its
+    /// stored SOC stood against the first sample).
+    pub fn restoration(&self) -> Restoration {
+        self.restoration
+    }
+}

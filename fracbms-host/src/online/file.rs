@@ -1,0 +1,268 @@
+//! `online battery` over a file: the CLI's flags as options
+//! ([`OnlineBatteryOptions`]), the track CSV ([`TRACK_HEADER`]) and the run
+//! ([`battery_file`]): the record read, the prior and the OCV table
+//! resolved, a snapshot restored (`--state-in`) and saved
+//! (`--state-out`), the rows written. The estimator and its loop are the
+//! parent module's ([`super::Tracker`], [`super::track_with`]).
+
+use super::*;
+use crate::io;
+
+/// How `online battery` runs: every flag but the files. The default is the
+/// CLI's.
+#[derive(Clone, Debug, PartialEq)]
+pub struct OnlineBatteryOptions {
+    /// Window length L (one of 64, 128, 256, 512, 1024).
+    pub window: usize,
+    /// Memory M (default L/4).
+    pub memory: Option<usize>,
+    /// Iterations per sample.
+    pub iterations_per_sample: u16,
+    /// The paper's 2S-OP-GI or the output-error refinement.
+    pub method: BatteryMethod,
+    /// f64, or f32 as the firmware runs it.
+    pub precision: Precision,
+    /// Where the model starts in the window.
+    pub start: Start,
+    /// A prior: the JSON of `identify battery` (see [`read_prior`]).
+    pub prior: Option<PathBuf>,
+    /// The prior's spread on R_i, R_ct and Q: a factor at one sigma.
+    pub prior_factor: f64,
+    /// The prior's spread on α at one sigma.
+    pub prior_alpha_sigma: f64,
+    /// The residual level (mV) at which the window's data are weighed
+    /// against the prior.
+    pub prior_noise_mv: f64,
+    /// The cell model (`auto`: the prior's, linear without one).
+    pub model: ModelRequest,
+    /// The short-memory correction.
+    pub tail: bool,
+    /// The cell's OCV curve, capacity and start SOC.
+    pub ocv: crate::ocv::OcvOptions,
+    /// How the record is read: columns, current sign, period.
+    pub record: crate::cycler::RecordOptions,
+    /// The state-of-power columns (`--horizons`, `--voltage-min`,
+    /// `--voltage-max`, `--current-limit`, `--pulse-current-a`).
+    pub power: power::PowerOptions,
+    /// How the SOC is published (`--soc`, `--soc-rest-s`).
+    pub soc: soc::SocOptions,
+    /// A snapshot to start from (`--state-in`, [`state`]).
+    pub state_in: Option<PathBuf>,
+    /// Where to save the snapshot after the last sample (`--state-out`).
+    pub state_out: Option<PathBuf>,
+}
+
+impl Default for OnlineBatteryOptions {
+    fn default() -> Self {
+        Self {
+            window: 256,
+            memory: None,
+            iterations_per_sample: 1,
+            method: BatteryMethod::Refined,
+            precision: Precision::F64,
+            start: Start::FromData,
+            prior: None,
+            prior_factor: 2.0,
+            prior_alpha_sigma: 0.1,
+            prior_noise_mv: 100.0,
+            model: ModelRequest::Auto,
+            tail: false,
+            ocv: crate::ocv::OcvOptions::default(),
+            record: crate::cycler::RecordOptions::default(),
+            power: power::PowerOptions::default(),
+            soc: soc::SocOptions::default(),
+            state_in: None,
+            state_out: None,
+        }
+    }
+}
+
+/// What [`battery_file`] did.
+#[derive(Clone, Debug)]
+pub struct OnlineReport {
+    /// Samples, rejections and the refinement's work.
+    pub summary: TrackSummary,
+    /// Wall time of the run (s).
+    pub seconds: f64,
+    /// The cell model the windows fitted.
+    pub model: CellModel,
+    /// What was read from the file.
+    pub record: crate::cycler::RecordReport,
+    /// With a map prior: one line on the levels it follows, and the levels
+    /// left out with why.
+    pub prior_map: Option<(String, Vec<String>)>,
+    /// How the `--state-in` snapshot was taken.
+    pub state_in: state::StateIn,
+}
+
+/// The header of the track CSV `online battery` writes. `r_i`, `r_ct`, `q`
+/// and `alpha` are the published values: each the last window's that the
+/// data identified, empty before the first; its `*_status` column says
+/// `identified`, `held` or `not_identified` (`PublishedParameters`).
+/// `step_resistance_ohm` is the last precise current step's `ΔU/ΔI`;
+/// `window_r_i`… are the last good window's fit, identified or not (what
+/// the track's `r_i`… columns held before issue 35, and what the firmware
+/// still logs). `soc` is the published SOC ([`soc::SocOptions`]);
+/// `soc_coulomb` the estimator's count, and `current_bias_a`,
+/// `capacity_ah`, `capacity_sigma_ah`, `soc_sigma`, `soc_ocv_weight` the
+/// observer's
+/// ([`soc::SOC_HEADER`]); `soh_r` the published R_i over the prior's or
+/// map's; `capacity_status` whether the data identify `capacity_ah`.
+/// The file then has the state-of-power columns
+/// ([`power::PowerOptions::header`]) and `rejected`: why the sample
+/// was rejected and substituted (`non_finite`, `out_of_range`, `spike`),
+/// empty when it was accepted. With `--state-in`, a last column
+/// `restoration`: `restored`, `soc_reread` (the stored SOC contradicted by
+/// the first rested voltage, read again through the OCV table) or `clean`
+/// (the snapshot was rejected); the published parameters' `*_status` is
+/// `restored` until a window identifies them.
+pub const TRACK_HEADER: &str = "time_s,r_i,r_ct,q,alpha,u_oc,status,soc,ocv_offset_v,bv_a_v,bv_i0_a,predicted_v,r_i_status,r_ct_status,q_status,alpha_status,step_resistance_ohm,window_r_i,window_r_ct,window_q,window_alpha,soc_coulomb,current_bias_a,capacity_ah,capacity_sigma_ah,soc_sigma,soc_ocv_weight,soh_r,capacity_status";
+
+/// `online battery`: reads the record `input`, runs the online estimator
+/// over it as `o` says and writes the track to `out` (columns
+/// [`TRACK_HEADER`]; atomically).
+///
+/// # Errors
+/// A file that cannot be read or written, data or options that are
+/// refused.
+pub fn battery_file(input: &Path, out: &Path, o: &OnlineBatteryOptions) -> Result<OnlineReport> {
+    let t0 = std::time::Instant::now();
+    let read = crate::cycler::read_record(input, &o.record)?;
+    let rec = read.record;
+    let cell = match (&o.state_in, o.ocv.soc0) {
+        // From a snapshot the start SOC is the snapshot's: the record need
+        // not start at rest (the core reads the SOC from the first sample
+        // if the snapshot is rejected).
+        (Some(_), None) => crate::ocv::model(&o.ocv)?.map(|model| crate::ocv::CellOcv {
+            soc0: model
+                .soc_at_rest(&rec.current, &rec.voltage)
+                .unwrap_or(f64::NAN),
+            model,
+        }),
+        _ => crate::ocv::resolve(&o.ocv, input, &rec)?,
+    };
+    let source = match &o.prior {
+        Some(p) => Some(read_prior_source(
+            p,
+            o.prior_factor,
+            o.prior_alpha_sigma,
+            o.prior_noise_mv,
+        )?),
+        None => None,
+    };
+    let (prior, prior_map) = match &source {
+        Some(PriorSource::Fit(p)) => (Some(p), None),
+        Some(PriorSource::Map(m)) => {
+            if cell.is_none() {
+                bail!(
+                    Options,
+                    "--prior {}: a parameter map needs --ocv and --capacity-ah (its prior follows the counted SOC)",
+                    o.prior.as_deref().unwrap_or(Path::new("")).display()
+                );
+            }
+            (None, Some(m))
+        }
+        None => (None, None),
+    };
+    let memory = o.memory.unwrap_or(o.window / 4);
+    let g = |x: Option<f64>| x.map(|x| format!("{x:.9e}")).unwrap_or_default();
+    let t = TrackOptions {
+        window: o.window,
+        memory,
+        iterations_per_sample: o.iterations_per_sample,
+        method: o.method,
+        precision: o.precision,
+        start: o.start,
+        prior,
+        prior_map,
+        cell: cell.as_ref(),
+        model: o.model,
+        tail: o.tail,
+        power: o.power,
+        soc: o.soc,
+    };
+    let mut tracker = Tracker::new(&t, rec.h, t.cell.map(|c| c.soc0))?;
+    let first_t = rec.time.first().copied().unwrap_or(f64::NAN);
+    let state_in = match &o.state_in {
+        Some(p) => state::StateIn::of(tracker.restore_state(&state::read_state(p)?, first_t)),
+        None => state::StateIn::NotGiven,
+    };
+    let restoration = if o.state_in.is_some() {
+        ",restoration"
+    } else {
+        ""
+    };
+    let summary = {
+        let mut res = Ok(TrackSummary::default());
+        io::write_atomic(out, |w| {
+            writeln!(
+                w,
+                "{TRACK_HEADER}{},rejected{restoration}",
+                o.power.header()
+            )?;
+            let gaps = &read.report.resampling.gaps;
+            let temperature = read.temperature.as_deref();
+            res = track_with(&mut tracker, &rec, &t, temperature, gaps, |r| {
+                let bv = r.estimate.filter(|p| p.is_butler_volmer());
+                let pb = &r.published;
+                let statuses = pb.named().map(|(_, x)| x.status.as_str()).join(",");
+                let pv = |x: PublishedParameter<f64>| g(x.value);
+                write!(
+                    w,
+                    "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
+                    r.t,
+                    pv(pb.r_i),
+                    pv(pb.r_ct),
+                    pv(pb.q),
+                    pv(pb.alpha),
+                    g(r.estimate.map(|p| p.u_oc)),
+                    r.status,
+                    g(r.soc),
+                    g(r.estimate.and(r.ocv_offset)),
+                    g(bv.map(|p| p.bv_a)),
+                    g(bv.map(|p| p.bv_i0)),
+                    g(r.predicted),
+                    statuses,
+                    g(r.step_resistance),
+                    g(r.estimate.map(|p| p.r_i)),
+                    g(r.estimate.map(|p| p.r_ct)),
+                    g(r.estimate.map(|p| p.q)),
+                    g(r.estimate.map(|p| p.alpha)),
+                )?;
+                for x in r.soc_detail.columns() {
+                    write!(w, ",{}", g(x))?;
+                }
+                write!(w, ",{},{}", g(r.soh_r), r.soc_detail.capacity_status())?;
+                for p in &r.power[..o.power.horizons().len()] {
+                    write!(
+                        w,
+                        ",{},{},{}",
+                        g(p.discharge_a),
+                        g(p.charge_a),
+                        g(p.pulse_v)
+                    )?;
+                }
+                write!(w, ",{}", r.rejected.unwrap_or(""))?;
+                if o.state_in.is_some() {
+                    write!(w, ",{}", r.restoration.as_str())?;
+                }
+                writeln!(w)?;
+                Ok(())
+            });
+            res.clone().map(|_| ())
+        })?;
+        res?
+    };
+    if let Some(p) = &o.state_out {
+        let last_t = rec.time.last().copied().unwrap_or(f64::NAN);
+        state::write_state(p, &tracker.save_state(last_t))?;
+    }
+    Ok(OnlineReport {
+        summary,
+        seconds: t0.elapsed().as_secs_f64(),
+        model: t.cell_model(),
+        record: read.report,
+        prior_map: prior_map.map(|m| (m.describe(), m.left_out.clone())),
+        state_in,
+    })
+}
