@@ -1,7 +1,7 @@
 //! The fuzz/property harness's command (docs/fuzzing.md).
 //!
 //! ```text
-//! fuzz [--cases N | --seconds S] [--target csv|cell|pack|hammerstein|all[,…]]
+//! fuzz [--cases N | --seconds S] [--target csv|cell|pack|hammerstein|snapshot|all[,…]]
 //!      [--seed S] [--start K] [--threads J] [--timeout SECS] [--stats]
 //!      [--known-issues]
 //! fuzz --replay TARGET:SEED:CASE
@@ -25,7 +25,7 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 const USAGE: &str =
-    "usage: fuzz [--cases N | --seconds S] [--target csv|cell|pack|hammerstein|all[,...]] \
+    "usage: fuzz [--cases N | --seconds S] [--target csv|cell|pack|hammerstein|snapshot|all[,...]] \
 [--seed S] [--start K] [--threads J] [--timeout SECS] [--stats] [--known-issues]\n       fuzz --replay TARGET:SEED:CASE";
 
 /// Failures printed per target (all are counted).

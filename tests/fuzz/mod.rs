@@ -20,6 +20,7 @@ pub mod csv;
 pub mod gen;
 pub mod hammerstein;
 pub mod pack;
+pub mod snapshot;
 
 use rand::SeedableRng;
 use std::cell::{Cell, RefCell};
@@ -45,11 +46,20 @@ pub enum Target {
     /// 2S-OP-GI, KT-2S-GI and the prediction-error refinement
     /// ([`hammerstein::case`]).
     Hammerstein,
+    /// The restore of a pack's snapshot, mutated or not
+    /// ([`snapshot::case`]).
+    Snapshot,
 }
 
 impl Target {
     /// Every target, in the order the `fuzz` binary runs them.
-    pub const ALL: [Target; 4] = [Target::Csv, Target::Cell, Target::Pack, Target::Hammerstein];
+    pub const ALL: [Target; 5] = [
+        Target::Csv,
+        Target::Cell,
+        Target::Pack,
+        Target::Hammerstein,
+        Target::Snapshot,
+    ];
 
     /// The target's name on the command line.
     pub fn name(self) -> &'static str {
@@ -58,6 +68,7 @@ impl Target {
             Target::Cell => "cell",
             Target::Pack => "pack",
             Target::Hammerstein => "hammerstein",
+            Target::Snapshot => "snapshot",
         }
     }
 
@@ -74,6 +85,7 @@ impl Target {
             Target::Cell => cell::case(rng),
             Target::Pack => pack::case(rng),
             Target::Hammerstein => hammerstein::case(rng),
+            Target::Snapshot => snapshot::case(rng),
         }
     }
 }

@@ -39,6 +39,11 @@ fn fuzz_pack() {
 }
 
 #[test]
+fn fuzz_snapshot() {
+    cases_pass(Target::Snapshot, 300);
+}
+
+#[test]
 fn fuzz_hammerstein() {
     cases_pass(Target::Hammerstein, 1_500);
 }
