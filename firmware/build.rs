@@ -316,6 +316,12 @@ fn main() {
         "1" => true,
         b => fail(format!("FRACBMS_BENCH={b}: must be 0 or 1")),
     };
+    let reset_at = var("FRACBMS_RESET_AT", "0");
+    let reset_at: usize = reset_at.parse().unwrap_or_else(|_| {
+        fail(format!(
+            "FRACBMS_RESET_AT={reset_at}: must be a sample number"
+        ))
+    });
     let default_replay = manifest.join("data/cell-pulse.csv");
     let replay_path = PathBuf::from(var(
         "FRACBMS_REPLAY",
@@ -329,6 +335,12 @@ fn main() {
         fail(format!(
             "FRACBMS_CELLS={cells}: the QEMU board replays {} with {replay_cells} cell(s)",
             replay_path.display()
+        ));
+    }
+    if reset_at > 0 && reset_at >= records.len() {
+        fail(format!(
+            "FRACBMS_RESET_AT={reset_at}: the replay has {} sample periods",
+            records.len()
         ));
     }
     println!("cargo:rerun-if-env-changed=FRACBMS_PERIOD_S");
@@ -459,8 +471,17 @@ fn main() {
          /// replay record's (`voltage_v`: 1; `cell_1_v,…,cell_N_v`: N).\n\
          pub const CELLS: usize = {cells};\n\
          /// Cells in the replay record.\n\
-         pub const REPLAY_CELLS: usize = {replay_cells};\n",
-        records.len()
+         pub const REPLAY_CELLS: usize = {replay_cells};\n\
+         /// The QEMU board saves its snapshot and resets at this sample\n\
+         /// period, then restores and replays on from it (`FRACBMS_RESET_AT`,\n\
+         /// `cargo xtask qemu --reset-at N`; `None`: no reset).\n\
+         pub const RESET_AT: Option<usize> = {reset_at};\n",
+        records.len(),
+        reset_at = if reset_at == 0 {
+            "None".to_owned()
+        } else {
+            format!("Some({reset_at})")
+        }
     );
     let list = |x: &[f32]| {
         x.iter()

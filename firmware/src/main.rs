@@ -8,6 +8,8 @@
 #[cfg(target_os = "none")]
 mod board;
 #[cfg(target_os = "none")]
+mod persist;
+#[cfg(target_os = "none")]
 mod run;
 
 #[cfg(not(target_os = "none"))]

@@ -79,12 +79,23 @@ fn main() -> ! {
             config::CAPACITY_AH
         );
     }
-    let (mut period, mut overruns) = (0u32, 0u32);
+    // The snapshot: restored at boot, saved by the write policy.
+    let mut persist = crate::persist::Persistence::boot(&mut b, &s, task);
+    let resumed = b.resumed_at();
+    let (mut period, mut overruns) = (resumed, 0u32);
     let mut cost = Cost::default();
     let mut volts = [f32::NAN; config::CELLS];
     loop {
+        if resumed == 0 && config::RESET_AT == Some(period as usize) {
+            // A reset under test (FRACBMS_RESET_AT): saved first, as before
+            // a known shutdown; the replay resumes at this period.
+            persist.save(&b, &s, task);
+            defmt::println!("RESET period={=u32}", period);
+            b.reset(period);
+        }
         overruns += u32::from(b.wait_for_tick() > 0);
         let x = b.sampler().sample_pack(&mut volts);
+        let current = x.as_ref().map_or(f32::NAN, |r| r.current_a);
         let t0 = b.clocks();
         let Some(r) = task.on_sample(&s, x, &volts) else {
             break;
@@ -130,8 +141,10 @@ fn main() -> ! {
                 None => defmt::info!("period {=u32} {}", period, status),
             }
         }
+        persist.after_period(&b, &s, task, current);
         period += 1;
     }
+    persist.report();
     let counts = task.counts();
     let f = task.faults();
     let (mut non_finite, mut out_of_range, mut spikes) = (0, 0, 0);
@@ -183,12 +196,14 @@ fn main() -> ! {
         core::mem::size_of::<WorkingArea<f32, { config::WINDOW }, { config::MEMORY }>>()
             + core::mem::size_of::<CurrentHistory<f32, { config::WINDOW }>>()
     );
-    let all = counts.samples == config::REPLAY_LEN as u64;
+    // After a reset the counters start again at the period resumed.
+    let expected = config::REPLAY_LEN.saturating_sub(resumed as usize);
+    let all = counts.samples == expected as u64;
     if !all {
         defmt::error!(
             "check failed: {=u64} of {=usize} sample periods pushed",
             counts.samples,
-            config::REPLAY_LEN
+            expected
         );
     }
     let ok = if config::CELLS == 1 {

@@ -203,6 +203,16 @@ impl<'a> ReplaySampler<'a> {
     pub fn remaining(&self) -> usize {
         self.records.len()
     }
+
+    /// Skips `n` records (a replay resumed after a reset, at the period it
+    /// stopped).
+    pub fn skip(&mut self, n: usize) {
+        for _ in 0..n {
+            if self.records.next().is_none() {
+                break;
+            }
+        }
+    }
 }
 
 fn word(r: &[u8], at: usize) -> [u8; 4] {

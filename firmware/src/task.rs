@@ -31,6 +31,7 @@ use estimator_core::battery::ocv::{OcvModel, OcvTable};
 use estimator_core::battery::online::{CellState, Method, OnlineSettings, SampleCounts};
 use estimator_core::battery::pack::{PackEstimator, PackHealth, PackReport, PackSettings};
 use estimator_core::battery::power::{PowerLimits, PowerReport, PowerSettings};
+use estimator_core::battery::snapshot::{RestorePolicy, SnapshotError};
 use estimator_core::battery::{CellParameters, Prior, Start};
 use estimator_core::Error;
 
@@ -393,6 +394,27 @@ impl<const N: usize, const MEM: usize, const C: usize> EstimatorTask<N, MEM, C> 
     /// asks.
     pub fn cell_power(&self, s: &TaskSettings, k: usize) -> Option<PowerReport<f32>> {
         self.pack.state_of_power(k, &s.pack.cell, s.power.as_ref()?)
+    }
+
+    /// Writes the pack's snapshot into `buf` (the core's
+    /// [`PackEstimator::save`], no clock); returns the bytes written.
+    ///
+    /// # Errors
+    /// [`SnapshotError::TooShort`] when `buf` is shorter than
+    /// [`PackEstimator::snapshot_size`].
+    pub fn save(&self, s: &TaskSettings, buf: &mut [u8]) -> Result<usize, SnapshotError> {
+        self.pack.save(&s.pack.cell, None, buf)
+    }
+
+    /// Restores the pack from a snapshot (the core's
+    /// [`PackEstimator::restore`] with its default policy, no clock); on an
+    /// error nothing changes.
+    ///
+    /// # Errors
+    /// The first of the core's checks that fails.
+    pub fn restore(&mut self, s: &TaskSettings, buf: &[u8]) -> Result<(), SnapshotError> {
+        self.pack
+            .restore(&s.pack.cell, buf, &RestorePolicy::default())
     }
 
     /// The core pack estimator.

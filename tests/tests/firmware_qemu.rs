@@ -8,6 +8,8 @@
 mod harness;
 #[path = "firmware_qemu/pack_states.rs"]
 mod pack_states;
+#[path = "firmware_qemu/persistence.rs"]
+mod persistence;
 
 use harness::*;
 use std::path::Path;

@@ -61,7 +61,9 @@ mod header;
 mod panic_sites;
 mod summary;
 
-use summary::{insert_published, insert_soc, insert_sop, int, number, pack_json, Summary};
+use summary::{
+    insert_persist, insert_published, insert_soc, insert_sop, int, number, pack_json, Summary,
+};
 
 #[derive(Parser)]
 #[command(about = "fracbms helper commands", version)]
@@ -175,6 +177,12 @@ struct QemuArgs {
     /// memory (FRACBMS_TAIL=1; docs/pack.md).
     #[arg(long)]
     tail: bool,
+    /// Reset the board at sample period N (FRACBMS_RESET_AT): the firmware
+    /// saves its snapshot into its flash region, resets, restores from it
+    /// with the core's judgement and replays on from period N
+    /// (docs/persistence.md). The JSON then has `restored_at`.
+    #[arg(long, value_name = "N")]
+    reset_at: Option<u32>,
     /// Build the cost-measurement image (no physical-estimate check).
     #[arg(skip)]
     bench: bool,
@@ -352,6 +360,7 @@ fn build(a: &QemuArgs) -> Result<PathBuf> {
         .env("FRACBMS_MAP", map.as_deref().unwrap_or(Path::new("")))
         .env("FRACBMS_MODEL", &a.model)
         .env("FRACBMS_TAIL", if a.tail { "1" } else { "0" })
+        .env("FRACBMS_RESET_AT", a.reset_at.unwrap_or(0).to_string())
         .env(
             "FRACBMS_CAPACITY_AH",
             a.capacity_ah.map(|c| c.to_string()).unwrap_or_default(),
@@ -491,6 +500,18 @@ fn run_elf(elf: &Path, timeout: u32, icount: bool) -> Result<Summary> {
 fn qemu(a: &QemuArgs) -> Result<()> {
     let elf = build(a)?;
     let s = run_elf(&elf, a.timeout, a.icount)?;
+    if a.reset_at.is_some() {
+        let restored = s
+            .get("RESTORE")
+            .and_then(|r| r.get("status"))
+            .map(String::as_str);
+        if restored != Some("restored") {
+            bail!(
+                "--reset-at: the firmware did not restore its snapshot after the reset (RESTORE status={})",
+                restored.unwrap_or("missing")
+            );
+        }
+    }
     if s.contains_key("PACK") {
         println!("{}", pack_json(&s)?);
         return Ok(());
@@ -513,6 +534,10 @@ fn qemu(a: &QemuArgs) -> Result<()> {
         }
     }
     insert_published(&s, 1, &mut out);
+    if a.reset_at.is_some() {
+        out.insert("restored_at".into(), number(&s, "RESTORE", "resumed_at")?);
+    }
+    insert_persist(&s, &mut out);
     out.insert("model".into(), a.model.clone().into());
     for key in ["bv_a_v", "bv_i0_a"] {
         let v = if s.contains_key("BV") {
@@ -553,6 +578,7 @@ fn bench_target(b: &BenchArgs) -> Result<()> {
         map: None,
         model: b.model.clone(),
         tail: b.tail,
+        reset_at: None,
         bench: true,
     };
     let elf = build(&a)?;

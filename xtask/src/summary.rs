@@ -146,16 +146,47 @@ pub(crate) fn pack_json(s: &Summary) -> Result<serde_json::Value> {
     }
     let mut string = serde_json::Map::new();
     insert_sop(s, 0, &mut string);
-    Ok(serde_json::json!({
+    let mut out = serde_json::json!({
         "cells": list,
         "samples": number(s, "PACK", "samples")?,
         "rejected": number(s, "PACK", "rejected")?,
         "string_sop": string,
-    }))
+    });
+    if let Some(m) = out.as_object_mut() {
+        insert_persist(s, m);
+    }
+    Ok(out)
 }
 
 pub(crate) fn int(s: &Summary, line: &str, key: &str) -> Result<u64> {
     number(s, line, key)?
         .as_u64()
         .with_context(|| format!("{line} {key}: not an integer"))
+}
+
+/// The snapshot's part of a run (its `RESTORE` and `PERSIST` lines):
+/// `restore_status` (`restored`, `none`, `rejected`, `no_store`),
+/// `last_save_clocks`, `snapshot_bytes`, `snapshot_saves` (this boot's),
+/// `save_clocks_max` and `restore_clocks` (timer clocks; 40 instructions
+/// each under `--icount`).
+pub(crate) fn insert_persist(s: &Summary, out: &mut serde_json::Map<String, serde_json::Value>) {
+    if let Some(status) = s.get("RESTORE").and_then(|m| m.get("status")) {
+        out.insert("restore_status".into(), status.clone().into());
+    }
+    // The last save's cost (before a reset, the first boot's).
+    if let Ok(v) = number(s, "SAVED", "clocks") {
+        out.insert("last_save_clocks".into(), v);
+    }
+    let Some(m) = s.get("PERSIST") else {
+        return;
+    };
+    for (key, name) in [
+        ("bytes", "snapshot_bytes"),
+        ("saves", "snapshot_saves"),
+        ("save_clocks_max", "save_clocks_max"),
+        ("restore_clocks", "restore_clocks"),
+    ] {
+        let v = number(s, "PERSIST", key).unwrap_or_else(|_| number_or_null(m, key));
+        out.insert(name.into(), v);
+    }
 }

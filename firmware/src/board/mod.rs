@@ -2,9 +2,11 @@
 //!
 //! A board supplies a [`PackSampler`], a periodic sample tick from a
 //! hardware timer, a timer-based cycle count for cost measurements, the
-//! stack high-water mark, and a way to stop.
+//! stack high-water mark, the store of the estimator's snapshot over its
+//! reserved flash region (docs/persistence.md), a reset, and a way to stop.
 
 use firmware::sampler::PackSampler;
+use firmware::storage::SnapshotStore;
 
 #[cfg(feature = "board-qemu")]
 pub mod qemu;
@@ -43,6 +45,17 @@ pub trait BoardApi {
     fn stack_high_water(&self) -> u32;
     /// Stops: on QEMU exits with status 0 (`ok`) or 1; on hardware parks.
     fn finish(&mut self, ok: bool) -> !;
+    /// The NOR flash the snapshot is kept in.
+    type SnapshotFlash: embedded_storage_async::nor_flash::NorFlash;
+    /// The snapshot's store over the board's reserved region (`None`: the
+    /// board keeps none yet). Called once, at boot.
+    fn snapshot_store(&mut self) -> Option<SnapshotStore<Self::SnapshotFlash>>;
+    /// The sample period a replay resumes at after [`reset`](Self::reset)
+    /// (0 after power-on).
+    fn resumed_at(&self) -> u32;
+    /// Resets the MCU as a watchdog or a brown-out would, the replay to
+    /// resume at period `at` (`FRACBMS_RESET_AT`, under QEMU).
+    fn reset(&mut self, at: u32) -> !;
 }
 
 /// Stack painting: fills the free RAM between the end of static data and

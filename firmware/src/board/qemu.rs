@@ -9,6 +9,13 @@
 //! sample follows at once (a replay loses no sample). Under
 //! `qemu-system-arm -icount shift=0` one instruction takes 1 ns of virtual
 //! time, so a timer clock at 25 MHz is 40 instructions.
+//!
+//! The snapshot's "flash" is RAM: the board has no flash controller to
+//! program, so a NOR model ([`RamFlash`], 8 pages of 2 KiB) lives in the
+//! `.snapshot` section at the top of RAM (`boards/mps2-an386.x`), which is
+//! NOLOAD: neither the boot code nor QEMU's system reset
+//! (`SCB::sys_reset`) clears it. It is erased (`0xFF`) at power-on, when
+//! the reset record's magic is not there.
 
 use super::{stack, BoardApi};
 use core::sync::atomic::{AtomicU32, Ordering};
@@ -17,6 +24,52 @@ use cortex_m_rt::{exception, ExceptionFrame};
 use cortex_m_semihosting::debug;
 use defmt_semihosting as _;
 use firmware::sampler::ReplaySampler;
+use firmware::storage::ram_flash::RamFlash;
+use firmware::storage::SnapshotStore;
+
+/// The NOR model's geometry: the STM32L4's (8-byte words, 2 KiB pages),
+/// 8 pages.
+const WORD: usize = 8;
+const PAGE: usize = 2048;
+const PAGES: usize = 8;
+
+/// What survives a system reset: the reset record and the NOR model.
+#[repr(C, align(8))]
+struct Persist {
+    /// [`PERSIST_MAGIC`] once the region was erased at power-on.
+    magic: u32,
+    /// The period the replay resumes at after [`BoardApi::reset`].
+    resume_at: u32,
+    flash: [u8; PAGES * PAGE],
+}
+
+/// "FBRS".
+const PERSIST_MAGIC: u32 = 0x4642_5253;
+
+#[link_section = ".snapshot"]
+static mut PERSIST: core::mem::MaybeUninit<Persist> = core::mem::MaybeUninit::uninit();
+
+/// The region, erased at power-on (the magic absent), and the period the
+/// replay resumes at (0 at power-on). Called once, from [`init`].
+fn persist() -> (&'static mut [u8; PAGES * PAGE], u32) {
+    let p = (&raw mut PERSIST).cast::<Persist>();
+    // SAFETY: `init` runs once, so this is the only reference to PERSIST;
+    // the region is RAM of the `.snapshot` section, every bit pattern is a
+    // valid `u32` or byte, and it is written before it is read at
+    // power-on.
+    unsafe {
+        let magic = core::ptr::addr_of!((*p).magic).read_volatile();
+        let resume_at = if magic == PERSIST_MAGIC {
+            core::ptr::addr_of!((*p).resume_at).read_volatile()
+        } else {
+            core::ptr::addr_of_mut!((*p).flash).write_bytes(0xFF, 1);
+            core::ptr::addr_of_mut!((*p).magic).write_volatile(PERSIST_MAGIC);
+            0
+        };
+        core::ptr::addr_of_mut!((*p).resume_at).write_volatile(0);
+        (&mut *core::ptr::addr_of_mut!((*p).flash), resume_at)
+    }
+}
 
 /// SysTick reload: 1 ms at 25 MHz.
 const RELOAD: u32 = 25_000 - 1;
@@ -57,6 +110,9 @@ pub struct Qemu {
     _syst: cortex_m::peripheral::SYST,
     sampler: ReplaySampler<'static>,
     handled: u32,
+    /// The NOR model's bytes (taken by `snapshot_store`).
+    flash: Option<&'static mut [u8; PAGES * PAGE]>,
+    resumed_at: u32,
 }
 
 /// Paints the stack, starts SysTick, opens the replay stream.
@@ -72,10 +128,16 @@ pub fn init() -> Qemu {
     syst.clear_current();
     syst.enable_interrupt();
     syst.enable_counter();
+    let (flash, resumed_at) = persist();
+    let mut sampler = ReplaySampler::with_cells(firmware::REPLAY, firmware::config::REPLAY_CELLS);
+    // After a reset the replay goes on where it stopped.
+    sampler.skip(resumed_at as usize);
     Qemu {
         _syst: syst,
-        sampler: ReplaySampler::with_cells(firmware::REPLAY, firmware::config::REPLAY_CELLS),
+        sampler,
         handled: 0,
+        flash: Some(flash),
+        resumed_at,
     }
 }
 
@@ -110,6 +172,25 @@ impl BoardApi for Qemu {
 
     fn stack_high_water(&self) -> u32 {
         stack::high_water()
+    }
+
+    type SnapshotFlash = RamFlash<'static, WORD, PAGE>;
+
+    fn snapshot_store(&mut self) -> Option<SnapshotStore<Self::SnapshotFlash>> {
+        let flash = self.flash.take()?;
+        SnapshotStore::new(RamFlash::new(flash), 0..(PAGES * PAGE) as u32).ok()
+    }
+
+    fn resumed_at(&self) -> u32 {
+        self.resumed_at
+    }
+
+    fn reset(&mut self, at: u32) -> ! {
+        let p = (&raw mut PERSIST).cast::<Persist>();
+        // SAFETY: a volatile write of one field of the region `persist`
+        // set up; nothing else writes it.
+        unsafe { core::ptr::addr_of_mut!((*p).resume_at).write_volatile(at) };
+        cortex_m::peripheral::SCB::sys_reset()
     }
 
     fn finish(&mut self, ok: bool) -> ! {
