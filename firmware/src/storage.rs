@@ -99,6 +99,45 @@ impl<F: NorFlash> SnapshotStore<F> {
     }
 }
 
+/// A blocking `embedded-storage` NOR flash (a flash controller that
+/// stalls the core while it programs, as the STM32L4's) as the async NOR
+/// flash `sequential-storage` takes: every operation completes when it is
+/// polled the first time.
+pub struct BlockingFlash<F>(pub F);
+
+impl<F: embedded_storage::nor_flash::ErrorType> embedded_storage_async::nor_flash::ErrorType
+    for BlockingFlash<F>
+{
+    type Error = F::Error;
+}
+
+impl<F: embedded_storage::nor_flash::ReadNorFlash> embedded_storage_async::nor_flash::ReadNorFlash
+    for BlockingFlash<F>
+{
+    const READ_SIZE: usize = F::READ_SIZE;
+
+    async fn read(&mut self, offset: u32, bytes: &mut [u8]) -> Result<(), Self::Error> {
+        self.0.read(offset, bytes)
+    }
+
+    fn capacity(&self) -> usize {
+        self.0.capacity()
+    }
+}
+
+impl<F: embedded_storage::nor_flash::NorFlash> NorFlash for BlockingFlash<F> {
+    const WRITE_SIZE: usize = F::WRITE_SIZE;
+    const ERASE_SIZE: usize = F::ERASE_SIZE;
+
+    async fn erase(&mut self, from: u32, to: u32) -> Result<(), Self::Error> {
+        self.0.erase(from, to)
+    }
+
+    async fn write(&mut self, offset: u32, bytes: &[u8]) -> Result<(), Self::Error> {
+        self.0.write(offset, bytes)
+    }
+}
+
 /// When the task saves its snapshot: a setting. Each save appends one item
 /// (the snapshot, `20 + 124·cells + 4` B, plus `sequential-storage`'s
 /// header) to the region; a page is erased once per page of items written.

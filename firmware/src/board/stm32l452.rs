@@ -41,6 +41,7 @@ use embassy_stm32::time::Hertz;
 use embassy_stm32::timer::low_level::Timer;
 use embassy_stm32::Config;
 use firmware::config;
+use firmware::storage::{BlockingFlash, SnapshotStore};
 use panic_probe as _;
 
 #[cfg(not(feature = "stm32l452-bq769x0"))]
@@ -55,6 +56,8 @@ use monitor::{make_sampler, Stm32Sampler};
 /// The STM32L452 board.
 pub struct Stm32l452 {
     sampler: Stm32Sampler,
+    /// The flash controller (taken by `snapshot_store`).
+    flash: Option<Flash>,
     timer: Timer<'static, TIM2>,
     /// Sample period in timer clocks (µs).
     period: u32,
@@ -97,7 +100,7 @@ pub fn init() -> Stm32l452 {
     }
     let p = embassy_stm32::init(cfg);
 
-    let (sampler, tim2) = make_sampler(p);
+    let (sampler, tim2, flash) = make_sampler(p);
 
     let mut timer = Timer::new(tim2);
     timer.set_tick_freq(Hertz(1_000_000));
@@ -113,6 +116,7 @@ pub fn init() -> Stm32l452 {
     let deadline = timer.regs_gp32().cnt().read();
     Stm32l452 {
         sampler,
+        flash: Some(embassy_stm32::flash::Flash::new_blocking(flash)),
         timer,
         period: period.max(1),
         deadline,
@@ -126,6 +130,25 @@ impl Stm32l452 {
     }
 }
 
+/// The driver's flash (offsets from the flash base).
+type Flash = embassy_stm32::flash::Flash<'static, embassy_stm32::flash::Blocking>;
+
+/// The snapshot's region, as offsets from the flash base, from the linker
+/// symbols of `boards/stm32l452.x`.
+fn snapshot_region() -> core::ops::Range<u32> {
+    extern "C" {
+        static __snapshot_start: u8;
+        static __snapshot_end: u8;
+    }
+    // Only the symbols' addresses are taken.
+    let (start, end) = (
+        core::ptr::addr_of!(__snapshot_start) as u32,
+        core::ptr::addr_of!(__snapshot_end) as u32,
+    );
+    let base = embassy_stm32::flash::FLASH_BASE as u32;
+    start.wrapping_sub(base)..end.wrapping_sub(base)
+}
+
 /// `a` is at or after `b` on the wrapping 32-bit counter.
 fn reached(a: u32, b: u32) -> bool {
     a.wrapping_sub(b) < 0x8000_0000
@@ -135,13 +158,14 @@ impl BoardApi for Stm32l452 {
     type Sampler = Stm32Sampler;
     const CLOCK_HZ: u32 = 1_000_000;
 
-    /// The snapshot's region is reserved (`boards/stm32l452.x`, the last
-    /// 16 KiB of flash); the flash driver is not wired to the store yet
-    /// (issue 38), so the board keeps no snapshot.
-    type SnapshotFlash = firmware::storage::ram_flash::RamFlash<'static, 8, 2048>;
+    /// The internal flash through `embassy-stm32`'s blocking driver
+    /// (8-byte words, 2 KiB pages), over the region `boards/stm32l452.x`
+    /// reserves (the last 16 KiB). Not run on hardware yet: built in CI.
+    type SnapshotFlash = BlockingFlash<Flash>;
 
-    fn snapshot_store(&mut self) -> Option<firmware::storage::SnapshotStore<Self::SnapshotFlash>> {
-        None
+    fn snapshot_store(&mut self) -> Option<SnapshotStore<Self::SnapshotFlash>> {
+        let flash = self.flash.take()?;
+        SnapshotStore::new(BlockingFlash(flash), snapshot_region()).ok()
     }
 
     fn resumed_at(&self) -> u32 {

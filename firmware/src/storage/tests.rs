@@ -158,3 +158,50 @@ fn flash_life_of_the_default_policy() {
         }
     }
 }
+
+/// A blocking NOR flash (the STM32L4's driver is one) through
+/// [`BlockingFlash`]: the store saves and loads through it.
+#[test]
+fn a_blocking_flash_stores_through_the_adapter() {
+    use embedded_storage::nor_flash::{ErrorType, ReadNorFlash};
+    /// A blocking NOR flash over a `Vec`.
+    struct Blocking(Vec<u8>);
+    impl ErrorType for Blocking {
+        type Error = core::convert::Infallible;
+    }
+    impl ReadNorFlash for Blocking {
+        const READ_SIZE: usize = 1;
+        fn read(&mut self, offset: u32, bytes: &mut [u8]) -> Result<(), Self::Error> {
+            let o = offset as usize;
+            bytes.copy_from_slice(&self.0[o..o + bytes.len()]);
+            Ok(())
+        }
+        fn capacity(&self) -> usize {
+            self.0.len()
+        }
+    }
+    impl embedded_storage::nor_flash::NorFlash for Blocking {
+        const WRITE_SIZE: usize = WORD;
+        const ERASE_SIZE: usize = PAGE;
+        fn erase(&mut self, from: u32, to: u32) -> Result<(), Self::Error> {
+            self.0[from as usize..to as usize].fill(0xFF);
+            Ok(())
+        }
+        fn write(&mut self, offset: u32, bytes: &[u8]) -> Result<(), Self::Error> {
+            let o = offset as usize;
+            for (d, s) in self.0[o..o + bytes.len()].iter_mut().zip(bytes) {
+                *d &= *s;
+            }
+            Ok(())
+        }
+    }
+    let flash = BlockingFlash(Blocking(vec![0xFF; PAGES * PAGE]));
+    let mut store = SnapshotStore::new(flash, 0..(PAGES * PAGE) as u32).unwrap();
+    let mut scratch = vec![0u8; 200];
+    for j in 0..40 {
+        store.save(&snapshot(j, 148), &mut scratch).unwrap();
+    }
+    let mut buf = vec![0u8; 200];
+    assert_eq!(store.load(&mut buf).unwrap(), Some(&snapshot(39, 148)[..]));
+    let _ = store.into_flash().0.capacity();
+}

@@ -64,7 +64,11 @@ pub type Stm32Sampler = SingleCell<AdcSampler<Stm32Channel, Stm32Channel, Stm32C
 /// ADC1 on PA0, PA1, PA4; gives TIM2 back.
 pub(super) fn make_sampler(
     p: embassy_stm32::Peripherals,
-) -> (Stm32Sampler, embassy_stm32::Peri<'static, TIM2>) {
+) -> (
+    Stm32Sampler,
+    embassy_stm32::Peri<'static, TIM2>,
+    embassy_stm32::Peri<'static, embassy_stm32::peripherals::FLASH>,
+) {
     let Some(adc) = cortex_m::singleton!(: SharedAdc = RefCell::new(Adc::new(p.ADC1))) else {
         defmt::error!("ADC taken twice");
         halt()
@@ -93,5 +97,5 @@ pub(super) fn make_sampler(
             FrontEnd::TEMPERATURE,
         ),
     });
-    (sampler, p.TIM2)
+    (sampler, p.TIM2, p.FLASH)
 }

@@ -29,12 +29,16 @@ pub const BQ769X0: firmware::bq769x0::Bq769x0Config = firmware::bq769x0::Bq769x0
 /// The bq769x0 on I2C1 (PB6, PB7); gives TIM2 back.
 pub(super) fn make_sampler(
     p: embassy_stm32::Peripherals,
-) -> (Stm32Sampler, embassy_stm32::Peri<'static, TIM2>) {
+) -> (
+    Stm32Sampler,
+    embassy_stm32::Peri<'static, TIM2>,
+    embassy_stm32::Peri<'static, embassy_stm32::peripherals::FLASH>,
+) {
     let mut c = embassy_stm32::i2c::Config::default();
     c.frequency = Hertz(100_000);
     let i2c = embassy_stm32::i2c::I2c::new_blocking(p.I2C1, p.PB6, p.PB7, c);
     match firmware::bq769x0::Bq769x0::new(i2c, BQ769X0) {
-        Ok(d) => (d, p.TIM2),
+        Ok(d) => (d, p.TIM2, p.FLASH),
         Err(e) => {
             defmt::error!("bq769x0 start-up failed: {}", e);
             halt()
