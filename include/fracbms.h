@@ -1182,10 +1182,10 @@ FracbmsCode fracbms_cell_follow_map(struct FracbmsCell *cell,
                                     bool *taken);
 
 /**
- * Writes to `size` the bytes of this cell's snapshot (140).
+ * Writes to `size_out` the bytes of this cell's snapshot (148).
  *
  * # Safety
- * `cell` is null or a handle from `fracbms_cell_init`; `size` is null or
+ * `cell` is null or a handle from `fracbms_cell_init`; `size_out` is null or
  * valid for a write.
  */
 FracbmsCode fracbms_cell_snapshot_size(const struct FracbmsCell *cell, size_t *size_out);
@@ -1229,11 +1229,11 @@ FracbmsCode fracbms_cell_snapshot_restore(struct FracbmsCell *cell,
                                           uint32_t max_age_s);
 
 /**
- * Writes to `size` the bytes of this pack's snapshot (20 + 116 per cell
- * + 4: 1880 for 16 cells).
+ * Writes to `size_out` the bytes of this pack's snapshot (20 + 124 per cell
+ * + 4: 2008 for 16 cells).
  *
  * # Safety
- * `pack` is null or a handle from `fracbms_pack_init`; `size` is null or
+ * `pack` is null or a handle from `fracbms_pack_init`; `size_out` is null or
  * valid for a write.
  */
 FracbmsCode fracbms_pack_snapshot_size(const struct FracbmsPack *pack, size_t *size_out);

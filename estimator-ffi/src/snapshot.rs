@@ -130,10 +130,10 @@ unsafe fn restore(
     code(unsafe { run(target, SnapshotOp::Restore(input, policy(now_s, max_age_s))) }.map(|_| ()))
 }
 
-/// Writes to `size` the bytes of this cell's snapshot (148).
+/// Writes to `size_out` the bytes of this cell's snapshot (148).
 ///
 /// # Safety
-/// `cell` is null or a handle from `fracbms_cell_init`; `size` is null or
+/// `cell` is null or a handle from `fracbms_cell_init`; `size_out` is null or
 /// valid for a write.
 #[no_mangle]
 pub unsafe extern "C" fn fracbms_cell_snapshot_size(
@@ -198,11 +198,11 @@ pub unsafe extern "C" fn fracbms_cell_snapshot_restore(
     unsafe { restore(Target::Cell(cell.cast()), buf, len, now_s, max_age_s) }
 }
 
-/// Writes to `size` the bytes of this pack's snapshot (20 + 124 per cell
+/// Writes to `size_out` the bytes of this pack's snapshot (20 + 124 per cell
 /// + 4: 2008 for 16 cells).
 ///
 /// # Safety
-/// `pack` is null or a handle from `fracbms_pack_init`; `size` is null or
+/// `pack` is null or a handle from `fracbms_pack_init`; `size_out` is null or
 /// valid for a write.
 #[no_mangle]
 pub unsafe extern "C" fn fracbms_pack_snapshot_size(

@@ -148,7 +148,7 @@ fn flash_life_of_the_default_policy() {
     let policies = [("at most every 10 min", 144), ("at most hourly", 24)];
     for cells in [1u32, 4, 16] {
         let item = (20 + 124 * cells + 4 + 9).div_ceil(8) * 8;
-        for pages in [4u32, 16, 32] {
+        for pages in [4u32, 8, 16, 32] {
             let life = policies.map(|(_, n)| flash_life_years(10_000, pages, 2048, item, n));
             println!(
                 "flash life: {cells} cells ({item} B items), {pages} pages of 2 KiB: \
