@@ -203,6 +203,20 @@ class OnlineCell:
         """The record resumes after a gap of unknown charge: the window
         restarts and, when ``rested``, the state of charge is read again
         from the next rested voltages through the OCV table."""
+    def save_state(self, saved_at_s: Optional[float] = None) -> bytes:
+        """The snapshot of what the cell has learned (docs/persistence.md):
+        the bytes of ``host-sim online battery --state-out`` and of the C
+        ABI's ``fracbms_cell_snapshot_save``. ``saved_at_s``: the caller's
+        clock (s), judged for the age at a restore."""
+    def restore_state(self, snapshot: bytes, now_s: Optional[float] = None) -> None:
+        """Restore from ``save_state``'s bytes before the first sample:
+        parameters published as ``restored`` until a window identifies
+        them, the SOC read again when the first rested voltage contradicts
+        it. Raises ValueError (the cell stays clean) for a corrupt, stale,
+        foreign or implausible snapshot."""
+    @property
+    def restoration(self) -> str:
+        """``"clean"``, ``"restored"`` or ``"soc_reread"``."""
     @property
     def samples(self) -> int:
         """Samples offered so far."""

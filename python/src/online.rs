@@ -3,6 +3,7 @@
 
 use super::*;
 use fracbms_host::online::soc::{SocMode, SocOptions};
+use pyo3::types::PyBytes;
 
 /// The online estimator of one cell (`host-sim online battery`).
 ///
@@ -500,6 +501,47 @@ impl OnlineCell {
     /// published stays, held. The CLI does this at every gap of a file.
     fn resume_after_gap(&mut self, rested: bool) {
         self.tracker.resume_after_gap(rested);
+    }
+
+    /// The snapshot of what the cell has learned, as bytes
+    /// (docs/persistence.md): the bytes of ``host-sim online battery
+    /// --state-out`` and of the C ABI's ``fracbms_cell_snapshot_save``.
+    /// ``saved_at_s`` is the caller's clock (s; ``None``: unknown), judged
+    /// for the snapshot's age at a restore.
+    #[pyo3(signature = (saved_at_s = None))]
+    fn save_state<'py>(&self, py: Python<'py>, saved_at_s: Option<f64>) -> Bound<'py, PyBytes> {
+        PyBytes::new(py, &self.tracker.save_state(saved_at_s.unwrap_or(f64::NAN)))
+    }
+
+    /// Restore the cell from a snapshot (``save_state``'s bytes), before
+    /// its first sample: the parameters, SOC, current bias and capacity it
+    /// had learned, published with status ``restored`` until a window
+    /// identifies them; the SOC is read again from the OCV table when the
+    /// first rested voltage contradicts it (``restoration``). ``now_s`` is
+    /// the caller's clock (s; ``None``: the age is not judged).
+    ///
+    /// Raises
+    /// ------
+    /// ValueError
+    ///     The snapshot was rejected (corrupt, stale, from another layout
+    ///     version or other settings, implausible values); the cell stays
+    ///     clean.
+    #[pyo3(signature = (snapshot, now_s = None))]
+    fn restore_state(&mut self, snapshot: &[u8], now_s: Option<f64>) -> PyResult<()> {
+        self.tracker
+            .restore_state(snapshot, now_s.unwrap_or(f64::NAN))
+            .map_err(|e| PyValueError::new_err(format!("snapshot rejected: {e}")))?;
+        // The snapshot's SOC, not the record's rested start.
+        self.unresolved = None;
+        Ok(())
+    }
+
+    /// How the cell started: ``"clean"``, ``"restored"`` (from a snapshot)
+    /// or ``"soc_reread"`` (a snapshot whose SOC the first rested voltage
+    /// contradicted).
+    #[getter]
+    fn restoration(&self) -> &'static str {
+        self.tracker.restoration().as_str()
     }
 
     /// Samples offered so far.

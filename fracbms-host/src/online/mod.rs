@@ -316,6 +316,7 @@ trait Step: Send + Sync {
         bytes: &[u8],
         now_s: Option<u32>,
     ) -> std::result::Result<(), SnapshotError>;
+    fn restoration(&self) -> Restoration;
 }
 
 /// The core's single-cell estimator with its settings.
@@ -391,6 +392,10 @@ impl<T: Real + Send + Sync, const N: usize> Step for Sized<T, N> {
             ..RestorePolicy::default()
         };
         self.est.restore(&self.s, bytes, &policy)
+    }
+
+    fn restoration(&self) -> Restoration {
+        self.est.cell_state().restoration()
     }
 
     fn set_state_of_charge(&mut self, soc: f64) {
@@ -546,6 +551,12 @@ impl Tracker {
         now_s: f64,
     ) -> std::result::Result<(), SnapshotError> {
         self.cell.restore(bytes, state::record_clock(now_s))
+    }
+
+    /// How the cell started: clean, from a snapshot, or from one whose SOC
+    /// the first rested voltage contradicted.
+    pub fn restoration(&self) -> Restoration {
+        self.cell.restoration()
     }
 
     /// Sets the state of charge now (with a curve; a non-finite value is
