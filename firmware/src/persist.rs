@@ -143,18 +143,10 @@ fn restore<F: embedded_storage_async::nor_flash::NorFlash>(
     let mut buf = [0u8; SCRATCH];
     match store.load(&mut buf) {
         Ok(None) => Ok(false),
-        Ok(Some(bytes)) => task.restore(s, bytes).map(|()| true).map_err(|e| {
-            use estimator_core::battery::snapshot::SnapshotError as E;
-            match e {
-                E::TooShort { .. } | E::NotASnapshot => "invalid",
-                E::Version { .. } => "version",
-                E::Crc => "crc",
-                E::CellCount { .. } => "cell_count",
-                E::Settings => "settings",
-                E::Stale { .. } => "stale",
-                E::Implausible { .. } => "implausible",
-            }
-        }),
+        Ok(Some(bytes)) => task
+            .restore(s, bytes)
+            .map(|()| true)
+            .map_err(|e| e.as_str()),
         Err(_) => Err("store"),
     }
 }

@@ -154,6 +154,21 @@ pub enum SnapshotError {
     },
 }
 
+impl SnapshotError {
+    /// A short lower-case name (the firmware's `RESTORE … reason=` word).
+    pub fn as_str(&self) -> &'static str {
+        match self {
+            SnapshotError::TooShort { .. } | SnapshotError::NotASnapshot => "invalid",
+            SnapshotError::Version { .. } => "version",
+            SnapshotError::Crc => "crc",
+            SnapshotError::CellCount { .. } => "cell_count",
+            SnapshotError::Settings => "settings",
+            SnapshotError::Stale { .. } => "stale",
+            SnapshotError::Implausible { .. } => "implausible",
+        }
+    }
+}
+
 impl core::fmt::Display for SnapshotError {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         match self {
