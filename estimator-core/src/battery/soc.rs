@@ -33,6 +33,12 @@
 //! spread of an unrelaxed voltage ([`SocSettings::unrelaxed_sigma_v`]).
 //! Without a start SOC the first finite voltage is read as the OCV.
 //!
+//! **Settings and spreads.** [`SocSettings::check`] refuses a setting that
+//! is not finite (the estimators call it). Each variance stops at what
+//! knowing nothing means (the SOC within `±1`, the bias within 1C, the
+//! capacity within a factor 5): a wider spread says no more, and in `f32`
+//! the count's products of it overflowed.
+//!
 //! Sign convention: current positive when charging (as [`super::ocv`]).
 //! This module owns the published SOC, the bias and the capacity; it must
 //! not touch the estimators' window, whose coordinates follow their own
@@ -58,6 +64,7 @@
 //! ```
 
 use super::ocv::OcvTable;
+use crate::error::Error;
 use crate::real::Real;
 
 /// What the observer assumes about the sensors, the cell and its rests.
@@ -128,6 +135,48 @@ impl<T: Real> SocSettings<T> {
             gap_soc_sigma: T::lit(0.5),
             min_slope: T::lit(1e-3),
         }
+    }
+
+    /// Checks the settings: every one finite, the capacity, the period and
+    /// the smallest slope positive, the rest not negative.
+    ///
+    /// # Errors
+    /// [`Error::BadSetting`] otherwise.
+    pub fn check(&self) -> Result<(), Error> {
+        let all = [
+            self.capacity_ah,
+            self.h,
+            self.rest_current_a,
+            self.rest_s,
+            self.rest_max_s,
+            self.voltage_sigma_v,
+            self.unrelaxed_sigma_v,
+            self.table_sigma_soc,
+            self.soc0_sigma,
+            self.bias_sigma_a,
+            self.bias_walk_a,
+            self.capacity_sigma,
+            self.capacity_identify,
+            self.gap_soc_sigma,
+            self.min_slope,
+        ];
+        let positive = [self.capacity_ah, self.h, self.min_slope];
+        if all.iter().all(|x| x.is_finite() && *x >= T::ZERO)
+            && positive.iter().all(|x| *x > T::ZERO)
+        {
+            Ok(())
+        } else {
+            Err(Error::BadSetting)
+        }
+    }
+
+    /// The largest variances the filter keeps, `(SOC, bias, g)`: what
+    /// knowing nothing means (the SOC anywhere in `±1`, the bias up to 1C,
+    /// the capacity anywhere from a fifth to five times the nominal). A
+    /// wider spread says no more, and in `f32` the count's products of it
+    /// would overflow.
+    fn variance_caps(&self) -> [T; 3] {
+        [T::ONE, self.capacity_ah * self.capacity_ah, T::ONE]
     }
 }
 
@@ -243,6 +292,42 @@ impl<T: Real> SocObserver<T> {
             T::ZERO,
             c * c,
         ];
+        self.condition(s);
+    }
+
+    /// Keeps the covariance a covariance whatever the settings and the
+    /// data did to it: each variance within [`SocSettings::variance_caps`]
+    /// (a non-finite one is taken as knowing nothing), never negative, and
+    /// each covariance within `√(Pᵢᵢ·Pⱼⱼ)` (0 when not finite). Without it
+    /// an overflow in `f32` made `P₀₀` NaN, and the SOC was published with
+    /// a spread of 0 while no rest was observed again.
+    fn condition(&mut self, s: &SocSettings<T>) {
+        let caps = s.variance_caps();
+        let [p00, p01, p02, p11, p12, p22] = self.p;
+        let var = |v: T, cap: T| {
+            if v.is_nan() {
+                cap
+            } else {
+                v.max(T::ZERO).min(cap)
+            }
+        };
+        let d = [var(p00, caps[0]), var(p11, caps[1]), var(p22, caps[2])];
+        let cov = |c: T, a: T, b: T| {
+            let m = (a * b).sqrt();
+            if c.is_finite() {
+                c.max(-m).min(m)
+            } else {
+                T::ZERO
+            }
+        };
+        self.p = [
+            d[0],
+            cov(p01, d[0], d[1]),
+            cov(p02, d[0], d[2]),
+            d[1],
+            cov(p12, d[1], d[2]),
+            d[2],
+        ];
     }
 
     /// What a snapshot keeps of the observer ([`crate::battery::snapshot`]):
@@ -311,6 +396,7 @@ impl<T: Real> SocObserver<T> {
     fn take_pending(&mut self, s: &SocSettings<T>) {
         if core::mem::take(&mut self.gap) {
             self.p[0] = self.p[0] + s.gap_soc_sigma * s.gap_soc_sigma;
+            self.condition(s);
         }
         if let Some(soc) = self.set.take() {
             match &mut self.x {
@@ -322,6 +408,7 @@ impl<T: Real> SocObserver<T> {
                 }
                 None => self.start(s, soc),
             }
+            self.condition(s);
         }
     }
 
@@ -432,6 +519,7 @@ impl<T: Real> SocObserver<T> {
             p12,
             p22,
         ];
+        self.condition(s);
     }
 
     /// One observation of the SOC: the curve's inverse of `voltage`, with
@@ -480,6 +568,7 @@ impl<T: Real> SocObserver<T> {
             p12 - gain[1] * p02,
             p22 - gain[2] * p02,
         ];
+        self.condition(s);
         self.ocv_weight = gain[0];
         self.observations = self.observations.saturating_add(1);
         if let Some((c, _, true)) = self.capacity(s) {
@@ -654,5 +743,98 @@ mod tests {
         }
         let e = e.unwrap();
         assert!((e.soc - 0.45).abs() < 0.01, "{e:?}");
+    }
+
+    #[test]
+    fn settings_that_are_not_finite_or_out_of_range_are_refused() {
+        let base = SocSettings::<f32>::new(5.0, 1.0);
+        assert_eq!(base.check(), Ok(()));
+        for bad in [
+            SocSettings {
+                capacity_ah: 0.0,
+                ..base
+            },
+            SocSettings { h: -1.0, ..base },
+            SocSettings {
+                min_slope: 0.0,
+                ..base
+            },
+            SocSettings {
+                bias_sigma_a: f32::INFINITY,
+                ..base
+            },
+            SocSettings {
+                soc0_sigma: f32::NAN,
+                ..base
+            },
+            SocSettings {
+                table_sigma_soc: -0.01,
+                ..base
+            },
+        ] {
+            assert_eq!(bad.check(), Err(Error::BadSetting), "{bad:?}");
+        }
+    }
+
+    /// Spreads far beyond what any data could mean, in `f32`: the
+    /// covariance overflowed (NaN), the published SOC claimed a spread of
+    /// 0 or ∞ and no rest was observed again. Now each variance stops at
+    /// knowing nothing: every estimate's spread is finite and at most 1,
+    /// and every 15-minute rest is observed (before: none).
+    #[test]
+    fn spreads_beyond_any_information_stop_at_knowing_nothing() {
+        let t: OcvTable<f32, 5> =
+            OcvTable::new(&[0.0, 0.25, 0.5, 0.75, 1.0], &[3.0, 3.5, 3.7, 3.9, 4.2]).unwrap();
+        let base = SocSettings::<f32>::new(5.0, 1.0);
+        for s in [
+            SocSettings {
+                bias_sigma_a: 1e20,
+                ..base
+            },
+            SocSettings {
+                capacity_sigma: 1e20,
+                ..base
+            },
+            SocSettings {
+                bias_walk_a: 1e20,
+                ..base
+            },
+            SocSettings {
+                soc0_sigma: 1e20,
+                ..base
+            },
+            SocSettings {
+                gap_soc_sigma: 1e30,
+                ..base
+            },
+        ] {
+            assert_eq!(s.check(), Ok(()));
+            let mut o = SocObserver::new(&s, Some(0.9));
+            let mut soc = 0.9f32;
+            let mut last = None;
+            for round in 0..6 {
+                let i = if round % 2 == 0 { -5.0 } else { 5.0 };
+                if round == 3 {
+                    o.resume_after_gap();
+                }
+                for (n, i) in [(900, 0.0f32), (600, i)] {
+                    for _ in 0..n {
+                        soc += i / 3600.0 / 5.0;
+                        let e = o.push(&s, &t, i + 0.05, t.ocv(soc)).unwrap();
+                        assert!(e.sigma.is_finite() && e.sigma <= 1.0, "{s:?}: {e:?}");
+                        assert!(
+                            e.soc.is_finite() && e.capacity_sigma_ah.is_finite(),
+                            "{s:?}: {e:?}"
+                        );
+                        last = Some(e);
+                    }
+                }
+            }
+            let e = last.unwrap();
+            // Each rest observed (an uncertain SOC also early, at half a
+            // rest).
+            assert!(e.observations >= 6, "{s:?}: {e:?}");
+            assert!((e.soc - soc).abs() < 0.02, "{s:?}: {e:?} vs {soc}");
+        }
     }
 }

@@ -245,5 +245,5 @@ pub(crate) fn check_limits<T: Real, const P: usize>(s: &OnlineSettings<T, P>) ->
     if let Some(m) = &s.ocv {
         m.check()?;
     }
-    Ok(())
+    s.soc.check()
 }
