@@ -5,7 +5,8 @@ records our model did not make, and how far it is from a reference.
 * PyBaMM DFN records (data/pybamm, window 256, their OCV table, no prior):
   every published R_i and R_ct against the whole-record fit of the same
   record (data/pybamm/reference.json, ``cpe``); the fraction of samples
-  with a published value, and of published values within [0.5x, 2x].
+  with a published value, and of published values within [0.5x, 2x]. On
+  the HPPC records also against a per-SOC reference (``per_soc``).
 * The Panasonic 18650PF 25 degC HPPC test (data/panasonic-18650pf, its OCV
   table from bench/panasonic_chain.sh): every published R_i against the
   step resistance of the nearest pulse edge in the raw 0.1 s data, every
@@ -23,6 +24,7 @@ import csv
 import json
 import os
 import subprocess
+import sys
 
 import numpy as np
 
@@ -65,6 +67,31 @@ def dfn(hs, out):
         tr = track(t)
         cpe = ref[rec]["cpe"]
         print(rec, "|", judge("R_i", tr["r_i"], cpe["r_i"]), "|", judge("R_ct", tr["r_ct"], cpe["r_ct"]))
+        if rec.endswith("-hppc"):
+            per_soc(hs, out, rec, ocv, meta[rec]["capacity_ah"], tr)
+
+
+def per_soc(hs, out, rec, ocv, capacity_ah, tr):
+    """The same track against a per-SOC reference: the record cut into its
+    SOC levels (one pulse group and its 300 s rest each, 640 samples) by
+    ``identify battery --levels-out``, every level fitted by the
+    independent multi-start reference (bench/reference_map.py, scipy, full
+    memory); each published value against the level nearest its SOC. The
+    DFN's own R_ct changes with SOC (Prada2013 0.005..0.024 Ohm over its
+    levels), which one whole-record value cannot say."""
+    levels = f"{out}/{rec}-levels"
+    run([hs, "identify", "battery", "--input", f"data/pybamm/{rec}.csv", "--ocv", ocv,
+         "--capacity-ah", str(capacity_ah), "--min-rest", "290", "--model", "linear",
+         "--map-out", f"{out}/{rec}-map.csv", "--levels-out", levels])
+    subprocess.run([sys.executable, "bench/reference_map.py", levels, "--ours", f"{out}/{rec}-map.csv"],
+                   check=True, stdout=subprocess.DEVNULL)
+    m = list(csv.DictReader(open(f"{levels}/reference-map.csv")))
+    lsoc = np.array([float(r["soc"]) for r in m])
+    near = np.array([np.argmin(np.abs(lsoc - z)) if np.isfinite(z) else 0 for z in tr["soc"]])
+    for k, name in (("r_i", "R_i"), ("r_ct", "R_ct")):
+        lv = np.array([float(r[k]) for r in m])
+        print(rec, "|", judge(f"{name} vs the per-SOC reference", tr[k], lv[near]),
+              "| reference %.4g..%.4g Ohm over SOC %.2f..%.2f" % (lv.min(), lv.max(), lsoc.min(), lsoc.max()))
 
 
 def pulse_steps(after_s=None):
