@@ -39,7 +39,8 @@ def run(cmd):
 def track(path):
     rows = list(csv.DictReader(open(path)))
     f = lambda x: float(x) if x else np.nan  # noqa: E731
-    cols = {k: np.array([f(r[k]) for r in rows]) for k in ("time_s", "r_i", "r_ct", "q", "alpha", "soc")}
+    keys = ("time_s", "r_i", "r_ct", "q", "alpha", "soc", "window_r_i", "window_r_ct")
+    cols = {k: np.array([f(r[k]) for r in rows]) for k in keys}
     for k in ("r_i", "r_ct", "q", "alpha"):
         cols[k + "_status"] = np.array([r[k + "_status"] for r in rows])
     return cols
@@ -88,10 +89,43 @@ def per_soc(hs, out, rec, ocv, capacity_ah, tr):
     m = list(csv.DictReader(open(f"{levels}/reference-map.csv")))
     lsoc = np.array([float(r["soc"]) for r in m])
     near = np.array([np.argmin(np.abs(lsoc - z)) if np.isfinite(z) else 0 for z in tr["soc"]])
+    lv = {}
     for k, name in (("r_i", "R_i"), ("r_ct", "R_ct")):
-        lv = np.array([float(r[k]) for r in m])
-        print(rec, "|", judge(f"{name} vs the per-SOC reference", tr[k], lv[near]),
-              "| reference %.4g..%.4g Ohm over SOC %.2f..%.2f" % (lv.min(), lv.max(), lsoc.min(), lsoc.max()))
+        lv[k] = np.array([float(r[k]) for r in m])
+        print(rec, "|", judge(f"{name} vs the per-SOC reference", tr[k], lv[k][near]),
+              "| reference %.4g..%.4g Ohm over SOC %.2f..%.2f" % (lv[k].min(), lv[k].max(), lsoc.min(), lsoc.max()))
+    # The windows that identified R_ct: is their R_ct wrong, or their split
+    # of R_i + R_ct?
+    ident = tr["r_ct_status"] == "identified"
+    ratio = tr["window_r_ct"][ident] / lv["r_ct"][near][ident]
+    wrong = (ratio < 0.5) | (ratio > 2.0)
+    total = (tr["window_r_i"] + tr["window_r_ct"])[ident] / (lv["r_i"] + lv["r_ct"])[near][ident]
+    for name, sel in (("outside", wrong), ("inside", ~wrong)):
+        if sel.any():
+            print(rec, f"| windows identifying R_ct {name} [0.5x, 2x] of the level's: {sel.sum()},"
+                  f" their R_i + R_ct / the level's: median {np.median(total[sel]):.3f}"
+                  f" ({np.percentile(total[sel], 5):.3f}..{np.percentile(total[sel], 95):.3f})")
+    relaxation(rec, lsoc, lv)
+
+
+def relaxation(rec, lsoc, lv):
+    """Model-free: after each 180 s discharge of the HPPC record, the
+    voltage recovered over the 300 s rest per ampere, (U_end - U_before)/I,
+    beside the nearest level's R_i + R_ct."""
+    rows = list(csv.DictReader(open(f"data/pybamm/{rec}.csv")))
+    i = np.array([float(r["current_a"]) for r in rows])
+    v = np.array([float(r["voltage_v"]) for r in rows])
+    soc = np.array([float(r["soc_true"]) for r in rows])
+    edges = np.where(np.abs(np.diff(i)) > 0.01)[0] + 1
+    segs = np.split(np.arange(len(i)), edges)
+    out = []
+    for a, b in zip(segs[:-1], segs[1:]):
+        if len(a) >= 120 and len(b) >= 290 and abs(i[b[0]]) < 1e-9 and i[a[0]] < 0:
+            k = np.argmin(np.abs(lsoc - soc[b[-1]]))
+            out.append("SOC %.2f: %.4f vs %.4f" % (soc[b[-1]], (v[b[-1]] - v[a[-1]]) / -i[a[0]],
+                                                    lv["r_i"][k] + lv["r_ct"][k]))
+    print(rec, "| relaxation over each rest after a discharge, Ohm (model-free vs the level's R_i + R_ct):",
+          "; ".join(out))
 
 
 def pulse_steps(after_s=None):
