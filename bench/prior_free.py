@@ -17,6 +17,7 @@ records our model did not make, and how far it is from a reference.
     cargo build --release -p host-sim
     bash bench/panasonic_chain.sh          # target/real-cells/panasonic/ocv.csv
     python3 bench/prior_free.py [--host-sim target/release/host-sim] [--out target/prior-free]
+        [--window 256] [--period S]
 """
 
 import argparse
@@ -57,13 +58,18 @@ def judge(name, values, ref):
     return f"{name}: published {pub.mean():.1%}, within [0.5x, 2x] {inside.mean() if ratio.size else float('nan'):.1%} (ratios {lo:.3g}..{hi:.3g})"
 
 
+# `online battery`'s window and period (`--window`, `--period` of this
+# script): the horizon experiments of docs/real-cells.md.
+ONLINE = ["--window", "256"]
+
+
 def dfn(hs, out):
     ref = json.load(open("data/pybamm/reference.json"))
     meta = json.load(open("data/pybamm/meta.json"))["records"]
     for rec in ("chen2020-drive", "chen2020-hppc", "prada2013-drive", "prada2013-hppc"):
         ocv = "data/pybamm/" + rec.split("-")[0] + "-ocv.csv"
         t = f"{out}/{rec}.csv"
-        run([hs, "online", "battery", "--input", f"data/pybamm/{rec}.csv", "--window", "256",
+        run([hs, "online", "battery", "--input", f"data/pybamm/{rec}.csv", *ONLINE,
              "--ocv", ocv, "--capacity-ah", str(meta[rec]["capacity_ah"]), "--out", t])
         tr = track(t)
         cpe = ref[rec]["cpe"]
@@ -153,7 +159,7 @@ def panasonic(hs, out):
         return
     t = f"{out}/panasonic-track.csv"
     run([hs, "online", "battery", "--input", PANASONIC, "--ocv", PAN_OCV, "--capacity-ah", "2.9",
-         "--window", "256", "--out", t])
+         *ONLINE, "--out", t])
     mp = f"{out}/panasonic-map.csv"
     run([hs, "identify", "battery", "--input", PANASONIC, "--ocv", PAN_OCV, "--capacity-ah", "2.9",
          "--min-rest", "3000", "--model", "linear", "--map-out", mp, "--json", f"{out}/panasonic.json"])
@@ -194,7 +200,10 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--host-sim", default="target/release/host-sim")
     ap.add_argument("--out", default="target/prior-free")
+    ap.add_argument("--window", type=int, default=256, help="online battery --window (default 256)")
+    ap.add_argument("--period", type=float, help="online battery --period (default: the record's)")
     a = ap.parse_args()
+    ONLINE[:] = ["--window", str(a.window)] + (["--period", str(a.period)] if a.period else [])
     os.makedirs(a.out, exist_ok=True)
     dfn(a.host_sim, a.out)
     panasonic(a.host_sim, a.out)
