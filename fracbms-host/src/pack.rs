@@ -502,11 +502,6 @@ fn run<T: Real, const N: usize>(
         StateIn::of(pack.restore(&s.cell, bytes, &policy))
     });
     let no_power = [PowerRow::default(); MAX_HORIZONS];
-    let power = |pack: &PackEstimator<T, N, N, MAX_CELLS>, k: Option<usize>| {
-        states
-            .power
-            .map_or(no_power, |p| p.pack_rows(pack, k, &s.cell))
-    };
     let mut volts = vec![T::zero(); cells];
     let mut iterations = 0u64;
     for (l, (&t, &i)) in rec.time.iter().zip(&rec.current).enumerate() {
@@ -518,8 +513,11 @@ fn run<T: Real, const N: usize>(
             .map_err(crate::Error::from)?;
         iterations += u64::from(r.iterations);
         let health = pack.health();
-        let string_power = power(&pack, None);
-        for k in 0..cells {
+        let (cell_power, string_power) = match &states.power {
+            Some(p) => p.pack_rows(&pack, cells, &s.cell),
+            None => (vec![no_power; cells], no_power),
+        };
+        for (k, power) in cell_power.into_iter().enumerate() {
             let c = pack.cell(k).ok_or_else(|| err!(Internal, "cell index"))?;
             let soc = SocRow {
                 coulomb: c.state_of_charge().map(|z| z.to_f64()),
@@ -534,7 +532,7 @@ fn run<T: Real, const N: usize>(
                 rejected: c.last_rejection().is_some(),
                 flagged: health.is_some_and(|h| pack.is_flagged(s, &h, k)),
                 soc: soc.in_mode(states.soc),
-                power: power(&pack, Some(k)),
+                power,
                 string_power,
                 restoration: c.restoration(),
             })?;

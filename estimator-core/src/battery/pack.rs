@@ -502,10 +502,6 @@ impl<T: Real, const N: usize, const MEM: usize, const CELLS: usize>
         s: &OnlineSettings<T, P>,
         power: &PowerSettings<T>,
     ) -> Option<PowerReport<T>> {
-        let mut out = self.state_of_power(0, s, power)?;
-        for k in 1..self.active {
-            out = out.series(&self.state_of_power(k, s, power)?);
-        }
-        Some(out)
+        PowerReport::string((0..self.active).map(|k| self.state_of_power(k, s, power)))
     }
 }

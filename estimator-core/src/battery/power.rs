@@ -168,6 +168,24 @@ impl<T: Real> PowerReport<T> {
         }
         out
     }
+
+    /// A series string's report from its cells' ([`series`](Self::series)
+    /// of them all): `None` for no cells, or while any cell has none (a
+    /// string is only as known as its least known cell).
+    ///
+    /// ```
+    /// use estimator_core::battery::power::PowerReport;
+    /// assert_eq!(PowerReport::<f32>::string([]), None);
+    /// assert_eq!(PowerReport::<f32>::string([None]), None);
+    /// ```
+    pub fn string(cells: impl IntoIterator<Item = Option<Self>>) -> Option<Self> {
+        let mut cells = cells.into_iter();
+        let mut out = cells.next()??;
+        for c in cells {
+            out = out.series(&c?);
+        }
+        Some(out)
+    }
 }
 
 /// What a cell carries between samples to predict pulses from at any

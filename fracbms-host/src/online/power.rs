@@ -219,23 +219,24 @@ impl ResolvedPower {
         Self::columns(report)
     }
 
-    /// The columns of a pack's cell `k` (0-based), or of the string with
-    /// `None` (at each horizon the weakest cell's currents and the sum of
-    /// the cells' pulse voltages, [`PackEstimator::pack_state_of_power`];
-    /// empty while any cell has none), as [`Self::rows`].
+    /// The columns of each of a pack's first `cells` cells, and of the
+    /// string (at each horizon the weakest cell's currents and the sum of
+    /// the cells' pulse voltages, [`PowerReport::string`], as
+    /// [`PackEstimator::pack_state_of_power`] has it; empty while any cell
+    /// has none), as [`Self::rows`]: each cell's state of power computed
+    /// once.
     pub(crate) fn pack_rows<T: Real, const N: usize, const C: usize, const P: usize>(
         &self,
         pack: &PackEstimator<T, N, N, C>,
-        k: Option<usize>,
+        cells: usize,
         s: &OnlineSettings<T, P>,
-    ) -> [PowerRow; MAX_HORIZONS] {
-        let report = self
-            .settings(s.battery.h.to_f64())
-            .and_then(|settings| match k {
-                Some(k) => pack.state_of_power(k, s, &settings),
-                None => pack.pack_state_of_power(s, &settings),
-            });
-        Self::columns(report)
+    ) -> (Vec<[PowerRow; MAX_HORIZONS]>, [PowerRow; MAX_HORIZONS]) {
+        let settings = self.settings(s.battery.h.to_f64());
+        let reports: Vec<Option<PowerReport<T>>> = (0..cells)
+            .map(|k| settings.and_then(|p| pack.state_of_power(k, s, &p)))
+            .collect();
+        let string = Self::columns(PowerReport::string(reports.iter().copied()));
+        (reports.into_iter().map(Self::columns).collect(), string)
     }
 
     /// A core report as the columns (all empty for `None`).
