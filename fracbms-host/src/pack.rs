@@ -648,6 +648,31 @@ pub fn run_pack(
     sink: impl FnMut(PackRow) -> Result<()>,
 ) -> Result<PackSummary> {
     let state_in = a.state_in.as_deref().map(read_state).transpose()?;
+    let snapshot = Snapshots {
+        state_in: state_in.as_deref(),
+        save_state: a.state_out.is_some(),
+    };
+    run_pack_with(rec, a, model, snapshot, sink)
+}
+
+/// Where a pack run's snapshots come from and go ([`run_pack_with`]).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Snapshots<'a> {
+    /// The core's bytes to start from ([`PackOptions::state_in`]).
+    pub state_in: Option<&'a [u8]>,
+    /// Save the snapshot after the last sample into the summary.
+    pub save_state: bool,
+}
+
+/// [`run_pack`] with the snapshot as bytes (Python's `online_pack`);
+/// `a.state_in` and `a.state_out` are not read.
+pub fn run_pack_with(
+    rec: &PackRecord,
+    a: &OnlinePack,
+    model: Option<OcvModel<f64, OCV_POINTS>>,
+    snapshot: Snapshots,
+    sink: impl FnMut(PackRow) -> Result<()>,
+) -> Result<PackSummary> {
     let memory = a.memory.unwrap_or(a.window / 4);
     // The curve and capacity; the start SOC is per cell (`PackOptions::soc0`).
     let cell = model.map(|model| CellOcv {
@@ -667,8 +692,8 @@ pub fn run_pack(
         updates_per_period: a.updates_per_period.unwrap_or(u16::MAX),
         flag_ratio: a.flag_ratio,
         soc0: a.ocv.soc0,
-        state_in: state_in.as_deref(),
-        save_state: a.state_out.is_some(),
+        state_in: snapshot.state_in,
+        save_state: snapshot.save_state,
     };
     track_pack(rec, &o, sink)
 }

@@ -124,7 +124,10 @@ def online_pack(
     soc: Literal["observer", "coulomb"] = "observer",
     soc_rest_s: Optional[float] = None,
     soc_bias_sigma_a: Optional[float] = None,
-) -> dict[str, Any]:
+    t0: float = 0.0,
+    state_in: Optional[bytes] = None,
+    return_state: bool = False,
+) -> Union[dict[str, Any], tuple[dict[str, Any], bytes]]:
     """A series string's record (``current_a`` one per sample, ``cells_v``
     shape ``(samples, cells)``) through the pack estimator: the columns of
     ``host-sim online pack --out``, one row per sample and cell (cell 1
@@ -133,7 +136,11 @@ def online_pack(
     and ``capacity_ah``, each cell's SOC and state of power
     (``sop_discharge_a_{H}s``…) and the string's (``pack_sop_*``,
     ``pack_pulse_v_*``: the weakest cell's currents, the sum of the pulse
-    voltages)."""
+    voltages). ``state_in`` (a snapshot's bytes, the CLI's ``--state-in``)
+    starts every cell from it and adds ``restoration``; a rejected one
+    raises ``ValueError``. ``return_state=True`` returns ``(track,
+    snapshot)``, the CLI's ``--state-out`` bytes. ``t0`` is the first
+    sample's time (s), the snapshot's clock."""
 
 class OnlineCell:
     """The online estimator of one cell (``host-sim online battery``): a

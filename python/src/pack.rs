@@ -5,12 +5,15 @@
 
 use fracbms_host::ocv::OcvOptions;
 use fracbms_host::online::soc::SocOptions;
-use fracbms_host::pack::{pack_track_header, run_pack, OnlinePack, PackField, PackRecord};
+use fracbms_host::online::state::StateIn;
+use fracbms_host::pack::{
+    pack_track_header, run_pack_with, OnlinePack, PackField, PackRecord, Snapshots,
+};
 use fracbms_host::worker::on_worker;
 use numpy::{AllowTypeChange, PyArray1, PyArrayLike2};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
-use pyo3::types::{PyDict, PyList};
+use pyo3::types::{PyBytes, PyDict, PyList, PyTuple};
 
 use crate::{choice, ocv_spec, power_options, vec, Floats};
 
@@ -25,6 +28,15 @@ use crate::{choice, ocv_spec, power_options, vec, Floats};
 /// and the string its state of power. `soc0` sets every cell's start SOC
 /// (default: each cell's read from its own first rested voltages).
 ///
+/// Snapshots (docs/persistence.md): `state_in` (bytes: the CLI's
+/// `--state-in` file, or an earlier call's) starts every cell from it and
+/// adds the column `restoration`; a snapshot the core rejects raises
+/// `ValueError` naming why. With `return_state=True` the call returns
+/// `(track, snapshot)`, the snapshot after the last sample as the CLI's
+/// `--state-out` writes it. `t0` is the first sample's time (s; the
+/// samples are at `t0 + k·h`): the snapshot's clock, as the record's
+/// `time_s` is the CLI's.
+///
 /// Returns a dict of the track's columns ([`pack_track_header`]), one row
 /// per sample and cell (cell 1 first): numbers as float arrays (NaN where
 /// the CSV is empty), `time_s` float, `cell` int, `rejected` and
@@ -36,7 +48,8 @@ use crate::{choice, ocv_spec, power_options, vec, Floats};
     updates_per_period = None, flag_ratio = 0.3, precision = "f64", start = "from-data",
     tail = false, ocv = None, capacity_ah = None, soc0 = None, horizons = vec![10.0, 30.0],
     voltage_min = None, voltage_max = None, current_limit = None, pulse_current_a = None,
-    sop_carry_s = None, soc = "observer", soc_rest_s = None, soc_bias_sigma_a = None
+    sop_carry_s = None, soc = "observer", soc_rest_s = None, soc_bias_sigma_a = None,
+    t0 = 0.0, state_in = None, return_state = false
 ))]
 #[allow(clippy::too_many_arguments)]
 pub fn online_pack<'py>(
@@ -64,11 +77,17 @@ pub fn online_pack<'py>(
     soc: &str,
     soc_rest_s: Option<f64>,
     soc_bias_sigma_a: Option<f64>,
-) -> PyResult<Bound<'py, PyDict>> {
+    t0: f64,
+    state_in: Option<Vec<u8>>,
+    return_state: bool,
+) -> PyResult<Bound<'py, PyAny>> {
     if !(h.is_finite() && h > 0.0) {
         return Err(PyValueError::new_err(format!(
             "h={h}: must be finite and positive"
         )));
+    }
+    if !t0.is_finite() {
+        return Err(PyValueError::new_err(format!("t0={t0}: must be finite")));
     }
     let current = vec(&current_a);
     let v = cells_v.as_array();
@@ -80,7 +99,7 @@ pub fn online_pack<'py>(
         )));
     }
     let rec = PackRecord {
-        time: (0..samples).map(|k| k as f64 * h).collect(),
+        time: (0..samples).map(|k| t0 + k as f64 * h).collect(),
         current,
         cells: (0..cells).map(|c| v.column(c).to_vec()).collect(),
         h,
@@ -117,15 +136,24 @@ pub fn online_pack<'py>(
         state_out: None,
     };
     let n = power.horizons().len();
-    let rows = py
+    let restoring = state_in.is_some();
+    let snapshots = Snapshots {
+        state_in: state_in.as_deref(),
+        save_state: return_state,
+    };
+    let (rows, summary) = py
         .detach(|| {
             on_worker(|| {
                 let mut rows = Vec::with_capacity(samples * cells);
-                run_pack(&rec, &a, spec.map(|s| s.model), |r| {
-                    rows.push(r.fields(n));
+                run_pack_with(&rec, &a, spec.map(|s| s.model), snapshots, |r| {
+                    let mut fields = r.fields(n);
+                    if restoring {
+                        fields.push(PackField::Text(r.restoration.as_str()));
+                    }
+                    rows.push(fields);
                     Ok(())
                 })
-                .map(|_| rows)
+                .map(|summary| (rows, summary))
             })
         })
         .map_err(|e| {
@@ -139,7 +167,24 @@ pub fn online_pack<'py>(
                     .replace("--flag-ratio ", "flag_ratio="),
             )
         })?;
-    columns(py, &pack_track_header(&power), &rows)
+    if let Some(StateIn::Rejected(e)) = summary.state_in {
+        return Err(PyValueError::new_err(format!(
+            "state_in: snapshot rejected: {e}"
+        )));
+    }
+    let mut header = pack_track_header(&power);
+    if restoring {
+        header.push_str(",restoration");
+    }
+    let track = columns(py, &header, &rows)?;
+    match summary.state_out.filter(|_| return_state) {
+        Some(bytes) => Ok(PyTuple::new(
+            py,
+            [track.into_any(), PyBytes::new(py, &bytes).into_any()],
+        )?
+        .into_any()),
+        None => Ok(track.into_any()),
+    }
 }
 
 /// The rows as a dict of columns named by `header`.

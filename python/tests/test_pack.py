@@ -81,3 +81,44 @@ def test_online_pack_refuses_bad_arguments_with_the_keywords():
                             capacity_ah=2.5, soc0=1.5)
     with pytest.raises(ValueError, match="window="):
         fracbms.online_pack(i, np.full((10, 2), 3.7), window=100)
+
+
+def test_online_pack_snapshots_are_the_clis(host_sim, string, tmp_path):
+    """``return_state`` gives the CLI's ``--state-out`` bytes for the same
+    first half; ``state_in`` resumes the second half as the CLI's
+    ``--state-in`` does (the same track with its ``restoration`` column);
+    a corrupt snapshot raises."""
+    rec = read_csv(string)
+    cut = 600
+    lines = string.read_text().splitlines()
+    first, second = tmp_path / "first.csv", tmp_path / "second.csv"
+    first.write_text("\n".join(lines[: cut + 1]) + "\n")
+    second.write_text("\n".join([lines[0]] + lines[cut + 1:]) + "\n")
+    ocv = read_csv(OCV)
+    flags = ["--ocv", OCV, "--capacity-ah", "2.5", "--soc0", "0.7", "--tail"]
+    kw = dict(ocv=(ocv["soc"], ocv["ocv_v"]), capacity_ah=2.5, soc0=0.7, tail=True)
+    state = tmp_path / "state.bin"
+    host_sim("online", "pack", "--input", first, *flags, "--out", tmp_path / "a.csv",
+             "--state-out", state)
+    cells = np.column_stack([rec[f"cell_{k}_v"] for k in range(1, 5)])
+    h = float(rec["time_s"][1] - rec["time_s"][0])
+    track, snapshot = fracbms.online_pack(rec["current_a"][:cut], cells[:cut], h=h,
+                                          t0=float(rec["time_s"][0]), return_state=True, **kw)
+    assert snapshot == state.read_bytes()
+    assert len(snapshot) == 20 + 4 * 124 + 4
+    assert "restoration" not in track
+
+    out = tmp_path / "b.csv"
+    host_sim("online", "pack", "--input", second, *flags, "--out", out, "--state-in", state)
+    cli = read_csv(out)
+    py = fracbms.online_pack(rec["current_a"][cut:], cells[cut:], h=h,
+                             t0=float(rec["time_s"][cut]), state_in=snapshot, **kw)
+    assert list(py) == list(cli) and list(py)[-1] == "restoration"
+    assert set(py["restoration"]) == {"restored"}
+    for name in ("r_i", "r_ct", "soc", "sop_discharge_a_10s", "pack_sop_discharge_a_10s"):
+        assert [cli_text(x) for x in py[name]] == [cli_text(x) for x in cli[name]], name
+    assert py["r_i_status"][0] == "restored"
+
+    bad = snapshot[:30] + bytes([snapshot[30] ^ 1]) + snapshot[31:]
+    with pytest.raises(ValueError, match="state_in: snapshot rejected: snapshot CRC mismatch"):
+        fracbms.online_pack(rec["current_a"][cut:], cells[cut:], h=h, state_in=bad, **kw)
