@@ -11,7 +11,7 @@ use crate::io::{self, OCV_POINTS};
 use crate::ocv::{CellOcv, OcvOptions};
 use crate::online::power::{PowerOptions, PowerRow, ResolvedPower, MAX_HORIZONS};
 use crate::online::soc::{SocMode, SocOptions, SocRow, SOC_HEADER};
-use crate::online::state::{read_state, record_clock, write_state, StateIn};
+use crate::online::state::{read_state, record_clock, saved, write_state, StateIn};
 use crate::online::Precision;
 use crate::online::TrackOptions;
 use crate::presets;
@@ -546,12 +546,8 @@ fn run<T: Real, const N: usize>(
         iterations,
         state_in,
         state_out: states.save_state.then(|| {
-            let mut buf = vec![0; pack.snapshot_size()];
             let at = rec.time.last().and_then(|t| record_clock(*t));
-            // The buffer is the snapshot's size: saving cannot fail.
-            let n = pack.save(&s.cell, at, &mut buf).unwrap_or(0);
-            buf.truncate(n);
-            buf
+            saved(pack.snapshot_size(), |buf| pack.save(&s.cell, at, buf))
         }),
     })
 }

@@ -375,11 +375,9 @@ impl<T: Real + Send + Sync, const N: usize> Step for Sized<T, N> {
     }
 
     fn save(&self, saved_at_s: Option<u32>) -> Vec<u8> {
-        let mut buf = vec![0; self.est.snapshot_size()];
-        // The buffer is the snapshot's size: saving cannot fail.
-        let n = self.est.save(&self.s, saved_at_s, &mut buf).unwrap_or(0);
-        buf.truncate(n);
-        buf
+        state::saved(self.est.snapshot_size(), |buf| {
+            self.est.save(&self.s, saved_at_s, buf)
+        })
     }
 
     fn restore(

@@ -22,6 +22,20 @@ pub fn record_clock(t: f64) -> Option<u32> {
     (t.is_finite() && t >= 0.0 && t < f64::from(u32::MAX)).then(|| t.floor() as u32)
 }
 
+/// A snapshot saved into a buffer of its own `size` by `save` (a
+/// [`estimator_core::battery::pack::PackEstimator::save`] or a cell's):
+/// the buffer is the snapshot's size, so saving cannot fail (an empty
+/// vector if it did).
+pub(crate) fn saved<E>(
+    size: usize,
+    save: impl FnOnce(&mut [u8]) -> std::result::Result<usize, E>,
+) -> Vec<u8> {
+    let mut buf = vec![0; size];
+    let n = save(&mut buf).unwrap_or(0);
+    buf.truncate(n);
+    buf
+}
+
 /// How a `--state-in` snapshot was taken.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum StateIn {
