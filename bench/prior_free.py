@@ -132,6 +132,14 @@ def relaxation(rec, lsoc, lv):
                                                     lv["r_i"][k] + lv["r_ct"][k]))
     print(rec, "| relaxation over each rest after a discharge, Ohm (model-free vs the level's R_i + R_ct):",
           "; ".join(out))
+    # Steps from rest: the next sample's further change against the step
+    # (the record's true voltage, at its own 1 s period).
+    vt = np.array([float(r["voltage_true_v"]) for r in rows])
+    k = np.where((np.abs(np.diff(i)) > 0.5) & (np.abs(i[:-1]) < 1e-6))[0]
+    k = k[(k + 2 < len(i))]
+    k = k[np.abs(i[k + 2] - i[k + 1]) < 0.1 * np.abs(i[k + 1])]
+    nxt = (vt[k + 2] - vt[k + 1]) / (vt[k + 1] - vt[k])
+    print(rec, f"| {len(k)} steps from rest: the next sample adds {100 * nxt.min():.1f}..{100 * nxt.max():.1f} % of the step")
 
 
 def pulse_steps(after_s=None):
@@ -179,6 +187,23 @@ def panasonic(hs, out):
     near_h = np.array([rh[np.argmin(np.abs(th - x))] for x in tr["time_s"]])
     print("panasonic: step resistances over the record's period %g s: %.1f..%.1f mOhm" % (h, rh.min() * 1e3, rh.max() * 1e3))
     print("panasonic |", judge(f"R_i vs the nearest step ({h:g} s)", tr["r_i"][after], near_h[after]))
+    # Can data at this period tell a step that holds a fast process? The
+    # voltage's further change over the next period, against the step:
+    # a branch still answering would show there.
+    # (Pulses whose current holds for two periods: some end early at the
+    # voltage limit.)
+    _, r2h = pulse_steps(2 * h)
+    import scipy.io as sio
+    meas = sio.loadmat(PANASONIC)["meas"][0, 0]
+    t_raw, i_raw = meas["Time"].ravel(), meas["Current"].ravel()
+    held = np.abs(np.interp(th + 2 * h - 0.1, t_raw, i_raw) - np.interp(th + 0.05, t_raw, i_raw)) \
+        < 0.1 * np.abs(np.interp(th + 0.05, t_raw, i_raw))
+    nxt = (r2h - rh) / rh
+    blunt = rh / rs
+    for name, sel in (("the step over the period > 2x the 0.1 s step", held & (blunt > 2)),
+                      ("<= 1.5x", held & (blunt <= 1.5))):
+        print(f"panasonic | pulses where {name}: {sel.sum()}, the next period adds"
+              f" {100 * nxt[sel].min():.0f}..{100 * nxt[sel].max():.0f} % of the step")
     soc_ref = np.array([lrct[np.argmin(np.abs(lsoc - z))] if np.isfinite(z) else np.nan for z in tr["soc"]])
     ri_ref = np.array([lri[np.argmin(np.abs(lsoc - z))] if np.isfinite(z) else np.nan for z in tr["soc"]])
     print("panasonic |", judge("R_ct vs the per-SOC map", tr["r_ct"][after], soc_ref[after]))
