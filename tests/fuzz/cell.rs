@@ -230,6 +230,29 @@ pub fn settings<T: Real, const MEM: usize>(rng: &mut Rng, clean: bool) -> (Setti
         None
     };
     let mut s = s.with_curve(curve);
+    if rng.random_bool(0.3) {
+        // The SOC observer's settings (checked by `SocSettings::check`;
+        // its spreads may be far beyond any information).
+        let o = &mut s.soc;
+        let f = |x: T| Real::to_f64(x);
+        o.rest_s = lit(nasty_or!(rng, pm, pick(rng, &[600.0, 60.0, 0.0, 1e6])));
+        o.voltage_sigma_v = lit(nasty_or!(rng, pm, pick(rng, &[0.005, 0.0, 1.0])));
+        o.table_sigma_soc = lit(nasty_or!(rng, pm, pick(rng, &[0.01, 0.0, 10.0])));
+        o.soc0_sigma = lit(nasty_or!(rng, pm, pick(rng, &[0.1, 0.0, 1e20])));
+        o.bias_sigma_a = lit(nasty_or!(
+            rng,
+            pm,
+            pick(rng, &[f(o.bias_sigma_a), 0.0, 1e20])
+        ));
+        o.bias_walk_a = lit(nasty_or!(
+            rng,
+            pm,
+            pick(rng, &[f(o.bias_walk_a), 0.0, 1e20])
+        ));
+        o.capacity_sigma = lit(nasty_or!(rng, pm, pick(rng, &[0.15, 0.0, 1e20])));
+        o.gap_soc_sigma = lit(nasty_or!(rng, pm, pick(rng, &[0.5, 0.0, 1e30])));
+        o.min_slope = lit(nasty_or!(rng, pm, pick(rng, &[1e-3, 1e-9, 1e3])));
+    }
     if let Some(m) = &s.ocv {
         // Known issue (tests/tests/fuzz.rs,
         // `an_overflowing_coulomb_count_keeps_the_window_finite`): a
@@ -286,7 +309,8 @@ pub fn expect_new<T: Real, const MEM: usize>(s: &Settings<T>) -> Expect {
         && pos(s.spike_floor)
         && s.max_ocv_offset > T::zero()
         && s.max_relaxation_windows > T::zero()
-        && s.ocv.is_none_or(|m| pos(m.capacity_ah));
+        && s.ocv.is_none_or(|m| pos(m.capacity_ah))
+        && soc_documented(&s.soc);
     if !documented {
         Expect::Err
     } else if pos(s.spike_sigmas) && pos(s.max_ocv_offset) && pos(s.max_relaxation_windows) {
@@ -294,6 +318,36 @@ pub fn expect_new<T: Real, const MEM: usize>(s: &Settings<T>) -> Expect {
     } else {
         Expect::Either
     }
+}
+
+/// [`SocSettings::check`]'s documentation: every setting finite and not
+/// negative, the capacity, the period and the smallest slope positive,
+/// the capacity's square finite.
+///
+/// [`SocSettings::check`]: estimator_core::battery::soc::SocSettings::check
+fn soc_documented<T: Real>(o: &estimator_core::battery::soc::SocSettings<T>) -> bool {
+    let all = [
+        o.capacity_ah,
+        o.h,
+        o.rest_current_a,
+        o.rest_s,
+        o.rest_max_s,
+        o.voltage_sigma_v,
+        o.unrelaxed_sigma_v,
+        o.table_sigma_soc,
+        o.soc0_sigma,
+        o.bias_sigma_a,
+        o.bias_walk_a,
+        o.capacity_sigma,
+        o.capacity_identify,
+        o.gap_soc_sigma,
+        o.min_slope,
+    ];
+    all.iter().all(|x| x.is_finite() && *x >= T::zero())
+        && [o.capacity_ah, o.h, o.min_slope]
+            .iter()
+            .all(|x| *x > T::zero())
+        && (o.capacity_ah * o.capacity_ah).is_finite()
 }
 
 /// Checks a constructor's result against [`Expect`].
@@ -587,6 +641,23 @@ pub fn check_cell<T: Real, const N: usize>(
     }
     if st.rmse().is_nan() || st.rmse() < T::zero() {
         return Err(format!("rmse {:?}", st.rmse()));
+    }
+    // The published state of charge: finite, with a spread that is a
+    // spread (at most 1: knowing nothing), under settings its check
+    // passes (settings changed under the estimator may not).
+    if let Some(e) = st.soc_estimate(s).filter(|_| soc_documented(&s.soc)) {
+        let spread = |x: T| x.is_finite() && x >= T::zero();
+        if !(e.soc.is_finite()
+            && spread(e.sigma)
+            && e.sigma <= T::one()
+            && spread(e.capacity_sigma_ah)
+            && e.current_bias_a.is_finite()
+            && e.capacity_ah.is_finite())
+        {
+            return Err(format!(
+                "published SOC estimate not finite or its spread not one: {e:?}"
+            ));
+        }
     }
     Ok(())
 }

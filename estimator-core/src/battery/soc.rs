@@ -138,7 +138,9 @@ impl<T: Real> SocSettings<T> {
     }
 
     /// Checks the settings: every one finite, the capacity, the period and
-    /// the smallest slope positive, the rest not negative.
+    /// the smallest slope positive, the rest not negative, and the
+    /// capacity's square finite (the bias's variance is capped at it, and
+    /// the capacity estimate is up to five times the nominal).
     ///
     /// # Errors
     /// [`Error::BadSetting`] otherwise.
@@ -163,6 +165,7 @@ impl<T: Real> SocSettings<T> {
         let positive = [self.capacity_ah, self.h, self.min_slope];
         if all.iter().all(|x| x.is_finite() && *x >= T::ZERO)
             && positive.iter().all(|x| *x > T::ZERO)
+            && (self.capacity_ah * self.capacity_ah).is_finite()
         {
             Ok(())
         } else {
@@ -500,7 +503,13 @@ impl<T: Real> SocObserver<T> {
         let Some(x) = &mut self.x else { return };
         let k = s.h / (T::lit(3600.0) * s.capacity_ah);
         let [z, b, g] = *x;
-        x[0] = z + g * (current - b) * k;
+        // A count that would leave the finite numbers (a current far
+        // beyond the capacity's scale, sample after sample) stops where
+        // it is: the estimate stays the last finite one.
+        let counted = z + g * (current - b) * k;
+        if counted.is_finite() {
+            x[0] = counted;
+        }
         // F = [[1, −g·k, (I − b)·k], [0, 1, 0], [0, 0, 1]]
         let (fb, fg) = (-g * k, (current - b) * k);
         let [p00, p01, p02, p11, p12, p22] = self.p;
@@ -557,8 +566,10 @@ impl<T: Real> SocObserver<T> {
         for (xi, ki) in x.iter_mut().zip(gain) {
             *xi = *xi + ki * innovation;
         }
-        // Keep the capacity positive: g within (0.2, 5).
+        // Keep the capacity positive: g within (0.2, 5); and the bias
+        // within 1C (what its spread is capped at, `variance_caps`).
         x[2] = x[2].max(T::lit(0.2)).min(T::lit(5.0));
+        x[1] = x[1].max(-s.capacity_ah).min(s.capacity_ah);
         // P − K·P[0,:]
         self.p = [
             p00 - gain[0] * p00,
@@ -769,6 +780,10 @@ mod tests {
             },
             SocSettings {
                 table_sigma_soc: -0.01,
+                ..base
+            },
+            SocSettings {
+                capacity_ah: 1e20,
                 ..base
             },
         ] {
