@@ -20,6 +20,7 @@ pub mod csv;
 pub mod gen;
 pub mod hammerstein;
 pub mod pack;
+pub mod settings;
 pub mod snapshot;
 
 use rand::SeedableRng;

@@ -1,0 +1,229 @@
+//! The observer's unit tests.
+
+use super::*;
+
+fn table() -> OcvTable<f64, 5> {
+    OcvTable::new(&[0.0, 0.25, 0.5, 0.75, 1.0], &[3.0, 3.5, 3.7, 3.9, 4.2]).unwrap()
+}
+
+#[test]
+fn at_rest_an_uncertain_start_is_read_after_five_minutes_and_only_once() {
+    let s = SocSettings {
+        soc0_sigma: 0.3,
+        ..SocSettings::new(5.0, 1.0)
+    };
+    let t = table();
+    let mut o = SocObserver::new(&s, Some(0.3));
+    let v = t.ocv(0.6);
+    for _ in 0..299 {
+        let e = o.push(&s, &t, 0.0, v).unwrap();
+        assert_eq!(e.observations, 0, "the first five minutes are not read");
+    }
+    let e = o.push(&s, &t, 0.0, v).unwrap();
+    // Weighed against the start's spread: most of the way.
+    assert!(e.ocv_weight > 0.85 && (e.soc - 0.6).abs() < 0.04, "{e:?}");
+    assert_eq!(e.observations, 1);
+    for _ in 0..300 {
+        let e = o.push(&s, &t, 0.0, v + 0.01).unwrap();
+        assert_eq!(e.observations, 1, "a known SOC waits for the rest's end");
+    }
+}
+
+/// Rests of 15 min between `steps` of 10 min at the given currents,
+/// the sensor reading `bias` high: the observer's last estimate, the
+/// true SOC and the plain count's.
+fn cycle(steps: &[f64], rounds: usize, bias: f64) -> (SocEstimate<f64>, f64, f64) {
+    let s = SocSettings::new(5.0, 1.0);
+    let t = table();
+    let mut o = SocObserver::new(&s, Some(0.9));
+    let (mut soc, mut counted, mut last) = (0.9, 0.9, None);
+    for _ in 0..rounds {
+        for &i in steps {
+            for (n, i) in [(900, 0.0), (600, i)] {
+                for _ in 0..n {
+                    soc += i / 3600.0 / 5.0;
+                    counted += (i + bias) / 3600.0 / 5.0;
+                    last = o.push(&s, &t, i + bias, t.ocv(soc));
+                }
+            }
+        }
+    }
+    (last.unwrap(), soc, counted)
+}
+
+#[test]
+fn the_rests_correct_a_drifting_count() {
+    // 1 C discharges, a sensor 1 % of 1 C high: the count drifts by
+    // 0.4 % of SOC per round; the rests take it out. Bias and capacity
+    // are not told apart by discharges alone (both scale the count).
+    let (e, soc, counted) = cycle(&[-5.0], 4, 0.05);
+    assert!(e.observations >= 4, "{e:?}");
+    assert!((counted - soc).abs() > 0.015, "{counted} vs {soc}");
+    assert!((e.soc - soc).abs() < 0.004, "{} vs {soc}", e.soc);
+    // Not the capacity: it is published as the nominal one.
+    assert!(!e.capacity_identified && e.capacity_ah == 5.0, "{e:?}");
+}
+
+#[test]
+fn charge_and_discharge_tell_the_bias_from_the_capacity() {
+    let (e, soc, counted) = cycle(&[-5.0, 5.0], 4, 0.05);
+    assert!((counted - soc).abs() > 0.03, "{counted} vs {soc}");
+    assert!((e.soc - soc).abs() < 0.004, "{} vs {soc}", e.soc);
+    assert!((e.current_bias_a - 0.05).abs() < 0.01, "{e:?}");
+    assert!((e.capacity_ah - 5.0).abs() < 0.25, "{e:?}");
+    // SOC swings of 0.17 do not pin the capacity to 2 %: the nominal
+    // one is published, and said to be.
+    assert!(!e.capacity_identified, "{e:?}");
+}
+
+#[test]
+fn a_flat_curve_weighs_the_observation_little() {
+    // A start known to 0.05: not read at once.
+    let s = SocSettings {
+        soc0_sigma: 0.05,
+        ..SocSettings::new(5.0, 1.0)
+    };
+    let flat = OcvTable::<f64, 5>::new(
+        &[0.0, 0.25, 0.5, 0.75, 1.0],
+        &[3.3, 3.3005, 3.301, 3.3015, 3.302],
+    )
+    .unwrap();
+    let steep = table();
+    let run = |t: &OcvTable<f64, 5>| {
+        let mut o = SocObserver::new(&s, Some(0.5));
+        // A 15-minute rest.
+        let mut e = None;
+        for _ in 0..900 {
+            e = o.push(&s, t, 0.0, t.ocv(0.55));
+        }
+        o.push(&s, t, -1.0, t.ocv(0.55)).or(e).unwrap()
+    };
+    let (f, st) = (run(&flat), run(&steep));
+    assert!(f.ocv_weight < 0.05, "{f:?}");
+    assert!(st.ocv_weight > 0.9, "{st:?}");
+    assert!((st.soc - 0.55).abs() < 0.005);
+}
+
+#[test]
+fn bad_samples_neither_count_nor_observe() {
+    let s = SocSettings::new(5.0, 1.0);
+    let t = table();
+    let mut o = SocObserver::new(&s, None);
+    assert!(o.push(&s, &t, 0.0, f64::NAN).is_none());
+    let e = o.push(&s, &t, f64::NAN, t.ocv(0.4)).unwrap();
+    assert!((e.soc - 0.4).abs() < 1e-9);
+    let e = o.push(&s, &t, f64::INFINITY, f64::NAN).unwrap();
+    assert!(e.soc.is_finite() && (e.soc - 0.4).abs() < 1e-9);
+}
+
+#[test]
+fn after_a_gap_the_soc_is_read_again_after_five_minutes_of_rest() {
+    let s = SocSettings::new(5.0, 1.0);
+    let t = table();
+    let mut o = SocObserver::new(&s, Some(0.8));
+    o.push(&s, &t, -5.0, t.ocv(0.8));
+    o.resume_after_gap();
+    let mut e = None;
+    for _ in 0..300 {
+        e = o.push(&s, &t, 0.0, t.ocv(0.45));
+    }
+    let e = e.unwrap();
+    assert!((e.soc - 0.45).abs() < 0.01, "{e:?}");
+}
+
+#[test]
+fn settings_that_are_not_finite_or_out_of_range_are_refused() {
+    let base = SocSettings::<f32>::new(5.0, 1.0);
+    assert_eq!(base.check(), Ok(()));
+    for bad in [
+        SocSettings {
+            capacity_ah: 0.0,
+            ..base
+        },
+        SocSettings { h: -1.0, ..base },
+        SocSettings {
+            min_slope: 0.0,
+            ..base
+        },
+        SocSettings {
+            bias_sigma_a: f32::INFINITY,
+            ..base
+        },
+        SocSettings {
+            soc0_sigma: f32::NAN,
+            ..base
+        },
+        SocSettings {
+            table_sigma_soc: -0.01,
+            ..base
+        },
+        SocSettings {
+            capacity_ah: 1e20,
+            ..base
+        },
+    ] {
+        assert_eq!(bad.check(), Err(Error::BadSetting), "{bad:?}");
+    }
+}
+
+/// Spreads far beyond what any data could mean, in `f32`: the
+/// covariance overflowed (NaN), the published SOC claimed a spread of
+/// 0 or ∞ and no rest was observed again. Now each variance stops at
+/// knowing nothing: every estimate's spread is finite and at most 1,
+/// and every 15-minute rest is observed (before: none).
+#[test]
+fn spreads_beyond_any_information_stop_at_knowing_nothing() {
+    let t: OcvTable<f32, 5> =
+        OcvTable::new(&[0.0, 0.25, 0.5, 0.75, 1.0], &[3.0, 3.5, 3.7, 3.9, 4.2]).unwrap();
+    let base = SocSettings::<f32>::new(5.0, 1.0);
+    for s in [
+        SocSettings {
+            bias_sigma_a: 1e20,
+            ..base
+        },
+        SocSettings {
+            capacity_sigma: 1e20,
+            ..base
+        },
+        SocSettings {
+            bias_walk_a: 1e20,
+            ..base
+        },
+        SocSettings {
+            soc0_sigma: 1e20,
+            ..base
+        },
+        SocSettings {
+            gap_soc_sigma: 1e30,
+            ..base
+        },
+    ] {
+        assert_eq!(s.check(), Ok(()));
+        let mut o = SocObserver::new(&s, Some(0.9));
+        let mut soc = 0.9f32;
+        let mut last = None;
+        for round in 0..6 {
+            let i = if round % 2 == 0 { -5.0 } else { 5.0 };
+            if round == 3 {
+                o.resume_after_gap();
+            }
+            for (n, i) in [(900, 0.0f32), (600, i)] {
+                for _ in 0..n {
+                    soc += i / 3600.0 / 5.0;
+                    let e = o.push(&s, &t, i + 0.05, t.ocv(soc)).unwrap();
+                    assert!(e.sigma.is_finite() && e.sigma <= 1.0, "{s:?}: {e:?}");
+                    assert!(
+                        e.soc.is_finite() && e.capacity_sigma_ah.is_finite(),
+                        "{s:?}: {e:?}"
+                    );
+                    last = Some(e);
+                }
+            }
+        }
+        let e = last.unwrap();
+        // Each rest observed (an uncertain SOC also early, at half a
+        // rest).
+        assert!(e.observations >= 6, "{s:?}: {e:?}");
+        assert!((e.soc - soc).abs() < 0.02, "{s:?}: {e:?} vs {soc}");
+    }
+}
