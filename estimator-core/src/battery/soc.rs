@@ -34,10 +34,12 @@
 //! Without a start SOC the first finite voltage is read as the OCV.
 //!
 //! **Settings and spreads.** [`SocSettings::check`] refuses a setting that
-//! is not finite (the estimators call it). Each variance stops at what
-//! knowing nothing means (the SOC within `±1`, the bias within 1C, the
-//! capacity within a factor 5): a wider spread says no more, and in `f32`
-//! the count's products of it overflowed.
+//! is not finite or out of range (the estimators call it). Each variance
+//! stops at what knowing nothing means (the SOC within `±1`, the bias
+//! within 1C, the capacity within a factor 5): a wider spread says no
+//! more, and in `f32` the count's products of it overflowed. The bias
+//! itself stays within 1C, and a count that would leave the finite numbers
+//! stops where it is (docs/fuzzing.md).
 //!
 //! Sign convention: current positive when charging (as [`super::ocv`]).
 //! This module owns the published SOC, the bias and the capacity; it must
