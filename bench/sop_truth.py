@@ -13,7 +13,11 @@ the HPPC records, the HPPC record's whole-record fit (`identify battery
 2.9 V (Prada2013), `--current-limit` 5C.
 
     cargo build --release -p host-sim
-    python3 bench/sop_truth.py [--window 256] [--host-sim target/release/host-sim]
+    python3 bench/sop_truth.py [--window 256] [--model linear|butler-volmer]
+        [--host-sim target/release/host-sim]
+
+`--model butler-volmer` runs `online battery --model butler-volmer`, and the
+drive cycles' prior is the HPPC record's Butler-Volmer fit.
 """
 
 import argparse
@@ -30,28 +34,29 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--host-sim", default="target/release/host-sim")
     ap.add_argument("--window", default="256")
+    ap.add_argument("--model", default="linear", choices=("linear", "butler-volmer"))
     ap.add_argument("--out", default="target/sop-truth")
     a = ap.parse_args()
     os.makedirs(a.out, exist_ok=True)
     meta = json.load(open("data/pybamm/meta.json"))["records"]
     truth = list(csv.DictReader(open("data/pybamm/sop-truth.csv")))
-    print(f"window {a.window}: 1C pulse, error / drop")
+    print(f"window {a.window}, model {a.model}: 1C pulse, error / drop")
     for rec in RECORDS:
         cap = meta[rec]["capacity_ah"]
         cell = rec.split("-")[0]
         prior = []
         if rec.endswith("-drive"):
-            fit = f"{a.out}/{cell}-hppc-fit.json"
+            fit = f"{a.out}/{cell}-hppc-{a.model}-fit.json"
             subprocess.run([a.host_sim, "identify", "battery", "--input", f"data/pybamm/{cell}-hppc.csv",
                             "--ocv", f"data/pybamm/{cell}-ocv.csv", "--capacity-ah", str(cap),
-                            "--model", "linear", "--json", fit], check=True, capture_output=True)
+                            "--model", a.model, "--json", fit], check=True, capture_output=True)
             prior = ["--prior", fit]
-        path = f"{a.out}/{rec}-{a.window}.csv"
+        path = f"{a.out}/{rec}-{a.window}-{a.model}.csv"
         subprocess.run([a.host_sim, "online", "battery", "--input", f"data/pybamm/{rec}.csv",
                         "--window", a.window, "--ocv", f"data/pybamm/{cell}-ocv.csv",
                         "--capacity-ah", str(cap), "--horizons", "10,30",
                         "--voltage-min", str(VOLTAGE_MIN[cell]), "--current-limit", str(5 * cap),
-                        *prior, "--out", path], check=True, capture_output=True)
+                        "--model", a.model, *prior, "--out", path], check=True, capture_output=True)
         track = list(csv.DictReader(open(path)))
         data = list(csv.DictReader(open(f"data/pybamm/{rec}.csv")))
         out = []
