@@ -270,6 +270,12 @@ enum FracbmsIdentification
    * again.
    */
   FRACBMS_IDENTIFICATION_RESTORED = 5,
+  /**
+   * A prior is set and the last window's data alone do not identify
+   * it: the window's estimate, which the prior holds where the data say
+   * nothing.
+   */
+  FRACBMS_IDENTIFICATION_PRIOR = 6,
 };
 #ifndef __cplusplus
 #if __STDC_VERSION__ >= 202311L

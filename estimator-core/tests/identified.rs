@@ -7,9 +7,10 @@ use common::nmc_table;
 
 use estimator_core::battery::ocv::OcvModel;
 use estimator_core::battery::online::{CellEstimator, Identification, OnlineSettings};
+use estimator_core::battery::output_error::{FitInformation, COLUMNS};
 use estimator_core::battery::profile::{ocv_nmc, Profile};
 use estimator_core::battery::simulate::simulate;
-use estimator_core::battery::CellParameters;
+use estimator_core::battery::{CellParameters, Prior};
 use estimator_core::frac::GlWeights;
 use rand::SeedableRng;
 use rand_distr::{Distribution, Normal};
@@ -235,4 +236,68 @@ fn a_step_whose_voltage_does_not_move_is_no_step_resistance() {
     est.push(&s, -3.0, 3.7 - 0.06);
     let st = est.cell_state().step_resistance().unwrap();
     assert!((st.ohm - 0.02).abs() < 1e-9, "{st:?}");
+}
+
+#[test]
+fn a_prior_does_not_stand_for_the_data() {
+    // Data that identify every parameter: with a prior at the truth each
+    // is `identified`, by the data, as often as without it. Where the data
+    // alone do not, `prior` (tests/tests/pybamm.rs, the DFN drive cycles
+    // with the HPPC fit as prior).
+    let truth = CellParameters::<f64>::cell_18650();
+    let i: Vec<f64> = (0..1200)
+        .map(|l| Profile::Pulse.current(l as f64, 6.0))
+        .collect();
+    let v = record(&truth, &i, 0.001, 1);
+    let mut s = OnlineSettings::new(1.0, 64, truth);
+    s.battery.prior = Some(Prior::new(truth));
+    let mut est = Box::new(CellEstimator::<f64, 256, 64>::new(&s).unwrap());
+    let mut n = [0usize; 4];
+    for l in 0..1200 {
+        est.push(&s, i[l], v[l]);
+        for (k, (_, x)) in est.published().named().into_iter().enumerate() {
+            n[k] += usize::from(x.status == Identification::Identified);
+        }
+    }
+    // Without the prior: 930 samples each (the first fits come later).
+    for (k, (name, x)) in est.published().named().into_iter().enumerate() {
+        assert_eq!(x.status, Identification::Identified, "{name}");
+        assert!(n[k] >= 930, "{name}: {n:?}");
+    }
+}
+
+#[test]
+fn the_information_without_the_prior_is_the_datas() {
+    // One parameter the data pin (column 0) and one they hardly see
+    // (column 1): with a prior's weight on both, both intervals are
+    // narrow; without it, only the first.
+    let mut jtj = [[0.0f64; COLUMNS]; COLUMNS];
+    for (k, row) in jtj.iter_mut().enumerate() {
+        row[k] = 1.0;
+    }
+    jtj[0][0] = 1.0e4;
+    jtj[1][1] = 1.0e-6;
+    let mut prior = [0.0; COLUMNS];
+    prior[0] = 100.0;
+    prior[1] = 100.0;
+    jtj[0][0] += prior[0];
+    jtj[1][1] += prior[1];
+    let info = FitInformation {
+        jtj,
+        cost: 0.5,
+        rows: 101,
+        fitted: [true, true, false, false, false, false, false, false],
+        lag1: 0.0,
+        prior,
+    };
+    assert!(info.has_prior());
+    let with = info.standard_errors();
+    let data = info.without_prior();
+    assert!(!data.has_prior());
+    let alone = data.standard_errors();
+    // Residual variance 2·0.5/(101 − 2) = 1/99.
+    let var = 1.0 / 99.0;
+    assert!((with[1].unwrap() - (var / 100.000001f64).sqrt()).abs() < 1e-9);
+    assert!((alone[0].unwrap() - (var / 1.0e4f64).sqrt()).abs() < 1e-12);
+    assert!((alone[1].unwrap() - (var / 1.0e-6f64).sqrt()).abs() < 1e-6);
 }

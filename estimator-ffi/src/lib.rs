@@ -504,6 +504,7 @@ pub extern "C" fn fracbms_identification_name(status: i32) -> *const c_char {
         Some(Identification::Step) => c"step",
         Some(Identification::Expired) => c"expired",
         Some(Identification::Restored) => c"restored",
+        Some(Identification::Prior) => c"prior",
     };
     name.as_ptr()
 }

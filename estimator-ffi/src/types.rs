@@ -614,6 +614,10 @@ pub enum FracbmsIdentification {
     /// what was published before the reset, until a window identifies it
     /// again.
     FRACBMS_IDENTIFICATION_RESTORED = 5,
+    /// A prior is set and the last window's data alone do not identify
+    /// it: the window's estimate, which the prior holds where the data say
+    /// nothing.
+    FRACBMS_IDENTIFICATION_PRIOR = 6,
 }
 
 impl From<Identification> for FracbmsIdentification {
@@ -625,6 +629,7 @@ impl From<Identification> for FracbmsIdentification {
             Identification::Step => Self::FRACBMS_IDENTIFICATION_STEP,
             Identification::Expired => Self::FRACBMS_IDENTIFICATION_EXPIRED,
             Identification::Restored => Self::FRACBMS_IDENTIFICATION_RESTORED,
+            Identification::Prior => Self::FRACBMS_IDENTIFICATION_PRIOR,
         }
     }
 }
@@ -639,6 +644,7 @@ impl FracbmsIdentification {
             Identification::Step,
             Identification::Expired,
             Identification::Restored,
+            Identification::Prior,
         ]
         .into_iter()
         .find(|&s| Self::from(s) as i32 == v)

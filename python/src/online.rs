@@ -127,7 +127,8 @@ const TRACK_NUMBERS: [(&str, Column); 23] = [
 type Text = fn(&TrackRow) -> &'static str;
 
 /// The status columns of a track row (`identified`, `held`, `step`,
-/// `expired` or `not_identified`), as in `online battery --out`.
+/// `prior`, `expired`, `restored` or `not_identified`), as in `online
+/// battery --out`.
 const TRACK_STATUSES: [(&str, Text); 5] = [
     ("r_i_status", |r| r.published.r_i.status.as_str()),
     ("r_ct_status", |r| r.published.r_ct.status.as_str()),
@@ -360,7 +361,7 @@ impl OnlineCell {
     /// Returns None while the window is filling, else a dict: `time_s`
     /// (`k·h`), `r_i`, `r_ct`, `q`, `alpha` (None until the data identify
     /// each; `r_i_status`, `r_ct_status`, `q_status`, `alpha_status` say
-    /// `"identified"`, `"held"`, `"step"` (R_i from the step resistance), `"expired"` or `"not_identified"`), `u_oc` (None until
+    /// `"identified"`, `"held"`, `"step"` (R_i from the step resistance), `"prior"` (a prior holds it, the data alone do not identify it), `"expired"`, `"restored"` or `"not_identified"`), `u_oc` (None until
     /// the first physical estimate), `window_r_i`, `window_r_ct`,
     /// `window_q`, `window_alpha` (that estimate's fit, identified or
     /// not), `step_resistance_ohm`, `status` (`"starting"`, `"tracking"`, or why the
@@ -397,7 +398,7 @@ impl OnlineCell {
     ///
     /// The columns of `host-sim online battery --out`: `time_s`, `r_i`,
     /// `r_ct`, `q`, `alpha` (each published only once the data identify
-    /// it; `r_i_status`… say `identified`, `held`, `step`, `expired` or `not_identified`),
+    /// it; `r_i_status`… say `identified`, `held`, `step`, `prior`, `expired`, `restored` or `not_identified`),
     /// `u_oc`, `status`, `soc`, `ocv_offset_v`, `bv_a_v`, `bv_i0_a`,
     /// `predicted_v`, `step_resistance_ohm`, `window_r_i`, `window_r_ct`,
     /// `window_q`, `window_alpha` (the last good window's fit, identified

@@ -338,6 +338,7 @@ fn status_code(s: Identification) -> u16 {
         Identification::Step => 3,
         Identification::Expired => 4,
         Identification::Restored => 5,
+        Identification::Prior => 6,
     }
 }
 
@@ -349,6 +350,7 @@ fn status_of(code: u16) -> Option<Identification> {
         3 => Identification::Step,
         4 => Identification::Expired,
         5 => Identification::Restored,
+        6 => Identification::Prior,
         _ => return None,
     })
 }

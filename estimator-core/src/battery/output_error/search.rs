@@ -342,7 +342,7 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
         let data_a = a;
         add_prior(s, &p, &mut a, &mut b);
         // (The estimate has the kinetic term whenever the model does.)
-        self.information = Some(self.fit_information(s, a, data0, true));
+        self.information = Some(self.fit_information(s, a, data0, true, prior_diagonal(s)));
         // What the window alone identifies is judged without the evidence.
         self.add_evidence(&p, &mut a, &mut b);
         let mut step = RefinementStep {
@@ -475,6 +475,21 @@ pub(super) fn add_prior<T: Real>(
             }
         }
     }
+}
+
+/// The weights [`add_prior`] adds to the diagonal of `JᵀJ`, by column of
+/// `x` (zero where the prior has no term, and everywhere without one).
+pub(super) fn prior_diagonal<T: Real>(s: &BatterySettings<T>) -> [T; COLUMNS] {
+    let mut d = [T::zero(); COLUMNS];
+    if let Some(pr) = &s.prior {
+        let (w, _) = pr.terms();
+        for (k, on) in pr.active(s).into_iter().enumerate() {
+            if on {
+                d[PRIOR_COLUMNS[k]] = w[k];
+            }
+        }
+    }
+    d
 }
 
 /// Root-mean-square residual of cost `½Σr²` over `rows` samples.

@@ -11,17 +11,24 @@
 //! [`crate::battery::output_error::FitInformation::correlated_standard_errors`])
 //! is within a factor
 //! [`OnlineSettings::identify_factor`] (α within
-//! ±[`OnlineSettings::identify_alpha`]), and, for `R_i`, it is within that
-//! factor of the resistance the last current step showed. Otherwise the
-//! last identified value stays published, marked held, or nothing is
-//! published for it yet.
+//! ±[`OnlineSettings::identify_alpha`]), and, for `R_i`, what the model
+//! answers a current step with at once ([`StepResistance::model_ohm`]:
+//! `R_i` in the linear model) is within that factor of the resistance the
+//! last current step showed. Otherwise the last identified value stays
+//! published, marked held, or nothing is published for it yet.
+//!
+//! With a prior, identified means by the window's data alone
+//! ([`FitInformation::without_prior`]): the prior's weight would otherwise
+//! pass every interval. Where only the interval with the prior passes, the
+//! window's estimate is published as the prior's
+//! ([`Identification::Prior`]).
 //!
 //! It owns these judgements and the step detection; it must not change the
 //! estimate the tracker iterates from (the refinement keeps its own), nor
 //! the overall [`Status`].
 
 use super::*;
-use crate::battery::output_error::FitInformation;
+use crate::battery::output_error::{FitInformation, COLUMNS};
 use crate::battery::CellParameters;
 use crate::real::Real;
 
@@ -48,6 +55,12 @@ pub enum Identification {
     /// [`OnlineSettings::hold_soc_span`] from the present one: nothing is
     /// published until a window identifies it again.
     Expired,
+    /// A prior is set and the window's data alone do not identify it: the
+    /// value is the window's estimate, which the prior holds where the data
+    /// say nothing ([`crate::battery::output_error::FitInformation::without_prior`]).
+    /// Its interval with the prior is within
+    /// [`OnlineSettings::identify_factor`] (α: ±[`OnlineSettings::identify_alpha`]).
+    Prior,
     /// The value comes from a snapshot restored at start-up
     /// ([`crate::battery::snapshot`]): what the cell had published before
     /// the reset, kept until a window of new data identifies it again.
@@ -64,6 +77,7 @@ impl Identification {
             Identification::Step => "step",
             Identification::Expired => "expired",
             Identification::Restored => "restored",
+            Identification::Prior => "prior",
         }
     }
 
@@ -75,6 +89,7 @@ impl Identification {
                 | Identification::Held
                 | Identification::Step
                 | Identification::Restored
+                | Identification::Prior
         )
     }
 }
@@ -123,9 +138,14 @@ impl<T: Copy> PublishedParameter<T> {
     }
 
     /// No new evidence: an identified value becomes held (a restored one
-    /// stays restored).
+    /// stays restored, a prior's stays the prior's).
     fn hold(&mut self) {
-        if self.value.is_some() && self.status != Identification::Restored {
+        if self.value.is_some()
+            && !matches!(
+                self.status,
+                Identification::Restored | Identification::Prior
+            )
+        {
             self.status = Identification::Held;
         }
     }
@@ -228,8 +248,29 @@ pub struct StepResistance<T> {
     pub ohm: T,
     /// The step `ΔI` (A).
     pub step_a: T,
+    /// The current before the step (A): with the Butler–Volmer term the
+    /// model's answer to the step depends on where it starts
+    /// ([`Self::model_ohm`]).
+    pub from_a: T,
     /// [`CellState`]'s sample count when it was seen.
     pub at_sample: u64,
+}
+
+impl<T: Real> StepResistance<T> {
+    /// What the model `p` answers this step with at once, its chord
+    /// resistance over the step: `(R_i·I + a·asinh(I/i₀))` from
+    /// [`Self::from_a`] to `from_a + step_a`, over `step_a`. `R_i` itself
+    /// in the linear model: there the step measures `R_i`; with the
+    /// Butler–Volmer term it measures `R_i` and the term's chord together,
+    /// and `R_i` alone may be far below it.
+    pub fn model_ohm(&self, p: &CellParameters<T>) -> T {
+        if p.is_butler_volmer() {
+            (p.static_voltage(self.from_a + self.step_a) - p.static_voltage(self.from_a))
+                / self.step_a
+        } else {
+            p.r_i
+        }
+    }
 }
 
 /// A step counts when its resistance is known to this fraction (its 95 %
@@ -280,6 +321,7 @@ impl<T: Real, const N: usize> CellState<T, N> {
             self.step = Some(StepResistance {
                 ohm,
                 step_a: di,
+                from_a: prev.0,
                 at_sample: self.counts.samples,
             });
         }
@@ -295,8 +337,19 @@ impl<T: Real, const N: usize> CellState<T, N> {
     /// data: the step also holds the branch's first sample, and pulling
     /// `R_i` towards it would bias the branch.
     pub(super) fn r_i_evidence<const P: usize>(&self, s: &OnlineSettings<T, P>) -> Option<T> {
-        let step = self.step?.ohm;
+        let st = self.step?;
         if s.battery.prior.is_some() {
+            return None;
+        }
+        // The `R_i` the step asks for: the step less the Butler–Volmer
+        // term's chord over it (the last estimate's); the step itself in
+        // the linear model.
+        let kinetic = self
+            .estimate
+            .as_ref()
+            .map_or(T::zero(), |p| st.model_ohm(p) - p.r_i);
+        let step = st.ohm - kinetic;
+        if step.partial_cmp(&T::zero()) != Some(core::cmp::Ordering::Greater) {
             return None;
         }
         let f = s.identify_factor;
@@ -305,7 +358,11 @@ impl<T: Real, const N: usize> CellState<T, N> {
             Identification::Step => Some(step),
             _ => self
                 .estimate
-                .filter(|p| !(p.r_i >= step / f && p.r_i <= step * f))
+                .as_ref()
+                .filter(|p| {
+                    let m = st.model_ohm(p);
+                    !(m >= st.ohm / f && m <= st.ohm * f)
+                })
                 .map(|_| step),
         }
     }
@@ -325,27 +382,56 @@ impl<T: Real, const N: usize> CellState<T, N> {
             self.published.hold();
             return;
         };
-        let se = info.correlated_standard_errors();
+        // Identified: by the window's data alone. With a prior whose
+        // interval passes but the data's alone does not: the prior's.
+        let with_prior = info.correlated_standard_errors();
+        let data = if info.has_prior() {
+            info.without_prior().correlated_standard_errors()
+        } else {
+            with_prior
+        };
         let z = T::lit(Z95);
-        let log_ok = |k: usize| se[k].is_some_and(|e| z * e <= s.identify_factor.ln());
+        let log_within = |se: &[Option<T>; COLUMNS], k: usize| {
+            se[k].is_some_and(|e| z * e <= s.identify_factor.ln())
+        };
         let step_ok = self.step.is_none_or(|st| {
-            p.r_i >= st.ohm / s.identify_factor && p.r_i <= st.ohm * s.identify_factor
+            let m = st.model_ohm(p);
+            m >= st.ohm / s.identify_factor && m <= st.ohm * s.identify_factor
         });
         let soc = self.soc;
-        let (id, held) = (Identification::Identified, Identification::Held);
-        let r_i = if log_ok(0) && step_ok {
+        let (id, prior) = (Identification::Identified, Identification::Prior);
+        let judged = |data_ok: bool, prior_ok: bool| {
+            if data_ok {
+                Some(id)
+            } else if prior_ok && info.has_prior() {
+                Some(prior)
+            } else {
+                None
+            }
+        };
+        let r_i = if log_within(&data, 0) && step_ok {
             Some(id)
         } else if evidence && self.step.is_some() && step_ok {
             Some(Identification::Step)
         } else {
-            None
+            judged(false, log_within(&with_prior, 0) && step_ok)
+        };
+        let r_ct = judged(log_within(&data, 1), log_within(&with_prior, 1));
+        let q = judged(log_within(&data, 2), log_within(&with_prior, 2));
+        // A fixed order is given, not estimated: published as it is.
+        let alpha_within =
+            |se: &[Option<T>; COLUMNS]| se[3].is_some_and(|e| z * e <= s.identify_alpha);
+        let alpha = if info.fitted[3] {
+            judged(alpha_within(&data), alpha_within(&with_prior))
+        } else {
+            Some(id)
         };
         let pb = &mut self.published;
-        pb.r_i.update(r_i.map(|_| p.r_i), r_i.unwrap_or(held), soc);
-        pb.r_ct.update(log_ok(1).then_some(p.r_ct), id, soc);
-        pb.q.update(log_ok(2).then_some(p.q), id, soc);
-        // A fixed order is given, not estimated: published as it is.
-        let alpha_ok = !info.fitted[3] || se[3].is_some_and(|e| z * e <= s.identify_alpha);
-        pb.alpha.update(alpha_ok.then_some(p.alpha), id, soc);
+        pb.r_i.update(r_i.map(|_| p.r_i), r_i.unwrap_or(id), soc);
+        pb.r_ct
+            .update(r_ct.map(|_| p.r_ct), r_ct.unwrap_or(id), soc);
+        pb.q.update(q.map(|_| p.q), q.unwrap_or(id), soc);
+        pb.alpha
+            .update(alpha.map(|_| p.alpha), alpha.unwrap_or(id), soc);
     }
 }
