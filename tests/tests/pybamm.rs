@@ -383,6 +383,41 @@ fn butler_volmer_pulses() {
             good += usize::from(e <= 0.10);
         }
         assert!(good >= within, "{rec}: {good} of 6 within 10 %");
+        // At its state-of-power currents (capped at the largest current of
+        // the window: the term is not extrapolated) the DFN stays above the
+        // limit: data/pybamm/sop-truth-bv.csv, PyBaMM continued at them.
+        let bv_truth = std::fs::read_to_string(data("sop-truth-bv.csv")).unwrap();
+        let mut judged = 0;
+        for f in bv_truth
+            .lines()
+            .skip(1)
+            .map(|l| l.split(',').collect::<Vec<_>>())
+            .filter(|f| f[0] == rec)
+        {
+            let (t0, current, steps) = (
+                f[1].parse::<usize>().unwrap(),
+                f[2].parse::<f64>().unwrap(),
+                f[3].parse::<usize>().unwrap(),
+            );
+            let k = if steps == 10 { 0 } else { 1 };
+            let Some(sop) = bv[t0].power[k].discharge_a else {
+                continue;
+            };
+            if (sop + current).abs() > 1e-6 * sop {
+                continue;
+            }
+            let v_min: f64 = f[5].parse().unwrap();
+            println!("{rec} t0 {t0}: SOP {sop:.2} A for {steps} s: the DFN's lowest {v_min:.4} V");
+            assert!(
+                v_min >= sop_limit(cell),
+                "{rec} {t0}: the true cell crosses the limit"
+            );
+            judged += 1;
+        }
+        assert_eq!(
+            judged, 6,
+            "{rec}: the truth's state-of-power rows are this estimator's"
+        );
         use estimator_core::battery::online::Identification as Id;
         assert!(bv
             .iter()

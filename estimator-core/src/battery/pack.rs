@@ -479,17 +479,36 @@ impl<T: Real, const N: usize, const MEM: usize, const CELLS: usize>
     /// ([`CellState::model_published`]: identified, from the step, or
     /// held) and its [`pulse_predictor`](Self::pulse_predictor) exists
     /// (carried from the fit at most [`PowerSettings::carry`] samples). A
-    /// model the data do not identify gives no state of power.
+    /// model the data do not identify gives no state of power. With the
+    /// Butler–Volmer term, the currents are capped at the largest the
+    /// cell's window holds: the term is not extrapolated.
     pub fn state_of_power<const P: usize>(
         &self,
         k: usize,
         s: &OnlineSettings<T, P>,
         power: &PowerSettings<T>,
     ) -> Option<PowerReport<T>> {
-        if !self.cell(k)?.model_published() {
+        let c = self.cell(k)?;
+        if !c.model_published() {
             return None;
         }
-        Some(self.predictor_within(k, s, power.carry)?.power(power))
+        let predictor = self.predictor_within(k, s, power.carry)?;
+        // A Butler–Volmer term's curvature is known only over the currents
+        // its window saw: beyond the largest of them its overpotential
+        // grows as `asinh`, far slower than a cell's at high rate. Its
+        // state of power is not extrapolated past them (on the DFN drive
+        // cycles, a 5C state of power from the extrapolated term took the
+        // cell 165–262 mV below its limit within 30 s; docs/bms-states.md).
+        let mut power = *power;
+        if c.window_estimate().is_some_and(|p| p.is_butler_volmer()) {
+            let seen = self
+                .window(k)
+                .newest_first()
+                .fold(T::zero(), |m, (i, _)| m.max(i.abs()));
+            let cap = &mut power.limits.current_limit;
+            *cap = cap.min(seen);
+        }
+        Some(predictor.power(&power))
     }
 
     /// The string's state of power: at each horizon the weakest cell's
