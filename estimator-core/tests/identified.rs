@@ -27,13 +27,20 @@ fn record(p: &CellParameters<f64>, current: &[f64], sigma: f64, seed: u64) -> Ve
     v.iter().map(|x| x + nd.sample(&mut rng)).collect()
 }
 
-#[test]
-fn a_well_excited_cell_publishes_every_parameter_and_its_step_resistance() {
+/// The 18650 preset under 1200 s of the pulse profile (6 A), σ = 1 mV:
+/// data that identify every parameter.
+fn pulse_record() -> (CellParameters<f64>, Vec<f64>, Vec<f64>) {
     let truth = CellParameters::<f64>::cell_18650();
     let i: Vec<f64> = (0..1200)
         .map(|l| Profile::Pulse.current(l as f64, 6.0))
         .collect();
     let v = record(&truth, &i, 0.001, 1);
+    (truth, i, v)
+}
+
+#[test]
+fn a_well_excited_cell_publishes_every_parameter_and_its_step_resistance() {
+    let (truth, i, v) = pulse_record();
     let s = OnlineSettings::new(1.0, 64, truth);
     let mut est = Box::new(CellEstimator::<f64, 256, 64>::new(&s).unwrap());
     let mut first_published = None;
@@ -244,11 +251,7 @@ fn a_prior_does_not_stand_for_the_data() {
     // is `identified`, by the data, as often as without it. Where the data
     // alone do not, `prior` (tests/tests/pybamm.rs, the DFN drive cycles
     // with the HPPC fit as prior).
-    let truth = CellParameters::<f64>::cell_18650();
-    let i: Vec<f64> = (0..1200)
-        .map(|l| Profile::Pulse.current(l as f64, 6.0))
-        .collect();
-    let v = record(&truth, &i, 0.001, 1);
+    let (truth, i, v) = pulse_record();
     let mut s = OnlineSettings::new(1.0, 64, truth);
     s.battery.prior = Some(Prior::new(truth));
     let mut est = Box::new(CellEstimator::<f64, 256, 64>::new(&s).unwrap());
@@ -268,36 +271,36 @@ fn a_prior_does_not_stand_for_the_data() {
 
 #[test]
 fn the_information_without_the_prior_is_the_datas() {
-    // One parameter the data pin (column 0) and one they hardly see
-    // (column 1): with a prior's weight on both, both intervals are
-    // narrow; without it, only the first.
+    // One parameter the data pin (R_i, column 0) and one they hardly see
+    // (R_ct, column 1), the prior's weight added to both as the online
+    // refinement adds it: with it both intervals are narrow; without it,
+    // only the first.
+    let truth = CellParameters::<f64>::cell_18650();
+    let mut s = OnlineSettings::<f64>::new(1.0, 64, truth).battery;
+    let prior = Prior::new(truth);
+    let w = (prior.noise_v / prior.log_sigma).powi(2);
+    s.prior = Some(prior);
     let mut jtj = [[0.0f64; COLUMNS]; COLUMNS];
     for (k, row) in jtj.iter_mut().enumerate() {
         row[k] = 1.0;
     }
-    jtj[0][0] = 1.0e4;
-    jtj[1][1] = 1.0e-6;
-    let mut prior = [0.0; COLUMNS];
-    prior[0] = 100.0;
-    prior[1] = 100.0;
-    jtj[0][0] += prior[0];
-    jtj[1][1] += prior[1];
+    jtj[0][0] = 1.0e4 + w;
+    jtj[1][1] = 1.0e-6 + w;
     let info = FitInformation {
         jtj,
         cost: 0.5,
         rows: 101,
         fitted: [true, true, false, false, false, false, false, false],
         lag1: 0.0,
-        prior,
     };
-    assert!(info.has_prior());
     let with = info.standard_errors();
-    let data = info.without_prior();
-    assert!(!data.has_prior());
-    let alone = data.standard_errors();
+    let alone = info.without_prior(&s).standard_errors();
     // Residual variance 2·0.5/(101 − 2) = 1/99.
     let var = 1.0 / 99.0;
-    assert!((with[1].unwrap() - (var / 100.000001f64).sqrt()).abs() < 1e-9);
-    assert!((alone[0].unwrap() - (var / 1.0e4f64).sqrt()).abs() < 1e-12);
-    assert!((alone[1].unwrap() - (var / 1.0e-6f64).sqrt()).abs() < 1e-6);
+    assert!((with[1].unwrap() - (var / (1.0e-6 + w)).sqrt()).abs() < 1e-9);
+    assert!((alone[0].unwrap() - (var / 1.0e4f64).sqrt()).abs() < 1e-9);
+    assert!((alone[1].unwrap() / (var / 1.0e-6f64).sqrt() - 1.0).abs() < 1e-6);
+    // Without a prior in the settings, nothing is taken out.
+    s.prior = None;
+    assert_eq!(info.without_prior(&s), info);
 }

@@ -57,12 +57,11 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
         let (jtj, _) = self.normal_equations(s);
         self.work.linearizations = self.work.linearizations.wrapping_add(1);
         let kinetic = self.p.is_butler_volmer();
-        Ok(self.fit_information(s, jtj, cost, kinetic, [T::zero(); COLUMNS]))
+        Ok(self.fit_information(s, jtj, cost, kinetic))
     }
 
     /// The [`FitInformation`] of the normal equations just formed: `jtj`
-    /// (the prior's diagonal `prior` added, or not and `prior` zero), the
-    /// data's `cost`,
+    /// (the prior's added or not, as the caller wants), the data's `cost`,
     /// the fitted rows and columns (the kinetic ones when `kinetic` and the
     /// settings fit the Butler–Volmer model) and the residuals' lag-1
     /// autocorrelation.
@@ -72,7 +71,6 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
         jtj: Square<T>,
         cost: T,
         kinetic: bool,
-        prior: [T; COLUMNS],
     ) -> FitInformation<T> {
         let kinetic = kinetic && s.model == CellModel::ButlerVolmer;
         FitInformation {
@@ -90,7 +88,6 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
                 kinetic,
             ],
             lag1: self.residual_lag1(),
-            prior,
         }
     }
 
@@ -132,29 +129,22 @@ pub struct FitInformation<T> {
     /// The lag-1 autocorrelation of the residuals over the fitted rows
     /// (for [`Self::correlated_standard_errors`]).
     pub lag1: T,
-    /// What a prior added to `jtj`'s diagonal, by column (zero without
-    /// one): [`Self::without_prior`] takes it out again.
-    pub prior: [T; COLUMNS],
 }
 
 impl<T: Real> FitInformation<T> {
-    /// Whether a prior is in `jtj`.
-    pub fn has_prior(&self) -> bool {
-        self.prior.iter().any(|&w| w != T::zero())
-    }
-
-    /// The information of the window's data alone: `jtj` without the
-    /// prior's diagonal. With a prior, `jtj`'s intervals are the prior's as
-    /// much as the data's (the prior weighs as a residual of
-    /// [`crate::battery::Prior`]'s `noise_v`, the intervals are scaled by
-    /// the window's residual), so a parameter the data say nothing of
-    /// would pass as known.
-    pub fn without_prior(&self) -> Self {
+    /// The information of the window's data alone, from that of normal
+    /// equations that hold the prior of `s` (as
+    /// [`OutputErrorRefinement::last_information`] does): `jtj` without the
+    /// prior's weights on its diagonal. With a prior, `jtj`'s intervals are
+    /// the prior's as much as the data's (the prior weighs as a residual
+    /// of [`crate::battery::Prior`]'s `noise_v`, the intervals are scaled
+    /// by the window's residual), so a parameter the data say nothing of
+    /// would pass as known. The same information without a prior.
+    pub fn without_prior(&self, s: &BatterySettings<T>) -> Self {
         let mut out = *self;
-        for (k, w) in self.prior.iter().enumerate() {
-            out.jtj[k][k] = out.jtj[k][k] - *w;
+        for (k, w) in prior_diagonal(s).into_iter().enumerate() {
+            out.jtj[k][k] = out.jtj[k][k] - w;
         }
-        out.prior = [T::zero(); COLUMNS];
         out
     }
 

@@ -342,7 +342,7 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
         let data_a = a;
         add_prior(s, &p, &mut a, &mut b);
         // (The estimate has the kinetic term whenever the model does.)
-        self.information = Some(self.fit_information(s, a, data0, true, prior_diagonal(s)));
+        self.information = Some(self.fit_information(s, a, data0, true));
         // What the window alone identifies is judged without the evidence.
         self.add_evidence(&p, &mut a, &mut b);
         let mut step = RefinementStep {

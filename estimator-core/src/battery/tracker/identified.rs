@@ -385,8 +385,9 @@ impl<T: Real, const N: usize> CellState<T, N> {
         // Identified: by the window's data alone. With a prior whose
         // interval passes but the data's alone does not: the prior's.
         let with_prior = info.correlated_standard_errors();
-        let data = if info.has_prior() {
-            info.without_prior().correlated_standard_errors()
+        let has_prior = s.battery.prior.is_some();
+        let data = if has_prior {
+            info.without_prior(&s.battery).correlated_standard_errors()
         } else {
             with_prior
         };
@@ -403,7 +404,7 @@ impl<T: Real, const N: usize> CellState<T, N> {
         let judged = |data_ok: bool, prior_ok: bool| {
             if data_ok {
                 Some(id)
-            } else if prior_ok && info.has_prior() {
+            } else if prior_ok && has_prior {
                 Some(prior)
             } else {
                 None
