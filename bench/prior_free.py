@@ -17,7 +17,7 @@ records our model did not make, and how far it is from a reference.
     cargo build --release -p host-sim
     bash bench/panasonic_chain.sh          # target/real-cells/panasonic/ocv.csv
     python3 bench/prior_free.py [--host-sim target/release/host-sim] [--out target/prior-free]
-        [--window 256] [--period S]
+        [--window 256] [--period S] [--tail]
 """
 
 import argparse
@@ -227,8 +227,11 @@ def main():
     ap.add_argument("--out", default="target/prior-free")
     ap.add_argument("--window", type=int, default=256, help="online battery --window (default 256)")
     ap.add_argument("--period", type=float, help="online battery --period (default: the record's)")
+    ap.add_argument("--tail", action="store_true",
+                    help="online battery --tail (the taps beyond the memory, through the tail's modes)")
     a = ap.parse_args()
-    ONLINE[:] = ["--window", str(a.window)] + (["--period", str(a.period)] if a.period else [])
+    ONLINE[:] = ["--window", str(a.window)] + (["--period", str(a.period)] if a.period else []) \
+        + (["--tail"] if a.tail else [])
     os.makedirs(a.out, exist_ok=True)
     dfn(a.host_sim, a.out)
     panasonic(a.host_sim, a.out)
