@@ -176,8 +176,9 @@ def soc_current(c_ah, rng):
     return np.concatenate(parts)
 
 
-def simulate(param_set, current_charge_positive, initial_soc):
-    """Terminal voltage after each 1 s zero-order-hold step."""
+def dfn_simulation(param_set, initial_soc):
+    """A built DFN simulation whose current is an input, for stepping
+    (``step``)."""
     pv = pybamm.ParameterValues(param_set)
     pv["Current function [A]"] = "[input]"
     # The cut-off voltages are events that stop the solver: 1C regeneration
@@ -188,12 +189,22 @@ def simulate(param_set, current_charge_positive, initial_soc):
     model = pybamm.lithium_ion.DFN()
     sim = pybamm.Simulation(model, parameter_values=pv, solver=pybamm.IDAKLUSolver())
     sim.build(initial_soc=initial_soc)
+    return sim
+
+
+def step(sim, current_charge_positive, start=None):
+    """One 1 s zero-order-hold step of `sim` at a current (A, charge
+    positive), from `start` (a solution; None: where the simulation is)."""
+    return sim.step(dt=1.0, npts=2, inputs={"Current function [A]": -float(current_charge_positive)},
+                    save=False, starting_solution=start)
+
+
+def simulate(param_set, current_charge_positive, initial_soc):
+    """Terminal voltage after each 1 s zero-order-hold step."""
+    sim = dfn_simulation(param_set, initial_soc)
     out = np.empty(len(current_charge_positive))
     for k, i in enumerate(current_charge_positive):
-        sol = sim.step(
-            dt=1.0, npts=2, inputs={"Current function [A]": -float(i)}, save=False
-        )
-        out[k] = sol["Voltage [V]"].entries[-1]
+        out[k] = step(sim, i)["Voltage [V]"].entries[-1]
     return out
 
 

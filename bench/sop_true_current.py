@@ -46,6 +46,7 @@ import numpy as np
 import pybamm
 
 sys.path.insert(0, os.path.dirname(__file__))
+from pybamm_data import dfn_simulation, step  # noqa: E402
 from reference_fit import read_csv  # noqa: E402
 from sop_reference import model_y  # noqa: E402
 
@@ -62,21 +63,11 @@ class Dfn:
     `simulate`, split at t0)."""
 
     def __init__(self, param_set, history, soc0):
-        pv = pybamm.ParameterValues(param_set)
-        pv["Current function [A]"] = "[input]"
-        pv["Upper voltage cut-off [V]"] = 4.5
-        pv["Lower voltage cut-off [V]"] = 2.0
-        self.sim = pybamm.Simulation(pybamm.lithium_ion.DFN(), parameter_values=pv,
-                                     solver=pybamm.IDAKLUSolver())
-        self.sim.build(initial_soc=soc0)
+        self.sim = dfn_simulation(param_set, soc0)
         sol = None
         for i in history:
-            sol = self._step(i, None)
+            sol = step(self.sim, i)
         self.at_t0 = sol
-
-    def _step(self, i, start):
-        return self.sim.step(dt=1.0, npts=2, inputs={"Current function [A]": -float(i)},
-                             save=False, starting_solution=start)
 
     def pulse(self, current, steps):
         """The DFN's voltage after each second of a constant `current`
@@ -86,7 +77,7 @@ class Dfn:
         start = self.at_t0
         try:
             for k in range(steps):
-                start = self._step(current, start)
+                start = step(self.sim, current, start)
                 out[k] = start["Voltage [V]"].entries[-1]
         except (pybamm.SolverError, ValueError):
             return None
