@@ -13,7 +13,7 @@ the HPPC records, the HPPC record's whole-record fit (`identify battery
 2.9 V (Prada2013), `--current-limit` 5C.
 
     cargo build --release -p host-sim
-    python3 bench/sop_truth.py [--window 256] [--model linear|butler-volmer]
+    python3 bench/sop_truth.py [--window 256] [--model linear|butler-volmer] [--tail]
         [--host-sim target/release/host-sim]
 
 `--model butler-volmer` runs `online battery --model butler-volmer`, and the
@@ -36,11 +36,13 @@ def main():
     ap.add_argument("--window", default="256")
     ap.add_argument("--model", default="linear", choices=("linear", "butler-volmer"))
     ap.add_argument("--out", default="target/sop-truth")
+    ap.add_argument("--tail", action="store_true", help="online battery --tail (the linear model)")
     a = ap.parse_args()
+    tail = ["--tail"] if a.tail else []
     os.makedirs(a.out, exist_ok=True)
     meta = json.load(open("data/pybamm/meta.json"))["records"]
     truth = list(csv.DictReader(open("data/pybamm/sop-truth.csv")))
-    print(f"window {a.window}, model {a.model}: 1C pulse, error / drop")
+    print(f"window {a.window}, model {a.model}{', --tail' if a.tail else ''}: 1C pulse, error / drop")
     for rec in RECORDS:
         cap = meta[rec]["capacity_ah"]
         cell = rec.split("-")[0]
@@ -51,12 +53,12 @@ def main():
                             "--ocv", f"data/pybamm/{cell}-ocv.csv", "--capacity-ah", str(cap),
                             "--model", a.model, "--json", fit], check=True, capture_output=True)
             prior = ["--prior", fit]
-        path = f"{a.out}/{rec}-{a.window}-{a.model}.csv"
+        path = f"{a.out}/{rec}-{a.window}-{a.model}{'-tail' if a.tail else ''}.csv"
         subprocess.run([a.host_sim, "online", "battery", "--input", f"data/pybamm/{rec}.csv",
                         "--window", a.window, "--ocv", f"data/pybamm/{cell}-ocv.csv",
                         "--capacity-ah", str(cap), "--horizons", "10,30",
                         "--voltage-min", str(VOLTAGE_MIN[cell]), "--current-limit", str(5 * cap),
-                        "--model", a.model, *prior, "--out", path], check=True, capture_output=True)
+                        "--model", a.model, *prior, *tail, "--out", path], check=True, capture_output=True)
         track = list(csv.DictReader(open(path)))
         data = list(csv.DictReader(open(f"data/pybamm/{rec}.csv")))
         out = []
