@@ -229,6 +229,11 @@ pub fn settings<T: Real, const MEM: usize>(rng: &mut Rng, clean: bool) -> (Setti
             pm,
             pick(rng, &[f(o.bias_walk_a), 0.0, 1e20])
         ));
+        o.rest_load_sigma_a = lit(nasty_or!(
+            rng,
+            pm,
+            pick(rng, &[f(o.rest_load_sigma_a), 0.0, 1e20])
+        ));
         o.capacity_sigma = lit(nasty_or!(rng, pm, pick(rng, &[0.15, 0.0, 1e20])));
         o.gap_soc_sigma = lit(nasty_or!(rng, pm, pick(rng, &[0.5, 0.0, 1e30])));
         o.min_slope = lit(nasty_or!(rng, pm, pick(rng, &[1e-3, 1e-9, 1e3])));
@@ -318,6 +323,7 @@ pub fn soc_documented<T: Real>(o: &estimator_core::battery::soc::SocSettings<T>)
         o.soc0_sigma,
         o.bias_sigma_a,
         o.bias_walk_a,
+        o.rest_load_sigma_a,
         o.capacity_sigma,
         o.capacity_identify,
         o.gap_soc_sigma,

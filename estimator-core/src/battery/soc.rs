@@ -6,6 +6,7 @@
 //! state      x = (SOC, b, g)     b: current-sensor bias (A), g = C_nominal / C
 //! per sample SOC ← SOC + g·(I_measured − b)·h / (3600·C_nominal)
 //! at rest    z = OCV⁻¹(U_rested),  σ_z² = (σ_U / |OCV'(SOC)|)² + σ_table²
+//!            z_b = Ī_rested,       σ_b = rest_load_sigma_a
 //! ```
 //!
 //! A three-state extended Kalman filter. The count moves the SOC and the
@@ -15,9 +16,12 @@
 //! from the mean of its last voltages. Its weight falls where the curve is
 //! flat (the observation's spread is the voltage's over the curve's slope),
 //! and [`SocEstimate::ocv_weight`] says how much the last one moved the
-//! SOC. The charge counted between two observations, against the SOC they
-//! differ by, is what tells the bias and the capacity; both start at their
-//! priors (zero and the nominal capacity).
+//! SOC. The same rest reads the bias: a rested cell carries no current,
+//! so the mean current the sensor reads over the rest's last half minute
+//! observes the bias, give or take a quiescent load
+//! ([`SocSettings::rest_load_sigma_a`]). The charge counted between two
+//! observations, against the SOC they differ by, then tells the capacity;
+//! both start at their priors (zero and the nominal capacity).
 //!
 //! **Why at rest only.** Under load the terminal voltage is the OCV plus
 //! the polarization, and the window's model carries an OCV offset `ΔU`
@@ -104,6 +108,12 @@ pub struct SocSettings<T> {
     pub bias_sigma_a: T,
     /// How far the bias may wander in an hour (A). Default C/1000.
     pub bias_walk_a: T,
+    /// The spread of the true current in a rest (A): a quiescent load the
+    /// sensor cannot tell from its own bias. Each rest's mean current
+    /// observes the bias with this spread (a rested cell carries no
+    /// current, so what the sensor reads there is its bias). Default
+    /// C/1000.
+    pub rest_load_sigma_a: T,
     /// The prior spread of the capacity, relative. Default 0.15.
     pub capacity_sigma: T,
     /// The capacity is published as identified when its standard deviation
@@ -132,6 +142,7 @@ impl<T: Real> SocSettings<T> {
             soc0_sigma: T::lit(0.1),
             bias_sigma_a: capacity_ah / T::lit(50.0),
             bias_walk_a: capacity_ah / T::lit(1000.0),
+            rest_load_sigma_a: capacity_ah / T::lit(1000.0),
             capacity_sigma: T::lit(0.15),
             capacity_identify: T::lit(0.02),
             gap_soc_sigma: T::lit(0.5),
@@ -159,6 +170,7 @@ impl<T: Real> SocSettings<T> {
             self.soc0_sigma,
             self.bias_sigma_a,
             self.bias_walk_a,
+            self.rest_load_sigma_a,
             self.capacity_sigma,
             self.capacity_identify,
             self.gap_soc_sigma,
@@ -361,6 +373,7 @@ impl<T: Real> SocObserver<T> {
             rest: parts.rest.map(|(len, mean, early, done)| Rest {
                 len,
                 mean,
+                current: T::nan(),
                 early,
                 done,
             }),
@@ -463,14 +476,16 @@ impl<T: Real> SocObserver<T> {
             self.start(s, table.soc_from_ocv(voltage));
         }
         let x = self.x?;
+        // What the sensor read (NaN when it read nothing: no bias reading).
+        let read = current;
         let current = if current.is_finite() { current } else { x[1] };
         self.predict(s, current);
         let rested = (current - x[1]).abs() <= s.rest_current_a && voltage.is_finite();
         if rested {
             let mut rest = match self.rest {
-                None => Rest::new(s, voltage),
+                None => Rest::new(s, voltage, read),
                 Some(mut r) => {
-                    r.push(s, voltage);
+                    r.push(s, voltage, read);
                     r
                 }
             };
@@ -478,15 +493,18 @@ impl<T: Real> SocObserver<T> {
                 self.p[0].sqrt() * T::lit(0.25) > self.spread(s, table, s.unrelaxed_sigma_v);
             if unknown && !rest.early && rest.len >= s.rest_s / T::lit(2.0) {
                 self.observe(s, table, rest.mean, s.unrelaxed_sigma_v);
+                self.observe_bias(s, rest.current);
                 rest.early = true;
             } else if !rest.done && rest.len >= s.rest_max_s {
                 self.observe(s, table, rest.mean, s.voltage_sigma_v);
+                self.observe_bias(s, rest.current);
                 rest.done = true;
             }
             self.rest = Some(rest);
         } else {
             if let Some(r) = self.rest.filter(|r| !r.done && r.len >= s.rest_s) {
                 self.observe(s, table, r.mean, s.voltage_sigma_v);
+                self.observe_bias(s, r.current);
             }
             self.rest = None;
         }
@@ -588,6 +606,40 @@ impl<T: Real> SocObserver<T> {
             self.capacity_held = Some(c);
         }
     }
+
+    /// One observation of the bias: a rest's mean measured `current`
+    /// (A) is the bias, give or take [`SocSettings::rest_load_sigma_a`].
+    /// Without it a record that only discharges, at an even pace, cannot
+    /// tell a bias from a capacity (docs/bms-states.md). A current that is
+    /// not finite (no sample of the rest read one) observes nothing.
+    fn observe_bias(&mut self, s: &SocSettings<T>, current: T) {
+        let Some(x) = &mut self.x else { return };
+        let [p00, p01, p02, p11, p12, p22] = self.p;
+        let sum = p11 + s.rest_load_sigma_a * s.rest_load_sigma_a;
+        if !current.is_finite() || !sum.is_finite() || sum <= T::ZERO {
+            return;
+        }
+        let gain = [p01 / sum, p11 / sum, p12 / sum];
+        let innovation = current - x[1];
+        for (xi, ki) in x.iter_mut().zip(gain) {
+            *xi = *xi + ki * innovation;
+        }
+        x[2] = x[2].max(T::lit(0.2)).min(T::lit(5.0));
+        x[1] = x[1].max(-s.capacity_ah).min(s.capacity_ah);
+        // P − K·P[1,:]
+        self.p = [
+            p00 - gain[0] * p01,
+            p01 - gain[0] * p11,
+            p02 - gain[0] * p12,
+            p11 - gain[1] * p11,
+            p12 - gain[1] * p12,
+            p22 - gain[2] * p12,
+        ];
+        self.condition(s);
+        if let Some((c, _, true)) = self.capacity(s) {
+            self.capacity_held = Some(c);
+        }
+    }
 }
 
 /// A rest in progress: its length and the mean of its recent voltages.
@@ -602,6 +654,11 @@ struct Rest<T> {
     /// past their power-law part after minutes, by 13 mV
     /// (docs/bms-states.md).
     mean: T,
+    /// The mean of the currents over the same half minute (A): the bias
+    /// as a rest reads it (NaN until a sample of the rest reads a current;
+    /// a rest restored from a snapshot starts it again, its current is not
+    /// kept).
+    current: T,
     /// Whether the rest has given its early observation (of an unknown
     /// SOC) and its observation.
     early: bool,
@@ -609,19 +666,30 @@ struct Rest<T> {
 }
 
 impl<T: Real> Rest<T> {
-    fn new(s: &SocSettings<T>, voltage: T) -> Self {
+    fn new(s: &SocSettings<T>, voltage: T, current: T) -> Self {
         Self {
             len: s.h,
             mean: voltage,
+            current,
             early: false,
             done: false,
         }
     }
 
-    fn push(&mut self, s: &SocSettings<T>, voltage: T) {
+    /// One more rested sample: its voltage, and the current the sensor
+    /// read (a sample that read none leaves the current's mean as it is;
+    /// the first that reads one starts it).
+    fn push(&mut self, s: &SocSettings<T>, voltage: T, current: T) {
         self.len = self.len + s.h;
         let a = (s.h / T::lit(30.0)).min(T::ONE);
         self.mean = self.mean + a * (voltage - self.mean);
+        if current.is_finite() {
+            self.current = if self.current.is_finite() {
+                self.current + a * (current - self.current)
+            } else {
+                current
+            };
+        }
     }
 }
 

@@ -64,6 +64,20 @@ fn the_rests_correct_a_drifting_count() {
     assert!(!e.capacity_identified && e.capacity_ah == 5.0, "{e:?}");
 }
 
+/// A rested cell carries no current: what the sensor reads in a rest is
+/// its bias, and the first rest reads it (`SocSettings::rest_load_sigma_a`).
+/// Without that reading discharges alone cannot tell the bias from the
+/// capacity (before: the bias stayed near its prior 0 here).
+#[test]
+fn a_rest_reads_the_bias() {
+    let (e, soc, _) = cycle(&[-5.0], 4, 0.05);
+    assert!((e.current_bias_a - 0.05).abs() < 0.002, "{e:?}");
+    assert!((e.soc - soc).abs() < 0.002, "{} vs {soc}", e.soc);
+    // A rest that reads no current keeps the bias at zero, known.
+    let (e, _, _) = cycle(&[-5.0], 4, 0.0);
+    assert!(e.current_bias_a.abs() < 0.002, "{e:?}");
+}
+
 #[test]
 fn charge_and_discharge_tell_the_bias_from_the_capacity() {
     let (e, soc, counted) = cycle(&[-5.0, 5.0], 4, 0.05);
@@ -158,6 +172,10 @@ fn settings_that_are_not_finite_or_out_of_range_are_refused() {
             ..base
         },
         SocSettings {
+            rest_load_sigma_a: f32::NAN,
+            ..base
+        },
+        SocSettings {
             capacity_ah: 1e20,
             ..base
         },
@@ -187,6 +205,10 @@ fn spreads_beyond_any_information_stop_at_knowing_nothing() {
         },
         SocSettings {
             bias_walk_a: 1e20,
+            ..base
+        },
+        SocSettings {
+            rest_load_sigma_a: 1e20,
             ..base
         },
         SocSettings {
