@@ -257,7 +257,7 @@ pub(crate) struct ObserverParts<T> {
 }
 
 /// The SOC observer of one cell (module docs). State only: the settings
-/// and the curve are given with every sample. 72 B in f32.
+/// and the curve are given with every sample. 84 B in f32.
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct SocObserver<T> {
@@ -376,6 +376,10 @@ impl<T: Real> SocObserver<T> {
                 current: T::nan(),
                 early,
                 done,
+                // Its current is not kept: a rest restored gives no
+                // reading of the bias (a mean restarted a few samples
+                // before the rest's end would stand for a whole rest's).
+                bias_read: true,
             }),
             ocv_weight: parts.ocv_weight,
             observations: parts.observations,
@@ -492,19 +496,22 @@ impl<T: Real> SocObserver<T> {
             let unknown =
                 self.p[0].sqrt() * T::lit(0.25) > self.spread(s, table, s.unrelaxed_sigma_v);
             if unknown && !rest.early && rest.len >= s.rest_s / T::lit(2.0) {
-                self.observe(s, table, rest.mean, s.unrelaxed_sigma_v);
-                self.observe_bias(s, rest.current);
+                if self.observe(s, table, rest.mean, s.unrelaxed_sigma_v) {
+                    self.observe_bias(s, &mut rest);
+                }
                 rest.early = true;
             } else if !rest.done && rest.len >= s.rest_max_s {
-                self.observe(s, table, rest.mean, s.voltage_sigma_v);
-                self.observe_bias(s, rest.current);
+                if self.observe(s, table, rest.mean, s.voltage_sigma_v) {
+                    self.observe_bias(s, &mut rest);
+                }
                 rest.done = true;
             }
             self.rest = Some(rest);
         } else {
-            if let Some(r) = self.rest.filter(|r| !r.done && r.len >= s.rest_s) {
-                self.observe(s, table, r.mean, s.voltage_sigma_v);
-                self.observe_bias(s, r.current);
+            if let Some(mut r) = self.rest.filter(|r| !r.done && r.len >= s.rest_s) {
+                if self.observe(s, table, r.mean, s.voltage_sigma_v) {
+                    self.observe_bias(s, &mut r);
+                }
             }
             self.rest = None;
         }
@@ -554,22 +561,22 @@ impl<T: Real> SocObserver<T> {
     /// One observation of the SOC: the curve's inverse of `voltage`, with
     /// spread `sigma_v` over the curve's slope there. A voltage outside
     /// the curve's range tells only that the SOC is past its end: nothing
-    /// is observed.
+    /// is observed. True when it observed.
     fn observe<const P: usize>(
         &mut self,
         s: &SocSettings<T>,
         table: &OcvTable<T, P>,
         voltage: T,
         sigma_v: T,
-    ) {
-        let Some(x) = &mut self.x else { return };
+    ) -> bool {
+        let Some(x) = &mut self.x else { return false };
         let v = table.ocv_points();
         let inside = v
             .first()
             .zip(v.last())
             .is_some_and(|(&lo, &hi)| voltage > lo && voltage < hi);
         if !inside {
-            return;
+            return false;
         }
         let z = table.soc_from_ocv(voltage);
         let r = {
@@ -579,7 +586,7 @@ impl<T: Real> SocObserver<T> {
         let [p00, p01, p02, p11, p12, p22] = self.p;
         let sum = p00 + r;
         if sum.is_nan() || sum <= T::ZERO || !sum.is_finite() {
-            return;
+            return false;
         }
         let gain = [p00 / sum, p01 / sum, p02 / sum];
         let innovation = z - x[0];
@@ -605,22 +612,34 @@ impl<T: Real> SocObserver<T> {
         if let Some((c, _, true)) = self.capacity(s) {
             self.capacity_held = Some(c);
         }
+        true
     }
 
-    /// One observation of the bias: a rest's mean measured `current`
-    /// (A) is the bias, give or take [`SocSettings::rest_load_sigma_a`].
-    /// Without it a record that only discharges, at an even pace, cannot
-    /// tell a bias from a capacity (docs/bms-states.md). A current that is
-    /// not finite (no sample of the rest read one) observes nothing.
-    fn observe_bias(&mut self, s: &SocSettings<T>, current: T) {
+    /// One observation of the bias, once per rest and only with its SOC
+    /// observation: the rest's mean measured current is the bias, give or
+    /// take [`SocSettings::rest_load_sigma_a`]. Without it a record that
+    /// only discharges, at an even pace, cannot tell a bias from a
+    /// capacity (docs/bms-states.md). A reading more than three standard
+    /// deviations from the bias expected (the bias's own spread and the
+    /// load's) is a load the rest carries, not the bias: it is not taken.
+    /// Nor is a current that is not finite (no sample of the rest read
+    /// one).
+    fn observe_bias(&mut self, s: &SocSettings<T>, rest: &mut Rest<T>) {
+        if core::mem::replace(&mut rest.bias_read, true) {
+            return;
+        }
+        let current = rest.current;
         let Some(x) = &mut self.x else { return };
         let [p00, p01, p02, p11, p12, p22] = self.p;
         let sum = p11 + s.rest_load_sigma_a * s.rest_load_sigma_a;
         if !current.is_finite() || !sum.is_finite() || sum <= T::ZERO {
             return;
         }
-        let gain = [p01 / sum, p11 / sum, p12 / sum];
         let innovation = current - x[1];
+        if innovation * innovation > T::lit(9.0) * sum {
+            return;
+        }
+        let gain = [p01 / sum, p11 / sum, p12 / sum];
         for (xi, ki) in x.iter_mut().zip(gain) {
             *xi = *xi + ki * innovation;
         }
@@ -655,14 +674,16 @@ struct Rest<T> {
     /// (docs/bms-states.md).
     mean: T,
     /// The mean of the currents over the same half minute (A): the bias
-    /// as a rest reads it (NaN until a sample of the rest reads a current;
-    /// a rest restored from a snapshot starts it again, its current is not
-    /// kept).
+    /// as a rest reads it (NaN until a sample of the rest reads a current,
+    /// and for a rest restored from a snapshot).
     current: T,
     /// Whether the rest has given its early observation (of an unknown
     /// SOC) and its observation.
     early: bool,
     done: bool,
+    /// Whether the rest has given its reading of the bias (one per rest:
+    /// the load it stands for is the same at every observation).
+    bias_read: bool,
 }
 
 impl<T: Real> Rest<T> {
@@ -673,6 +694,7 @@ impl<T: Real> Rest<T> {
             current,
             early: false,
             done: false,
+            bias_read: false,
         }
     }
 
