@@ -185,14 +185,14 @@ fn corrupt_stale_foreign_and_other_pack_snapshots_are_rejected_and_the_cell_star
         SnapshotError::NotASnapshot,
     ));
     let mut version = good.clone();
-    version[4] = 2;
+    version[4] = 3;
     reseal(&mut version);
     cases.push((
         "another firmware's layout",
         version,
         s,
         policy,
-        SnapshotError::Version { found: 2 },
+        SnapshotError::Version { found: 3 },
     ));
     let mut other = s;
     other.battery.h = 0.5;
@@ -375,6 +375,136 @@ fn a_pack_snapshot_keeps_every_cell_and_the_schedule() {
         buf[..HEADER_BYTES],
         "header, schedule position included"
     );
+}
+
+/// A record with a biased current sensor and a rest (own model, no
+/// noise): 60 s rested, 30 min at 1C discharge, 25 min rested, 10 min at
+/// 1C. The sensor reads `bias` A more than the current.
+fn rest_record(bias: f64) -> (Vec<f64>, Vec<f64>) {
+    use estimator_core::battery::profile::ocv_nmc;
+    use estimator_core::battery::simulate::simulate;
+    use estimator_core::frac::GlWeights;
+    let truth = CellParameters::<f64>::cell_18650();
+    let i: Vec<f64> = [
+        (60, 0.0),
+        (1800, -CAPACITY_AH),
+        (1500, 0.0),
+        (600, -CAPACITY_AH),
+    ]
+    .iter()
+    .flat_map(|&(n, a)| std::iter::repeat_n(a, n))
+    .collect();
+    let mut soc = Vec::with_capacity(i.len());
+    let mut z = 0.9;
+    for a in &i {
+        z += a / (CAPACITY_AH * 3600.0);
+        soc.push(z);
+    }
+    let mut w = Box::new(GlWeights::<f64, 4096>::new(truth.alpha, 1.0, i.len()).unwrap());
+    let (mut up, mut v) = (vec![0.0; i.len()], vec![0.0; i.len()]);
+    simulate(&truth, &mut w, &i, |l| ocv_nmc(soc[l]), &mut up, &mut v).unwrap();
+    (i.iter().map(|a| a + bias).collect(), v)
+}
+
+/// Layout version 1's bytes of a version-2 snapshot (the table of
+/// `battery::snapshot`'s docs, read backwards): what an older firmware
+/// wrote.
+fn as_version_1(v2: &[u8]) -> Vec<u8> {
+    let mut out = v2.to_vec();
+    out[4..6].copy_from_slice(&1u16.to_le_bytes());
+    let cells = (v2.len() - HEADER_BYTES - 4) / CELL_BYTES;
+    for c in 0..cells {
+        let a = &v2[HEADER_BYTES + c * CELL_BYTES..][..CELL_BYTES];
+        let word = u16::from_le_bytes([a[60], a[61]]);
+        let codes = (0..4).fold(0u16, |acc, k| acc | ((word >> (3 * k)) & 7) << (4 * k));
+        let rest = f32::from_le_bytes(a[112..116].try_into().unwrap()).is_finite();
+        let flags = (word >> 12 & 1) | u16::from(rest) << 1 | (word >> 13 & 3) << 2;
+        let observations = u32::from(u16::from_le_bytes([a[102], a[103]]));
+        let mut b = Vec::with_capacity(CELL_BYTES);
+        b.extend_from_slice(&a[..60]);
+        b.extend_from_slice(&codes.to_le_bytes());
+        b.extend_from_slice(&a[62..102]);
+        b.extend_from_slice(&observations.to_le_bytes());
+        b.extend_from_slice(&a[104..120]);
+        b.extend_from_slice(&flags.to_le_bytes());
+        out[HEADER_BYTES + c * CELL_BYTES..][..CELL_BYTES].copy_from_slice(&b);
+    }
+    reseal(&mut out);
+    out
+}
+
+/// The SOC and the current bias of `c` (the observer's).
+fn soc_and_bias(c: &Cell, s: &OnlineSettings<f64, 101>) -> (f64, f64) {
+    let e = c.soc_estimate(s).unwrap();
+    (e.soc, e.current_bias_a)
+}
+
+/// A snapshot in the middle of a rest keeps the rest: its voltage and
+/// current means, and what it has observed. The resumed record reads the
+/// sensor's bias at the rest's end as the uninterrupted run does, and
+/// publishes the same SOC and bias to the snapshot's `f32` precision. A
+/// version-1 snapshot (no rest current) restores too, and its rest reads
+/// no bias: the kept current is what the agreement needs.
+#[test]
+fn a_snapshot_in_the_middle_of_a_rest_resumes_its_bias_reading() {
+    let s = settings();
+    let bias = CAPACITY_AH / 100.0;
+    let (i, v) = rest_record(bias);
+    // 400 s into the 25-min rest: before any observation of it.
+    let cut = 60 + 1800 + 400;
+    let mut whole = Box::new(Cell::new(&s).unwrap());
+    for l in 0..cut {
+        whole.push(&s, i[l], v[l]);
+    }
+    let mut buf = vec![0u8; whole.snapshot_size()];
+    whole.save(&s, None, &mut buf).unwrap();
+    let before = soc_and_bias(&whole, &s).1;
+    let mut halves = Box::new(Cell::new(&s).unwrap());
+    halves.restore(&s, &buf, &RestorePolicy::default()).unwrap();
+    let mut old = Box::new(Cell::new(&s).unwrap());
+    old.restore(&s, &as_version_1(&buf), &RestorePolicy::default())
+        .unwrap();
+    assert_eq!(old.cell_state().restoration(), Restoration::Restored);
+    let mut worst = 0.0f64;
+    for l in cut..i.len() {
+        for c in [&mut whole, &mut halves, &mut old] {
+            c.push(&s, i[l], v[l]);
+        }
+        let (w, h) = (soc_and_bias(&whole, &s), soc_and_bias(&halves, &s));
+        worst = worst.max((w.0 - h.0).abs()).max((w.1 - h.1).abs());
+    }
+    let (after, old_after) = (soc_and_bias(&whole, &s).1, soc_and_bias(&old, &s).1);
+    eprintln!(
+        "bias before the rest's end {before:.5} A, after {after:.5} A (true {bias} A); \
+         version 1 resumed {old_after:.5} A; largest SOC or bias difference {worst:.2e}"
+    );
+    assert!(
+        (after - bias).abs() < 0.5 * (before - bias).abs(),
+        "the rest read the bias: {before} -> {after}, true {bias}"
+    );
+    assert!(worst < 1e-6, "halves differ from the whole run by {worst}");
+    assert!(
+        (old_after - after).abs() > 1e-4,
+        "version 1 reads no bias: {old_after} vs {after}"
+    );
+}
+
+/// A version-1 snapshot (an older firmware's) is read: the same published
+/// values and SOC as the version-2 one it was made from.
+#[test]
+fn a_version_1_snapshot_is_read() {
+    let (s, good) = valid();
+    let mut a = Box::new(Cell::new(&s).unwrap());
+    a.restore(&s, &good, &RestorePolicy::default()).unwrap();
+    let mut b = Box::new(Cell::new(&s).unwrap());
+    b.restore(&s, &as_version_1(&good), &RestorePolicy::default())
+        .unwrap();
+    assert_eq!(b.cell_state().restoration(), Restoration::Restored);
+    let (pa, pb) = (published(&a), published(&b));
+    assert!(pa.iter().all(|x| x.is_finite()), "{pa:?}");
+    assert_eq!(pa.map(f64::to_bits), pb.map(f64::to_bits));
+    assert_eq!(a.state_of_charge(), b.state_of_charge());
+    assert_eq!(soc_and_bias(&a, &s), soc_and_bias(&b, &s));
 }
 
 proptest! {

@@ -124,6 +124,7 @@ def online_pack(
     soc: Literal["observer", "coulomb"] = "observer",
     soc_rest_s: Optional[float] = None,
     soc_bias_sigma_a: Optional[float] = None,
+    soc_rest_load_sigma_a: Optional[float] = None,
     t0: float = 0.0,
     state_in: Optional[bytes] = None,
     return_state: bool = False,
@@ -174,6 +175,7 @@ class OnlineCell:
         soc: Literal["observer", "coulomb"] = "observer",
         soc_rest_s: Optional[float] = None,
         soc_bias_sigma_a: Optional[float] = None,
+        soc_rest_load_sigma_a: Optional[float] = None,
         sop_carry_s: Optional[float] = None,
     ) -> None:
         """``horizons`` (s), ``voltage_min``/``voltage_max`` (V; default the OCV
@@ -185,7 +187,9 @@ class OnlineCell:
         ``host-sim online battery``'s flags. With an OCV table, ``soc`` is
         the observer's (``soc="observer"``: the count corrected at each rest
         of ``soc_rest_s``, default 600 s, with ``current_bias_a`` (its prior
-        spread ``soc_bias_sigma_a``, default C/50; 0: none),
+        spread ``soc_bias_sigma_a``, default C/50; 0: none; each rest's mean
+        current reads it, give or take ``soc_rest_load_sigma_a``, default
+        C/1000),
         ``capacity_ah``, ``capacity_sigma_ah``, ``soc_sigma``,
         ``soc_ocv_weight``) or the count
         (``soc="coulomb"``); ``soc_coulomb`` is always the count."""

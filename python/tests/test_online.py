@@ -186,6 +186,43 @@ def test_the_observer_corrects_a_biased_sensor_and_coulomb_counting_does_not(hos
     assert np.all(np.isnan(coulomb["current_bias_a"]))
 
 
+def test_the_rest_load_spread_is_the_clis(host_sim, tmp_path):
+    # Each rest's mean measured current reads the sensor's bias, give or
+    # take the load a rest carries: `soc_rest_load_sigma_a` is
+    # `--soc-rest-load-sigma-a`, and a large one lets the reading count for
+    # less. Own-model record: 0.5 A discharges between 20-min rests, the
+    # sensor reading 0.025 A high.
+    ocv_file = REPO / "data" / "own-model" / "nmc-ocv.csv"
+    o = read_csv(ocv_file)
+    table = (o["soc"], o["ocv_v"])
+    cap, bias = 2.5, 0.025
+    rows = 3 * (1200 + 1800)
+    i = np.where((np.arange(rows) % 3000) < 1200, -0.5, 0.0)
+    soc = 0.9 + np.cumsum(i) / (cap * 3600)
+    v = np.interp(soc, table[0], table[1]) + 0.03 * i
+    record = tmp_path / "rests.csv"
+    with open(record, "w") as f:
+        f.write("time_s,current_a,voltage_v\n")
+        f.writelines(f"{k},{a + bias:.9g},{u:.9g}\n" for k, (a, u) in enumerate(zip(i, v)))
+    args = ["--ocv", ocv_file, "--capacity-ah", "2.5", "--soc0", "0.9", "--window", "64",
+            "--memory", "16"]
+    kw = dict(window=64, memory=16, ocv=table, capacity_ah=cap, soc0=0.9)
+    r = read_csv(record)  # the samples as the CLI reads them
+    tracks = {}
+    for spread in (None, 1.0):
+        extra = [] if spread is None else ["--soc-rest-load-sigma-a", str(spread)]
+        cli = cli_track(host_sim, record, tmp_path, *args, *extra)
+        py = fracbms.OnlineCell(**kw, soc_rest_load_sigma_a=spread).run(r["current_a"],
+                                                                        r["voltage_v"])
+        assert_same_track(py, cli)
+        tracks[spread] = py["current_bias_a"][-1]
+    # The default reads the bias; 1 A (forty times the bias) barely moves it.
+    assert abs(tracks[None] - bias) < 0.1 * bias, tracks
+    assert abs(tracks[1.0] - bias) > abs(tracks[None] - bias), tracks
+    with pytest.raises(ValueError, match="soc-rest-load-sigma-a"):
+        fracbms.OnlineCell(**kw, soc_rest_load_sigma_a=float("nan"))
+
+
 def test_bad_rows_are_rejected_as_the_cli_rejects_them(host_sim, cell_record, tmp_path):
     """3 NaN voltages and 30 spikes (±0.1 to 0.5 V): OnlineCell.run rejects
     the same rows for the same reasons as `online battery`, and no other."""

@@ -54,15 +54,26 @@
 //! | 20 | [`CELL_BYTES`]`·n` | the cells, cell 1 first |
 //! | 20 + 124·n | 4 | CRC-32 (ISO-HDLC) of every byte before |
 //!
-//! One cell ([`CELL_BYTES`] = 124): the estimate `R_i, R_ct, Q, α, u_oc,
-//! a, i₀` (28), the published values and their SOCs `R_i, R_ct, Q, α`
-//! (32), their statuses, 4 bits each (2), the counted SOC (4), the
-//! observer's `SOC, b, g` (12), its covariance's upper triangle (24), its
-//! observations (`u32`, 4), the last identified capacity (4), the last
-//! observation's weight (4), a rest in progress: its length (s) and
-//! voltage mean (8), and a flags word (2: bit 0, an estimate; bit 1, a
-//! rest; bits 2 and 3, the rest's early observation and observation
-//! given).
+//! One cell ([`CELL_BYTES`] = 124), layout version 2:
+//!
+//! | offset | bytes | field |
+//! |---|---|---|
+//! | 0 | 28 | the estimate `R_i, R_ct, Q, α, u_oc, a, i₀` (NaN: none) |
+//! | 28 | 32 | the published `R_i, R_ct, Q, α`, each with the SOC it was identified at |
+//! | 60 | 2 | a word: bits 0–11 their statuses, 3 bits each; bit 12 an estimate; bits 13, 14 and 15 the rest's early observation, observation and bias reading given |
+//! | 62 | 4 | the counted SOC |
+//! | 66 | 12 | the observer's `SOC, b, g` |
+//! | 78 | 24 | its covariance's upper triangle |
+//! | 102 | 2 | its observations (`u16`, saturated at 65 535) |
+//! | 104 | 4 | the last identified capacity |
+//! | 108 | 4 | the last observation's weight |
+//! | 112 | 12 | a rest in progress: its length (s; NaN: no rest), voltage mean and current mean |
+//!
+//! Layout version 1 (read, no longer written) had the statuses 4 bits
+//! each, the observations as a `u32`, no rest current, and a flags word
+//! at the end (bit 0 an estimate, bit 1 a rest, bits 2 and 3 its early
+//! observation and observation given): the same size. A rest restored
+//! from it gives no reading of the current sensor's bias.
 //!
 //! Sizes: [`snapshot_bytes`]`(1)` = 148 B, `snapshot_bytes(16)` = 2008 B.
 //!
@@ -72,7 +83,7 @@
 //! storage, the C caller's flash, host-sim's file).
 
 use super::pack::PackEstimator;
-use super::soc::ObserverParts;
+use super::soc::{ObserverParts, RestParts};
 use super::tracker::check_limits;
 pub use super::tracker::Restoration;
 use super::tracker::{
@@ -82,9 +93,14 @@ use super::tracker::{
 use super::{CellModel, CellParameters};
 use crate::real::Real;
 
-/// The layout version a snapshot is written with; another is rejected
+/// The layout version a snapshot is written with. Versions from
+/// [`OLDEST_READ_VERSION`] to it are read; another is rejected
 /// ([`SnapshotError::Version`]).
-pub const SNAPSHOT_VERSION: u16 = 1;
+pub const SNAPSHOT_VERSION: u16 = 2;
+
+/// The oldest layout version read: 1, which did not keep a rest's current
+/// (a firmware update keeps what the cells learned).
+pub const OLDEST_READ_VERSION: u16 = 1;
 
 /// The first four bytes of a snapshot.
 pub const SNAPSHOT_MAGIC: [u8; 4] = *b"FBMS";
@@ -178,7 +194,8 @@ impl core::fmt::Display for SnapshotError {
             SnapshotError::NotASnapshot => write!(f, "not a fracbms snapshot (bad magic)"),
             SnapshotError::Version { found } => write!(
                 f,
-                "snapshot layout version {found}, this build reads {SNAPSHOT_VERSION}"
+                "snapshot layout version {found}, this build reads \
+                 {OLDEST_READ_VERSION} to {SNAPSHOT_VERSION}"
             ),
             SnapshotError::Crc => write!(f, "snapshot CRC mismatch (corrupt)"),
             SnapshotError::CellCount { found, expected } => {
@@ -371,33 +388,37 @@ impl<T: Real> CellSnapshot<T> {
             w.real(x);
         }
         let named = self.published.named();
-        let mut codes = 0u16;
+        let o = &self.observer;
+        let flag = |b: bool, bit: u16| u16::from(b) << bit;
+        let mut word = flag(e.is_some(), 12);
+        if let Some(rest) = o.rest {
+            word |= flag(rest.early, 13) | flag(rest.done, 14) | flag(rest.bias_read, 15);
+        }
         for (k, (_, x)) in named.iter().enumerate() {
             w.opt(x.value);
             w.opt(x.soc);
-            codes |= status_code(x.status) << (4 * k);
+            word |= status_code(x.status) << (3 * k);
         }
-        w.u16(codes);
+        w.u16(word);
         w.opt(self.soc);
-        let o = &self.observer;
         for x in o.x.unwrap_or([T::nan(); 3]) {
             w.real(x);
         }
         for x in o.p {
             w.real(x);
         }
-        w.u32(o.observations);
+        w.u16(u16::try_from(o.observations).unwrap_or(u16::MAX));
         w.opt(o.capacity_held);
         w.real(o.ocv_weight);
-        let (len, mean, early, done) = o.rest.unwrap_or((T::nan(), T::nan(), false, false));
-        w.real(len);
-        w.real(mean);
-        let flag = |b: bool, bit: u16| u16::from(b) << bit;
-        w.u16(flag(e.is_some(), 0) | flag(o.rest.is_some(), 1) | flag(early, 2) | flag(done, 3));
+        let rest = o.rest.map_or([T::nan(); 3], |r| [r.len, r.mean, r.current]);
+        for x in rest {
+            w.real(x);
+        }
     }
 
-    /// One cell, or `None` when a value is implausible.
-    fn read(r: &mut Reader<'_>) -> Option<Self> {
+    /// One cell of layout `version` (1 or 2), or `None` when a value is
+    /// implausible.
+    fn read(r: &mut Reader<'_>, version: u16) -> Option<Self> {
         let mut e = [T::zero(); 7];
         for x in &mut e {
             *x = r.real();
@@ -406,10 +427,12 @@ impl<T: Real> CellSnapshot<T> {
         for v in &mut values {
             *v = (r.opt::<T>(), r.opt::<T>());
         }
-        let codes = r.u16();
+        // Version 1: 4 bits a status; version 2: 3, and the flags above.
+        let word = r.u16();
+        let width = if version == 1 { 4 } else { 3 };
         let mut statuses = [Identification::NotIdentified; 4];
         for (k, st) in statuses.iter_mut().enumerate() {
-            *st = status_of((codes >> (4 * k)) & 0xF)?;
+            *st = status_of((word >> (width * k)) & ((1 << width) - 1))?;
         }
         let soc = r.opt::<T>();
         let mut x = [T::zero(); 3];
@@ -420,13 +443,43 @@ impl<T: Real> CellSnapshot<T> {
         for v in &mut p {
             *v = r.real();
         }
-        let observations = r.u32();
+        let observations = if version == 1 {
+            r.u32()
+        } else {
+            u32::from(r.u16())
+        };
         let capacity_held = r.opt::<T>();
         let ocv_weight = r.real::<T>();
         let (rest_len, rest_mean) = (r.real::<T>(), r.real::<T>());
-        let flags = r.u16();
-        let bit = |k: u16| flags >> k & 1 == 1;
-        let rest = bit(1).then_some((rest_len, rest_mean, bit(2), bit(3)));
+        let (has_estimate, rest) = if version == 1 {
+            let flags = r.u16();
+            let bit = |k: u16| flags >> k & 1 == 1;
+            // Its current was not kept: the rest gives no reading of the
+            // bias (a mean restarted a few samples before the rest's end
+            // would stand for a whole rest's).
+            let rest = bit(1).then_some(RestParts {
+                len: rest_len,
+                mean: rest_mean,
+                current: T::nan(),
+                early: bit(2),
+                done: bit(3),
+                bias_read: true,
+            });
+            (bit(0), rest)
+        } else {
+            let current = r.real::<T>();
+            let bit = |k: u16| word >> k & 1 == 1;
+            // A rest in progress is one with a length.
+            let rest = (!rest_len.is_nan()).then_some(RestParts {
+                len: rest_len,
+                mean: rest_mean,
+                current,
+                early: bit(13),
+                done: bit(14),
+                bias_read: bit(15),
+            });
+            (bit(12), rest)
+        };
         let [r_i, r_ct, q, alpha, u_oc, bv_a, bv_i0] = e;
         // `i₀` has no effect without a Butler–Volmer term (`a = 0`); the
         // linear model's may not fit an `f32` (an infinity, or 0: found by
@@ -437,7 +490,7 @@ impl<T: Real> CellSnapshot<T> {
         } else {
             bv_i0
         };
-        let estimate = bit(0).then_some(CellParameters {
+        let estimate = has_estimate.then_some(CellParameters {
             r_i,
             r_ct,
             q,
@@ -497,8 +550,9 @@ impl<T: Real> CellSnapshot<T> {
         let observer_ok = o.p.iter().all(|v| v.is_finite())
             && o.ocv_weight.is_finite()
             && o.capacity_held.is_none_or(|c| c > T::zero())
-            && o.rest
-                .is_none_or(|(len, mean, ..)| len >= T::zero() && mean.is_finite())
+            && o.rest.is_none_or(|r| {
+                r.len >= T::zero() && r.mean.is_finite() && !r.current.is_infinite()
+            })
             && o.x.is_none_or(|x| soc_ok(Some(x[0])) && x[2] > T::zero());
         estimate_ok && published_ok && soc_ok(self.soc) && observer_ok
     }
@@ -563,7 +617,7 @@ impl<T: Real, const N: usize, const MEM: usize, const CELLS: usize>
     ) -> Result<(), SnapshotError> {
         // Settings that build no estimator: the one in use stays.
         check_limits(s).map_err(|_| SnapshotError::Settings)?;
-        let (next, age_s) = check(s, buf, policy, self.active)?;
+        let (version, next, age_s) = check(s, buf, policy, self.active)?;
         let gap = match age_s {
             Some(a) => a > i64::from(policy.resume_s),
             None => policy.widen_unknown_age,
@@ -577,7 +631,7 @@ impl<T: Real, const N: usize, const MEM: usize, const CELLS: usize>
         self.history = CurrentHistory::new();
         for cell in self.cells.iter_mut().take(self.active) {
             *cell = CellState::new::<MEM, P>(s);
-            if let Some(snap) = CellSnapshot::read(&mut r) {
+            if let Some(snap) = CellSnapshot::read(&mut r, version) {
                 cell.restore::<MEM, P>(s, &snap, gap);
             }
         }
@@ -591,14 +645,14 @@ impl<T: Real, const N: usize, const MEM: usize, const CELLS: usize>
 }
 
 /// Checks a snapshot for a pack of `cells` cells, every cell's values
-/// included; returns the schedule position and the snapshot's age (s,
-/// when both clocks are known).
+/// included; returns its layout version, the schedule position and the
+/// snapshot's age (s, when both clocks are known).
 fn check<T: Real, const P: usize>(
     s: &OnlineSettings<T, P>,
     buf: &[u8],
     policy: &RestorePolicy,
     cells: usize,
-) -> Result<(usize, Option<i64>), SnapshotError> {
+) -> Result<(u16, usize, Option<i64>), SnapshotError> {
     let mut r = Reader { buf, at: 0 };
     if buf.len() < HEADER_BYTES + CRC_BYTES {
         return Err(SnapshotError::TooShort {
@@ -609,7 +663,7 @@ fn check<T: Real, const P: usize>(
         return Err(SnapshotError::NotASnapshot);
     }
     let version = r.u16();
-    if version != SNAPSHOT_VERSION {
+    if !(OLDEST_READ_VERSION..=SNAPSHOT_VERSION).contains(&version) {
         return Err(SnapshotError::Version { found: version });
     }
     let found = usize::from(r.u16());
@@ -644,10 +698,10 @@ fn check<T: Real, const P: usize>(
         return Err(SnapshotError::Stale { age_s });
     }
     for cell in 0..cells {
-        CellSnapshot::<T>::read(&mut r).ok_or(SnapshotError::Implausible { cell })?;
+        CellSnapshot::<T>::read(&mut r, version).ok_or(SnapshotError::Implausible { cell })?;
     }
     if next >= cells {
         return Err(SnapshotError::Implausible { cell: next });
     }
-    Ok((next, age_s))
+    Ok((version, next, age_s))
 }

@@ -251,9 +251,26 @@ pub(crate) struct ObserverParts<T> {
     pub observations: u32,
     pub capacity_held: Option<T>,
     pub ocv_weight: T,
-    /// A rest in progress: its length (s), its voltage mean, and whether
-    /// it has given its early observation and its observation.
-    pub rest: Option<(T, T, bool, bool)>,
+    /// A rest in progress.
+    pub rest: Option<RestParts<T>>,
+}
+
+/// What a snapshot keeps of a rest in progress: all of it, so that a
+/// record resumed in the middle of a rest observes what the whole run does.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct RestParts<T> {
+    /// Length (s).
+    pub len: T,
+    /// The voltage mean.
+    pub mean: T,
+    /// The current mean (A; NaN: no sample read one, or a snapshot of
+    /// layout version 1, which did not keep it).
+    pub current: T,
+    /// Whether it has given its early observation, its observation and
+    /// its reading of the bias.
+    pub early: bool,
+    pub done: bool,
+    pub bias_read: bool,
 }
 
 /// The SOC observer of one cell (module docs). State only: the settings
@@ -359,7 +376,14 @@ impl<T: Real> SocObserver<T> {
             observations: self.observations,
             capacity_held: self.capacity_held,
             ocv_weight: self.ocv_weight,
-            rest: self.rest.map(|r| (r.len, r.mean, r.early, r.done)),
+            rest: self.rest.map(|r| RestParts {
+                len: r.len,
+                mean: r.mean,
+                current: r.current,
+                early: r.early,
+                done: r.done,
+                bias_read: r.bias_read,
+            }),
         }
     }
 
@@ -370,16 +394,13 @@ impl<T: Real> SocObserver<T> {
         let mut o = Self {
             x: parts.x,
             p: parts.p,
-            rest: parts.rest.map(|(len, mean, early, done)| Rest {
-                len,
-                mean,
-                current: T::nan(),
-                early,
-                done,
-                // Its current is not kept: a rest restored gives no
-                // reading of the bias (a mean restarted a few samples
-                // before the rest's end would stand for a whole rest's).
-                bias_read: true,
+            rest: parts.rest.map(|r| Rest {
+                len: r.len,
+                mean: r.mean,
+                current: r.current,
+                early: r.early,
+                done: r.done,
+                bias_read: r.bias_read,
             }),
             ocv_weight: parts.ocv_weight,
             observations: parts.observations,
@@ -675,7 +696,8 @@ struct Rest<T> {
     mean: T,
     /// The mean of the currents over the same half minute (A): the bias
     /// as a rest reads it (NaN until a sample of the rest reads a current,
-    /// and for a rest restored from a snapshot).
+    /// and for a rest restored from a snapshot of layout version 1, which
+    /// did not keep it: that rest gives no reading).
     current: T,
     /// Whether the rest has given its early observation (of an unknown
     /// SOC) and its observation.

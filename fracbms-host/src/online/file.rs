@@ -44,7 +44,8 @@ pub struct OnlineBatteryOptions {
     /// The state-of-power columns (`--horizons`, `--voltage-min`,
     /// `--voltage-max`, `--current-limit`, `--pulse-current-a`).
     pub power: power::PowerOptions,
-    /// How the SOC is published (`--soc`, `--soc-rest-s`).
+    /// How the SOC is published (`--soc`, `--soc-rest-s`,
+    /// `--soc-bias-sigma-a`, `--soc-rest-load-sigma-a`).
     pub soc: soc::SocOptions,
     /// A snapshot to start from (`--state-in`, [`state`]).
     pub state_in: Option<PathBuf>,

@@ -45,6 +45,10 @@ pub struct SocOptions {
     /// The prior spread of the current sensor's bias (A; default C/50;
     /// 0: a calibrated sensor, no bias estimated).
     pub bias_sigma_a: Option<f64>,
+    /// The spread of the load a rest carries (A; default C/1000): how
+    /// closely a rest's mean measured current reads the bias. A pack with
+    /// a quiescent draw it does not know sets it larger.
+    pub rest_load_sigma_a: Option<f64>,
 }
 
 impl Default for SocOptions {
@@ -53,6 +57,7 @@ impl Default for SocOptions {
             mode: SocMode::Observer,
             rest_s: None,
             bias_sigma_a: None,
+            rest_load_sigma_a: None,
         }
     }
 }
@@ -62,7 +67,8 @@ impl SocOptions {
     /// curve's capacity) as the flags say.
     ///
     /// # Errors
-    /// A rest that is not finite and positive.
+    /// A rest that is not finite and positive, a spread that is not finite
+    /// and not negative.
     pub(crate) fn apply<T: Real>(&self, s: &mut SocSettings<T>) -> Result<()> {
         if let Some(r) = self.rest_s {
             if !(r.is_finite() && r > 0.0) {
@@ -82,6 +88,15 @@ impl SocOptions {
             if b == 0.0 {
                 s.bias_walk_a = T::ZERO;
             }
+        }
+        if let Some(l) = self.rest_load_sigma_a {
+            if !(l.is_finite() && l >= 0.0) {
+                bail!(
+                    Options,
+                    "--soc-rest-load-sigma-a {l}: must be finite and not negative"
+                );
+            }
+            s.rest_load_sigma_a = T::lit(l);
         }
         Ok(())
     }

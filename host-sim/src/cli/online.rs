@@ -150,6 +150,11 @@ pub struct StateArgs {
     /// estimates (default C/50; 0: a calibrated sensor, no bias state).
     #[arg(long)]
     pub soc_bias_sigma_a: Option<f64>,
+    /// The spread (A) of the load a rest carries: how closely a rest's
+    /// mean measured current reads the sensor's bias (default C/1000;
+    /// larger for a pack with a quiescent draw it does not know).
+    #[arg(long)]
+    pub soc_rest_load_sigma_a: Option<f64>,
 }
 
 impl StateArgs {
@@ -170,6 +175,7 @@ impl StateArgs {
             mode: self.soc.into(),
             rest_s: self.soc_rest_s,
             bias_sigma_a: self.soc_bias_sigma_a,
+            rest_load_sigma_a: self.soc_rest_load_sigma_a,
         }
     }
 }

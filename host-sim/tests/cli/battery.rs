@@ -265,6 +265,7 @@ fn ocv_curve_and_state_of_charge() {
     // A bad rest (exit 1) or mode (clap's usage error, exit 2): said.
     for (bad, code) in [
         (&["--soc-rest-s", "0"][..], 1),
+        (&["--soc-rest-load-sigma-a", "inf"][..], 1),
         (&["--soc", "kalman"][..], 2),
     ] {
         let o = online(bad);
