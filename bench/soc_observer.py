@@ -47,6 +47,33 @@ def first_rest_end(current, rest_s, capacity):
     return len(current)
 
 
+def rests(current, rest_s, capacity):
+    """(start, end) of every rest of at least rest_s samples (1 s)."""
+    out, n = [], 0
+    for k, i in enumerate(list(current) + [np.inf]):
+        if abs(i) <= capacity / 50:
+            n += 1
+        else:
+            if n >= rest_s:
+                out.append((k - n, k))
+            n = 0
+    return out
+
+
+def rest_readings(rec, d, rest_s, cap):
+    """The best a rest can read: the OCV table's inverse of each rest's last
+    voltage against the true SOC there, and the table's slope (V per unit
+    SOC). No estimator corrects a wrong start better at that rest."""
+    o = read(f"data/pybamm/{rec.split('-')[0]}-ocv.csv")
+    slope = np.gradient(o["ocv_v"], o["soc"])
+    rows = []
+    for a, b in rests(d["current_a"], rest_s, cap):
+        z = d["soc_true"][b - 1]
+        read_z = np.interp(d["voltage_v"][b - 1], o["ocv_v"], o["soc"])
+        rows.append((a, b, z, read_z - z, np.interp(z, o["soc"], slope)))
+    return rows
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--host-sim", default="target/release/host-sim")
@@ -84,6 +111,13 @@ def main():
             w = lambda x: f"{np.nanmax(x[after]):.4f}" if start < len(x) else "no rest"  # noqa: E731
             print(f"| {rec} | {case} | {w(obs)} | {w(cc)} | {obs[-1]:.4f} | {cc[-1]:.4f} | "
                   f"{t['current_bias_a'][-1]:+.4f} | {t['capacity_ah'][-1]:.3f} (true {cap:.3f}, {status}) |")
+            if case.startswith("start"):
+                readings = rest_readings(rec, d, rest_s, cap)
+                good = [b for _, b, _, err, _ in readings if abs(err) <= 0.02]
+                after_good = f"{np.nanmax(obs[good[0]:]):.4f}" if good else "no such rest"
+                print(f"|   | rests: the table's reading of the rest's last voltage − truth "
+                      f"(slope V/unit) | {'; '.join(f'{z:.3f}: {err:+.4f} ({sl:.3f})' for _, _, z, err, sl in readings)} "
+                      f"| observer worst after the first rest read within 0.02 | {after_good} |  |  |  |")
 
 
 if __name__ == "__main__":
