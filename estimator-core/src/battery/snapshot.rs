@@ -7,8 +7,8 @@
 //! the cell has learned; [`PackEstimator::restore`] takes it back at boot,
 //! with judgement:
 //!
-//! * the snapshot's magic, layout version ([`SNAPSHOT_VERSION`]) and CRC
-//!   are right, its cell count is the pack's, and it was written under the
+//! * the snapshot's magic, layout version ([`OLDEST_READ_VERSION`] to
+//!   [`SNAPSHOT_VERSION`]) and CRC are right, its cell count is the pack's, and it was written under the
 //!   same settings (a fingerprint of the sample period, the method, the
 //!   model and the OCV table with the capacity: what the stored numbers
 //!   mean);
@@ -58,7 +58,7 @@
 //!
 //! | offset | bytes | field |
 //! |---|---|---|
-//! | 0 | 28 | the estimate `R_i, R_ct, Q, α, u_oc, a, i₀` (NaN: none) |
+//! | 0 | 28 | the estimate `R_i, R_ct, Q, α, u_oc, a, i₀` (NaN when there is none: bit 12 below says whether there is) |
 //! | 28 | 32 | the published `R_i, R_ct, Q, α`, each with the SOC it was identified at |
 //! | 60 | 2 | a word: bits 0–11 their statuses, 3 bits each; bit 12 an estimate; bits 13, 14 and 15 the rest's early observation, observation and bias reading given |
 //! | 62 | 4 | the counted SOC |
@@ -67,7 +67,7 @@
 //! | 102 | 2 | its observations (`u16`, saturated at 65 535) |
 //! | 104 | 4 | the last identified capacity |
 //! | 108 | 4 | the last observation's weight |
-//! | 112 | 12 | a rest in progress: its length (s; NaN: no rest), voltage mean and current mean |
+//! | 112 | 12 | a rest in progress: its length (s; NaN: no rest, and then bits 13–15 are 0), voltage mean and current mean (NaN: no sample of the rest read a current; ±∞ is implausible) |
 //!
 //! Layout version 1 (read, no longer written) had the statuses 4 bits
 //! each, the observations as a `u32`, no rest current, and a flags word
@@ -469,7 +469,11 @@ impl<T: Real> CellSnapshot<T> {
         } else {
             let current = r.real::<T>();
             let bit = |k: u16| word >> k & 1 == 1;
-            // A rest in progress is one with a length.
+            // A rest in progress is one with a length; its flags without
+            // one are no snapshot the writer makes.
+            if rest_len.is_nan() && word >> 13 != 0 {
+                return None;
+            }
             let rest = (!rest_len.is_nan()).then_some(RestParts {
                 len: rest_len,
                 mean: rest_mean,

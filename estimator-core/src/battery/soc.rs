@@ -713,7 +713,13 @@ impl<T: Real> Rest<T> {
         Self {
             len: s.h,
             mean: voltage,
-            current,
+            // A current the sensor did not read (NaN, or not finite) starts
+            // no mean: the first sample that reads one does.
+            current: if current.is_finite() {
+                current
+            } else {
+                T::nan()
+            },
             early: false,
             done: false,
             bias_read: false,

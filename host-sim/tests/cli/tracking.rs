@@ -216,6 +216,21 @@ fn pack_round_trip_tracks_every_cell_and_flags_the_aged_one() {
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(err.trim().lines().count(), 1, "{err}");
     assert!(err.contains("cell_1_v"), "{err}");
+    // A bad SOC setting: the same one line as `online battery` gives.
+    let o = run(&[
+        "online",
+        "pack",
+        "--input",
+        s(&csv),
+        "--out",
+        s(&track),
+        "--soc-rest-load-sigma-a",
+        "nan",
+    ]);
+    assert_eq!(o.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+    assert!(err.contains("--soc-rest-load-sigma-a"), "{err}");
     let o = run(&[
         "simulate",
         "pack",

@@ -205,7 +205,7 @@ fn the_observer_is_small() {
     // weight, counters, the held capacity and a pending set: docs/bms-states.md.
     let n = core::mem::size_of::<SocObserver<f32>>();
     println!("size_of::<SocObserver<f32>>() = {n} B");
-    assert!(n <= 88, "{n}");
+    assert_eq!(n, 84);
 }
 
 #[test]
