@@ -590,7 +590,7 @@ impl<T: Real> SocObserver<T> {
         voltage: T,
         sigma_v: T,
     ) -> bool {
-        let Some(x) = &mut self.x else { return false };
+        let Some(x) = self.x else { return false };
         let v = table.ocv_points();
         let inside = v
             .first()
@@ -604,35 +604,14 @@ impl<T: Real> SocObserver<T> {
             let sd = sigma_v / table.slope(z).abs().max(s.min_slope);
             sd * sd + s.table_sigma_soc * s.table_sigma_soc
         };
-        let [p00, p01, p02, p11, p12, p22] = self.p;
-        let sum = p00 + r;
+        let sum = self.p[0] + r;
         if sum.is_nan() || sum <= T::ZERO || !sum.is_finite() {
             return false;
         }
-        let gain = [p00 / sum, p01 / sum, p02 / sum];
         let innovation = z - x[0];
-        for (xi, ki) in x.iter_mut().zip(gain) {
-            *xi = *xi + ki * innovation;
-        }
-        // Keep the capacity positive: g within (0.2, 5); and the bias
-        // within 1C (what its spread is capped at, `variance_caps`).
-        x[2] = x[2].max(T::lit(0.2)).min(T::lit(5.0));
-        x[1] = x[1].max(-s.capacity_ah).min(s.capacity_ah);
-        // P − K·P[0,:]
-        self.p = [
-            p00 - gain[0] * p00,
-            p01 - gain[0] * p01,
-            p02 - gain[0] * p02,
-            p11 - gain[1] * p01,
-            p12 - gain[1] * p02,
-            p22 - gain[2] * p02,
-        ];
-        self.condition(s);
-        self.ocv_weight = gain[0];
+        let gain = self.measure(s, Measured::Soc, innovation, sum);
+        self.ocv_weight = gain;
         self.observations = self.observations.saturating_add(1);
-        if let Some((c, _, true)) = self.capacity(s) {
-            self.capacity_held = Some(c);
-        }
         true
     }
 
@@ -650,9 +629,8 @@ impl<T: Real> SocObserver<T> {
             return;
         }
         let current = rest.current;
-        let Some(x) = &mut self.x else { return };
-        let [p00, p01, p02, p11, p12, p22] = self.p;
-        let sum = p11 + s.rest_load_sigma_a * s.rest_load_sigma_a;
+        let Some(x) = self.x else { return };
+        let sum = self.p[3] + s.rest_load_sigma_a * s.rest_load_sigma_a;
         if !current.is_finite() || !sum.is_finite() || sum <= T::ZERO {
             return;
         }
@@ -660,26 +638,54 @@ impl<T: Real> SocObserver<T> {
         if innovation * innovation > T::lit(9.0) * sum {
             return;
         }
-        let gain = [p01 / sum, p11 / sum, p12 / sum];
+        self.measure(s, Measured::Bias, innovation, sum);
+    }
+
+    /// The Kalman update of one scalar measurement of the SOC or of the
+    /// bias, with innovation `innovation` and innovation variance `sum`
+    /// (finite and positive): the state and covariance updated and kept in
+    /// range, the capacity held when identified. Returns the gain on the
+    /// SOC.
+    fn measure(&mut self, s: &SocSettings<T>, of: Measured, innovation: T, sum: T) -> T {
+        let Some(x) = &mut self.x else {
+            return T::ZERO;
+        };
+        let [p00, p01, p02, p11, p12, p22] = self.p;
+        // P[:, j], the measured state's column.
+        let c = match of {
+            Measured::Soc => [p00, p01, p02],
+            Measured::Bias => [p01, p11, p12],
+        };
+        let gain = c.map(|ci| ci / sum);
         for (xi, ki) in x.iter_mut().zip(gain) {
             *xi = *xi + ki * innovation;
         }
+        // Keep the capacity positive: g within (0.2, 5); and the bias
+        // within 1C (what its spread is capped at, `variance_caps`).
         x[2] = x[2].max(T::lit(0.2)).min(T::lit(5.0));
         x[1] = x[1].max(-s.capacity_ah).min(s.capacity_ah);
-        // P − K·P[1,:]
+        // P − K·P[j,:] (P symmetric: P[j,:] is the column).
         self.p = [
-            p00 - gain[0] * p01,
-            p01 - gain[0] * p11,
-            p02 - gain[0] * p12,
-            p11 - gain[1] * p11,
-            p12 - gain[1] * p12,
-            p22 - gain[2] * p12,
+            p00 - gain[0] * c[0],
+            p01 - gain[0] * c[1],
+            p02 - gain[0] * c[2],
+            p11 - gain[1] * c[1],
+            p12 - gain[1] * c[2],
+            p22 - gain[2] * c[2],
         ];
         self.condition(s);
         if let Some((c, _, true)) = self.capacity(s) {
             self.capacity_held = Some(c);
         }
+        gain[0]
     }
+}
+
+/// Which state a scalar measurement observes ([`SocObserver::measure`]).
+#[derive(Clone, Copy)]
+enum Measured {
+    Soc,
+    Bias,
 }
 
 /// A rest in progress: its length and the mean of its recent voltages.
