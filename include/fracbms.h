@@ -898,6 +898,84 @@ typedef struct FracbmsMapLevel {
   struct FracbmsParameters parameters;
 } FracbmsMapLevel;
 
+/**
+ * The SOC observer's settings (`estimator_core::battery::soc::SocSettings`;
+ * `host-sim online battery`'s `--soc-rest-s`, `--soc-bias-sigma-a`,
+ * `--soc-rest-load-sigma-a` set three of them). The period and the nominal
+ * capacity are `FracbmsSettings`' `h` and `capacity_ah`. Start from
+ * `fracbms_soc_settings_default` and change what differs: every value must
+ * be finite and not negative, `min_slope` positive
+ * (`FRACBMS_ERROR_SETTINGS` otherwise, from `init`).
+ */
+typedef struct FracbmsSocSettings {
+  /**
+   * A sample is rested when its current, less the estimated bias, is at
+   * most this (A). Default C/50.
+   */
+  float rest_current_a;
+  /**
+   * The shortest rest that gives an observation (s). Default 600.
+   */
+  float rest_s;
+  /**
+   * A rest this long gives its observation without waiting for its end
+   * (s). Default 3600; keep it at least `rest_s`.
+   */
+  float rest_max_s;
+  /**
+   * The spread of a rested voltage as the OCV (V). Default 0.005.
+   */
+  float voltage_sigma_v;
+  /**
+   * The spread of a voltage read at once, not yet relaxed (V). Default
+   * 0.03.
+   */
+  float unrelaxed_sigma_v;
+  /**
+   * The spread of the OCV curve itself in SOC, added to every
+   * observation's. Default 0.01.
+   */
+  float table_sigma_soc;
+  /**
+   * The spread of a start SOC (given, or read from the first voltage).
+   * Default 0.1.
+   */
+  float soc0_sigma;
+  /**
+   * The prior spread of the current sensor's bias (A). Default C/50; 0
+   * for a calibrated sensor (then set `bias_walk_a` to 0 too, as the
+   * CLI's `--soc-bias-sigma-a 0` does).
+   */
+  float bias_sigma_a;
+  /**
+   * How far the bias may wander in an hour (A). Default C/1000.
+   */
+  float bias_walk_a;
+  /**
+   * The spread of the true current in a rest (A): each rest's mean
+   * current reads the bias with this spread. Default C/1000.
+   */
+  float rest_load_sigma_a;
+  /**
+   * The prior spread of the capacity, relative. Default 0.15.
+   */
+  float capacity_sigma;
+  /**
+   * The capacity is identified when its standard deviation is at most
+   * this fraction of it. Default 0.02.
+   */
+  float capacity_identify;
+  /**
+   * The spread added to the SOC by a gap of unknown charge. Default 0.5.
+   */
+  float gap_soc_sigma;
+  /**
+   * The smallest OCV slope an observation is weighed with (V per unit
+   * SOC). Default 0.001.
+   */
+  float min_slope;
+} FracbmsSocSettings;
+
 #ifdef __cplusplus
 extern "C" {
 #endif // __cplusplus
@@ -1270,6 +1348,47 @@ FracbmsCode fracbms_pack_snapshot_restore(struct FracbmsPack *pack,
                                           size_t len,
                                           uint32_t now_s,
                                           uint32_t max_age_s);
+
+/**
+ * Fills `out` with the SOC observer's defaults for `settings` (its period
+ * `h` and, with an OCV table, its `capacity_ah`): what `fracbms_cell_init`
+ * and `fracbms_pack_init` use.
+ *
+ * # Safety
+ * `settings` is null or valid for a read, with its OCV arrays as for
+ * `fracbms_cell_init`; `out` is null or valid for a write.
+ */
+FracbmsCode fracbms_soc_settings_default(const struct FracbmsSettings *settings,
+                                         struct FracbmsSocSettings *out);
+
+/**
+ * `fracbms_cell_init` with the SOC observer's settings `soc` (null: the
+ * defaults, as `fracbms_cell_init`). They hold for the cell's life.
+ *
+ * # Safety
+ * As `fracbms_cell_init`; `soc` is null or valid for a read.
+ */
+FracbmsCode fracbms_cell_init_with_soc(void *memory,
+                                       size_t size,
+                                       const struct FracbmsSettings *settings,
+                                       const struct FracbmsSocSettings *soc,
+                                       struct FracbmsCell **cell);
+
+/**
+ * `fracbms_pack_init` with the SOC observer's settings `soc` for every
+ * cell (null: the defaults, as `fracbms_pack_init`).
+ *
+ * # Safety
+ * As `fracbms_pack_init`; `soc` is null or valid for a read.
+ */
+FracbmsCode fracbms_pack_init_with_soc(void *memory,
+                                       size_t size,
+                                       const struct FracbmsSettings *settings,
+                                       const struct FracbmsSocSettings *soc,
+                                       uint16_t cells,
+                                       uint16_t updates_per_period,
+                                       float flag_ratio,
+                                       struct FracbmsPack **pack);
 
 #ifdef __cplusplus
 }  // extern "C"

@@ -57,12 +57,11 @@
 
 use core::ffi::c_char;
 
-use estimator_core::battery::pack::PackSettings;
-
 #[cfg(not(target_os = "none"))]
 mod identify;
 mod map;
 mod snapshot;
+mod soc;
 mod state;
 mod types;
 
@@ -73,6 +72,10 @@ pub use snapshot::{
     fracbms_cell_snapshot_restore, fracbms_cell_snapshot_save, fracbms_cell_snapshot_size,
     fracbms_pack_snapshot_restore, fracbms_pack_snapshot_save, fracbms_pack_snapshot_size,
     FRACBMS_TIME_UNKNOWN,
+};
+pub use soc::{
+    fracbms_cell_init_with_soc, fracbms_pack_init_with_soc, fracbms_soc_settings_default,
+    FracbmsSocSettings,
 };
 pub use types::{
     FracbmsCode, FracbmsEstimate, FracbmsHorizonPower, FracbmsIdentification, FracbmsMapLevel,
@@ -181,25 +184,8 @@ pub unsafe extern "C" fn fracbms_cell_init(
     settings: *const FracbmsSettings,
     cell: *mut *mut FracbmsCell,
 ) -> FracbmsCode {
-    if settings.is_null() || cell.is_null() {
-        return FRACBMS_ERROR_NULL;
-    }
-    // SAFETY: non-null, valid by the caller's contract.
-    let c = unsafe { &*settings };
-    let Some(layout) = state::cell_layout(c.window, c.memory) else {
-        return FRACBMS_ERROR_UNSUPPORTED_SIZE;
-    };
-    let memory = memory.cast::<u8>();
-    let run = || {
-        state::check_memory(memory, size, layout)?;
-        // SAFETY: the caller's OCV arrays hold `ocv_points` values.
-        let s = unsafe { types::settings(c) }?;
-        // SAFETY: memory checked against the layout of this window.
-        unsafe { state::cell_init_sized(memory, s, c.window) }?;
-        // SAFETY: `cell` non-null, valid by the caller's contract.
-        unsafe { put(cell, memory.cast::<FracbmsCell>()) }
-    };
-    code(run())
+    // SAFETY: forwarded from the caller; no SOC settings (the defaults).
+    unsafe { fracbms_cell_init_with_soc(memory, size, settings, core::ptr::null(), cell) }
 }
 
 /// Pushes one sample (current in A, positive when charging; terminal
@@ -339,31 +325,19 @@ pub unsafe extern "C" fn fracbms_pack_init(
     flag_ratio: f32,
     pack: *mut *mut FracbmsPack,
 ) -> FracbmsCode {
-    if settings.is_null() || pack.is_null() {
-        return FRACBMS_ERROR_NULL;
+    // SAFETY: forwarded from the caller; no SOC settings (the defaults).
+    unsafe {
+        fracbms_pack_init_with_soc(
+            memory,
+            size,
+            settings,
+            core::ptr::null(),
+            cells,
+            updates_per_period,
+            flag_ratio,
+            pack,
+        )
     }
-    if state::pack_room(cells) == 0 {
-        return FRACBMS_ERROR_CELL_COUNT;
-    }
-    // SAFETY: non-null, valid by the caller's contract.
-    let c = unsafe { &*settings };
-    let Some(layout) = state::pack_layout(c.window, c.memory, cells) else {
-        return FRACBMS_ERROR_UNSUPPORTED_SIZE;
-    };
-    let memory = memory.cast::<u8>();
-    let run = || {
-        state::check_memory(memory, size, layout)?;
-        // SAFETY: the caller's OCV arrays hold `ocv_points` values.
-        let cell = unsafe { types::settings(c) }?;
-        let mut s = PackSettings::new(cell);
-        s.updates_per_period = updates_per_period;
-        s.flag_ratio = flag_ratio;
-        // SAFETY: memory checked against the layout of these sizes.
-        unsafe { state::pack_init_sized(memory, s, c.window, cells) }?;
-        // SAFETY: `pack` non-null, valid by the caller's contract.
-        unsafe { put(pack, memory.cast::<FracbmsPack>()) }
-    };
-    code(run())
 }
 
 /// Pushes one sample period into a pack: the pack's current (A, positive

@@ -20,6 +20,10 @@
  *                                   the rows whose `identifiable` is true)
  *   --sop VMIN,VMAX,ILIMIT,IPULSE   online: fracbms_cell_state_of_power after
  *                                   each push, horizons 10 and 30 s
+ *   --soc-rest-s S, --soc-bias-sigma-a A, --soc-rest-load-sigma-a A
+ *                                   online: the SOC observer's settings as the
+ *                                   CLI's flags set them
+ *                                   (fracbms_cell_init_with_soc)
  *
  * identify prints one line: the FracbmsFit (`code`, `message` on an error).
  * online prints one line per sample (the FracbmsEstimate after the push,
@@ -172,6 +176,9 @@ typedef struct {
     double capacity_ah, soc0;
     int sop;
     float sop_limits[4];
+    /* The CLI's --soc-rest-s, --soc-bias-sigma-a, --soc-rest-load-sigma-a
+     * (NaN: not given). */
+    double soc_rest_s, soc_bias_sigma_a, soc_rest_load_sigma_a;
 } Options;
 
 static int identify(const Table *rec, const Options *o)
@@ -289,10 +296,27 @@ static int online(const Table *rec, const Options *o)
     void *mem = aligned_alloc(align, (size + align - 1) / align * align);
     if (!mem)
         die("out of memory");
+    /* The SOC observer's settings: the defaults for this cell, changed as
+     * the CLI's flags change them. */
+    FracbmsSocSettings soc;
+    if (fracbms_soc_settings_default(&s, &soc) != FRACBMS_OK)
+        die("fracbms_soc_settings_default");
+    if (!isnan(o->soc_rest_s)) {
+        soc.rest_s = (float)o->soc_rest_s;
+        if (soc.rest_max_s < soc.rest_s)
+            soc.rest_max_s = soc.rest_s;
+    }
+    if (!isnan(o->soc_bias_sigma_a)) {
+        soc.bias_sigma_a = (float)o->soc_bias_sigma_a;
+        if (soc.bias_sigma_a == 0.0f)
+            soc.bias_walk_a = 0.0f;
+    }
+    if (!isnan(o->soc_rest_load_sigma_a))
+        soc.rest_load_sigma_a = (float)o->soc_rest_load_sigma_a;
     FracbmsCell *cell = NULL;
-    FracbmsCode rc = fracbms_cell_init(mem, size, &s, &cell);
+    FracbmsCode rc = fracbms_cell_init_with_soc(mem, size, &s, &soc, &cell);
     if (rc != FRACBMS_OK) {
-        fprintf(stderr, "parity: fracbms_cell_init: %s\n", fracbms_code_message(rc));
+        fprintf(stderr, "parity: fracbms_cell_init_with_soc: %s\n", fracbms_code_message(rc));
         return 1;
     }
     if (!isnan(o->soc0) && fracbms_cell_set_state_of_charge(cell, (float)o->soc0) != FRACBMS_OK)
@@ -406,7 +430,8 @@ static int online(const Table *rec, const Options *o)
 _Noreturn static void usage(void)
 {
     fprintf(stderr, "usage: parity identify|online RECORD.csv [--ocv OCV.csv --capacity-ah C] "
-                    "[--soc0 Z] [--map MAP.csv] [--sop VMIN,VMAX,ILIMIT,IPULSE]\n");
+                    "[--soc0 Z] [--map MAP.csv] [--sop VMIN,VMAX,ILIMIT,IPULSE] "
+                    "[--soc-rest-s S] [--soc-bias-sigma-a A] [--soc-rest-load-sigma-a A]\n");
     exit(2);
 }
 
@@ -414,7 +439,7 @@ int main(int argc, char **argv)
 {
     if (argc < 3)
         usage();
-    Options o = {NULL, NULL, NAN, NAN, 0, {0}};
+    Options o = {NULL, NULL, NAN, NAN, 0, {0}, NAN, NAN, NAN};
     for (int k = 3; k < argc; k++) {
         if (k + 1 >= argc)
             usage();
@@ -427,6 +452,12 @@ int main(int argc, char **argv)
             o.soc0 = strtod(value, NULL);
         else if (strcmp(flag, "--map") == 0)
             o.map = value;
+        else if (strcmp(flag, "--soc-rest-s") == 0)
+            o.soc_rest_s = strtod(value, NULL);
+        else if (strcmp(flag, "--soc-bias-sigma-a") == 0)
+            o.soc_bias_sigma_a = strtod(value, NULL);
+        else if (strcmp(flag, "--soc-rest-load-sigma-a") == 0)
+            o.soc_rest_load_sigma_a = strtod(value, NULL);
         else if (strcmp(flag, "--sop") == 0) {
             char *p = (char *)value;
             for (int j = 0; j < 4; j++) {

@@ -24,6 +24,10 @@ Which operation runs on which faces, and why:
   of charge: the count, the observer's SOC, sigma, current bias, capacity
   and its status (C: ``fracbms_cell_set_state_of_charge`` with the start
   SOC the CLI gets from ``--soc0``).
+- ``soc_settings`` (CLI, C, Python; records with an OCV table): ``soc``
+  with the observer's settings of SOC_SETTINGS (``--soc-rest-s``,
+  ``--soc-rest-load-sigma-a``; C: ``fracbms_cell_init_with_soc``), which
+  must change the run.
 - ``sop`` (CLI, C, Python): the same run's state of power at 10 and 30 s
   (the CLI's ``sop_*``/``pulse_v_*`` columns, Python's, and C's
   ``fracbms_cell_state_of_power`` after each push), for the limits of the
@@ -90,7 +94,8 @@ RECORDS = {
     # The DFN HPPC record, its first 1500 rows (three pulse levels, rests):
     # every status, and a state of power on 828 rows.
     "dfn-hppc": dict(source="data/pybamm/chen2020-hppc.csv", rows=1500, ocv=OCV_CHEN,
-                     capacity_ah=CAPACITY_CHEN, soc0=0.9, sop=(2.5, 4.2, 50.0, -CAPACITY_CHEN)),
+                     capacity_ah=CAPACITY_CHEN, soc0=0.9, sop=(2.5, 4.2, 50.0, -CAPACITY_CHEN),
+                     rests=True),
     # cell-pulse with hostile rows (as bench/bad_rows.py makes them, at
     # fixed rows): NaN voltages, a NaN current, voltage spikes, a voltage
     # and a current out of the plausible range.
@@ -120,6 +125,7 @@ FACES = {
     "identify": ("cli", "c", "python"),
     "online": ("cli", "c", "python"),
     "soc": ("cli", "c", "python"),
+    "soc_settings": ("cli", "c", "python"),
     "sop": ("cli", "c", "python"),
     "map": ("cli", "python"),
     "map_c": ("cli", "c", "python"),
@@ -133,7 +139,7 @@ def applies(op, name):
     r = RECORDS[name]
     if name == "nan-time":
         return op == "identify"
-    if op in ("soc", "map", "map_c"):
+    if op in ("soc", "soc_settings", "map", "map_c"):
         return "ocv" in r
     if op == "sop":
         return "sop" in r
@@ -151,6 +157,10 @@ ONLINE_NUMBERS = ["r_i", "r_ct", "q", "alpha", "window_r_i", "window_r_ct", "win
 ONLINE_NAMES = ["status", "rejected", "r_i_status", "r_ct_status", "q_status", "alpha_status"]
 SOC_NUMBERS = ["soc", "soc_coulomb", "soc_sigma", "current_bias_a", "capacity_ah",
                "capacity_sigma_ah", "soc_ocv_weight"]
+# The SOC observer's settings of ``soc_settings``: the CLI's flags (``_`` as
+# ``-``), the C driver's (``fracbms_cell_init_with_soc``), Python's keywords.
+# Rests of two minutes are read, and a rest's current reads the bias loosely.
+SOC_SETTINGS = dict(soc_rest_s=120.0, soc_rest_load_sigma_a=0.05)
 SOP_NUMBERS = [f"{k}_{h}s" for h in (10, 30)
                for k in ("sop_discharge_a", "sop_charge_a", "pulse_v")]
 IDENTIFY_NUMBERS = ["r_i", "r_ct", "q", "alpha", "u_oc", "bv_a_v", "bv_i0_a", "ocv_offset_v",
@@ -365,13 +375,16 @@ class Runs:
                 return fit
         return self.get(("identify", face, name), make)
 
-    def online(self, face, name, with_map=False):
+    def online(self, face, name, with_map=False, soc_settings=False):
         """The firmware's settings, with the record's cell and state-of-power
-        request (and the map as the prior)."""
+        request (and the map as the prior; or the SOC observer's settings
+        of SOC_SETTINGS)."""
         f = self.files[name]
-        tag = "map" if with_map else "online"
+        tag = "map" if with_map else "soc_settings" if soc_settings else "online"
+        soc = SOC_SETTINGS if soc_settings else {}
         if face == "cli":
             extra = ["--prior", self.files["map"]] if with_map else []
+            extra += [x for k, v in soc.items() for x in (f"--{k.replace('_', '-')}", repr(v))]
             out = self.files["dir"] / f"{name}-{tag}.csv"
             make = lambda: cli_track(self.cli, f, out, *FIRMWARE_ARGS, *cell_args(name),
                                      *sop_args(name), *extra)
@@ -379,9 +392,11 @@ class Runs:
             extra = ["--map", self.files["map"]] if with_map else []
             if "sop" in RECORDS[name]:
                 extra += ["--sop", ",".join(repr(x) for x in RECORDS[name]["sop"])]
+            extra += [x for k, v in soc.items() for x in (f"--{k.replace('_', '-')}", repr(v))]
             make = lambda: c_track(self.c("online", f, *cell_args(name), *extra))
         else:
             extra = dict(map=self.files["map"]) if with_map else {}
+            extra.update(soc)
             make = lambda: py_track(f, **FIRMWARE_KW, **cell_kw(name), **sop_kw(name), **extra)
         return self.get((tag, face, name), make)
 
@@ -497,7 +512,8 @@ def test_the_faces_agree(runs, name, op):
         tracks = {face: runs.online_f64(face, name) for face in faces}
     else:
         with_map = op in ("map", "map_c")
-        tracks = {face: runs.online(face, name, with_map) for face in faces}
+        tracks = {face: runs.online(face, name, with_map, op == "soc_settings")
+                  for face in faces}
     counts = {face: tracks[face][1] for face in faces}
     tracks = {face: tracks[face][0] for face in faces}
     if "c" in tracks:
@@ -510,6 +526,16 @@ def test_the_faces_agree(runs, name, op):
         same_tracks(tracks, numbers, names)
     elif op == "soc":
         same_tracks(tracks, SOC_NUMBERS, ["capacity_status"])
+    elif op == "soc_settings":
+        same_tracks(tracks, SOC_NUMBERS, ["capacity_status"])
+        # The settings reach every face: on a record with rests of two
+        # minutes the SOC is not the defaults' run; without one (the drive
+        # cycle's excerpt) it is.
+        default = runs.online("python", name)[0]
+        changed = tracks["python"]
+        same = all(np.array_equal(changed[k], default[k], equal_nan=True)
+                   for k in ("soc", "current_bias_a"))
+        assert same != RECORDS[name].get("rests", False), name
     elif op == "sop":
         # Published on some rows (else the comparison is of NaNs only).
         assert np.isfinite(tracks["python"]["sop_discharge_a_10s"]).any()

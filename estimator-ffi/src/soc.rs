@@ -1,0 +1,229 @@
+//! The SOC observer's settings through the C ABI: `FracbmsSocSettings`
+//! (the core's `SocSettings` less the period and the nominal capacity, which
+//! `FracbmsSettings` already carries), their defaults, and the `init`
+//! variants that take them. Only conversion here: the observer and its
+//! checks are `estimator_core::battery::soc`'s.
+
+use estimator_core::battery::pack::PackSettings;
+use estimator_core::battery::soc::SocSettings;
+
+use crate::types::{self, FracbmsCode, FracbmsSettings, Settings};
+use crate::{put, state, FracbmsCell, FracbmsPack};
+
+/// The SOC observer's settings (`estimator_core::battery::soc::SocSettings`;
+/// `host-sim online battery`'s `--soc-rest-s`, `--soc-bias-sigma-a`,
+/// `--soc-rest-load-sigma-a` set three of them). The period and the nominal
+/// capacity are `FracbmsSettings`' `h` and `capacity_ah`. Start from
+/// `fracbms_soc_settings_default` and change what differs: every value must
+/// be finite and not negative, `min_slope` positive
+/// (`FRACBMS_ERROR_SETTINGS` otherwise, from `init`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FracbmsSocSettings {
+    /// A sample is rested when its current, less the estimated bias, is at
+    /// most this (A). Default C/50.
+    pub rest_current_a: f32,
+    /// The shortest rest that gives an observation (s). Default 600.
+    pub rest_s: f32,
+    /// A rest this long gives its observation without waiting for its end
+    /// (s). Default 3600; keep it at least `rest_s`.
+    pub rest_max_s: f32,
+    /// The spread of a rested voltage as the OCV (V). Default 0.005.
+    pub voltage_sigma_v: f32,
+    /// The spread of a voltage read at once, not yet relaxed (V). Default
+    /// 0.03.
+    pub unrelaxed_sigma_v: f32,
+    /// The spread of the OCV curve itself in SOC, added to every
+    /// observation's. Default 0.01.
+    pub table_sigma_soc: f32,
+    /// The spread of a start SOC (given, or read from the first voltage).
+    /// Default 0.1.
+    pub soc0_sigma: f32,
+    /// The prior spread of the current sensor's bias (A). Default C/50; 0
+    /// for a calibrated sensor (then set `bias_walk_a` to 0 too, as the
+    /// CLI's `--soc-bias-sigma-a 0` does).
+    pub bias_sigma_a: f32,
+    /// How far the bias may wander in an hour (A). Default C/1000.
+    pub bias_walk_a: f32,
+    /// The spread of the true current in a rest (A): each rest's mean
+    /// current reads the bias with this spread. Default C/1000.
+    pub rest_load_sigma_a: f32,
+    /// The prior spread of the capacity, relative. Default 0.15.
+    pub capacity_sigma: f32,
+    /// The capacity is identified when its standard deviation is at most
+    /// this fraction of it. Default 0.02.
+    pub capacity_identify: f32,
+    /// The spread added to the SOC by a gap of unknown charge. Default 0.5.
+    pub gap_soc_sigma: f32,
+    /// The smallest OCV slope an observation is weighed with (V per unit
+    /// SOC). Default 0.001.
+    pub min_slope: f32,
+}
+
+impl FracbmsSocSettings {
+    /// The C view of the core's settings.
+    fn from_core(s: &SocSettings<f32>) -> Self {
+        Self {
+            rest_current_a: s.rest_current_a,
+            rest_s: s.rest_s,
+            rest_max_s: s.rest_max_s,
+            voltage_sigma_v: s.voltage_sigma_v,
+            unrelaxed_sigma_v: s.unrelaxed_sigma_v,
+            table_sigma_soc: s.table_sigma_soc,
+            soc0_sigma: s.soc0_sigma,
+            bias_sigma_a: s.bias_sigma_a,
+            bias_walk_a: s.bias_walk_a,
+            rest_load_sigma_a: s.rest_load_sigma_a,
+            capacity_sigma: s.capacity_sigma,
+            capacity_identify: s.capacity_identify,
+            gap_soc_sigma: s.gap_soc_sigma,
+            min_slope: s.min_slope,
+        }
+    }
+
+    /// The core's settings with these values (`s`' period and capacity
+    /// kept).
+    pub(crate) fn apply(&self, s: &mut SocSettings<f32>) {
+        *s = SocSettings {
+            capacity_ah: s.capacity_ah,
+            h: s.h,
+            rest_current_a: self.rest_current_a,
+            rest_s: self.rest_s,
+            rest_max_s: self.rest_max_s,
+            voltage_sigma_v: self.voltage_sigma_v,
+            unrelaxed_sigma_v: self.unrelaxed_sigma_v,
+            table_sigma_soc: self.table_sigma_soc,
+            soc0_sigma: self.soc0_sigma,
+            bias_sigma_a: self.bias_sigma_a,
+            bias_walk_a: self.bias_walk_a,
+            rest_load_sigma_a: self.rest_load_sigma_a,
+            capacity_sigma: self.capacity_sigma,
+            capacity_identify: self.capacity_identify,
+            gap_soc_sigma: self.gap_soc_sigma,
+            min_slope: self.min_slope,
+        };
+    }
+}
+
+/// The core's settings of `c` with the SOC settings `soc` (null: the
+/// defaults for `c`'s capacity).
+///
+/// # Safety
+/// As `types::settings`; `soc` is null or valid for a read.
+unsafe fn settings_with(
+    c: &FracbmsSettings,
+    soc: *const FracbmsSocSettings,
+) -> Result<Settings, FracbmsCode> {
+    // SAFETY: forwarded from the caller.
+    let mut s = unsafe { types::settings(c) }?;
+    if !soc.is_null() {
+        // SAFETY: non-null, valid for a read by the caller's contract.
+        unsafe { soc.read() }.apply(&mut s.soc);
+    }
+    Ok(s)
+}
+
+/// Fills `out` with the SOC observer's defaults for `settings` (its period
+/// `h` and, with an OCV table, its `capacity_ah`): what `fracbms_cell_init`
+/// and `fracbms_pack_init` use.
+///
+/// # Safety
+/// `settings` is null or valid for a read, with its OCV arrays as for
+/// `fracbms_cell_init`; `out` is null or valid for a write.
+#[no_mangle]
+pub unsafe extern "C" fn fracbms_soc_settings_default(
+    settings: *const FracbmsSettings,
+    out: *mut FracbmsSocSettings,
+) -> FracbmsCode {
+    if settings.is_null() {
+        return FracbmsCode::FRACBMS_ERROR_NULL;
+    }
+    // SAFETY: non-null, valid by the caller's contract.
+    let c = unsafe { &*settings };
+    // SAFETY: the caller's OCV arrays hold `ocv_points` values.
+    let run = || unsafe {
+        let s = types::settings(c)?;
+        put(out, FracbmsSocSettings::from_core(&s.soc))
+    };
+    crate::code(run())
+}
+
+/// `fracbms_cell_init` with the SOC observer's settings `soc` (null: the
+/// defaults, as `fracbms_cell_init`). They hold for the cell's life.
+///
+/// # Safety
+/// As `fracbms_cell_init`; `soc` is null or valid for a read.
+#[no_mangle]
+pub unsafe extern "C" fn fracbms_cell_init_with_soc(
+    memory: *mut core::ffi::c_void,
+    size: usize,
+    settings: *const FracbmsSettings,
+    soc: *const FracbmsSocSettings,
+    cell: *mut *mut FracbmsCell,
+) -> FracbmsCode {
+    if settings.is_null() || cell.is_null() {
+        return FracbmsCode::FRACBMS_ERROR_NULL;
+    }
+    // SAFETY: non-null, valid by the caller's contract.
+    let c = unsafe { &*settings };
+    let Some(layout) = state::cell_layout(c.window, c.memory) else {
+        return FracbmsCode::FRACBMS_ERROR_UNSUPPORTED_SIZE;
+    };
+    let memory = memory.cast::<u8>();
+    let run = || {
+        state::check_memory(memory, size, layout)?;
+        // SAFETY: the caller's OCV arrays hold `ocv_points` values; `soc`
+        // null or valid.
+        let s = unsafe { settings_with(c, soc) }?;
+        // SAFETY: memory checked against the layout of this window.
+        unsafe { state::cell_init_sized(memory, s, c.window) }?;
+        // SAFETY: `cell` non-null, valid by the caller's contract.
+        unsafe { put(cell, memory.cast::<FracbmsCell>()) }
+    };
+    crate::code(run())
+}
+
+/// `fracbms_pack_init` with the SOC observer's settings `soc` for every
+/// cell (null: the defaults, as `fracbms_pack_init`).
+///
+/// # Safety
+/// As `fracbms_pack_init`; `soc` is null or valid for a read.
+#[no_mangle]
+#[allow(clippy::too_many_arguments)]
+pub unsafe extern "C" fn fracbms_pack_init_with_soc(
+    memory: *mut core::ffi::c_void,
+    size: usize,
+    settings: *const FracbmsSettings,
+    soc: *const FracbmsSocSettings,
+    cells: u16,
+    updates_per_period: u16,
+    flag_ratio: f32,
+    pack: *mut *mut FracbmsPack,
+) -> FracbmsCode {
+    if settings.is_null() || pack.is_null() {
+        return FracbmsCode::FRACBMS_ERROR_NULL;
+    }
+    if state::pack_room(cells) == 0 {
+        return FracbmsCode::FRACBMS_ERROR_CELL_COUNT;
+    }
+    // SAFETY: non-null, valid by the caller's contract.
+    let c = unsafe { &*settings };
+    let Some(layout) = state::pack_layout(c.window, c.memory, cells) else {
+        return FracbmsCode::FRACBMS_ERROR_UNSUPPORTED_SIZE;
+    };
+    let memory = memory.cast::<u8>();
+    let run = || {
+        state::check_memory(memory, size, layout)?;
+        // SAFETY: the caller's OCV arrays hold `ocv_points` values; `soc`
+        // null or valid.
+        let cell = unsafe { settings_with(c, soc) }?;
+        let mut s = PackSettings::new(cell);
+        s.updates_per_period = updates_per_period;
+        s.flag_ratio = flag_ratio;
+        // SAFETY: memory checked against the layout of these sizes.
+        unsafe { state::pack_init_sized(memory, s, c.window, cells) }?;
+        // SAFETY: `pack` non-null, valid by the caller's contract.
+        unsafe { put(pack, memory.cast::<FracbmsPack>()) }
+    };
+    crate::code(run())
+}
