@@ -902,7 +902,8 @@ typedef struct FracbmsMapLevel {
  * The SOC observer's settings (`estimator_core::battery::soc::SocSettings`;
  * `host-sim online battery`'s `--soc-rest-s`, `--soc-bias-sigma-a`,
  * `--soc-rest-load-sigma-a` set three of them). The period and the nominal
- * capacity are `FracbmsSettings`' `h` and `capacity_ah`. Start from
+ * capacity are `FracbmsSettings`' `h` and `capacity_ah`, with its OCV
+ * table (the observer runs only with one). Start from
  * `fracbms_soc_settings_default` and change what differs: every value must
  * be finite and not negative, `min_slope` positive
  * (`FRACBMS_ERROR_SETTINGS` otherwise, from `init`).
@@ -919,7 +920,8 @@ typedef struct FracbmsSocSettings {
   float rest_s;
   /**
    * A rest this long gives its observation without waiting for its end
-   * (s). Default 3600; keep it at least `rest_s`.
+   * (s). Default 3600. Below `rest_s` it reads rests at `rest_max_s`:
+   * keep it at least `rest_s` (the CLI's `--soc-rest-s` raises it).
    */
   float rest_max_s;
   /**
@@ -1350,9 +1352,11 @@ FracbmsCode fracbms_pack_snapshot_restore(struct FracbmsPack *pack,
                                           uint32_t max_age_s);
 
 /**
- * Fills `out` with the SOC observer's defaults for `settings` (its period
- * `h` and, with an OCV table, its `capacity_ah`): what `fracbms_cell_init`
- * and `fracbms_pack_init` use.
+ * Fills `out` with the SOC observer's defaults for `settings`, which must
+ * carry the OCV table and the capacity (`FRACBMS_ERROR_SETTINGS`
+ * without a table: the observer runs only with one, and its defaults
+ * scale with the capacity): what `fracbms_cell_init` and
+ * `fracbms_pack_init` use.
  *
  * # Safety
  * `settings` is null or valid for a read, with its OCV arrays as for
@@ -1363,7 +1367,12 @@ FracbmsCode fracbms_soc_settings_default(const struct FracbmsSettings *settings,
 
 /**
  * `fracbms_cell_init` with the SOC observer's settings `soc` (null: the
- * defaults, as `fracbms_cell_init`). They hold for the cell's life.
+ * defaults, as `fracbms_cell_init`; not null without an OCV table:
+ * `FRACBMS_ERROR_SETTINGS`). They hold for the cell's life, and a
+ * snapshot restored into the cell does not carry any: the restored
+ * observer's state (SOC, bias, capacity and their spreads) goes on under
+ * these settings, and the spreads of a start (`soc0_sigma`,
+ * `bias_sigma_a`, `capacity_sigma`) no longer act on it.
  *
  * # Safety
  * As `fracbms_cell_init`; `soc` is null or valid for a read.
@@ -1376,7 +1385,8 @@ FracbmsCode fracbms_cell_init_with_soc(void *memory,
 
 /**
  * `fracbms_pack_init` with the SOC observer's settings `soc` for every
- * cell (null: the defaults, as `fracbms_pack_init`).
+ * cell (null: the defaults, as `fracbms_pack_init`), for the pack's life,
+ * as `fracbms_cell_init_with_soc`.
  *
  * # Safety
  * As `fracbms_pack_init`; `soc` is null or valid for a read.

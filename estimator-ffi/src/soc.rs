@@ -13,7 +13,8 @@ use crate::{put, state, FracbmsCell, FracbmsPack};
 /// The SOC observer's settings (`estimator_core::battery::soc::SocSettings`;
 /// `host-sim online battery`'s `--soc-rest-s`, `--soc-bias-sigma-a`,
 /// `--soc-rest-load-sigma-a` set three of them). The period and the nominal
-/// capacity are `FracbmsSettings`' `h` and `capacity_ah`. Start from
+/// capacity are `FracbmsSettings`' `h` and `capacity_ah`, with its OCV
+/// table (the observer runs only with one). Start from
 /// `fracbms_soc_settings_default` and change what differs: every value must
 /// be finite and not negative, `min_slope` positive
 /// (`FRACBMS_ERROR_SETTINGS` otherwise, from `init`).
@@ -26,7 +27,8 @@ pub struct FracbmsSocSettings {
     /// The shortest rest that gives an observation (s). Default 600.
     pub rest_s: f32,
     /// A rest this long gives its observation without waiting for its end
-    /// (s). Default 3600; keep it at least `rest_s`.
+    /// (s). Default 3600. Below `rest_s` it reads rests at `rest_max_s`:
+    /// keep it at least `rest_s` (the CLI's `--soc-rest-s` raises it).
     pub rest_max_s: f32,
     /// The spread of a rested voltage as the OCV (V). Default 0.005.
     pub voltage_sigma_v: f32,
@@ -106,7 +108,8 @@ impl FracbmsSocSettings {
 }
 
 /// The core's settings of `c` with the SOC settings `soc` (null: the
-/// defaults for `c`'s capacity).
+/// defaults for `c`'s capacity). Settings without an OCV table are
+/// `FRACBMS_ERROR_SETTINGS`: the observer runs only with one.
 ///
 /// # Safety
 /// As `types::settings`; `soc` is null or valid for a read.
@@ -117,15 +120,20 @@ unsafe fn settings_with(
     // SAFETY: forwarded from the caller.
     let mut s = unsafe { types::settings(c) }?;
     if !soc.is_null() {
+        if s.ocv.is_none() {
+            return Err(FracbmsCode::FRACBMS_ERROR_SETTINGS);
+        }
         // SAFETY: non-null, valid for a read by the caller's contract.
         unsafe { soc.read() }.apply(&mut s.soc);
     }
     Ok(s)
 }
 
-/// Fills `out` with the SOC observer's defaults for `settings` (its period
-/// `h` and, with an OCV table, its `capacity_ah`): what `fracbms_cell_init`
-/// and `fracbms_pack_init` use.
+/// Fills `out` with the SOC observer's defaults for `settings`, which must
+/// carry the OCV table and the capacity (`FRACBMS_ERROR_SETTINGS`
+/// without a table: the observer runs only with one, and its defaults
+/// scale with the capacity): what `fracbms_cell_init` and
+/// `fracbms_pack_init` use.
 ///
 /// # Safety
 /// `settings` is null or valid for a read, with its OCV arrays as for
@@ -135,21 +143,30 @@ pub unsafe extern "C" fn fracbms_soc_settings_default(
     settings: *const FracbmsSettings,
     out: *mut FracbmsSocSettings,
 ) -> FracbmsCode {
-    if settings.is_null() {
+    if settings.is_null() || out.is_null() {
         return FracbmsCode::FRACBMS_ERROR_NULL;
     }
     // SAFETY: non-null, valid by the caller's contract.
     let c = unsafe { &*settings };
-    // SAFETY: the caller's OCV arrays hold `ocv_points` values.
-    let run = || unsafe {
-        let s = types::settings(c)?;
-        put(out, FracbmsSocSettings::from_core(&s.soc))
+    let run = || {
+        // SAFETY: the caller's OCV arrays hold `ocv_points` values.
+        let s = unsafe { types::settings(c) }?;
+        if s.ocv.is_none() {
+            return Err(FracbmsCode::FRACBMS_ERROR_SETTINGS);
+        }
+        // SAFETY: `out` non-null, valid for a write by the caller's contract.
+        unsafe { put(out, FracbmsSocSettings::from_core(&s.soc)) }
     };
     crate::code(run())
 }
 
 /// `fracbms_cell_init` with the SOC observer's settings `soc` (null: the
-/// defaults, as `fracbms_cell_init`). They hold for the cell's life.
+/// defaults, as `fracbms_cell_init`; not null without an OCV table:
+/// `FRACBMS_ERROR_SETTINGS`). They hold for the cell's life, and a
+/// snapshot restored into the cell does not carry any: the restored
+/// observer's state (SOC, bias, capacity and their spreads) goes on under
+/// these settings, and the spreads of a start (`soc0_sigma`,
+/// `bias_sigma_a`, `capacity_sigma`) no longer act on it.
 ///
 /// # Safety
 /// As `fracbms_cell_init`; `soc` is null or valid for a read.
@@ -184,7 +201,8 @@ pub unsafe extern "C" fn fracbms_cell_init_with_soc(
 }
 
 /// `fracbms_pack_init` with the SOC observer's settings `soc` for every
-/// cell (null: the defaults, as `fracbms_pack_init`).
+/// cell (null: the defaults, as `fracbms_pack_init`), for the pack's life,
+/// as `fracbms_cell_init_with_soc`.
 ///
 /// # Safety
 /// As `fracbms_pack_init`; `soc` is null or valid for a read.

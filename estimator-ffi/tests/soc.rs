@@ -119,8 +119,8 @@ fn the_soc_defaults_are_the_cores() {
     let s = with_table(&zs, &vs);
     let d = soc_defaults(&s);
     let core = SocSettings::<f32>::new(CAPACITY_AH, 1.0);
-    let mut back = core;
-    back.rest_s = f32::NAN;
+    let mut back = SocSettings::<f32>::new(1.0, 1.0);
+    back.capacity_ah = CAPACITY_AH;
     d.apply_to_check(&mut back);
     assert_eq!(back, core);
     assert_eq!(d.rest_s, 600.0);
@@ -202,6 +202,91 @@ fn a_cell_with_soc_settings_is_the_core_cell_with_them() {
         unsafe { fracbms_cell_push(cell, i, v, e.as_mut_ptr()) };
     }
     assert_eq!(unsafe { e.assume_init() }.soc, with_defaults);
+}
+
+/// Each field of the C struct, to set one at a time.
+fn fields(s: &mut FracbmsSocSettings) -> [(&'static str, &mut f32); 14] {
+    [
+        ("rest_current_a", &mut s.rest_current_a),
+        ("rest_s", &mut s.rest_s),
+        ("rest_max_s", &mut s.rest_max_s),
+        ("voltage_sigma_v", &mut s.voltage_sigma_v),
+        ("unrelaxed_sigma_v", &mut s.unrelaxed_sigma_v),
+        ("table_sigma_soc", &mut s.table_sigma_soc),
+        ("soc0_sigma", &mut s.soc0_sigma),
+        ("bias_sigma_a", &mut s.bias_sigma_a),
+        ("bias_walk_a", &mut s.bias_walk_a),
+        ("rest_load_sigma_a", &mut s.rest_load_sigma_a),
+        ("capacity_sigma", &mut s.capacity_sigma),
+        ("capacity_identify", &mut s.capacity_identify),
+        ("gap_soc_sigma", &mut s.gap_soc_sigma),
+        ("min_slope", &mut s.min_slope),
+    ]
+}
+
+#[test]
+fn every_soc_setting_reaches_the_core() {
+    // A NaN in any one field is refused by the core's check: so the
+    // adapter carries every field (one it dropped would keep the default).
+    let (zs, vs) = table();
+    let s = with_table(&zs, &vs);
+    let d = soc_defaults(&s);
+    let (mut size, mut align) = (0, 0);
+    unsafe { fracbms_cell_size(256, 64, &mut size, &mut align) };
+    let mut mem = memory(size);
+    for k in 0..14 {
+        let mut bad = d;
+        let (name, x) = fields(&mut bad).into_iter().nth(k).unwrap();
+        *x = f32::NAN;
+        let mut cell = std::ptr::null_mut();
+        assert_eq!(
+            unsafe {
+                fracbms_cell_init_with_soc(mem.as_mut_ptr().cast(), size, &s, &bad, &mut cell)
+            },
+            FRACBMS_ERROR_SETTINGS,
+            "{name}"
+        );
+    }
+    let mut cell = std::ptr::null_mut();
+    assert_eq!(
+        unsafe { fracbms_cell_init_with_soc(mem.as_mut_ptr().cast(), size, &s, &d, &mut cell) },
+        FRACBMS_OK
+    );
+}
+
+#[test]
+fn soc_settings_need_the_ocv_table() {
+    // Without a table the observer does not run, and its defaults would be
+    // those of a 1 A·h cell: refused, not silently wrong.
+    let (zs, vs) = table();
+    let d = soc_defaults(&with_table(&zs, &vs));
+    let s = defaults();
+    let mut out = d;
+    assert_eq!(
+        unsafe { fracbms_soc_settings_default(&s, &mut out) },
+        FRACBMS_ERROR_SETTINGS
+    );
+    let (mut size, mut align) = (0, 0);
+    unsafe { fracbms_cell_size(256, 64, &mut size, &mut align) };
+    let mut mem = memory(size);
+    let mut cell = std::ptr::null_mut();
+    assert_eq!(
+        unsafe { fracbms_cell_init_with_soc(mem.as_mut_ptr().cast(), size, &s, &d, &mut cell) },
+        FRACBMS_ERROR_SETTINGS
+    );
+    // Null SOC settings: the defaults, as `fracbms_cell_init`.
+    assert_eq!(
+        unsafe {
+            fracbms_cell_init_with_soc(
+                mem.as_mut_ptr().cast(),
+                size,
+                &s,
+                std::ptr::null(),
+                &mut cell,
+            )
+        },
+        FRACBMS_OK
+    );
 }
 
 #[test]

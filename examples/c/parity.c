@@ -296,25 +296,28 @@ static int online(const Table *rec, const Options *o)
     void *mem = aligned_alloc(align, (size + align - 1) / align * align);
     if (!mem)
         die("out of memory");
-    /* The SOC observer's settings: the defaults for this cell, changed as
-     * the CLI's flags change them. */
+    /* The SOC observer's settings (with an OCV table only: the observer
+     * runs only with one): the defaults for this cell, changed as the
+     * CLI's flags change them. */
     FracbmsSocSettings soc;
-    if (fracbms_soc_settings_default(&s, &soc) != FRACBMS_OK)
-        die("fracbms_soc_settings_default");
-    if (!isnan(o->soc_rest_s)) {
-        soc.rest_s = (float)o->soc_rest_s;
-        if (soc.rest_max_s < soc.rest_s)
-            soc.rest_max_s = soc.rest_s;
+    if (o->ocv) {
+        if (fracbms_soc_settings_default(&s, &soc) != FRACBMS_OK)
+            die("fracbms_soc_settings_default");
+        if (!isnan(o->soc_rest_s)) {
+            soc.rest_s = (float)o->soc_rest_s;
+            if (soc.rest_max_s < soc.rest_s)
+                soc.rest_max_s = soc.rest_s;
+        }
+        if (!isnan(o->soc_bias_sigma_a)) {
+            soc.bias_sigma_a = (float)o->soc_bias_sigma_a;
+            if (o->soc_bias_sigma_a == 0.0)
+                soc.bias_walk_a = 0.0f;
+        }
+        if (!isnan(o->soc_rest_load_sigma_a))
+            soc.rest_load_sigma_a = (float)o->soc_rest_load_sigma_a;
     }
-    if (!isnan(o->soc_bias_sigma_a)) {
-        soc.bias_sigma_a = (float)o->soc_bias_sigma_a;
-        if (soc.bias_sigma_a == 0.0f)
-            soc.bias_walk_a = 0.0f;
-    }
-    if (!isnan(o->soc_rest_load_sigma_a))
-        soc.rest_load_sigma_a = (float)o->soc_rest_load_sigma_a;
     FracbmsCell *cell = NULL;
-    FracbmsCode rc = fracbms_cell_init_with_soc(mem, size, &s, &soc, &cell);
+    FracbmsCode rc = fracbms_cell_init_with_soc(mem, size, &s, o->ocv ? &soc : NULL, &cell);
     if (rc != FRACBMS_OK) {
         fprintf(stderr, "parity: fracbms_cell_init_with_soc: %s\n", fracbms_code_message(rc));
         return 1;
