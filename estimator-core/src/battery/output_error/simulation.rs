@@ -262,7 +262,11 @@ fn store_sum<T: Real>(e: &mut [T], l: usize, x: T, h: T) {
 pub(super) fn fill_kinetic<T: Real>(p: &CellParameters<T>, i: &[T], eta: &mut [T]) {
     if p.bv_a != T::zero() {
         for (e, &il) in eta.iter_mut().zip(i) {
-            *e = p.kinetic_voltage(il);
+            // `kinetic_voltage` with `a ≠ 0` known, written out so that
+            // the loop holds it; a rested sample (`asinh(±0) = ±0`) takes
+            // no `asinh`.
+            let x = il / p.bv_i0;
+            *e = p.bv_a * if il == T::zero() { x } else { x.arsinh() };
         }
     } else {
         eta.iter_mut().zip(i).for_each(|(e, _)| *e = T::zero());
@@ -301,11 +305,26 @@ pub(super) fn window_cost<T: Real>(
     up: &[T],
 ) -> T {
     let WindowData { i, v, c, warm, .. } = *data;
+    let n = up
+        .len()
+        .min(v.len())
+        .min(c.len())
+        .min(i.len())
+        .min(eta.len());
     let mut cost = T::zero();
-    let rows = up.iter().zip(v).zip(c).zip(i).zip(eta);
-    for ((((&up, &v), &c), &i), &eta) in rows.skip(warm) {
-        let r = residual(v, p, beta, c, i, eta, up);
-        cost = cost + r * r;
+    // The fitted rows as equally long slices (one index for all five: the
+    // loop keeps its pointers in registers), summed in order.
+    if let (Some(up), Some(v), Some(c), Some(i), Some(eta)) = (
+        up.get(warm..n),
+        v.get(warm..n),
+        c.get(warm..n),
+        i.get(warm..n),
+        eta.get(warm..n),
+    ) {
+        for l in 0..up.len() {
+            let r = residual(v[l], p, beta, c[l], i[l], eta[l], up[l]);
+            cost = cost + r * r;
+        }
     }
     cost / T::lit(2.0)
 }
