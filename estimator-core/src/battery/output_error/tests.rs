@@ -542,3 +542,33 @@ fn jacobian_with_the_tail_equals_finite_differences() {
         }
     }
 }
+
+#[test]
+fn the_kinetic_voltages_of_a_window_are_the_cells() {
+    // `fill_kinetic` writes the term out in its loop and skips the `asinh`
+    // of a rested sample: every value must be `kinetic_voltage`'s, bit for
+    // bit, zeros of either sign included.
+    fn check<T: Real>() {
+        let p = CellParameters::<T>::cell_18650().with_butler_volmer(T::lit(2.5));
+        assert!(p.is_butler_volmer());
+        let currents = [0.0, -0.0, 1e-9, -3e-4, 0.01, 2.5, -2.5, 7.0, -40.0, 5e3];
+        let i: Vec<T> = currents.iter().map(|&x| T::lit(x)).collect();
+        let mut eta = vec![T::nan(); i.len()];
+        simulation::fill_kinetic(&p, &i, &mut eta);
+        for (&il, &e) in i.iter().zip(&eta) {
+            let want = p.kinetic_voltage(il);
+            assert_eq!(
+                e.to_f64().to_bits(),
+                want.to_f64().to_bits(),
+                "I = {}",
+                il.to_f64()
+            );
+        }
+        // And the linear cell's zeros.
+        let lin = CellParameters::<T>::cell_18650();
+        simulation::fill_kinetic(&lin, &i, &mut eta);
+        assert!(eta.iter().all(|&e| e == T::zero()));
+    }
+    check::<f32>();
+    check::<f64>();
+}
