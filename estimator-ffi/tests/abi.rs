@@ -13,7 +13,7 @@ use fracbms::FracbmsCode::*;
 use fracbms::*;
 
 mod common;
-use common::{core_settings, defaults, memory, record};
+use common::{core_settings, defaults, memory, nmc_table, record};
 
 /// A state-of-power request: limits 3.0–4.2 V, 50 A, horizons 2, 10 and
 /// 30 s, a 2 A discharge pulse.
@@ -589,19 +589,7 @@ fn a_map_through_the_abi_is_the_cores() {
 
     // A cell with an OCV table following the map through the ABI is the
     // core's estimator following it with the core's follower, bit for bit.
-    let text = std::fs::read_to_string(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../data/own-model/nmc-ocv.csv"
-    ))
-    .unwrap();
-    let (zs, vs): (Vec<f32>, Vec<f32>) = text
-        .lines()
-        .skip(1)
-        .map(|l| {
-            let f: Vec<f32> = l.split(',').map(|x| x.parse().unwrap()).collect();
-            (f[0], f[1])
-        })
-        .unzip();
+    let (zs, vs) = nmc_table();
     let mut s = defaults();
     s.ocv_soc = zs.as_ptr();
     s.ocv_v = vs.as_ptr();

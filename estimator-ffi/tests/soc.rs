@@ -14,25 +14,9 @@ use fracbms::FracbmsCode::*;
 use fracbms::*;
 
 mod common;
-use common::{defaults, memory, record};
+use common::{cell_memory, defaults, memory, nmc_table, record};
 
 const CAPACITY_AH: f32 = 0.5;
-
-/// The NMC OCV table of the own-model records.
-fn table() -> (Vec<f32>, Vec<f32>) {
-    let text = std::fs::read_to_string(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../data/own-model/nmc-ocv.csv"
-    ))
-    .unwrap();
-    text.lines()
-        .skip(1)
-        .map(|l| {
-            let f: Vec<f32> = l.split(',').map(|x| x.parse().unwrap()).collect();
-            (f[0], f[1])
-        })
-        .unzip()
-}
 
 /// The C settings with the table (whose arrays must outlive them).
 fn with_table(zs: &[f32], vs: &[f32]) -> FracbmsSettings {
@@ -92,9 +76,7 @@ fn soc_defaults(s: &FracbmsSettings) -> FracbmsSocSettings {
 /// estimate after every sample.
 fn run_cell(s: &FracbmsSettings, soc: *const FracbmsSocSettings) -> Vec<FracbmsSoc> {
     let (i, v) = record();
-    let (mut size, mut align) = (0, 0);
-    unsafe { fracbms_cell_size(256, 64, &mut size, &mut align) };
-    let mut mem = memory(size);
+    let (mut mem, size) = cell_memory();
     let mut cell = std::ptr::null_mut();
     assert_eq!(
         unsafe { fracbms_cell_init_with_soc(mem.as_mut_ptr().cast(), size, s, soc, &mut cell) },
@@ -115,13 +97,13 @@ fn run_cell(s: &FracbmsSettings, soc: *const FracbmsSocSettings) -> Vec<FracbmsS
 
 #[test]
 fn the_soc_defaults_are_the_cores() {
-    let (zs, vs) = table();
+    let (zs, vs) = nmc_table();
     let s = with_table(&zs, &vs);
     let d = soc_defaults(&s);
     let core = SocSettings::<f32>::new(CAPACITY_AH, 1.0);
     let mut back = SocSettings::<f32>::new(1.0, 1.0);
     back.capacity_ah = CAPACITY_AH;
-    d.apply_to_check(&mut back);
+    apply_to_check(&d, &mut back);
     assert_eq!(back, core);
     assert_eq!(d.rest_s, 600.0);
     assert_eq!(d.bias_sigma_a, CAPACITY_AH / 50.0);
@@ -135,41 +117,35 @@ fn the_soc_defaults_are_the_cores() {
     );
 }
 
-/// What the test needs of the C struct: its values into the core's
-/// settings, field by field (as the adapter's own conversion, written out
-/// again so that a field it forgets fails here).
-trait ApplyToCheck {
-    fn apply_to_check(&self, s: &mut SocSettings<f32>);
-}
-
-impl ApplyToCheck for FracbmsSocSettings {
-    fn apply_to_check(&self, s: &mut SocSettings<f32>) {
-        s.rest_current_a = self.rest_current_a;
-        s.rest_s = self.rest_s;
-        s.rest_max_s = self.rest_max_s;
-        s.voltage_sigma_v = self.voltage_sigma_v;
-        s.unrelaxed_sigma_v = self.unrelaxed_sigma_v;
-        s.table_sigma_soc = self.table_sigma_soc;
-        s.soc0_sigma = self.soc0_sigma;
-        s.bias_sigma_a = self.bias_sigma_a;
-        s.bias_walk_a = self.bias_walk_a;
-        s.rest_load_sigma_a = self.rest_load_sigma_a;
-        s.capacity_sigma = self.capacity_sigma;
-        s.capacity_identify = self.capacity_identify;
-        s.gap_soc_sigma = self.gap_soc_sigma;
-        s.min_slope = self.min_slope;
-    }
+/// The C struct's values into the core's settings, field by field (as
+/// the adapter's own conversion, written out again so that a field it
+/// forgets fails here).
+fn apply_to_check(c: &FracbmsSocSettings, s: &mut SocSettings<f32>) {
+    s.rest_current_a = c.rest_current_a;
+    s.rest_s = c.rest_s;
+    s.rest_max_s = c.rest_max_s;
+    s.voltage_sigma_v = c.voltage_sigma_v;
+    s.unrelaxed_sigma_v = c.unrelaxed_sigma_v;
+    s.table_sigma_soc = c.table_sigma_soc;
+    s.soc0_sigma = c.soc0_sigma;
+    s.bias_sigma_a = c.bias_sigma_a;
+    s.bias_walk_a = c.bias_walk_a;
+    s.rest_load_sigma_a = c.rest_load_sigma_a;
+    s.capacity_sigma = c.capacity_sigma;
+    s.capacity_identify = c.capacity_identify;
+    s.gap_soc_sigma = c.gap_soc_sigma;
+    s.min_slope = c.min_slope;
 }
 
 #[test]
 fn a_cell_with_soc_settings_is_the_core_cell_with_them() {
-    let (zs, vs) = table();
+    let (zs, vs) = nmc_table();
     let s = with_table(&zs, &vs);
     let (i, v) = record();
     let mut finals = Vec::new();
     for c in changed(soc_defaults(&s)) {
         let mut core_soc = SocSettings::<f32>::new(CAPACITY_AH, 1.0);
-        c.apply_to_check(&mut core_soc);
+        apply_to_check(&c, &mut core_soc);
         let cs = core_settings(&zs, &vs, Some(&core_soc));
         let mut reference = Box::new(CellEstimator::<f32, 256, 64>::new(&cs).unwrap());
         let got = run_cell(&s, &c);
@@ -192,9 +168,7 @@ fn a_cell_with_soc_settings_is_the_core_cell_with_them() {
     assert_eq!(finals[2].current_bias, 0.0, "{finals:?}");
     assert_ne!(finals[0].current_bias, 0.0, "{finals:?}");
     // The defaults' run is `fracbms_cell_init`'s.
-    let (mut size, mut align) = (0, 0);
-    unsafe { fracbms_cell_size(256, 64, &mut size, &mut align) };
-    let mut mem = memory(size);
+    let (mut mem, size) = cell_memory();
     let mut cell = std::ptr::null_mut();
     unsafe { fracbms_cell_init(mem.as_mut_ptr().cast(), size, &s, &mut cell) };
     let mut e = MaybeUninit::uninit();
@@ -228,12 +202,10 @@ fn fields(s: &mut FracbmsSocSettings) -> [(&'static str, &mut f32); 14] {
 fn every_soc_setting_reaches_the_core() {
     // A NaN in any one field is refused by the core's check: so the
     // adapter carries every field (one it dropped would keep the default).
-    let (zs, vs) = table();
+    let (zs, vs) = nmc_table();
     let s = with_table(&zs, &vs);
     let d = soc_defaults(&s);
-    let (mut size, mut align) = (0, 0);
-    unsafe { fracbms_cell_size(256, 64, &mut size, &mut align) };
-    let mut mem = memory(size);
+    let (mut mem, size) = cell_memory();
     for k in 0..14 {
         let mut bad = d;
         let (name, x) = fields(&mut bad).into_iter().nth(k).unwrap();
@@ -258,7 +230,7 @@ fn every_soc_setting_reaches_the_core() {
 fn soc_settings_need_the_ocv_table() {
     // Without a table the observer does not run, and its defaults would be
     // those of a 1 A·h cell: refused, not silently wrong.
-    let (zs, vs) = table();
+    let (zs, vs) = nmc_table();
     let d = soc_defaults(&with_table(&zs, &vs));
     let s = defaults();
     let mut out = d;
@@ -266,9 +238,7 @@ fn soc_settings_need_the_ocv_table() {
         unsafe { fracbms_soc_settings_default(&s, &mut out) },
         FRACBMS_ERROR_SETTINGS
     );
-    let (mut size, mut align) = (0, 0);
-    unsafe { fracbms_cell_size(256, 64, &mut size, &mut align) };
-    let mut mem = memory(size);
+    let (mut mem, size) = cell_memory();
     let mut cell = std::ptr::null_mut();
     assert_eq!(
         unsafe { fracbms_cell_init_with_soc(mem.as_mut_ptr().cast(), size, &s, &d, &mut cell) },
@@ -291,12 +261,10 @@ fn soc_settings_need_the_ocv_table() {
 
 #[test]
 fn soc_settings_the_core_refuses_are_a_code() {
-    let (zs, vs) = table();
+    let (zs, vs) = nmc_table();
     let s = with_table(&zs, &vs);
     let d = soc_defaults(&s);
-    let (mut size, mut align) = (0, 0);
-    unsafe { fracbms_cell_size(256, 64, &mut size, &mut align) };
-    let mut mem = memory(size);
+    let (mut mem, size) = cell_memory();
     for bad in [
         FracbmsSocSettings {
             rest_s: f32::NAN,
@@ -344,11 +312,11 @@ fn soc_settings_the_core_refuses_are_a_code() {
 
 #[test]
 fn a_pack_with_soc_settings_is_the_core_pack_with_them() {
-    let (zs, vs) = table();
+    let (zs, vs) = nmc_table();
     let s = with_table(&zs, &vs);
     let c = changed(soc_defaults(&s))[1];
     let mut core_soc = SocSettings::<f32>::new(CAPACITY_AH, 1.0);
-    c.apply_to_check(&mut core_soc);
+    apply_to_check(&c, &mut core_soc);
     let mut ps = PackSettings::new(core_settings(&zs, &vs, Some(&core_soc)));
     ps.updates_per_period = 2;
     let cells = 2u16;

@@ -9,19 +9,27 @@ use estimator_core::battery::{CellParameters, Start};
 use fracbms::FracbmsCode::*;
 use fracbms::*;
 
-pub fn record() -> (Vec<f32>, Vec<f32>) {
-    let text = std::fs::read_to_string(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../firmware/data/cell-pulse.csv"
-    ))
-    .unwrap();
+/// Columns `a` and `b` of a CSV file of the repository (header skipped).
+fn two_columns(path: &str, a: usize, b: usize) -> (Vec<f32>, Vec<f32>) {
+    let path = format!("{}/../{path}", env!("CARGO_MANIFEST_DIR"));
+    let text = std::fs::read_to_string(&path).unwrap();
     text.lines()
         .skip(1)
         .map(|l| {
             let f: Vec<f32> = l.split(',').map(|x| x.parse().unwrap()).collect();
-            (f[1], f[2])
+            (f[a], f[b])
         })
         .unzip()
+}
+
+/// The firmware's pulse record: `(current_a, voltage_v)`.
+pub fn record() -> (Vec<f32>, Vec<f32>) {
+    two_columns("firmware/data/cell-pulse.csv", 1, 2)
+}
+
+/// The NMC OCV table of the own-model records: `(soc, ocv_v)`.
+pub fn nmc_table() -> (Vec<f32>, Vec<f32>) {
+    two_columns("data/own-model/nmc-ocv.csv", 0, 1)
 }
 
 pub fn defaults() -> FracbmsSettings {
@@ -36,6 +44,16 @@ pub fn defaults() -> FracbmsSettings {
 /// 8-byte aligned memory of at least `size` bytes.
 pub fn memory(size: usize) -> Vec<u64> {
     vec![0; size.div_ceil(8)]
+}
+
+/// Memory for one cell of window 256, memory 64, and its size.
+pub fn cell_memory() -> (Vec<u64>, usize) {
+    let (mut size, mut align) = (0, 0);
+    assert_eq!(
+        unsafe { fracbms_cell_size(256, 64, &mut size, &mut align) },
+        FRACBMS_OK
+    );
+    (memory(size), size)
 }
 
 pub fn core_settings() -> OnlineSettings<f32, FRACBMS_OCV_POINTS_MAX> {
