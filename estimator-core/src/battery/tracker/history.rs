@@ -50,6 +50,18 @@ impl<T: Real, const N: usize> CurrentHistory<T, N> {
         self.head % N
     }
 
+    /// The newest `n` currents (at most those held) as the ring's two runs:
+    /// the newest first reads the first run backwards, then the second
+    /// backwards (two plain slice loops where a chained iterator branches
+    /// at every element).
+    pub(super) fn newest_runs(&self, n: usize) -> (&[T], &[T]) {
+        let n = n.min(self.count);
+        let (near, far) = self.i.split_at(self.slot());
+        let a = near.len().min(n);
+        let b = far.len().min(n - a);
+        (&near[near.len() - a..], &far[far.len() - b..])
+    }
+
     pub(crate) fn push(&mut self, current: T) {
         let slot = self.slot();
         self.i[slot] = current;
@@ -138,5 +150,30 @@ impl<T: Real, const N: usize> Window<T> for CellWindow<'_, T, N> {
             y[k] = sv[j];
         }
         len
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The two runs read backwards are the newest currents, newest first,
+    /// before and after the ring wraps, for every count asked.
+    #[test]
+    fn the_newest_runs_are_the_newest_currents() {
+        let mut h = CurrentHistory::<f64, 8>::new();
+        for pushed in 1..=20u32 {
+            h.push(f64::from(pushed));
+            for n in 0..=10 {
+                let (near, far) = h.newest_runs(n);
+                let got: heapless::Vec<f64, 8> =
+                    near.iter().rev().chain(far.iter().rev()).copied().collect();
+                let held = h.len().min(n);
+                assert_eq!(got.len(), held, "pushed {pushed}, n {n}");
+                for (k, &x) in got.iter().enumerate() {
+                    assert_eq!(x, f64::from(pushed) - k as f64, "pushed {pushed}, n {n}");
+                }
+            }
+        }
     }
 }

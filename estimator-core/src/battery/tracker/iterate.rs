@@ -61,14 +61,12 @@ impl<T: Real, const N: usize> CellState<T, N> {
         // Current excitation over the fitted part of the window.
         let fitted = (len + 1).saturating_sub(b.memory);
         let count = T::lit(fitted as f64);
-        let recent = || {
-            self.view(history)
-                .newest_first()
-                .take(fitted)
-                .map(|(i, _)| i)
-        };
-        let mean = recent().fold(T::zero(), |a, i| a + i) / count;
-        let var = recent().fold(T::zero(), |a, i| a + (i - mean) * (i - mean)) / count;
+        // Newest first, as the window's samples (the same sums to the bit),
+        // over the ring's two runs of the last `fitted` currents (fewer
+        // when the cell's window holds fewer).
+        let (near, far) = history.newest_runs(fitted.min(len));
+        let mean = newest_first_fold(near, far, |a, i| a + i) / count;
+        let var = newest_first_fold(near, far, |a, i| a + (i - mean) * (i - mean)) / count;
         if var.sqrt() <= b.min_current_std {
             return (Status::NotExcited, 0);
         }
@@ -182,4 +180,12 @@ impl<T: Real, const N: usize> CellState<T, N> {
             }
         }
     }
+}
+
+/// `f` folded from zero over the runs of [`CurrentHistory::newest_runs`],
+/// newest first.
+#[inline(always)]
+fn newest_first_fold<T: Real>(near: &[T], far: &[T], f: impl Fn(T, T) -> T) -> T {
+    let s = near.iter().rev().fold(T::zero(), |a, &i| f(a, i));
+    far.iter().rev().fold(s, |a, &i| f(a, i))
 }
