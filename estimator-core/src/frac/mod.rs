@@ -358,19 +358,15 @@ fn block_sums<T: Real>(w: &[T], xs: &[T]) -> [T; BLOCK] {
     // Eight taps at a time, as two runs of four written out (see
     // [`four_taps`]): the samples stay in registers, and only the three
     // carried into the next eight are moved.
-    let wc = w.chunks_exact(8);
-    let w4 = wc.remainder();
-    let xc = xs[..m].rchunks_exact(8);
-    let x4 = xc.remainder();
-    for (wq, xq) in wc.zip(xc) {
+    let (wc, w4) = w.as_chunks::<8>();
+    let (x4, xc) = xs[..m].as_rchunks::<8>();
+    for (wq, xq) in wc.iter().zip(xc.iter().rev()) {
         xr = four_taps(&mut s, &wq[..4], &xq[4..], xr);
         xr = four_taps(&mut s, &wq[4..], &xq[..4], xr);
     }
-    let wc = w4.chunks_exact(4);
-    let wr = wc.remainder();
-    let xc = x4.rchunks_exact(4);
-    let xt = xc.remainder();
-    for (wq, xq) in wc.zip(xc) {
+    let (wc, wr) = w4.as_chunks::<4>();
+    let (xt, xc) = x4.as_rchunks::<4>();
+    for (wq, xq) in wc.iter().zip(xc.iter().rev()) {
         xr = four_taps(&mut s, wq, xq, xr);
     }
     for (&wj, &x0) in wr.iter().zip(xt.iter().rev()) {
@@ -697,26 +693,20 @@ fn block_sums_pair<T: Real>(w: &[T], xs: &[T], ys: &[T]) -> ([T; BLOCK], [T; BLO
     let mut s = [T::zero(); BLOCK];
     let mut d = [T::zero(); BLOCK];
     // Eight taps at a time as in [`block_sums`], then four, then one.
-    let wc = w.chunks_exact(8);
-    let w4 = wc.remainder();
-    let xc = xs[..m].rchunks_exact(8);
-    let x4 = xc.remainder();
-    let yc = ys[..m].rchunks_exact(8);
-    let y4 = yc.remainder();
-    for ((wq, xq), yq) in wc.zip(xc).zip(yc) {
+    let (wc, w4) = w.as_chunks::<8>();
+    let (x4, xc) = xs[..m].as_rchunks::<8>();
+    let (y4, yc) = ys[..m].as_rchunks::<8>();
+    for ((wq, xq), yq) in wc.iter().zip(xc.iter().rev()).zip(yc.iter().rev()) {
         // xq = [x(l−j−7), …, x(l−j)] for row 0 at taps j..j+7.
         xr = four_taps(&mut s, &wq[..4], &xq[4..], xr);
         yr = four_taps(&mut d, &wq[..4], &yq[4..], yr);
         xr = four_taps(&mut s, &wq[4..], &xq[..4], xr);
         yr = four_taps(&mut d, &wq[4..], &yq[..4], yr);
     }
-    let wc = w4.chunks_exact(4);
-    let wr = wc.remainder();
-    let xc = x4.rchunks_exact(4);
-    let xt = xc.remainder();
-    let yc = y4.rchunks_exact(4);
-    let yt = yc.remainder();
-    for ((wq, xq), yq) in wc.zip(xc).zip(yc) {
+    let (wc, wr) = w4.as_chunks::<4>();
+    let (xt, xc) = x4.as_rchunks::<4>();
+    let (yt, yc) = y4.as_rchunks::<4>();
+    for ((wq, xq), yq) in wc.iter().zip(xc.iter().rev()).zip(yc.iter().rev()) {
         xr = four_taps(&mut s, wq, xq, xr);
         yr = four_taps(&mut d, wq, yq, yr);
     }
