@@ -358,9 +358,11 @@ fn block_sums<T: Real>(w: &[T], xs: &[T]) -> [T; BLOCK] {
     // Eight taps at a time, as two runs of four written out (see
     // [`four_taps`]): the samples stay in registers, and only the three
     // carried into the next eight are moved.
-    let (wc, w4) = w.as_chunks::<8>();
-    let (x4, xc) = xs[..m].as_rchunks::<8>();
-    for (wq, xq) in wc.iter().zip(xc.iter().rev()) {
+    let wc = w.chunks_exact(8);
+    let w4 = wc.remainder();
+    let xc = xs[..m].rchunks_exact(8);
+    let x4 = xc.remainder();
+    for (wq, xq) in wc.zip(xc) {
         xr = four_taps(&mut s, &wq[..4], &xq[4..], xr);
         xr = four_taps(&mut s, &wq[4..], &xq[..4], xr);
     }
