@@ -291,3 +291,24 @@ fn the_tail_removes_the_short_memory_bias() {
         "{tail:?}"
     );
 }
+
+#[test]
+fn a_windows_largest_current_is_the_largest_it_holds() {
+    // The ring fills, wraps, and a spike leaves the window again.
+    let p = CellParameters::<f64>::cell_18650();
+    let s = PackSettings::new(OnlineSettings::new(1.0, 32, p));
+    let mut pack = Box::new(PackEstimator::<f64, 128, 32, 2>::new(&s, 2).unwrap());
+    assert_eq!(pack.window(0).largest_current(), 0.0, "empty");
+    for l in 0..400 {
+        let i = match l {
+            150 => -9.5,
+            _ => 3.0 * (l as f64 * 0.37).sin(),
+        };
+        pack.push(&s, i, &[3.7 + 0.01 * i, 3.7 + 0.01 * i]).unwrap();
+        let w = pack.window(1);
+        let held = w.newest_first().fold(0.0f64, |m, (i, _)| m.max(i.abs()));
+        assert_eq!(w.largest_current(), held, "sample {l}");
+        let spike_held = (150..150 + 128).contains(&l);
+        assert_eq!(w.largest_current() == 9.5, spike_held, "sample {l}");
+    }
+}

@@ -501,10 +501,7 @@ impl<T: Real, const N: usize, const MEM: usize, const CELLS: usize>
         // cell 165–262 mV below its limit within 30 s; docs/bms-states.md).
         let mut power = *power;
         if c.window_estimate().is_some_and(|p| p.is_butler_volmer()) {
-            let seen = self
-                .window(k)
-                .newest_first()
-                .fold(T::zero(), |m, (i, _)| m.max(i.abs()));
+            let seen = self.window(k).largest_current();
             let cap = &mut power.limits.current_limit;
             *cap = cap.min(seen);
         }

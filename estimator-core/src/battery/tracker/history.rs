@@ -113,6 +113,15 @@ impl<'a, T: Real, const N: usize> CellWindow<'a, T, N> {
             .map(|(&i, &u)| (i, u))
     }
 
+    /// The largest current magnitude the window holds (A; 0 when empty, a
+    /// NaN never taken): the ring's runs read directly.
+    pub fn largest_current(&self) -> T {
+        let (near, far) = self.history.newest_runs(self.len());
+        let larger = |m: T, &i: &T| if i.abs() > m { i.abs() } else { m };
+        let m = near.iter().fold(T::zero(), larger);
+        far.iter().fold(m, larger)
+    }
+
     /// Samples accepted into this window since its last restart (substitutes
     /// of rejected samples included).
     pub fn pushed(&self) -> u64 {
