@@ -152,7 +152,7 @@ pub(crate) fn check_memory(
     if memory.is_null() {
         return Err(FracbmsCode::FRACBMS_ERROR_NULL);
     }
-    if (memory as usize) % layout.1 != 0 {
+    if !(memory as usize).is_multiple_of(layout.1) {
         return Err(FracbmsCode::FRACBMS_ERROR_MISALIGNED);
     }
     if size < layout.0 {
@@ -239,7 +239,7 @@ unsafe fn header(state: *const u8, magic: u32) -> Result<Header, FracbmsCode> {
     if state.is_null() {
         return Err(FracbmsCode::FRACBMS_ERROR_NULL);
     }
-    if (state as usize) % align_of::<Header>() != 0 {
+    if !(state as usize).is_multiple_of(align_of::<Header>()) {
         return Err(FracbmsCode::FRACBMS_ERROR_MISALIGNED);
     }
     // SAFETY: non-null, aligned, and the caller's memory holds at least the

@@ -120,7 +120,8 @@ impl<const WORD: usize, const PAGE: usize> NorFlash for RamFlash<'_, WORD, PAGE>
     const ERASE_SIZE: usize = PAGE;
 
     async fn erase(&mut self, from: u32, to: u32) -> Result<(), Self::Error> {
-        if from as usize % PAGE != 0 || to as usize % PAGE != 0 || to < from {
+        if !(from as usize).is_multiple_of(PAGE) || !(to as usize).is_multiple_of(PAGE) || to < from
+        {
             return Err(RamFlashError::Bounds);
         }
         self.range(from, (to - from) as usize)?;
@@ -139,7 +140,7 @@ impl<const WORD: usize, const PAGE: usize> NorFlash for RamFlash<'_, WORD, PAGE>
     }
 
     async fn write(&mut self, offset: u32, bytes: &[u8]) -> Result<(), Self::Error> {
-        if offset as usize % WORD != 0 || bytes.len() % WORD != 0 {
+        if !(offset as usize).is_multiple_of(WORD) || !bytes.len().is_multiple_of(WORD) {
             return Err(RamFlashError::Bounds);
         }
         self.range(offset, bytes.len())?;

@@ -169,5 +169,5 @@ pub fn truncation_note(path: &Path, rows: usize) -> Option<String> {
 
 /// The iterations the CLI's table shows.
 fn table_row(k: u32) -> bool {
-    k == 1 || k % 10 == 0
+    k == 1 || k.is_multiple_of(10)
 }

@@ -6,7 +6,7 @@ use crate::window::SampleWindow;
 /// A pulse current and a made-up voltage with memory: enough to excite
 /// every regressor.
 fn sample(l: usize) -> (f64, f64) {
-    let i = if (l / 7) % 2 == 0 { 2.0 } else { -1.5 } + 0.1 * (l as f64 * 0.37).sin();
+    let i = if (l / 7).is_multiple_of(2) { 2.0 } else { -1.5 } + 0.1 * (l as f64 * 0.37).sin();
     let v = 3.7 + 0.02 * i + 0.01 * (l as f64 * 0.05).cos();
     (i, v)
 }
