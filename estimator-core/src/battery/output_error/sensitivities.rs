@@ -286,27 +286,53 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
     /// into the trial buffer (free until the step search).
     pub(super) fn jacobian_columns(&mut self, s: &BatterySettings<T>) {
         let p = self.p;
-        let kinetic = s.model == CellModel::ButlerVolmer;
-        for l in self.warm..self.n.min(N) {
-            let (i, eta) = (self.i[l], self.eta[l]);
-            self.s_ri[l] = p.r_i * (i + self.s_ri[l]);
-            self.s_rct[l] = p.r_ct * self.s_rct[l];
-            self.s_q[l] = p.q * self.s_q[l];
-            if !s.estimate_order {
-                self.s_a[l] = T::zero();
+        let n = self.n.min(N);
+        let r = self.warm.min(n)..n;
+        // One column at a time, each loop without branches (the settings'
+        // tests would otherwise run at every row); each value computed as
+        // before, so the same bits.
+        let i = &self.i[r.clone()];
+        for (x, &il) in self.s_ri[r.clone()].iter_mut().zip(i) {
+            *x = p.r_i * (il + *x);
+        }
+        for x in &mut self.s_rct[r.clone()] {
+            *x = p.r_ct * *x;
+        }
+        for x in &mut self.s_q[r.clone()] {
+            *x = p.q * *x;
+        }
+        if !s.estimate_order {
+            self.s_a[r.clone()].fill(T::zero());
+        }
+        for x in &mut self.s_uoc[r.clone()] {
+            *x = T::one() + *x;
+        }
+        let c = &self.c[r.clone()];
+        if s.ocv_slope {
+            for (x, &cl) in self.s_beta[r.clone()].iter_mut().zip(c) {
+                *x = *x - cl;
             }
-            self.s_uoc[l] = T::one() + self.s_uoc[l];
-            self.s_beta[l] = if s.ocv_slope {
-                self.s_beta[l] - self.c[l]
-            } else {
-                T::zero()
-            };
-            if kinetic {
-                let (da, di) = kinetic_derivatives(&p, i, eta);
-                self.s_bva[l] = da + self.s_bva[l];
-                self.s_bvi0[l] = di + self.s_bvi0[l];
+        } else {
+            self.s_beta[r.clone()].fill(T::zero());
+        }
+        let eta = &self.eta[r.clone()];
+        if s.model == CellModel::ButlerVolmer {
+            for (((sa, si), &il), &el) in self.s_bva[r.clone()]
+                .iter_mut()
+                .zip(&mut self.s_bvi0[r.clone()])
+                .zip(i)
+                .zip(eta)
+            {
+                let (da, di) = kinetic_derivatives(&p, il, el);
+                *sa = da + *sa;
+                *si = di + *si;
             }
-            self.trial[l] = residual(self.v[l], &p, self.beta, self.c[l], i, eta, self.up[l]);
+        }
+        let rows = self.v[r.clone()].iter().zip(c).zip(i).zip(eta);
+        for ((x, &up), (((&v, &cl), &il), &el)) in
+            self.trial[r.clone()].iter_mut().zip(&self.up[r]).zip(rows)
+        {
+            *x = residual(v, &p, self.beta, cl, il, el, up);
         }
     }
 
