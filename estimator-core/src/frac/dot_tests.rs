@@ -1,8 +1,8 @@
 //! Tests of the tap sums and the block kernels against the plain sums.
 
 use super::{
-    block_sums, block_sums2, block_sums_lanes, block_sums_pair, block_sums_pair_lanes, dot_rev,
-    dot_rev2, BLOCK,
+    block_sums, block_sums2, block_sums8, block_sums_lanes, block_sums_pair, block_sums_pair_lanes,
+    dot_rev, dot_rev2, BLOCK,
 };
 
 #[test]
@@ -49,8 +49,14 @@ fn block_sums_are_bit_identical_to_one_row_at_a_time() {
         }
         let (p, q) = block_sums_pair_lanes::<f64, 8>(&w, &xs, &ys);
         let single = block_sums_lanes::<f64, 8>(&w, &xs);
+        let eight = block_sums8(&w, &xs);
         for b in 0..8 {
             let row = &xs[..m + b];
+            assert_eq!(
+                eight[b].to_bits(),
+                dot_rev(&w, row).to_bits(),
+                "m {m} row {b}"
+            );
             assert_eq!(
                 single[b].to_bits(),
                 dot_rev(&w, row).to_bits(),

@@ -454,9 +454,9 @@ impl<T: Real, F: FnMut(usize, T)> SingleBlocks<'_, T, F> {
         // first l + 1 taps; each row then adds its own few last taps, still
         // in tap order.
         while l < end && l + 1 < m {
-            if l + ROW_BLOCK <= end && l + ROW_BLOCK <= m {
+            if l + SUM_ROWS <= end && l + SUM_ROWS <= m {
                 let taps = l + 1;
-                let s = row_block(&w[..taps], &x[..l + ROW_BLOCK]);
+                let s = sum_block(&w[..taps], &x[..l + SUM_ROWS]);
                 for (k, mut a) in s.into_iter().enumerate() {
                     let r = l + k;
                     // Taps `taps..=r` against x[r − taps], …, x[0] (k of each).
@@ -469,22 +469,22 @@ impl<T: Real, F: FnMut(usize, T)> SingleBlocks<'_, T, F> {
                     }
                     f(r, a);
                 }
-                l += ROW_BLOCK;
+                l += SUM_ROWS;
             } else {
                 f(l, dot_rev(&w[..=l], &x[..=l]));
                 l += 1;
             }
         }
-        while l + ROW_BLOCK <= end {
+        while l + SUM_ROWS <= end {
             // l + 1 ≥ m here: the loop above has run the short rows.
-            let Some(xs) = x.get(l + 1 - m..l + ROW_BLOCK) else {
+            let Some(xs) = x.get(l + 1 - m..l + SUM_ROWS) else {
                 break;
             };
-            let s = row_block(w, xs);
+            let s = sum_block(w, xs);
             for (k, sk) in s.into_iter().enumerate() {
                 f(l + k, sk);
             }
-            l += ROW_BLOCK;
+            l += SUM_ROWS;
         }
         while l < end {
             let Some(xs) = x.get(l + 1 - m..=l) else {
@@ -579,6 +579,68 @@ pub(crate) fn row_block<T: Real>(w: &[T], xs: &[T]) -> [T; ROW_BLOCK] {
     return block_sums(w, xs);
     #[cfg(not(target_arch = "arm"))]
     return block_sums_lanes::<T, ROW_BLOCK>(w, xs);
+}
+
+/// Rows of a block of [`single_sums`] (sums over known samples only): 8
+/// on every target.
+pub(crate) const SUM_ROWS: usize = 8;
+
+/// The block kernel of [`single_sums`]: [`block_sums8`] on Arm,
+/// [`block_sums_lanes`] elsewhere.
+#[inline(always)]
+fn sum_block<T: Real>(w: &[T], xs: &[T]) -> [T; SUM_ROWS] {
+    #[cfg(target_arch = "arm")]
+    return block_sums8(w, xs);
+    #[cfg(not(target_arch = "arm"))]
+    return block_sums_lanes::<T, SUM_ROWS>(w, xs);
+}
+
+/// The tap sums of eight consecutive rows, as [`block_sums`] for four:
+/// `xs` holds the `m − 1` samples before the first row and then the rows'
+/// own samples (`m + 7` in all), and row `b` gets
+/// `Σ_j w[j]·xs[m − 1 + b − j]`, its taps added in order (bit-identical to
+/// [`dot_rev`]).
+///
+/// Eight taps at a time: the eight rows read fifteen samples, eight new
+/// and seven carried from the last eight taps, so each weight and each
+/// sample is loaded once for eight rows (twice the rows of
+/// [`block_sums`], for the sums whose rows are all known beforehand:
+/// a recursion's block cannot be longer than the taps it leaves out).
+#[inline]
+#[cfg_attr(not(target_arch = "arm"), allow(dead_code))]
+fn block_sums8<T: Real>(w: &[T], xs: &[T]) -> [T; 8] {
+    let m = w.len();
+    // Every caller passes exactly `m + 7` samples (NaN if ever broken).
+    let (Some(x), Some(&hi)) = (
+        xs.get(..m),
+        xs.get(m..m + 7).and_then(|h| h.first_chunk::<7>()),
+    ) else {
+        return [T::nan(); 8];
+    };
+    let mut s = [T::zero(); 8];
+    // The samples of rows 1..7 at the current tap.
+    let mut hi: [T; 7] = hi;
+    let (wc, wr) = w.as_chunks::<8>();
+    let (xt, xc) = x.as_rchunks::<8>();
+    for (wq, xq) in wc.iter().zip(xc.iter().rev()) {
+        // t[7 + b − k]: row b's sample at the chunk's tap k.
+        let t: [T; 15] = core::array::from_fn(|k| if k < 8 { xq[k] } else { hi[k - 8] });
+        for (k, &wk) in wq.iter().enumerate() {
+            for (b, sb) in s.iter_mut().enumerate() {
+                *sb = *sb + wk * t[7 + b - k];
+            }
+        }
+        hi = core::array::from_fn(|k| xq[k]);
+    }
+    // The last taps, one at a time (none when 8 divides m).
+    for (&wk, &x0) in wr.iter().zip(xt.iter().rev()) {
+        let t: [T; 8] = core::array::from_fn(|b| if b == 0 { x0 } else { hi[b - 1] });
+        for (sb, &tb) in s.iter_mut().zip(&t) {
+            *sb = *sb + wk * tb;
+        }
+        hi = core::array::from_fn(|k| t[k]);
+    }
+    s
 }
 
 /// The block kernel of this target for two sequences:
