@@ -31,7 +31,7 @@
 
 use core::ops::Range;
 
-use super::simulate::{cpe_filter, cpe_filter_pair};
+use super::simulate::{cpe_filter, cpe_filter_pair, cpe_filter_pair_seen};
 use crate::frac::GlWeights;
 use crate::real::Real;
 
@@ -72,6 +72,25 @@ pub trait BranchSolver<T: Real>: Default {
         y: &mut [T],
         drive: impl FnMut(usize) -> (T, T),
     );
+
+    /// [`filter`](Self::filter) of `x` and, with the same weights and `a`,
+    /// [`solve`](Self::solve) of `y` with a zero drive (the free response
+    /// of its history `y[..warm]`): each gets the values it gets alone.
+    /// A solver may run both in one pass.
+    #[allow(clippy::too_many_arguments)]
+    fn filter_with_free(
+        &mut self,
+        w: &[T],
+        a: T,
+        warm: usize,
+        x: &mut [T],
+        y: &mut [T],
+        drive: impl FnMut(usize) -> T,
+        seen: impl FnMut(usize, T, T),
+    ) {
+        self.filter(w, a, warm, x, drive, seen);
+        self.solve(w, a, warm, y, |_| T::zero());
+    }
 
     /// Calls `f(l, h^(−α)·Σ_{j=0}^{min(l, M−1)} (∂w_j/∂α)·x(l − j))` for
     /// every `l` in `rows` (up to `x.len()`), in increasing `l`: as
@@ -119,6 +138,26 @@ impl<T: Real> BranchSolver<T> for GlRecursion {
     }
 
     #[inline]
+    fn filter_with_free(
+        &mut self,
+        w: &[T],
+        a: T,
+        warm: usize,
+        x: &mut [T],
+        y: &mut [T],
+        mut drive: impl FnMut(usize) -> T,
+        seen: impl FnMut(usize, T, T),
+    ) {
+        if x.len() != y.len() {
+            // (Never here: both are the window's.)
+            self.filter(w, a, warm, x, drive, seen);
+            self.solve(w, a, warm, y, |_| T::zero());
+            return;
+        }
+        cpe_filter_pair_seen(w, a, warm, x, y, |l| (drive(l), T::zero()), seen);
+    }
+
+    #[inline]
     fn weight_derivative<const MEM: usize>(
         &mut self,
         gl: &GlWeights<T, MEM>,
@@ -127,5 +166,94 @@ impl<T: Real> BranchSolver<T> for GlRecursion {
         f: impl FnMut(usize, T),
     ) {
         gl.for_each_weight_derivative(x, rows, f);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{BranchSolver, GlRecursion};
+    use core::ops::Range;
+
+    use crate::frac::GlWeights;
+
+    /// A solver with only the required methods (the trait's defaults for
+    /// the rest), through the direct recursion.
+    #[derive(Default)]
+    struct Defaults;
+
+    impl BranchSolver<f64> for Defaults {
+        fn filter(
+            &mut self,
+            w: &[f64],
+            a: f64,
+            warm: usize,
+            x: &mut [f64],
+            drive: impl FnMut(usize) -> f64,
+            seen: impl FnMut(usize, f64, f64),
+        ) {
+            GlRecursion.filter(w, a, warm, x, drive, seen);
+        }
+        fn filter_pair(
+            &mut self,
+            w: &[f64],
+            a: f64,
+            warm: usize,
+            x: &mut [f64],
+            y: &mut [f64],
+            drive: impl FnMut(usize) -> (f64, f64),
+        ) {
+            GlRecursion.filter_pair(w, a, warm, x, y, drive);
+        }
+        fn weight_derivative<const MEM: usize>(
+            &mut self,
+            gl: &GlWeights<f64, MEM>,
+            x: &[f64],
+            rows: Range<usize>,
+            f: impl FnMut(usize, f64),
+        ) {
+            GlRecursion.weight_derivative(gl, x, rows, f);
+        }
+    }
+
+    /// The simulation with a free response in one pass gives each sequence,
+    /// and every history sum seen, exactly what the two recursions give
+    /// alone: the direct solver's pair kernel and the trait's default.
+    #[test]
+    fn a_free_response_run_with_the_simulation_is_the_same() {
+        let w = GlWeights::<f64, 64>::new(0.63, 1.0, 64).unwrap();
+        for (n, warm) in [(256, 63), (200, 63), (70, 63), (100, 10), (40, 0)] {
+            let a = 2.3;
+            let drive = |l: usize| (0.3 * l as f64).sin() - 0.4;
+            let x0: Vec<f64> = (0..n).map(|l| 0.2 - 0.003 * l as f64).collect();
+            let y0: Vec<f64> = (0..n).map(|l| if l < warm { -1.0 } else { 7.0 }).collect();
+            let (mut x, mut y) = (x0.clone(), y0.clone());
+            let mut seen = vec![f64::NAN; n];
+            GlRecursion.filter(w.weights(), a, warm, &mut x, drive, |l, xl, h| {
+                seen[l] = xl + h
+            });
+            GlRecursion.solve(w.weights(), a, warm, &mut y, |_| 0.0);
+            for solver in 0..2 {
+                let (mut px, mut py) = (x0.clone(), y0.clone());
+                let mut ps = vec![f64::NAN; n];
+                let store = |l: usize, xl: f64, h: f64| ps[l] = xl + h;
+                if solver == 0 {
+                    GlRecursion.filter_with_free(
+                        w.weights(),
+                        a,
+                        warm,
+                        &mut px,
+                        &mut py,
+                        drive,
+                        store,
+                    );
+                } else {
+                    Defaults.filter_with_free(w.weights(), a, warm, &mut px, &mut py, drive, store);
+                }
+                let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+                assert_eq!(bits(&px), bits(&x), "n {n} warm {warm} solver {solver}");
+                assert_eq!(bits(&py), bits(&y), "n {n} warm {warm} solver {solver}");
+                assert_eq!(bits(&ps), bits(&seen), "n {n} warm {warm} solver {solver}");
+            }
+        }
     }
 }

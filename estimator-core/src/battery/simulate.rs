@@ -110,14 +110,32 @@ pub(crate) fn cpe_filter_pair<T: Real>(
     warm: usize,
     x: &mut [T],
     y: &mut [T],
+    drive: impl FnMut(usize) -> (T, T),
+) {
+    cpe_filter_pair_seen(w, a, warm, x, y, drive, |_, _, _| {});
+}
+
+/// [`cpe_filter_pair`] that also calls `seen(l, x(l), H_x(l))` for the
+/// first sequence, as [`cpe_filter`] does (for the simulation paired with
+/// a free response).
+#[inline]
+pub(crate) fn cpe_filter_pair_seen<T: Real>(
+    w: &[T],
+    a: T,
+    warm: usize,
+    x: &mut [T],
+    y: &mut [T],
     mut drive: impl FnMut(usize) -> (T, T),
+    mut seen: impl FnMut(usize, T, T),
 ) {
     let inv = T::one() / (T::one() + a);
     let (m, n) = (w.len(), x.len().min(y.len()));
     let mut l = warm;
     let mut solve = |l: usize, hx: T, hy: T| {
         let (dx, dy) = drive(l);
-        ((dx - a * hx) * inv, (dy - a * hy) * inv)
+        let (xl, yl) = ((dx - a * hx) * inv, (dy - a * hy) * inv);
+        seen(l, xl, hx);
+        (xl, yl)
     };
     if m > ROW_BLOCK {
         while l < n && l + 1 < m {

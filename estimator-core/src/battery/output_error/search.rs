@@ -267,13 +267,22 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
         let prior_cost = |p: &CellParameters<T>| {
             s.prior.map_or(T::zero(), |pr| pr.cost(p, s)) + Self::evidence_cost(evidence, p)
         };
+        self.free_uoc = false;
         let data0 = if self.fresh {
             window_cost(&data, &self.p, self.beta, &self.eta[..n], &self.up[..n])
         } else {
             self.stalled = None;
             self.linear = None;
             self.work.simulations = self.work.simulations.wrapping_add(1);
-            simulate_window(
+            // Without the OCV slope and the tail, `∂U_p/∂U_oc` is one
+            // recursion alone (the history's free response to −1, at these
+            // weights and `a`): run with the simulation, through the pair
+            // kernel (the same values).
+            let free = (!s.ocv_slope && !s.uses_tail() && warm > 0).then(|| {
+                self.s_uoc[..warm].fill(-T::one());
+                &mut self.s_uoc[..n]
+            });
+            let (cost, filled) = simulate_window_with_free(
                 &mut self.solver,
                 &self.w,
                 &data,
@@ -282,7 +291,10 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
                 &mut self.up[..n],
                 &mut self.e[..n],
                 &mut self.eta[..n],
-            )
+                free,
+            );
+            self.free_uoc = filled;
+            cost
         };
         // The cost of the estimate: the data's, plus the prior's.
         let cost0 = data0 + prior_cost(&self.p);

@@ -62,6 +62,8 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
         // `load` keeps warm < n ≤ N; the clamps let the optimizer see it.
         let n = self.n.min(N);
         let warm = self.warm.min(n);
+        // ∂U_p/∂U_oc, when `iterate` ran it with the simulation (spent here).
+        let uoc_done = core::mem::take(&mut self.free_uoc);
         let wts = self.w.weights();
         let g = self.w.scale();
         let ln_h = self.w.h().ln();
@@ -270,6 +272,8 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
                     |_| T::zero(),
                     |_, _, _| {},
                 ),
+                // Run already, with this estimate's simulation (`iterate`).
+                None if uoc_done => {}
                 None => self
                     .solver
                     .solve(wts, a, warm, &mut self.s_uoc[..n], |_| T::zero()),

@@ -192,6 +192,27 @@ pub(super) fn simulate_window<T: Real, const MEM: usize>(
     e: &mut [T],
     eta: &mut [T],
 ) -> T {
+    simulate_window_with_free(solver, w, data, p, beta, buf, e, eta, None).0
+}
+
+/// [`simulate_window`], and with `free` (a sequence holding its history
+/// in its first `warm` samples) the recursion's free response from that
+/// history in the same pass ([`BranchSolver::filter_with_free`]): the
+/// second value says whether `free` was filled (not with the tail's
+/// modes, whose filters run one sequence).
+#[allow(clippy::too_many_arguments)]
+pub(super) fn simulate_window_with_free<T: Real, const MEM: usize>(
+    solver: &mut impl BranchSolver<T>,
+    w: &GlWeights<T, MEM>,
+    data: &WindowData<'_, T>,
+    p: &CellParameters<T>,
+    beta: T,
+    buf: &mut [T],
+    e: &mut [T],
+    eta: &mut [T],
+    free: Option<&mut [T]>,
+) -> (T, bool) {
+    let mut filled = false;
     let WindowData {
         i,
         v,
@@ -227,16 +248,30 @@ pub(super) fn simulate_window<T: Real, const MEM: usize>(
                 |l, x, h| store_sum(e, l, x, h),
             );
         }
-        None => solver.filter(
-            w.weights(),
-            a,
-            warm,
-            buf,
-            |l| drive_of(p, i, l),
-            |l, x, h| store_sum(e, l, x, h),
-        ),
+        None => match free {
+            Some(y) => {
+                solver.filter_with_free(
+                    w.weights(),
+                    a,
+                    warm,
+                    buf,
+                    y,
+                    |l| drive_of(p, i, l),
+                    |l, x, h| store_sum(e, l, x, h),
+                );
+                filled = true;
+            }
+            None => solver.filter(
+                w.weights(),
+                a,
+                warm,
+                buf,
+                |l| drive_of(p, i, l),
+                |l, x, h| store_sum(e, l, x, h),
+            ),
+        },
     }
-    window_cost(data, p, beta, eta, buf)
+    (window_cost(data, p, beta, eta, buf), filled)
 }
 
 /// The drive `R_ct·I(l)` of the constant-phase recursion (NaN past the
