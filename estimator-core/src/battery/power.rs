@@ -447,8 +447,14 @@ impl<'a, T: Real, const MEM: usize, const P: usize> PulsePredictor<'a, T, MEM, P
     /// The terminal voltage after `k` samples of `current` from now, given
     /// the free and step responses there.
     fn voltage(&self, current: T, k: usize, f: T, g: T) -> T {
+        self.voltage_with(current, self.p.static_voltage(current), k, f, g)
+    }
+
+    /// [`voltage`](Self::voltage) given the static voltage of `current`
+    /// (`R_i·I` and the kinetic term, the same at every sample of a pulse).
+    fn voltage_with(&self, current: T, static_v: T, k: usize, f: T, g: T) -> T {
         let charge = current * T::lit(k as f64) * self.w.h();
-        self.open_circuit(charge) + self.p.static_voltage(current) + f + current * g
+        self.open_circuit(charge) + static_v + f + current * g
     }
 
     /// The predicted terminal voltage at the end of a constant `current`
@@ -546,13 +552,18 @@ impl<'a, T: Real, const MEM: usize, const P: usize> PulsePredictor<'a, T, MEM, P
                 let (fe, ge) = at(end);
                 d = largest(d, limits.voltage_min, |x| discharge(x, end, fe, ge));
                 c = largest(c, limits.voltage_max, |x| charge(x, end, fe, ge));
+                // The checks at the bounds found so far: their static
+                // voltages once for every sample they pass.
+                let (mut sd, mut sc) = (self.p.static_voltage(-d), self.p.static_voltage(c));
                 for k in checked + 1..end {
                     let (f, g) = at(k);
-                    if discharge(d, k, f, g) < T::zero() {
+                    if self.voltage_with(-d, sd, k, f, g) - limits.voltage_min < T::zero() {
                         d = largest(d, limits.voltage_min, |x| discharge(x, k, f, g));
+                        sd = self.p.static_voltage(-d);
                     }
-                    if charge(c, k, f, g) < T::zero() {
+                    if limits.voltage_max - self.voltage_with(c, sc, k, f, g) < T::zero() {
                         c = largest(c, limits.voltage_max, |x| charge(x, k, f, g));
+                        sc = self.p.static_voltage(c);
                     }
                 }
                 checked = checked.max(end);
