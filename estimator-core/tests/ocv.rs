@@ -148,3 +148,28 @@ fn without_a_table_no_runaway_is_published() {
     );
     assert!(rct_max < 2.0, "{rct_max}");
 }
+
+/// A lookup from any segment hint gives the binary search's value to the
+/// bit, and the segment that holds the SOC (inside the table), along a
+/// walk of SOCs that crosses segments both ways, the ends, outside and NaN.
+#[test]
+fn a_lookup_from_a_hint_is_the_lookup() {
+    let t = nmc_table();
+    let xs = t.soc_points();
+    let mut socs: Vec<f64> = (0..=2000)
+        .map(|k| -0.05 + 1.1 * k as f64 / 2000.0)
+        .collect();
+    socs.extend((0..=2000).rev().map(|k| 0.003 + 0.99 * k as f64 / 2000.0));
+    socs.extend([0.0, 1.0, f64::NAN, 0.5]);
+    let mut hint = 0;
+    for &z in &socs {
+        for h in [0, 7, 50, 99, 100, 1000, hint] {
+            let (v, k) = t.ocv_from(z, h);
+            assert_eq!(v.to_bits(), t.ocv(z).to_bits(), "soc {z}, hint {h}");
+            if z > 0.0 && z < 1.0 {
+                assert!(xs[k] <= z && z < xs[k + 1], "soc {z}: segment {k}");
+            }
+        }
+        hint = t.ocv_from(z, hint).1;
+    }
+}

@@ -198,6 +198,39 @@ impl<T: Real, const P: usize> OcvTable<T, P> {
         Self::interpolate(self.soc_points(), self.ocv_points(), soc)
     }
 
+    /// [`ocv`](Self::ocv) with the search started at segment `hint` (the
+    /// segment of a nearby SOC, such as the last lookup's): the same
+    /// value, and the segment that holds `soc` for the next lookup (`hint`
+    /// itself outside the table's range). A walk of a pulse's charge
+    /// mostly stays in one segment, where the binary search takes seven
+    /// steps on a 101-point table.
+    ///
+    /// ```
+    /// use estimator_core::battery::ocv::OcvTable;
+    ///
+    /// let t = OcvTable::<f64, 3>::new(&[0.0, 0.5, 1.0], &[3.0, 3.6, 4.2]).unwrap();
+    /// let (v, k) = t.ocv_from(0.75, 0);
+    /// assert_eq!((v, k), (t.ocv(0.75), 1));
+    /// assert_eq!(t.ocv_from(0.8, k), (t.ocv(0.8), 1));
+    /// ```
+    pub fn ocv_from(&self, soc: T, hint: usize) -> (T, usize) {
+        let (xs, ys) = (self.soc_points(), self.ocv_points());
+        let inside = match (xs.first(), xs.last()) {
+            (Some(&x0), Some(&xl)) => soc > x0 && soc < xl,
+            _ => false,
+        };
+        if !inside {
+            return (Self::interpolate(xs, ys, soc), hint);
+        }
+        // The segment `k` with xs[k] ≤ soc < xs[k + 1] is unique (the
+        // points increase strictly): the binary search finds the same.
+        let k = match xs.get(hint..=hint + 1) {
+            Some(&[x0, x1]) if x0 <= soc && soc < x1 => hint,
+            _ => Self::segment(xs, soc),
+        };
+        (Self::along(xs, ys, k, soc), k)
+    }
+
     /// The slope `dOCV/dSOC` (V per unit SOC) of the segment that holds
     /// `soc` (the end segments outside the range).
     pub fn slope(&self, soc: T) -> T {

@@ -22,6 +22,8 @@
 //! state (the caller gives the model, the history and the weights at the
 //! model's order).
 
+use core::cell::Cell;
+
 use super::ocv::OcvModel;
 use super::CellParameters;
 use crate::frac::GlWeights;
@@ -309,6 +311,9 @@ pub struct PulsePredictor<'a, T, const MEM: usize, const P: usize> {
     /// first `M` count).
     past: [T; MEM],
     ocv: Option<(&'a OcvModel<T, P>, T)>,
+    /// The OCV table's segment of the last lookup (the next starts there:
+    /// [`OcvTable::ocv_from`](super::ocv::OcvTable::ocv_from)).
+    segment: Cell<usize>,
 }
 
 impl<'a, T: Real, const MEM: usize, const P: usize> PulsePredictor<'a, T, MEM, P> {
@@ -336,6 +341,7 @@ impl<'a, T: Real, const MEM: usize, const P: usize> PulsePredictor<'a, T, MEM, P
             w: w.clone(),
             past,
             ocv,
+            segment: Cell::new(0),
         })
     }
 
@@ -363,6 +369,7 @@ impl<'a, T: Real, const MEM: usize, const P: usize> PulsePredictor<'a, T, MEM, P
             w,
             past: tail.past,
             ocv,
+            segment: Cell::new(0),
         })
     }
 
@@ -438,7 +445,9 @@ impl<'a, T: Real, const MEM: usize, const P: usize> PulsePredictor<'a, T, MEM, P
         match self.ocv {
             Some((m, soc)) => {
                 let z = soc + charge / (T::lit(3600.0) * m.capacity_ah);
-                m.table.ocv(z) + self.p.u_oc
+                let (v, k) = m.table.ocv_from(z, self.segment.get());
+                self.segment.set(k);
+                v + self.p.u_oc
             }
             None => self.p.u_oc,
         }
