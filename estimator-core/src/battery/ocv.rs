@@ -224,7 +224,7 @@ impl<T: Real, const P: usize> OcvTable<T, P> {
         }
         // The segment `k` with xs[k] ≤ soc < xs[k + 1] is unique (the
         // points increase strictly): the binary search finds the same.
-        let k = match xs.get(hint..=hint + 1) {
+        let k = match xs.get(hint..).and_then(|t| t.get(..2)) {
             Some(&[x0, x1]) if x0 <= soc && soc < x1 => hint,
             _ => Self::segment(xs, soc),
         };

@@ -311,9 +311,6 @@ pub struct PulsePredictor<'a, T, const MEM: usize, const P: usize> {
     /// first `M` count).
     past: [T; MEM],
     ocv: Option<(&'a OcvModel<T, P>, T)>,
-    /// The OCV table's segment of the last lookup (the next starts there:
-    /// [`OcvTable::ocv_from`](super::ocv::OcvTable::ocv_from)).
-    segment: Cell<usize>,
 }
 
 impl<'a, T: Real, const MEM: usize, const P: usize> PulsePredictor<'a, T, MEM, P> {
@@ -341,7 +338,6 @@ impl<'a, T: Real, const MEM: usize, const P: usize> PulsePredictor<'a, T, MEM, P
             w: w.clone(),
             past,
             ocv,
-            segment: Cell::new(0),
         })
     }
 
@@ -369,7 +365,6 @@ impl<'a, T: Real, const MEM: usize, const P: usize> PulsePredictor<'a, T, MEM, P
             w,
             past: tail.past,
             ocv,
-            segment: Cell::new(0),
         })
     }
 
@@ -440,13 +435,16 @@ impl<'a, T: Real, const MEM: usize, const P: usize> PulsePredictor<'a, T, MEM, P
         }
     }
 
-    /// The open-circuit voltage after `charge` (A·s, + charging) from now.
-    fn open_circuit(&self, charge: T) -> T {
+    /// The open-circuit voltage after `charge` (A·s, + charging) from now,
+    /// its table lookup started at the segment in `segment` (left at the
+    /// one it used: [`OcvTable::ocv_from`](super::ocv::OcvTable::ocv_from),
+    /// the same value as from any other).
+    fn open_circuit(&self, charge: T, segment: &Cell<usize>) -> T {
         match self.ocv {
             Some((m, soc)) => {
                 let z = soc + charge / (T::lit(3600.0) * m.capacity_ah);
-                let (v, k) = m.table.ocv_from(z, self.segment.get());
-                self.segment.set(k);
+                let (v, k) = m.table.ocv_from(z, segment.get());
+                segment.set(k);
                 v + self.p.u_oc
             }
             None => self.p.u_oc,
@@ -454,26 +452,36 @@ impl<'a, T: Real, const MEM: usize, const P: usize> PulsePredictor<'a, T, MEM, P
     }
 
     /// The terminal voltage after `k` samples of `current` from now, given
-    /// the free and step responses there.
-    fn voltage(&self, current: T, k: usize, f: T, g: T) -> T {
-        self.voltage_with(current, self.p.static_voltage(current), k, f, g)
+    /// the free and step responses there (`segment` as in
+    /// [`open_circuit`](Self::open_circuit)).
+    fn voltage(&self, current: T, k: usize, f: T, g: T, segment: &Cell<usize>) -> T {
+        self.voltage_with(current, self.p.static_voltage(current), k, f, g, segment)
     }
 
     /// [`voltage`](Self::voltage) given the static voltage of `current`
     /// (`R_i·I` and the kinetic term, the same at every sample of a pulse).
-    fn voltage_with(&self, current: T, static_v: T, k: usize, f: T, g: T) -> T {
+    fn voltage_with(
+        &self,
+        current: T,
+        static_v: T,
+        k: usize,
+        f: T,
+        g: T,
+        segment: &Cell<usize>,
+    ) -> T {
         let charge = current * T::lit(k as f64) * self.w.h();
-        self.open_circuit(charge) + static_v + f + current * g
+        self.open_circuit(charge, segment) + static_v + f + current * g
     }
 
     /// The predicted terminal voltage at the end of a constant `current`
     /// (A, + charging) held for `steps` samples from now (the present
     /// voltage's model value for `steps = 0`, at no current).
     pub fn pulse_voltage(&self, current: T, steps: usize) -> T {
-        let mut v = self.voltage(T::zero(), 0, self.past[0], T::zero());
+        let segment = Cell::new(0);
+        let mut v = self.voltage(T::zero(), 0, self.past[0], T::zero(), &segment);
         self.responses(steps, |k, f, g| {
             if k == steps {
-                v = self.voltage(current, k, f, g);
+                v = self.voltage(current, k, f, g, &segment);
             }
         });
         v
@@ -522,8 +530,11 @@ impl<'a, T: Real, const MEM: usize, const P: usize> PulsePredictor<'a, T, MEM, P
         }
         let longest = horizons.iter().copied().max().unwrap_or(0) as usize;
         let (mut d, mut c) = (cap, cap);
-        let discharge = |x: T, k: usize, f: T, g: T| self.voltage(-x, k, f, g) - limits.voltage_min;
-        let charge = |x: T, k: usize, f: T, g: T| limits.voltage_max - self.voltage(x, k, f, g);
+        // The OCV table's segment of the last lookup: the next starts there.
+        let segment = Cell::new(0);
+        let voltage = |i: T, k: usize, f: T, g: T| self.voltage(i, k, f, g, &segment);
+        let discharge = |x: T, k: usize, f: T, g: T| voltage(-x, k, f, g) - limits.voltage_min;
+        let charge = |x: T, k: usize, f: T, g: T| limits.voltage_max - voltage(x, k, f, g);
         if longest <= MEM {
             // Every response kept: each horizon's end solved once, the
             // samples before it only checked (and solved where one
@@ -566,11 +577,13 @@ impl<'a, T: Real, const MEM: usize, const P: usize> PulsePredictor<'a, T, MEM, P
                 let (mut sd, mut sc) = (self.p.static_voltage(-d), self.p.static_voltage(c));
                 for k in checked + 1..end {
                     let (f, g) = at(k);
-                    if self.voltage_with(-d, sd, k, f, g) - limits.voltage_min < T::zero() {
+                    if self.voltage_with(-d, sd, k, f, g, &segment) - limits.voltage_min < T::zero()
+                    {
                         d = largest(d, limits.voltage_min, |x| discharge(x, k, f, g));
                         sd = self.p.static_voltage(-d);
                     }
-                    if limits.voltage_max - self.voltage_with(c, sc, k, f, g) < T::zero() {
+                    if limits.voltage_max - self.voltage_with(c, sc, k, f, g, &segment) < T::zero()
+                    {
                         c = largest(c, limits.voltage_max, |x| charge(x, k, f, g));
                         sc = self.p.static_voltage(c);
                     }
@@ -579,7 +592,7 @@ impl<'a, T: Real, const MEM: usize, const P: usize> PulsePredictor<'a, T, MEM, P
                 if let Some(o) = out.horizons.get_mut(j) {
                     o.sop.discharge_a = d;
                     o.sop.charge_a = c;
-                    o.pulse_v = pulse.map(|i| self.voltage(i, end, fe, ge));
+                    o.pulse_v = pulse.map(|i| voltage(i, end, fe, ge));
                 }
             }
             return out;
@@ -591,7 +604,7 @@ impl<'a, T: Real, const MEM: usize, const P: usize> PulsePredictor<'a, T, MEM, P
                 if o.sop.steps == k {
                     o.sop.discharge_a = d;
                     o.sop.charge_a = c;
-                    o.pulse_v = pulse.map(|i| self.voltage(i, k, f, g));
+                    o.pulse_v = pulse.map(|i| voltage(i, k, f, g));
                 }
             }
         });

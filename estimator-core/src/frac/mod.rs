@@ -395,8 +395,8 @@ fn four_taps<T: Real>(s: &mut [T; BLOCK], wq: &[T], xq: &[T], xr: [T; 3]) -> [T;
 
 /// Tap sums of one weight set `w` (`m` taps) against one sequence, row by
 /// row over `rows` (up to `x.len()`): `f(l, Σ w_j x(l−j))`, fewer taps
-/// before row `m − 1`, in blocks after it ([`block_sums`] on Arm,
-/// [`block_sums_lanes`] elsewhere).
+/// before row `m − 1`, in blocks of [`SUM_ROWS`] after it
+/// ([`block_sums8`] on Arm, [`block_sums_lanes`] elsewhere).
 #[inline]
 fn single_sums<T: Real>(w: &[T], x: &[T], rows: Range<usize>, mut f: impl FnMut(usize, T)) {
     host_simd(SingleBlocks {
@@ -725,14 +725,16 @@ fn tap<T: Real>(s: &mut [T; BLOCK], w: T, x: [T; BLOCK]) {
     }
 }
 
-/// Rows of a block of [`single_sums`] and [`pair_sums`]: 4 on Arm
-/// ([`block_sums`], [`block_sums_pair`]), 8 on hosts with vector units
-/// ([`block_sums_lanes`], [`block_sums_pair_lanes`]).
+/// Rows of a block of [`pair_sums`] and of the recursions of
+/// `battery::simulate`: 4 on Arm ([`block_sums`], [`block_sums_pair`]),
+/// 8 on hosts with vector units ([`block_sums_lanes`],
+/// [`block_sums_pair_lanes`]). ([`single_sums`] takes [`SUM_ROWS`].)
 #[cfg(target_arch = "arm")]
 pub(crate) const ROW_BLOCK: usize = BLOCK;
-/// Rows of a block of [`single_sums`] and [`pair_sums`]: 4 on Arm
-/// ([`block_sums`], [`block_sums_pair`]), 8 on hosts with vector units
-/// ([`block_sums_lanes`], [`block_sums_pair_lanes`]).
+/// Rows of a block of [`pair_sums`] and of the recursions of
+/// `battery::simulate`: 4 on Arm ([`block_sums`], [`block_sums_pair`]),
+/// 8 on hosts with vector units ([`block_sums_lanes`],
+/// [`block_sums_pair_lanes`]). ([`single_sums`] takes [`SUM_ROWS`].)
 #[cfg(not(target_arch = "arm"))]
 pub(crate) const ROW_BLOCK: usize = 8;
 

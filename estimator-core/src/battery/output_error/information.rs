@@ -54,7 +54,7 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
         // The sensitivities are now those of the estimate, not of the last
         // accepted step's start: no chord step from them.
         self.linear = None;
-        let (jtj, _) = self.normal_equations(s);
+        let (jtj, _) = self.normal_equations(s, false);
         self.work.linearizations = self.work.linearizations.wrapping_add(1);
         let kinetic = self.p.is_butler_volmer();
         Ok(self.fit_information(s, jtj, cost, kinetic))

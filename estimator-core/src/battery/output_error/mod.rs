@@ -267,10 +267,6 @@ pub struct OutputErrorRefinement<T, const N: usize, const MEM: usize, K = GlRecu
     /// `up` (and `e`, `eta`) hold the simulation of `p`, β over the loaded
     /// window.
     fresh: bool,
-    /// `s_uoc` holds the free response from the history `−1` at `p`, run
-    /// with the simulation of this iteration (set and spent within one
-    /// [`Self::iterate`]; the next sensitivities then skip it).
-    free_uoc: bool,
     /// The settings (their [`BatterySettings::fingerprint`]) of the last
     /// iteration when it found no lower cost on the loaded window from the
     /// current estimate (`fresh` then holds), and why.
@@ -358,7 +354,6 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
             past: None,
             stamp: None,
             fresh: false,
-            free_uoc: false,
             stalled: None,
             linear: None,
             information: None,

@@ -267,7 +267,10 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
         let prior_cost = |p: &CellParameters<T>| {
             s.prior.map_or(T::zero(), |pr| pr.cost(p, s)) + Self::evidence_cost(evidence, p)
         };
-        self.free_uoc = false;
+        // Whether `s_uoc` now holds ∂U_p/∂U_oc at this estimate (run with
+        // its simulation, below): handed to the normal equations of this
+        // iteration only, so it cannot outlive the simulation it came with.
+        let mut uoc_done = false;
         let data0 = if self.fresh {
             window_cost(&data, &self.p, self.beta, &self.eta[..n], &self.up[..n])
         } else {
@@ -278,10 +281,17 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
             // recursion alone (the history's free response to −1, at these
             // weights and `a`): run with the simulation, through the pair
             // kernel (the same values).
-            let free = (!s.ocv_slope && !s.uses_tail() && warm > 0).then(|| {
-                self.s_uoc[..warm].fill(-T::one());
-                &mut self.s_uoc[..n]
-            });
+            let free = if !s.ocv_slope && !s.uses_tail() && warm > 0 {
+                self.s_uoc.get_mut(..n).map(|y| {
+                    // Its history: −1 (warm < n).
+                    if let Some(h) = y.get_mut(..warm) {
+                        h.fill(-T::one());
+                    }
+                    y
+                })
+            } else {
+                None
+            };
             let (cost, filled) = simulate_window_with_free(
                 &mut self.solver,
                 &self.w,
@@ -293,7 +303,7 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
                 &mut self.eta[..n],
                 free,
             );
-            self.free_uoc = filled;
+            uoc_done = filled;
             cost
         };
         // The cost of the estimate: the data's, plus the prior's.
@@ -347,7 +357,7 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
             }
         }
         let p = self.p;
-        let (mut a, mut b) = self.normal_equations(s);
+        let (mut a, mut b) = self.normal_equations(s, uoc_done);
         self.work.linearizations = self.work.linearizations.wrapping_add(1);
         // The data's J₀ᵀJ₀ is what a chord step reuses; the prior is added
         // there again from the settings of that iteration.

@@ -58,12 +58,13 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
     /// The sensitivities of `U_p` to every parameter, for the simulation
     /// held in `up` and `e`; with `tail`, of the model with the taps beyond
     /// the memory ([`BatterySettings::tail`]).
-    pub(super) fn sensitivities(&mut self, slope: bool, kinetic: bool, tail: bool) {
+    /// With `uoc_done`, `s_uoc` already holds the free response from the
+    /// history `−1` at this estimate's weights and `a` ([`Self::iterate`]
+    /// ran it with the simulation), and is not run again.
+    pub(super) fn sensitivities(&mut self, slope: bool, kinetic: bool, tail: bool, uoc_done: bool) {
         // `load` keeps warm < n ≤ N; the clamps let the optimizer see it.
         let n = self.n.min(N);
         let warm = self.warm.min(n);
-        // ∂U_p/∂U_oc, when `iterate` ran it with the simulation (spent here).
-        let uoc_done = core::mem::take(&mut self.free_uoc);
         let wts = self.w.weights();
         let g = self.w.scale();
         let ln_h = self.w.h().ln();
@@ -363,11 +364,17 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
     /// New sensitivities at the estimate (whose simulation `up` holds), the
     /// Jacobian's columns from them, and the data's normal equations
     /// `JᵀJ`, `Jᵀr` in `x`.
-    pub(super) fn normal_equations(&mut self, s: &BatterySettings<T>) -> (Square<T>, [T; COLUMNS]) {
+    /// (`uoc_done`: see [`Self::sensitivities`].)
+    pub(super) fn normal_equations(
+        &mut self,
+        s: &BatterySettings<T>,
+        uoc_done: bool,
+    ) -> (Square<T>, [T; COLUMNS]) {
         self.sensitivities(
             s.ocv_slope,
             s.model == CellModel::ButlerVolmer,
             s.uses_tail(),
+            uoc_done,
         );
         self.jacobian_columns(s);
         // The linear model's kinetic columns are zero: not accumulated.

@@ -373,7 +373,12 @@ fn jacobian_equals_finite_differences() {
             &mut oe.e[..n],
             &mut oe.eta[..n],
         );
-        oe.sensitivities(true, s.model == CellModel::ButlerVolmer, s.uses_tail());
+        oe.sensitivities(
+            true,
+            s.model == CellModel::ButlerVolmer,
+            s.uses_tail(),
+            false,
+        );
         oe.jacobian_columns(&s);
         // Central differences in x = [ln R_i, ln R_ct, ln Q, α, U_oc, β,
         // ln a, ln i₀].
@@ -410,6 +415,49 @@ fn jacobian_equals_finite_differences() {
                     (j - f).abs() <= 1e-6 * scale,
                     "{start:?} {model:?}: column {k}, row {l}: {j} vs {f}"
                 );
+            }
+            if k == 4 && start == Start::FromData {
+                // Without the OCV slope, `iterate` runs ∂U_p/∂U_oc with the
+                // simulation (the pair kernel) and the sensitivities skip
+                // it: the column is the same finite difference.
+                let mut flat = s;
+                flat.ocv_slope = false;
+                let mut other = OutputErrorRefinement::<f64, N, MEM>::new(&flat, p).unwrap();
+                other.beta = 0.0;
+                other.load(&flat, &win).unwrap();
+                other.w.set_order(p.alpha).unwrap();
+                let (n, warm) = (other.n, other.warm);
+                let data = WindowData {
+                    i: &other.i[..n],
+                    v: &other.v[..n],
+                    c: &other.c[..n],
+                    warm,
+                    tail: tail_context(&flat, other.past.as_ref()),
+                };
+                other.s_uoc[..warm].fill(-1.0);
+                other.s_uoc[warm..n].fill(f64::NAN);
+                let (_, filled) = simulate_window_with_free(
+                    &mut GlRecursion,
+                    &other.w,
+                    &data,
+                    &p,
+                    0.0,
+                    &mut other.up[..n],
+                    &mut other.e[..n],
+                    &mut other.eta[..n],
+                    Some(&mut other.s_uoc[..n]),
+                );
+                assert!(filled && warm > 0);
+                other.sensitivities(false, model == CellModel::ButlerVolmer, false, true);
+                other.jacobian_columns(&flat);
+                // (β moves nothing at U_oc: the same finite difference.)
+                for (l, &f) in fd.iter().enumerate().skip(warm) {
+                    let j = other.jacobian_row(&flat, l)[k];
+                    assert!(
+                        (j - f).abs() <= 1e-6 * scale,
+                        "{model:?}: U_oc column run with the simulation, row {l}: {j} vs {f}"
+                    );
+                }
             }
         }
     }
@@ -505,7 +553,7 @@ fn jacobian_with_the_tail_equals_finite_differences() {
         &mut oe.e[..n],
         &mut oe.eta[..n],
     );
-    oe.sensitivities(true, false, true);
+    oe.sensitivities(true, false, true, false);
     oe.jacobian_columns(&s);
     // The tail changes the simulation: the test sees it.
     let mut plain = s;

@@ -59,7 +59,11 @@ impl<T: Real, const N: usize> CurrentHistory<T, N> {
         let (near, far) = self.i.split_at(self.slot());
         let a = near.len().min(n);
         let b = far.len().min(n - a);
-        (&near[near.len() - a..], &far[far.len() - b..])
+        // (a ≤ near.len() and b ≤ far.len(): the slices always exist.)
+        (
+            near.get(near.len() - a..).unwrap_or_default(),
+            far.get(far.len() - b..).unwrap_or_default(),
+        )
     }
 
     pub(crate) fn push(&mut self, current: T) {
