@@ -282,13 +282,11 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
             // weights and `a`): run with the simulation, through the pair
             // kernel (the same values).
             let free = if !s.ocv_slope && !s.uses_tail() && warm > 0 {
-                self.s_uoc.get_mut(..n).map(|y| {
-                    // Its history: −1 (warm < n).
-                    if let Some(h) = y.get_mut(..warm) {
-                        h.fill(-T::one());
-                    }
-                    y
-                })
+                // Its history: −1 (warm < n).
+                if let Some(h) = self.s_uoc.get_mut(..warm) {
+                    h.fill(-T::one());
+                }
+                self.s_uoc.get_mut(..n)
             } else {
                 None
             };
