@@ -407,7 +407,12 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
             &self.trial[warm..n],
         ];
         let len = n - warm;
-        let cs = cols.map(|c| &c[..len]);
+        // Opaque column addresses: otherwise the compiler addresses every
+        // column from one base at offsets past the load's immediate range
+        // (a `movw` and an `add` per load on the Cortex-M4F).
+        let cs = cols.map(|c| core::hint::black_box(&c[..len]));
+        // (Their lengths are `len`; the minimum lets the optimizer see it.)
+        let len = cs.iter().fold(len, |m, c| m.min(c.len()));
         let mut a = [[T::zero(); COLUMNS]; COLUMNS];
         let mut b = [T::zero(); COLUMNS];
         // One pass over the rows for the listed sums `(x, y)`: into
