@@ -44,7 +44,16 @@ def track(path):
     cols = {k: np.array([f(r[k]) for r in rows]) for k in keys}
     for k in ("r_i", "r_ct", "q", "alpha"):
         cols[k + "_status"] = np.array([r[k + "_status"] for r in rows])
+    cols["rejected"] = np.array([r["rejected"] for r in rows])
     return cols
+
+
+def spikes(name, tr):
+    """The samples rejected as spikes, and the first few (index): the DFN
+    records hold none, so every one there is a clean sample refused."""
+    k = np.where(tr["rejected"] == "spike")[0]
+    print(f"{name} | rejected as spikes: {len(k)} samples" + (f" (at {', '.join(map(str, k[:12]))}"
+                                                              + (", ..." if len(k) > 12 else "") + ")" if len(k) else ""))
 
 
 def judge(name, values, ref):
@@ -74,6 +83,7 @@ def dfn(hs, out):
         tr = track(t)
         cpe = ref[rec]["cpe"]
         print(rec, "|", judge("R_i", tr["r_i"], cpe["r_i"]), "|", judge("R_ct", tr["r_ct"], cpe["r_ct"]))
+        spikes(rec, tr)
         if rec.endswith("-hppc"):
             per_soc(hs, out, rec, ocv, meta[rec]["capacity_ah"], tr)
 
@@ -176,6 +186,7 @@ def panasonic(hs, out):
     lrct = np.array([float(r["r_ct"]) for r in levels])
     lri = np.array([float(r["r_i"]) for r in levels])
     tr = track(t)
+    spikes("panasonic", tr)
     ts, rs = pulse_steps()
     near = np.array([rs[np.argmin(np.abs(ts - x))] for x in tr["time_s"]])
     first_group_end = ts[min(9, len(ts) - 1)]
