@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""A candidate R_ct gate, emulated on the tracks of bench/prior_free.py
+"""Two candidate R_ct gates, emulated on the tracks of bench/prior_free.py
 (issue 35; docs/real-cells.md, "False spike rejections and the R_ct gate").
 
 The windows that identify a wrong R_ct on the DFN HPPC records are mostly
@@ -9,8 +9,10 @@ RC of 20 s): at a bound the information matrix's interval, which the core's
 not identify R_ct. Emulated from the track: the published R_ct is the last
 window value that the core marked `identified` (or `prior`) and that passes
 the gate, held until the SOC moves by more than 0.15 (the core's
-`hold_soc_span`). Both rows, without and with the gate, are emulated the
-same way, so they compare with each other (the DFN rows without the gate
+`hold_soc_span`). The second gate, consensus: a window's R_ct is
+published only when an earlier window at least 256 samples before it (no
+overlap), within the same SOC span, identified one within a factor 1.5.
+Every row, without and with a gate, is emulated the same way, so they compare with each other (the DFN rows without the gate
 reproduce bench/prior_free.py's per-SOC figures; the Panasonic row here is
 over all samples against the map, not only after the first pulse group).
 
@@ -42,6 +44,27 @@ def emulate(rows, gate):
         soc = num(r["soc"])
         st = r["r_ct_status"]
         if (st == "identified" and gate(r)) or st == "prior":
+            cur, csoc = num(r["window_r_ct"]), soc
+        if cur is not None and np.isfinite(soc) and np.isfinite(csoc) and abs(soc - csoc) > HOLD_SOC_SPAN:
+            cur = None
+        out[k] = np.nan if cur is None else cur
+    return out
+
+
+def consensus(rows, sep=256, factor=1.5):
+    out = np.full(len(rows), np.nan)
+    cur = csoc = None
+    seen = []  # (sample, value, soc) of every identifying window
+    for k, r in enumerate(rows):
+        soc = num(r["soc"])
+        if r["r_ct_status"] == "identified":
+            v = num(r["window_r_ct"])
+            agreed = any(k - kk >= sep and abs(np.log(v / vv)) <= np.log(factor) and abs(soc - ss) <= HOLD_SOC_SPAN
+                         for kk, vv, ss in seen)
+            seen.append((k, v, soc))
+            if agreed:
+                cur, csoc = v, soc
+        elif r["r_ct_status"] == "prior":
             cur, csoc = num(r["window_r_ct"]), soc
         if cur is not None and np.isfinite(soc) and np.isfinite(csoc) and abs(soc - csoc) > HOLD_SOC_SPAN:
             cur = None
@@ -88,6 +111,7 @@ def main():
         print(f"{rec} | windows identifying R_ct: {ident.sum()}, alpha at its bound in {at.sum()}")
         for name, gate in gates.items():
             print(f"{rec} | R_ct vs {against}, {name}: {judge(emulate(rows, gate), refv)}")
+        print(f"{rec} | R_ct vs {against}, by consensus of two windows: {judge(consensus(rows), refv)}")
 
 
 if __name__ == "__main__":
