@@ -74,15 +74,21 @@ def judge(name, values, ref):
 ONLINE = ["--window", "256"]
 
 
+def online_dfn(hs, out, rec, meta):
+    """`online battery` on the DFN record `rec` with its OCV table, into
+    `out`; its OCV table's path and its track."""
+    ocv = "data/pybamm/" + rec.split("-")[0] + "-ocv.csv"
+    t = f"{out}/{rec}.csv"
+    run([hs, "online", "battery", "--input", f"data/pybamm/{rec}.csv", *ONLINE,
+         "--ocv", ocv, "--capacity-ah", str(meta[rec]["capacity_ah"]), "--out", t])
+    return ocv, track(t)
+
+
 def dfn(hs, out):
     ref = json.load(open("data/pybamm/reference.json"))
     meta = json.load(open("data/pybamm/meta.json"))["records"]
     for rec in ("chen2020-drive", "chen2020-hppc", "prada2013-drive", "prada2013-hppc"):
-        ocv = "data/pybamm/" + rec.split("-")[0] + "-ocv.csv"
-        t = f"{out}/{rec}.csv"
-        run([hs, "online", "battery", "--input", f"data/pybamm/{rec}.csv", *ONLINE,
-             "--ocv", ocv, "--capacity-ah", str(meta[rec]["capacity_ah"]), "--out", t])
-        tr = track(t)
+        ocv, tr = online_dfn(hs, out, rec, meta)
         cpe = ref[rec]["cpe"]
         print(rec, "|", judge("R_i", tr["r_i"], cpe["r_i"]), "|", judge("R_ct", tr["r_ct"], cpe["r_ct"]))
         spikes(rec, tr)
@@ -98,18 +104,13 @@ def held_out(hs, out):
     reference (bench/reference_fit.py, ``cpe`` only, about 15 s each)."""
     meta = json.load(open("data/pybamm/meta.json"))["records"]
     for rec in ("chen2020-soc", "prada2013-soc"):
-        ocv = "data/pybamm/" + rec.split("-")[0] + "-ocv.csv"
-        cap = str(meta[rec]["capacity_ah"])
+        ocv, tr = online_dfn(hs, out, rec, meta)
         fit = f"{out}/{rec}-reference.json"
         if not os.path.exists(fit):
             subprocess.run([sys.executable, "bench/reference_fit.py", f"data/pybamm/{rec}.csv", "--ocv", ocv,
-                            "--capacity-ah", cap, "--models", "cpe", "--json", fit],
+                            "--capacity-ah", str(meta[rec]["capacity_ah"]), "--models", "cpe", "--json", fit],
                            check=True, stdout=subprocess.DEVNULL)
         cpe = json.load(open(fit))["cpe"]
-        t = f"{out}/{rec}.csv"
-        run([hs, "online", "battery", "--input", f"data/pybamm/{rec}.csv", *ONLINE,
-             "--ocv", ocv, "--capacity-ah", cap, "--out", t])
-        tr = track(t)
         print(rec, "(held out) |", judge("R_i", tr["r_i"], cpe["r_i"]), "|", judge("R_ct", tr["r_ct"], cpe["r_ct"]))
 
 

@@ -37,39 +37,42 @@ def num(x):
         return np.nan
 
 
-def emulate(rows, gate):
+def hold(rows, take):
+    """The published R_ct: the last value `take(k, row)` gives (None: no
+    new value), or a `prior` window's, held until the SOC moves by more
+    than HOLD_SOC_SPAN from where it was taken."""
     out = np.full(len(rows), np.nan)
     cur = csoc = None
     for k, r in enumerate(rows):
         soc = num(r["soc"])
-        st = r["r_ct_status"]
-        if (st == "identified" and gate(r)) or st == "prior":
-            cur, csoc = num(r["window_r_ct"]), soc
+        v = take(k, r)
+        if v is None and r["r_ct_status"] == "prior":
+            v = num(r["window_r_ct"])
+        if v is not None:
+            cur, csoc = v, soc
         if cur is not None and np.isfinite(soc) and np.isfinite(csoc) and abs(soc - csoc) > HOLD_SOC_SPAN:
             cur = None
         out[k] = np.nan if cur is None else cur
     return out
+
+
+def emulate(rows, gate):
+    return hold(rows, lambda k, r: num(r["window_r_ct"]) if r["r_ct_status"] == "identified" and gate(r) else None)
 
 
 def consensus(rows, sep=256, factor=1.5):
-    out = np.full(len(rows), np.nan)
-    cur = csoc = None
     seen = []  # (sample, value, soc) of every identifying window
-    for k, r in enumerate(rows):
-        soc = num(r["soc"])
-        if r["r_ct_status"] == "identified":
-            v = num(r["window_r_ct"])
-            agreed = any(k - kk >= sep and abs(np.log(v / vv)) <= np.log(factor) and abs(soc - ss) <= HOLD_SOC_SPAN
-                         for kk, vv, ss in seen)
-            seen.append((k, v, soc))
-            if agreed:
-                cur, csoc = v, soc
-        elif r["r_ct_status"] == "prior":
-            cur, csoc = num(r["window_r_ct"]), soc
-        if cur is not None and np.isfinite(soc) and np.isfinite(csoc) and abs(soc - csoc) > HOLD_SOC_SPAN:
-            cur = None
-        out[k] = np.nan if cur is None else cur
-    return out
+
+    def take(k, r):
+        if r["r_ct_status"] != "identified":
+            return None
+        v, soc = num(r["window_r_ct"]), num(r["soc"])
+        agreed = any(k - kk >= sep and abs(np.log(v / vv)) <= np.log(factor) and abs(soc - ss) <= HOLD_SOC_SPAN
+                     for kk, vv, ss in seen)
+        seen.append((k, v, soc))
+        return v if agreed else None
+
+    return hold(rows, take)
 
 
 def judge(values, ref):
