@@ -12,8 +12,8 @@ use crate::ocv::{CellOcv, OcvOptions};
 use crate::online::power::{PowerOptions, PowerRow, ResolvedPower, MAX_HORIZONS};
 use crate::online::soc::{SocMode, SocOptions, SocRow, SOC_HEADER};
 use crate::online::state::{read_state, record_clock, saved, write_state, StateIn};
-use crate::online::Precision;
 use crate::online::TrackOptions;
+use crate::online::{Precision, PublicationTally};
 use crate::presets;
 use crate::simulate::{battery_data, Current, OcvCurve};
 use crate::{bail, err};
@@ -377,6 +377,9 @@ pub struct PackSummary {
     pub state_in: Option<StateIn>,
     /// The snapshot after the last sample ([`PackOptions::save_state`]).
     pub state_out: Option<Vec<u8>>,
+    /// What the cells published, each cell's sample counted
+    /// ([`online_file`] counts it).
+    pub published: PublicationTally,
 }
 
 /// How `online pack` runs: the cell settings of `online battery` and the
@@ -549,6 +552,7 @@ fn run<T: Real, const N: usize>(
             let at = rec.time.last().and_then(|t| record_clock(*t));
             saved(pack.snapshot_size(), |buf| pack.save(&s.cell, at, buf))
         }),
+        published: PublicationTally::default(),
     })
 }
 
@@ -704,6 +708,7 @@ pub fn online_file(input: &Path, out: &Path, a: &OnlinePack) -> Result<(PackSumm
     let horizons = a.power.horizons().len();
     let f = |x: f64| format!("{x:.9e}");
     let mut res = Ok(PackSummary::default());
+    let mut tally = PublicationTally::default();
     let restoration = if a.state_in.is_some() {
         ",restoration"
     } else {
@@ -712,6 +717,8 @@ pub fn online_file(input: &Path, out: &Path, a: &OnlinePack) -> Result<(PackSumm
     io::write_atomic(out, |w| {
         writeln!(w, "{}{restoration}", pack_track_header(&a.power))?;
         res = run_pack(&rec, a, model, |r| {
+            let sop = r.power.iter().any(|p| p.discharge_a.is_some());
+            tally.add(&r.published, sop);
             for (k, x) in r.fields(horizons).into_iter().enumerate() {
                 let sep = if k == 0 { "" } else { "," };
                 match x {
@@ -730,7 +737,10 @@ pub fn online_file(input: &Path, out: &Path, a: &OnlinePack) -> Result<(PackSumm
         });
         res.clone().map(|_| ())
     })?;
-    let summary = res?;
+    let summary = PackSummary {
+        published: tally,
+        ..res?
+    };
     if let (Some(p), Some(bytes)) = (&a.state_out, &summary.state_out) {
         write_state(p, bytes)?;
     }

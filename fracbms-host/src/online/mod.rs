@@ -29,8 +29,10 @@ pub mod power;
 mod prior;
 pub mod soc;
 pub mod state;
+mod tally;
 
 pub use file::{battery_file, OnlineBatteryOptions, OnlineReport, TRACK_HEADER};
+pub use tally::PublicationTally;
 
 /// Floating-point precision of an online estimator.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
@@ -107,6 +109,9 @@ pub struct TrackSummary {
     pub spikes: u32,
     /// What the output-error refinement computed.
     pub work: RefinementWork,
+    /// What was published, sample by sample ([`track`] and
+    /// [`track_with`] count it; [`Tracker::summary`] alone has none).
+    pub published: PublicationTally,
 }
 
 /// How `track` runs the online estimator: the firmware's settings, as the
@@ -252,6 +257,7 @@ pub fn track_with(
     let rest = o.cell.map_or(0.0, |c| c.model.capacity_ah / 100.0);
     let mut ends = gaps.iter().map(|g| g.start_s + g.length_s).peekable();
     let pb = progress::bar(rec.current.len() as u64, "tracking");
+    let mut tally = PublicationTally::default();
     for (k, ((&t, &i), &v)) in rec
         .time
         .iter()
@@ -266,13 +272,19 @@ pub fn track_with(
             while ends.next_if(|&end| end <= t).is_some() {}
             cell.resume_after_gap(i.abs() <= rest);
         }
-        sink(cell.push(t, i, v))?;
+        let row = cell.push(t, i, v);
+        let sop = row.power.iter().any(|p| p.discharge_a.is_some());
+        tally.add(&row.published, sop);
+        sink(row)?;
         if k % 256 == 0 {
             pb.set_position(k as u64);
         }
     }
     pb.finish_and_clear();
-    Ok(cell.summary())
+    Ok(TrackSummary {
+        published: tally,
+        ..cell.summary()
+    })
 }
 
 /// The online estimator of one cell at the window length and precision
@@ -425,6 +437,7 @@ impl<T: Real + Send + Sync, const N: usize> Step for Sized<T, N> {
             out_of_range: c.out_of_range,
             spikes: c.spikes,
             work: self.est.refinement_work(),
+            published: PublicationTally::default(),
         }
     }
 }

@@ -312,6 +312,9 @@ pub(super) fn battery(a: OnlineBatteryArgs) -> Result<()> {
         s.samples as f64 / r.seconds.max(1e-9),
         r.model.as_str()
     );
+    for line in s.published.lines() {
+        eprintln!("{line}");
+    }
     let work = s.work;
     if work.iterations > 0 {
         // The refinement's cost drivers: each simulation and each
@@ -358,5 +361,8 @@ pub(super) fn pack(a: OnlinePackArgs) -> Result<()> {
         summary.iterations,
         summary.samples as f64 / secs.max(1e-9)
     );
+    for line in summary.published.lines() {
+        eprintln!("{line}");
+    }
     Ok(())
 }

@@ -73,6 +73,37 @@ fn online_writes_a_track() {
         .find(|l| l.starts_with("refinement: "))
         .unwrap_or_else(|| panic!("no work line in {err}"));
     assert!(work.contains(" window simulations ("), "{work}");
+    // What was published is said after the track, per parameter, with the
+    // shares the track's status columns hold.
+    let said = err
+        .lines()
+        .find(|l| l.starts_with("published, of 600 samples: "))
+        .unwrap_or_else(|| panic!("no published line in {err}"));
+    let not_said = err
+        .lines()
+        .find(|l| l.starts_with("not published: "))
+        .unwrap_or_else(|| panic!("no not-published line in {err}"));
+    for (k, name) in ["r_i", "r_ct", "q", "alpha"].into_iter().enumerate() {
+        let count = |status: &str| rows.iter().filter(|r| col(r, 12 + k) == status).count();
+        let pct = |n: usize| format!("{:.1} %", 100.0 * n as f64 / 600.0);
+        let shown = 600 - count("not_identified");
+        assert!(
+            said.contains(&format!(
+                "{name} {} (identified {}",
+                pct(shown),
+                pct(count("identified"))
+            )),
+            "{name}: {said}"
+        );
+        assert!(
+            not_said.contains(&format!(
+                "{name} {} (not_identified {})",
+                pct(count("not_identified")),
+                pct(count("not_identified"))
+            )),
+            "{name}: {not_said}"
+        );
+    }
 
     // In f32, as the firmware computes: the same final estimate to 1 %.
     let out32 = tmp("track32.csv");
@@ -163,6 +194,15 @@ fn pack_round_trip_tracks_every_cell_and_flags_the_aged_one() {
     );
     let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
     assert_eq!(rows.len(), 8 * 2000, "one row per cell and sample");
+    // What the cells published is said over every cell's sample: R_i's
+    // share is that of the rows whose R_i column holds a value.
+    let err = String::from_utf8_lossy(&o.stderr);
+    let shown = rows.iter().filter(|r| !r[2].is_empty()).count();
+    let want = format!(
+        "published, of 16000 samples: r_i {:.1} % (",
+        100.0 * shown as f64 / 16000.0
+    );
+    assert!(err.contains(&want), "{want} not in {err}");
     for (k, row) in rows[rows.len() - 8..].iter().enumerate() {
         assert_eq!(row[1], (k + 1).to_string());
         assert_eq!(row[7], "tracking", "{row:?}");
