@@ -235,6 +235,11 @@ class OnlineCell:
     def rejected(self) -> int:
         """Samples rejected (and substituted) so far."""
     @property
+    def published(self) -> dict[str, Any]:
+        """What has been published so far: ``samples``, ``state_of_power``
+        and per parameter (``r_i``, ``r_ct``, ``q``, ``alpha``) the samples
+        of every status, as ``online battery`` says after its track."""
+    @property
     def window(self) -> int:
         """The window length L."""
     @property

@@ -3,6 +3,7 @@
 
 use super::*;
 use fracbms_host::online::soc::{SocMode, SocOptions};
+use fracbms_host::online::PublicationTally;
 use pyo3::types::PyBytes;
 
 /// The online estimator of one cell (`host-sim online battery`).
@@ -558,6 +559,28 @@ impl OnlineCell {
     #[getter]
     fn rejected(&self) -> u32 {
         self.tracker.summary().rejected
+    }
+
+    /// What has been published so far, as ``online battery`` says after
+    /// its track: ``{"samples": n, "state_of_power": n, "r_i": {"identified":
+    /// n, "held": n, …}, "r_ct": …, "q": …, "alpha": …}``, each parameter
+    /// with the samples of every status (``identified``, ``step``,
+    /// ``prior``, ``restored``, ``held``: a value published; ``expired``,
+    /// ``not_identified``: none).
+    #[getter]
+    fn published<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let t = self.tracker.summary().published;
+        let d = PyDict::new(py);
+        d.set_item("samples", t.samples())?;
+        d.set_item("state_of_power", t.state_of_power())?;
+        for (j, name) in PublicationTally::NAMES.into_iter().enumerate() {
+            let by = PyDict::new(py);
+            for (status, n) in t.statuses(j) {
+                by.set_item(status.as_str(), n)?;
+            }
+            d.set_item(name, by)?;
+        }
+        Ok(d)
     }
 
     /// The window length L.

@@ -42,6 +42,15 @@ def test_run_equals_the_cli_and_tracks_the_cell(host_sim, cell_record, tmp_path,
     assert all(isinstance(py[k], np.ndarray) for k in py)
     assert_same_track(py, cli)
     assert cell.samples == 1500 and cell.rejected == 0
+    # What was published, counted as the track's status columns hold it
+    # (and as `online battery` says after its track).
+    pub = cell.published
+    assert pub["samples"] == 1500
+    assert pub["state_of_power"] == int(np.isfinite(py["sop_discharge_a_10s"]).sum())
+    for k in ("r_i", "r_ct", "q", "alpha"):
+        statuses, counts = np.unique(py[f"{k}_status"], return_counts=True)
+        assert {s: n for s, n in pub[k].items() if n} == dict(zip(statuses, counts)), k
+        assert sum(pub[k].values()) == 1500
     # Our own model's record: the estimates over the second half are the
     # cell's (median; a 256-sample window at σ = 1 mV). Without the tail
     # correction, R_ct carries the short-memory bias of M = 64 (docs/pack.md:

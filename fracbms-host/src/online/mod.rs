@@ -109,8 +109,7 @@ pub struct TrackSummary {
     pub spikes: u32,
     /// What the output-error refinement computed.
     pub work: RefinementWork,
-    /// What was published, sample by sample ([`track`] and
-    /// [`track_with`] count it; [`Tracker::summary`] alone has none).
+    /// What was published, sample by sample.
     pub published: PublicationTally,
 }
 
@@ -257,7 +256,6 @@ pub fn track_with(
     let rest = o.cell.map_or(0.0, |c| c.model.capacity_ah / 100.0);
     let mut ends = gaps.iter().map(|g| g.start_s + g.length_s).peekable();
     let pb = progress::bar(rec.current.len() as u64, "tracking");
-    let mut tally = PublicationTally::default();
     for (k, ((&t, &i), &v)) in rec
         .time
         .iter()
@@ -272,19 +270,13 @@ pub fn track_with(
             while ends.next_if(|&end| end <= t).is_some() {}
             cell.resume_after_gap(i.abs() <= rest);
         }
-        let row = cell.push(t, i, v);
-        let sop = row.power.iter().any(|p| p.discharge_a.is_some());
-        tally.add(&row.published, sop);
-        sink(row)?;
+        sink(cell.push(t, i, v))?;
         if k % 256 == 0 {
             pb.set_position(k as u64);
         }
     }
     pb.finish_and_clear();
-    Ok(TrackSummary {
-        published: tally,
-        ..cell.summary()
-    })
+    Ok(cell.summary())
 }
 
 /// The online estimator of one cell at the window length and precision
@@ -304,6 +296,8 @@ pub struct Tracker {
     /// The prior's `R_i`, or the map's where the prior was last taken:
     /// `soh_r`'s reference.
     reference_r_i: Option<f64>,
+    /// What has been published so far.
+    tally: PublicationTally,
 }
 
 /// Where a map prior was last taken, in the estimator's precision.
@@ -483,6 +477,7 @@ impl Tracker {
             },
             soc_mode: o.soc.mode,
             reference_r_i,
+            tally: PublicationTally::default(),
         })
     }
 
@@ -535,12 +530,17 @@ impl Tracker {
             .value
             .zip(self.reference_r_i)
             .map(|(r, reference)| r / reference);
+        let sop = r.power.iter().any(|p| p.discharge_a.is_some());
+        self.tally.add(&r.published, sop);
         r
     }
 
-    /// What the estimator has seen and computed so far.
+    /// What the estimator has seen, computed and published so far.
     pub fn summary(&self) -> TrackSummary {
-        self.cell.summary()
+        TrackSummary {
+            published: self.tally,
+            ..self.cell.summary()
+        }
     }
 
     /// The snapshot of what the cell has learned

@@ -77,6 +77,15 @@ impl PublicationTally {
             .unwrap_or(0)
     }
 
+    /// Each status with its samples for parameter `parameter` (all
+    /// zero for another index), the published statuses first.
+    pub fn statuses(&self, parameter: usize) -> [(Identification, u64); STATUSES.len()] {
+        STATUSES.map(|s| (s, self.count(parameter, s)))
+    }
+
+    /// The track's names of the parameters, in the order of `parameter`.
+    pub const NAMES: [&'static str; 4] = NAMES;
+
     /// Samples on which parameter `parameter` had a published value.
     pub fn published(&self, parameter: usize) -> u64 {
         STATUSES
@@ -171,6 +180,9 @@ mod tests {
         assert_eq!(t.published(2), 0);
         assert_eq!(t.state_of_power(), 1);
         assert_eq!(t.count(9, Identification::Held), 0);
+        let r_ct = t.statuses(1);
+        assert_eq!(r_ct.iter().map(|(_, n)| n).sum::<u64>(), 2);
+        assert!(r_ct.contains(&(Identification::Expired, 1)));
         let [yes, no] = t.lines();
         assert_eq!(
             yes,
