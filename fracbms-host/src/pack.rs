@@ -377,8 +377,7 @@ pub struct PackSummary {
     pub state_in: Option<StateIn>,
     /// The snapshot after the last sample ([`PackOptions::save_state`]).
     pub state_out: Option<Vec<u8>>,
-    /// What the cells published, each cell's sample counted
-    /// ([`online_file`] counts it).
+    /// What the cells published, each cell's sample counted.
     pub published: PublicationTally,
 }
 
@@ -507,6 +506,7 @@ fn run<T: Real, const N: usize>(
     let no_power = [PowerRow::default(); MAX_HORIZONS];
     let mut volts = vec![T::zero(); cells];
     let mut iterations = 0u64;
+    let mut published = PublicationTally::default();
     for (l, (&t, &i)) in rec.time.iter().zip(&rec.current).enumerate() {
         for (v, c) in volts.iter_mut().zip(&rec.cells) {
             *v = T::lit(c[l]);
@@ -526,11 +526,16 @@ fn run<T: Real, const N: usize>(
                 coulomb: c.state_of_charge().map(|z| z.to_f64()),
                 observer: c.soc_estimate(&s.cell).map(|e| e.cast()),
             };
+            let cell_published = c.published().map(|v| v.to_f64());
+            published.add(
+                &cell_published,
+                power.iter().any(|p| p.discharge_a.is_some()),
+            );
             sink(PackRow {
                 t,
                 cell: k + 1,
                 estimate: c.estimate().map(|p| p.cast()),
-                published: c.published().map(|v| v.to_f64()),
+                published: cell_published,
                 status: c.status().as_str(),
                 rejected: c.last_rejection().is_some(),
                 flagged: health.is_some_and(|h| pack.is_flagged(s, &h, k)),
@@ -552,7 +557,7 @@ fn run<T: Real, const N: usize>(
             let at = rec.time.last().and_then(|t| record_clock(*t));
             saved(pack.snapshot_size(), |buf| pack.save(&s.cell, at, buf))
         }),
-        published: PublicationTally::default(),
+        published,
     })
 }
 
@@ -708,7 +713,6 @@ pub fn online_file(input: &Path, out: &Path, a: &OnlinePack) -> Result<(PackSumm
     let horizons = a.power.horizons().len();
     let f = |x: f64| format!("{x:.9e}");
     let mut res = Ok(PackSummary::default());
-    let mut tally = PublicationTally::default();
     let restoration = if a.state_in.is_some() {
         ",restoration"
     } else {
@@ -717,8 +721,6 @@ pub fn online_file(input: &Path, out: &Path, a: &OnlinePack) -> Result<(PackSumm
     io::write_atomic(out, |w| {
         writeln!(w, "{}{restoration}", pack_track_header(&a.power))?;
         res = run_pack(&rec, a, model, |r| {
-            let sop = r.power.iter().any(|p| p.discharge_a.is_some());
-            tally.add(&r.published, sop);
             for (k, x) in r.fields(horizons).into_iter().enumerate() {
                 let sep = if k == 0 { "" } else { "," };
                 match x {
@@ -737,10 +739,7 @@ pub fn online_file(input: &Path, out: &Path, a: &OnlinePack) -> Result<(PackSumm
         });
         res.clone().map(|_| ())
     })?;
-    let summary = PackSummary {
-        published: tally,
-        ..res?
-    };
+    let summary = res?;
     if let (Some(p), Some(bytes)) = (&a.state_out, &summary.state_out) {
         write_state(p, bytes)?;
     }
