@@ -4,12 +4,12 @@ docs/real-cells.md, "The same window, fitted offline").
 
 On the DFN HPPC records, `online battery` (window 256, memory 64, no
 prior) publishes an R_ct outside [0.5x, 2x] of the per-SOC reference in
-10 % (Chen2020) and 48 % (Prada2013) of the samples that carry one. This
+10 % (Chen2020) and about half (Prada2013) of the samples that carry one. This
 script takes windows that the core marked `identified` for R_ct, some
 outside the band ("wrong"), some inside ("right"), picked at random with a
 fixed seed, and fits the same rows offline by multi-start least squares
-(scipy, the grid of bench/reference_fit.py's fit_cpe plus the online
-estimate as a start), in two formulations of the same model
+(scipy; 24 starts on a grid like bench/reference_fit.py's fit_cpe, and
+the online estimate), in two formulations of the same model
 (R_i + R_ct || CPE(Q, alpha), the OCV table at the track's counted SOC,
 short memory M = 64):
 
@@ -25,7 +25,7 @@ short memory M = 64):
 Each line: the online window's R_ct, the two offline optima, the per-SOC
 reference; then per record and group, how many offline optima are within
 [0.5x, 2x] of the reference and how many ran to the bound of R_ct (the
-window does not determine it). About 3 minutes.
+window does not determine it). About a minute.
 
     python3 bench/prior_free.py --out target/prior-free   # the tracks and references
     python3 bench/same_window.py [--tracks target/prior-free] [--per-group 12] [--pre 600]
