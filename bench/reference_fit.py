@@ -109,6 +109,15 @@ def cpe_polarization(i, h, r_ct, q, alpha):
     return up
 
 
+def short_memory_filter(h, r_ct, q, alpha, memory):
+    """The core's short-memory recursion as a filter (b, a) for
+    scipy.signal.lfilter: (1 + c) U_p(l) + c sum_{j=1}^{memory-1} w_j
+    U_p(l - j) = R_ct I(l), c = R_ct Q h^-alpha (the online window's
+    model; cpe_polarization is the full memory)."""
+    c = r_ct * q * h ** (-alpha)
+    return np.array([r_ct]), np.concatenate([[1.0 + c], c * gl_weights(alpha, memory)[1:]])
+
+
 def rc_polarization(i, h, r, tau):
     """One RC pair, exact for a current held over each sample period."""
     e = math.exp(-h / tau)

@@ -40,9 +40,7 @@ def num(x):
 
 
 def branch(i, r_ct, q, alpha, memory):
-    w = rf.gl_weights(alpha, memory)
-    a = r_ct * q
-    return lfilter([r_ct], np.concatenate([[1.0 + a], a * w[1:]]), i)
+    return lfilter(*rf.short_memory_filter(1.0, r_ct, q, alpha, memory), i)
 
 
 def main():

@@ -57,21 +57,17 @@ def num(x):
 
 
 def short_branch(i, h, r_ct, q, alpha):
-    """U_p from rest with the short memory: (1 + a) U_p(l) + a sum_{j=1}^{M-1}
-    w_j U_p(l - j) = R_ct I(l), a = R_ct Q h^-alpha."""
-    w = rf.gl_weights(alpha, MEMORY)
-    a = r_ct * q * h ** (-alpha)
-    return lfilter([r_ct], np.concatenate([[1.0 + a], a * w[1:]]), i)
+    """U_p from rest with the short memory."""
+    return lfilter(*rf.short_memory_filter(h, r_ct, q, alpha, MEMORY), i)
 
 
 def core_residuals(p, i, y):
     """The core's window: history from the data in the first M - 1 rows."""
     r_i, r_ct, q, alpha, du = math.exp(p[0]), math.exp(p[1]), math.exp(p[2]), p[3], p[4]
     warm = MEMORY - 1
-    a = r_ct * q
-    den = np.concatenate([[1.0 + a], a * rf.gl_weights(alpha, MEMORY)[1:]])
+    b, a = rf.short_memory_filter(1.0, r_ct, q, alpha, MEMORY)
     past = (y[:warm] - du - r_i * i[:warm])[::-1]
-    up, _ = lfilter([r_ct], den, i[warm:], zi=lfiltic([r_ct], den, past))
+    up, _ = lfilter(b, a, i[warm:], zi=lfiltic(b, a, past))
     return du + r_i * i[warm:] + up - y[warm:]
 
 

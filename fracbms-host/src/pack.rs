@@ -527,10 +527,7 @@ fn run<T: Real, const N: usize>(
                 observer: c.soc_estimate(&s.cell).map(|e| e.cast()),
             };
             let cell_published = c.published().map(|v| v.to_f64());
-            published.add(
-                &cell_published,
-                power.iter().any(|p| p.discharge_a.is_some()),
-            );
+            published.add(&cell_published, &power);
             sink(PackRow {
                 t,
                 cell: k + 1,

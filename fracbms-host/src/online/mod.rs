@@ -530,8 +530,7 @@ impl Tracker {
             .value
             .zip(self.reference_r_i)
             .map(|(r, reference)| r / reference);
-        let sop = r.power.iter().any(|p| p.discharge_a.is_some());
-        self.tally.add(&r.published, sop);
+        self.tally.add(&r.published, &r.power);
         r
     }
 

@@ -8,6 +8,7 @@
 //! It owns the counting and its wording; it must not judge anything: the
 //! statuses are the core's, counted as they are.
 
+use super::power::PowerRow;
 use estimator_core::battery::online::{Identification, PublishedParameters};
 
 /// The statuses in the order they are printed: the published ones first.
@@ -21,10 +22,6 @@ const STATUSES: [Identification; 7] = [
     Identification::NotIdentified,
 ];
 
-/// The track's names of the four published parameters, in
-/// [`PublishedParameters::named`]'s order.
-const NAMES: [&str; 4] = ["r_i", "r_ct", "q", "alpha"];
-
 /// Samples per status for each published parameter, and samples with a
 /// state of power (a pack counts each cell's sample).
 ///
@@ -34,7 +31,7 @@ const NAMES: [&str; 4] = ["r_i", "r_ct", "q", "alpha"];
 ///
 /// let mut t = PublicationTally::default();
 /// let none = PublishedParameters::<f64>::NONE;
-/// t.add(&none, false);
+/// t.add(&none, &[]);
 /// assert_eq!(t.samples(), 1);
 /// assert_eq!(t.count(1, Identification::NotIdentified), 1);
 /// assert_eq!(t.published(1), 0);
@@ -43,16 +40,16 @@ const NAMES: [&str; 4] = ["r_i", "r_ct", "q", "alpha"];
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct PublicationTally {
     samples: u64,
-    counts: [[u64; STATUSES.len()]; NAMES.len()],
+    counts: [[u64; STATUSES.len()]; 4],
     state_of_power: u64,
 }
 
 impl PublicationTally {
-    /// Counts one sample's published parameters, and whether it carried a
-    /// state of power.
-    pub fn add(&mut self, published: &PublishedParameters<f64>, state_of_power: bool) {
+    /// Counts one sample's published parameters and its state of power
+    /// (carried when any horizon has a discharge current).
+    pub fn add(&mut self, published: &PublishedParameters<f64>, power: &[PowerRow]) {
         self.samples += 1;
-        self.state_of_power += u64::from(state_of_power);
+        self.state_of_power += u64::from(power.iter().any(|p| p.discharge_a.is_some()));
         for (row, (_, p)) in self.counts.iter_mut().zip(published.named()) {
             if let Some(k) = STATUSES.iter().position(|&s| s == p.status) {
                 row[k] += 1;
@@ -83,8 +80,9 @@ impl PublicationTally {
         STATUSES.map(|s| (s, self.count(parameter, s)))
     }
 
-    /// The track's names of the parameters, in the order of `parameter`.
-    pub const NAMES: [&'static str; 4] = NAMES;
+    /// The track's names of the four published parameters, in
+    /// [`PublishedParameters::named`]'s order: the index `parameter`.
+    pub const NAMES: [&'static str; 4] = ["r_i", "r_ct", "q", "alpha"];
 
     /// Samples on which parameter `parameter` had a published value.
     pub fn published(&self, parameter: usize) -> u64 {
@@ -108,24 +106,23 @@ impl PublicationTally {
     pub fn lines(&self) -> [String; 2] {
         let n = self.samples.max(1) as f64;
         let pct = |x: u64| format!("{:.1} %", 100.0 * x as f64 / n);
+        // One parameter's statuses on one side (published or not), or
+        // none when it has no sample there.
         let part = |j: usize, published: bool| {
-            let total: u64 = STATUSES
+            let side: Vec<(Identification, u64)> = self
+                .statuses(j)
+                .into_iter()
+                .filter(|&(s, n)| s.is_published() == published && n > 0)
+                .collect();
+            let total: u64 = side.iter().map(|&(_, n)| n).sum();
+            let by: Vec<String> = side
                 .iter()
-                .filter(|s| s.is_published() == published)
-                .map(|&s| self.count(j, s))
-                .sum();
-            (total > 0).then(|| {
-                let by: Vec<String> = STATUSES
-                    .iter()
-                    .filter(|s| s.is_published() == published)
-                    .filter(|&&s| self.count(j, s) > 0)
-                    .map(|&s| format!("{} {}", s.as_str(), pct(self.count(j, s))))
-                    .collect();
-                format!("{} {} ({})", NAMES[j], pct(total), by.join(", "))
-            })
+                .map(|&(s, n)| format!("{} {}", s.as_str(), pct(n)))
+                .collect();
+            (total > 0).then(|| format!("{} {} ({})", Self::NAMES[j], pct(total), by.join(", ")))
         };
         let list = |published: bool| -> Vec<String> {
-            (0..NAMES.len())
+            (0..Self::NAMES.len())
                 .filter_map(|j| part(j, published))
                 .collect()
         };
@@ -168,9 +165,13 @@ mod tests {
         let mut p = PublishedParameters::<f64>::NONE;
         p.r_i = with(Identification::Identified);
         p.r_ct = with(Identification::Held);
-        t.add(&p, true);
+        let sop = PowerRow {
+            discharge_a: Some(3.0),
+            ..PowerRow::default()
+        };
+        t.add(&p, &[PowerRow::default(), sop]);
         p.r_ct = with(Identification::Expired);
-        t.add(&p, false);
+        t.add(&p, &[PowerRow::default()]);
         assert_eq!(t.samples(), 2);
         assert_eq!(t.count(0, Identification::Identified), 2);
         assert_eq!(t.published(0), 2);
