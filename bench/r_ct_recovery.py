@@ -129,7 +129,9 @@ def dfn(out, rec, args):
         fit = json.load(open(doc))
         against, ref = "the whole-record fit", np.full(len(rows), (fit["cpe"] if rec.endswith("-soc") else fit[rec]["cpe"])["r_ct"])
     logged = np.ones(len(t), bool)
-    report(rec, rows, i, 1.0, rests(i, v, logged, args.min_load, args.min_rest), ref, against, args.tol)
+    report(rec, rows, i, 1.0, (rests(i, v, logged, args.min_load, args.min_rest),
+                               rests(i, v, logged, args.min_load, args.min_rest, reach=args.min_rest)),
+           ref, against, args.tol)
 
 
 def panasonic(out, args):
@@ -149,14 +151,36 @@ def panasonic(out, args):
     ls, lr = levels(f"{out}/panasonic-map.csv")
     ref = np.array([lr[np.argmin(np.abs(ls - z))] if np.isfinite(z) else np.nan for z in soc])
     logged = hi > lo
-    report("panasonic", rows, i, h, rests(i, v, logged, args.min_load, args.min_rest), ref, "the per-SOC map", args.tol)
+    report("panasonic", rows, i, h, (rests(i, v, logged, args.min_load, args.min_rest),
+                                     rests(i, v, logged, args.min_load, args.min_rest, reach=args.min_rest)),
+           ref, "the per-SOC map", args.tol)
 
 
-def report(rec, rows, i, h, ev, ref, against, tol):
+def inside(rows, ev, ref, window=256, memory=MEMORY):
+    """The identifying windows that hold a rest of ``ev`` themselves (its
+    load's end past the history's first ``memory`` rows, its first d
+    samples, here ``--min-rest``, in the window), and those that do not:
+    right and wrong in each."""
+    ks, ends = np.array([e["k"] for e in ev], dtype=int), np.array([e["at"] for e in ev], dtype=int)
+    out = {"a rest inside": [0, 0], "none inside": [0, 0]}
+    for k, r in enumerate(rows):
+        if r["r_ct_status"] != "identified":
+            continue
+        held = bool(np.any((ks >= k - window + memory) & (ends <= k)))
+        right = 0.5 <= num(r["window_r_ct"]) / ref[k] <= 2.0
+        out["a rest inside" if held else "none inside"][0 if right else 1] += 1
+    return "; ".join(f"{key}: right {v[0]}, wrong {v[1]}" for key, v in out.items())
+
+
+def report(rec, rows, i, h, events, ref, against, tol):
+    """``events``: the rests up to the window's reach (the test's), and the
+    same rests cut at ``--min-rest`` samples (``inside``'s)."""
+    ev, ev_in = events
     today = hold(rows, lambda k, r: num(r["window_r_ct"]) if r["r_ct_status"] == "identified" else None)
     g, tested = gated(rows, i, h, ev, tol, ref)
     print(f"{rec} | {len(ev)} rests after a load | R_ct vs {against}: as the core judges: {judge(today, ref)}"
-          f" | with the last rest's test (tol {tol:g}): {judge(g, ref)} | identifying windows: {tested}")
+          f" | with the last rest's test (tol {tol:g}): {judge(g, ref)} | identifying windows: {tested}"
+          f" | windows by whether they hold such a rest: {inside(rows, ev_in, ref)}")
 
 
 def profile(folder):
