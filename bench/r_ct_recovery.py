@@ -21,12 +21,15 @@ window's value held until the SOC moves by more than 0.15. Judged against
 the same references as bench/prior_free.py: the per-SOC reference on the
 DFN HPPC records, the whole-record fit on the drive cycles and the held-out
 records, the per-SOC map on the Panasonic test (over all its samples, its
-2 s periods rebuilt from the raw log as the resampler builds them: each
-period's mean; no event across one of its gaps).
+2 s periods rebuilt from the raw log as each period's mean current and
+voltage, near what the resampler gives; no event across one of its gaps).
+Each line also counts the identifying windows by verdict and by whether
+their R_ct is inside the band ("right") or not ("wrong"), and by whether
+the window holds such a rest itself (its first ``--min-rest`` samples).
 
     python3 bench/prior_free.py --out target/prior-free
     python3 bench/r_ct_recovery.py [target/prior-free] [--tol 0.1] [--min-load 3] [--min-rest 60]
-    python3 bench/r_ct_recovery.py --profile target/prior-free/prada2013-hppc-levels   # about 3 minutes
+    python3 bench/r_ct_recovery.py --profile target/prior-free/prada2013-hppc-levels   # about a minute
 
 ``--profile``: each level of an HPPC record's per-SOC reference
 (bench/reference_map.py's levels) fitted again with R_ct fixed at 0.5x and
