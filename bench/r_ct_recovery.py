@@ -49,11 +49,11 @@ import os
 import sys
 
 import numpy as np
-from scipy.optimize import least_squares
 from scipy.signal import lfilter
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import reference_fit as rf  # noqa: E402
+import reference_map as rm  # noqa: E402
 from r_ct_gate import hold, judge, levels, num  # noqa: E402
 
 MEMORY = 64
@@ -191,13 +191,11 @@ def profile(folder):
     cap = float(meta["capacity_ah"])
     sp, op = rf.read_csv(os.path.join(folder, "ocv.csv"), ["soc", "ocv_v"])
     for lv in meta["levels"]:
-        t, i, v = rf.read_csv(os.path.join(folder, lv["file"]), ["time_s", "current_a", "voltage_v"])
-        h = float(lv.get("h") or (t[1] - t[0]))
+        _, i, v, h = rm.read_level(os.path.join(folder, lv["file"]), lv.get("h"))
         _, y = rf.overpotential(i, v, h, sp, op, cap, float(lv["soc0"]))
         best = rf.fit_cpe(i, y, h)
         res = (best["ocv_offset_v"] + best["r_i"] * i
                + rf.cpe_branch(i, h, best["r_ct"], best["q"], best["alpha"]) - y)
-        rho = float(np.dot(res[1:], res[:-1]) / np.dot(res, res))
         line = []
         for f in (0.5, 2.0):
             r_ct = best["r_ct"] * f
@@ -205,23 +203,14 @@ def profile(folder):
             def resid(p):
                 return p[3] + math.exp(p[0]) * i + rf.cpe_branch(i, h, r_ct, math.exp(p[1]), p[2]) - y
 
-            starts = [[math.log(best["r_i"]), math.log(best["q"]), min(best["alpha"], 0.999), best["ocv_offset_v"]]]
-            starts += [[math.log(best["r_i"]), math.log(relax**al / r_ct), min(al, 0.999), best["ocv_offset_v"]]
-                       for al in (0.5, 0.7, 0.9, 1.0) for relax in (3.0, 30.0, 300.0)]
-            fits = []
-            for x0 in starts:
-                try:
-                    r = least_squares(resid, x0, bounds=([-20, -20, 0.05, -np.inf], [5, 30, 1.0, np.inf]),
-                                      x_scale=[1, 1, 0.1, 0.01], max_nfev=200)
-                except ValueError:
-                    continue
-                fits.append((math.sqrt(np.mean(r.fun**2)), r.x))
-            rmse, x = min(fits, key=lambda z: z[0])
-            lr = len(y) * 2.0 * math.log(rmse / best["rmse_v"]) * (1.0 - rho) / (1.0 + rho)
+            rmse, x = rf.fit_with_r_ct_fixed(resid, r_ct, math.log(best["r_i"]), math.log(best["q"]),
+                                             best["alpha"], best["ocv_offset_v"])
+            lr, rho = rf.widened_ratio(res, rmse)
             line.append(f"R_ct x{f:g}: RMSE {rmse * 1e3:.2f} mV ({100 * (rmse / best['rmse_v'] - 1):+.1f} %),"
                         f" R_i {math.exp(x[0]):.4f}, alpha {x[2]:.2f}, widened ratio {lr:.1f}")
         print(f"{folder} | SOC {float(lv['soc']):.3f}: R_i {best['r_i']:.4f}, R_ct {best['r_ct']:.4f}, alpha"
-              f" {best['alpha']:.2f}, RMSE {best['rmse_v'] * 1e3:.2f} mV, lag-1 rho {rho:.3f} | " + "; ".join(line), flush=True)
+              f" {best['alpha']:.2f}, RMSE {best['rmse_v'] * 1e3:.2f} mV, lag-1 rho {rho:.3f} | " + "; ".join(line),
+              flush=True)
 
 
 def main():

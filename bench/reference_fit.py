@@ -285,6 +285,30 @@ CPE_LO = [-20, -20, -20, 0.05, -np.inf]  # ln R_i, ln R_ct, ln Q, alpha, dU
 CPE_HI = [5, 5, 30, 1.0, np.inf]
 
 
+def fit_with_r_ct_fixed(resid, r_ct, ln_r_i, ln_q, alpha, du):
+    """A profile point: ``resid(q)`` with q = ln R_i, ln Q, alpha, dU (R_ct
+    held at ``r_ct`` by the caller's residuals), from (ln_r_i, ln_q, alpha,
+    dU) and 12 grid starts of alpha and relaxation time; the best (rmse, q)."""
+    starts = [("given", [ln_r_i, ln_q, min(alpha, 0.999), du])]
+    starts += [((al, relax), [ln_r_i, math.log(relax**al / r_ct), min(al, 0.999), du])
+               for al in (0.5, 0.7, 0.9, 1.0) for relax in (3.0, 30.0, 300.0)]
+    (rmse, q, _), _ = multistart(resid, starts, [CPE_LO[0], *CPE_LO[2:]], [CPE_HI[0], *CPE_HI[2:]],
+                                 [1, 1, 0.1, 0.01])
+    return rmse, q
+
+
+def widened_ratio(res, rmse):
+    """The likelihood ratio of a fit of RMSE ``rmse`` against the optimum
+    whose residuals are ``res``, with the core's widening for correlated
+    residuals (``FitInformation::correlated_standard_errors``):
+    ``n ln(rmse^2 / rmse0^2) (1 - rho) / (1 + rho)``, rho the lag-1
+    autocorrelation of ``res``; and rho. Over 3.84, excluded at 95 %."""
+    res = np.asarray(res)
+    rho = float(np.dot(res[1:], res[:-1]) / np.dot(res, res))
+    rmse0 = math.sqrt(float(np.mean(res**2)))
+    return len(res) * 2.0 * math.log(rmse / rmse0) * (1.0 - rho) / (1.0 + rho), rho
+
+
 def fit_cpe_bv(i, y, h, cpe):
     """cpe_bv: y = dU + R_i I + a asinh(I/i0) + U_p; p = ln R_i, ln a, ln i0,
     ln R_ct, ln Q, alpha, dU; starts from the linear fit cpe."""

@@ -48,7 +48,6 @@ import os
 import sys
 
 import numpy as np
-from scipy.optimize import least_squares
 from scipy.signal import lfilter, lfiltic
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
@@ -96,49 +95,23 @@ def starts(i, y, online):
 
 
 def best(resid, x0s):
-    top = None
-    for x0 in x0s:
-        x0 = np.clip(x0, np.array(LO) + 1e-3, np.array(HI) - 1e-3)
-        try:
-            r = least_squares(resid, x0, bounds=(LO, HI), x_scale=[1, 1, 1, 0.1, 0.01], max_nfev=200)
-        except ValueError:
-            continue
-        c = float(np.mean(r.fun**2))
-        if top is None or c < top[0]:
-            top = (c, r.x)
-    return top[1]
-
-
-def fixed_cost(i, y, ln_r_ct, p):
-    """The least mean squared residual of the core's window with ln R_ct
-    fixed, from the optimum p's other parameters and a grid."""
-    lo, hi = [LO[0], LO[2], LO[3], LO[4]], [HI[0], HI[2], HI[3], HI[4]]
-
-    def resid(q):
-        return core_residuals([q[0], ln_r_ct, q[1], q[2], q[3]], i, y)
-
-    x0s = [[p[0], p[2] + p[1] - ln_r_ct, p[3], p[4]]]
-    x0s += [[p[0], math.log(relax**alpha) - ln_r_ct, min(alpha, 0.999), p[4]]
-            for alpha in (0.5, 0.7, 0.9, 1.0) for relax in (3.0, 30.0, 300.0)]
-    top = math.inf
-    for x0 in x0s:
-        x0 = np.clip(x0, np.array(lo) + 1e-3, np.array(hi) - 1e-3)
-        try:
-            r = least_squares(resid, x0, bounds=(lo, hi), x_scale=[1, 1, 0.1, 0.01], max_nfev=200)
-        except ValueError:
-            continue
-        top = min(top, float(np.mean(r.fun**2)))
-    return top
+    """The multi-start optimum's parameters (bench/reference_fit.py's
+    multistart)."""
+    (_, p, _), _ = rf.multistart(resid, [(None, x0) for x0 in x0s], LO, HI, [1, 1, 1, 0.1, 0.01])
+    return p
 
 
 def profile_line(i, y, p, ref):
     """The widened likelihood ratios at 0.5x, 2x and the reference, and
     whether both factors are excluded."""
     res = core_residuals(p, i, y)
-    c0 = float(np.mean(res**2))
-    rho = float(np.dot(res[1:], res[:-1]) / np.dot(res, res))
-    lr = [len(res) * math.log(fixed_cost(i, y, p[1] + math.log(f), p) / c0) * (1 - rho) / (1 + rho)
-          for f in (0.5, 2.0, ref / math.exp(p[1]))]
+    lr = []
+    for f in (0.5, 2.0, ref / math.exp(p[1])):
+        ln_r_ct = p[1] + math.log(f)
+        rmse, _ = rf.fit_with_r_ct_fixed(lambda q: core_residuals([q[0], ln_r_ct, q[1], q[2], q[3]], i, y),
+                                         math.exp(ln_r_ct), p[0], p[2] + p[1] - ln_r_ct, p[3], p[4])
+        ratio, rho = rf.widened_ratio(res, rmse)
+        lr.append(ratio)
     return lr[0] > 3.84 and lr[1] > 3.84, (f"optimum R_ct {math.exp(p[1]):.4f}, rho {rho:.3f}, ratio at 0.5x "
                                            f"{lr[0]:.1f}, at 2x {lr[1]:.1f}, at the reference {lr[2]:.1f}")
 
