@@ -901,7 +901,7 @@ typedef struct FracbmsMapLevel {
 /**
  * The SOC observer's settings (`estimator_core::battery::soc::SocSettings`;
  * `host-sim online battery`'s `--soc-rest-s`, `--soc-bias-sigma-a`,
- * `--soc-rest-load-sigma-a` set three of them). The period and the nominal
+ * `--soc-rest-load-sigma-a`, `--soc-voltage-sigma-v` set four of them). The period and the nominal
  * capacity are `FracbmsSettings`' `h` and `capacity_ah`, with its OCV
  * table (the observer runs only with one). Start from
  * `fracbms_soc_settings_default` and change what differs: every value must

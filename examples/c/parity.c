@@ -20,7 +20,8 @@
  *                                   the rows whose `identifiable` is true)
  *   --sop VMIN,VMAX,ILIMIT,IPULSE   online: fracbms_cell_state_of_power after
  *                                   each push, horizons 10 and 30 s
- *   --soc-rest-s S, --soc-bias-sigma-a A, --soc-rest-load-sigma-a A
+ *   --soc-rest-s S, --soc-bias-sigma-a A, --soc-rest-load-sigma-a A,
+ *   --soc-voltage-sigma-v V
  *                                   online: the SOC observer's settings as the
  *                                   CLI's flags set them
  *                                   (fracbms_cell_init_with_soc)
@@ -176,9 +177,9 @@ typedef struct {
     double capacity_ah, soc0;
     int sop;
     float sop_limits[4];
-    /* The CLI's --soc-rest-s, --soc-bias-sigma-a, --soc-rest-load-sigma-a
-     * (NaN: not given). */
-    double soc_rest_s, soc_bias_sigma_a, soc_rest_load_sigma_a;
+    /* The CLI's --soc-rest-s, --soc-bias-sigma-a, --soc-rest-load-sigma-a,
+     * --soc-voltage-sigma-v (NaN: not given). */
+    double soc_rest_s, soc_bias_sigma_a, soc_rest_load_sigma_a, soc_voltage_sigma_v;
 } Options;
 
 static int identify(const Table *rec, const Options *o)
@@ -315,6 +316,8 @@ static int online(const Table *rec, const Options *o)
         }
         if (!isnan(o->soc_rest_load_sigma_a))
             soc.rest_load_sigma_a = (float)o->soc_rest_load_sigma_a;
+        if (!isnan(o->soc_voltage_sigma_v))
+            soc.voltage_sigma_v = (float)o->soc_voltage_sigma_v;
     }
     FracbmsCell *cell = NULL;
     FracbmsCode rc = fracbms_cell_init_with_soc(mem, size, &s, o->ocv ? &soc : NULL, &cell);
@@ -434,7 +437,8 @@ _Noreturn static void usage(void)
 {
     fprintf(stderr, "usage: parity identify|online RECORD.csv [--ocv OCV.csv --capacity-ah C] "
                     "[--soc0 Z] [--map MAP.csv] [--sop VMIN,VMAX,ILIMIT,IPULSE] "
-                    "[--soc-rest-s S] [--soc-bias-sigma-a A] [--soc-rest-load-sigma-a A]\n");
+                    "[--soc-rest-s S] [--soc-bias-sigma-a A] [--soc-rest-load-sigma-a A]\n"
+                    "       [--soc-voltage-sigma-v V]\n");
     exit(2);
 }
 
@@ -442,7 +446,7 @@ int main(int argc, char **argv)
 {
     if (argc < 3)
         usage();
-    Options o = {NULL, NULL, NAN, NAN, 0, {0}, NAN, NAN, NAN};
+    Options o = {NULL, NULL, NAN, NAN, 0, {0}, NAN, NAN, NAN, NAN};
     for (int k = 3; k < argc; k++) {
         if (k + 1 >= argc)
             usage();
@@ -461,6 +465,8 @@ int main(int argc, char **argv)
             o.soc_bias_sigma_a = strtod(value, NULL);
         else if (strcmp(flag, "--soc-rest-load-sigma-a") == 0)
             o.soc_rest_load_sigma_a = strtod(value, NULL);
+        else if (strcmp(flag, "--soc-voltage-sigma-v") == 0)
+            o.soc_voltage_sigma_v = strtod(value, NULL);
         else if (strcmp(flag, "--sop") == 0) {
             char *p = (char *)value;
             for (int j = 0; j < 4; j++) {

@@ -588,7 +588,7 @@ pub struct OnlinePack {
     /// `--voltage-min`, … as `online battery`).
     pub power: PowerOptions,
     /// How each cell's SOC is published (`--soc`, `--soc-rest-s`,
-    /// `--soc-bias-sigma-a`, `--soc-rest-load-sigma-a`).
+    /// `--soc-bias-sigma-a`, `--soc-rest-load-sigma-a`, `--soc-voltage-sigma-v`).
     pub soc: SocOptions,
     /// A snapshot to start from (`--state-in`, docs/persistence.md).
     pub state_in: Option<PathBuf>,

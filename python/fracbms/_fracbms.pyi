@@ -125,6 +125,7 @@ def online_pack(
     soc_rest_s: Optional[float] = None,
     soc_bias_sigma_a: Optional[float] = None,
     soc_rest_load_sigma_a: Optional[float] = None,
+    soc_voltage_sigma_v: Optional[float] = None,
     t0: float = 0.0,
     state_in: Optional[bytes] = None,
     return_state: bool = False,
@@ -176,6 +177,7 @@ class OnlineCell:
         soc_rest_s: Optional[float] = None,
         soc_bias_sigma_a: Optional[float] = None,
         soc_rest_load_sigma_a: Optional[float] = None,
+        soc_voltage_sigma_v: Optional[float] = None,
         sop_carry_s: Optional[float] = None,
     ) -> None:
         """``horizons`` (s), ``voltage_min``/``voltage_max`` (V; default the OCV
@@ -189,7 +191,8 @@ class OnlineCell:
         of ``soc_rest_s``, default 600 s, with ``current_bias_a`` (its prior
         spread ``soc_bias_sigma_a``, default C/50; 0: none; each rest's mean
         current reads it, give or take ``soc_rest_load_sigma_a``, default
-        C/1000),
+        C/1000; a rested voltage read as the OCV give or take
+        ``soc_voltage_sigma_v``, default 0.005 V),
         ``capacity_ah``, ``capacity_sigma_ah``, ``soc_sigma``,
         ``soc_ocv_weight``) or the count
         (``soc="coulomb"``); ``soc_coulomb`` is always the count."""

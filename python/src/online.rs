@@ -240,7 +240,7 @@ impl OnlineCell {
         prior_alpha_sigma = 0.1, prior_noise_mv = 100.0, horizons = vec![10.0, 30.0],
         voltage_min = None, voltage_max = None, current_limit = None, pulse_current_a = None,
         soc = "observer", soc_rest_s = None, soc_bias_sigma_a = None, soc_rest_load_sigma_a = None,
-        sop_carry_s = None
+        soc_voltage_sigma_v = None, sop_carry_s = None
     ))]
     #[allow(clippy::too_many_arguments)]
     fn new(
@@ -271,6 +271,7 @@ impl OnlineCell {
         soc_rest_s: Option<f64>,
         soc_bias_sigma_a: Option<f64>,
         soc_rest_load_sigma_a: Option<f64>,
+        soc_voltage_sigma_v: Option<f64>,
         sop_carry_s: Option<f64>,
     ) -> PyResult<Self> {
         if !(h.is_finite() && h > 0.0) {
@@ -337,6 +338,7 @@ impl OnlineCell {
                 rest_s: soc_rest_s,
                 bias_sigma_a: soc_bias_sigma_a,
                 rest_load_sigma_a: soc_rest_load_sigma_a,
+                voltage_sigma_v: soc_voltage_sigma_v,
             },
         };
         let tracker = py

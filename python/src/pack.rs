@@ -49,7 +49,7 @@ use crate::{choice, ocv_spec, power_options, vec, Floats};
     tail = false, ocv = None, capacity_ah = None, soc0 = None, horizons = vec![10.0, 30.0],
     voltage_min = None, voltage_max = None, current_limit = None, pulse_current_a = None,
     sop_carry_s = None, soc = "observer", soc_rest_s = None, soc_bias_sigma_a = None,
-    soc_rest_load_sigma_a = None, t0 = 0.0, state_in = None, return_state = false
+    soc_rest_load_sigma_a = None, soc_voltage_sigma_v = None, t0 = 0.0, state_in = None, return_state = false
 ))]
 #[allow(clippy::too_many_arguments)]
 pub fn online_pack<'py>(
@@ -78,6 +78,7 @@ pub fn online_pack<'py>(
     soc_rest_s: Option<f64>,
     soc_bias_sigma_a: Option<f64>,
     soc_rest_load_sigma_a: Option<f64>,
+    soc_voltage_sigma_v: Option<f64>,
     t0: f64,
     state_in: Option<Vec<u8>>,
     return_state: bool,
@@ -133,6 +134,7 @@ pub fn online_pack<'py>(
             rest_s: soc_rest_s,
             bias_sigma_a: soc_bias_sigma_a,
             rest_load_sigma_a: soc_rest_load_sigma_a,
+            voltage_sigma_v: soc_voltage_sigma_v,
         },
         state_in: None,
         state_out: None,

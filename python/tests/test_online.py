@@ -232,6 +232,45 @@ def test_the_rest_load_spread_is_the_clis(host_sim, tmp_path):
         fracbms.OnlineCell(**kw, soc_rest_load_sigma_a=float("nan"))
 
 
+def test_the_rested_voltage_spread_is_the_clis(host_sim, tmp_path):
+    # A rested voltage reads the OCV give or take `soc_voltage_sigma_v`
+    # (`--soc-voltage-sigma-v`, default 5 mV): a smaller one makes a rest
+    # weigh more. Own-model record through the NMC curve, told a start SOC
+    # 0.05 low: 0.5 A discharges between 20-min rests.
+    ocv_file = REPO / "data" / "own-model" / "nmc-ocv.csv"
+    o = read_csv(ocv_file)
+    table = (o["soc"], o["ocv_v"])
+    cap = 2.5
+    rows = 2 * (1200 + 1800)
+    i = np.where((np.arange(rows) % 3000) < 1200, -0.5, 0.0)
+    soc = 0.9 + np.cumsum(i) / (cap * 3600)
+    v = np.interp(soc, table[0], table[1]) + 0.03 * i
+    record = tmp_path / "rests.csv"
+    with open(record, "w") as f:
+        f.write("time_s,current_a,voltage_v\n")
+        f.writelines(f"{k},{a:.9g},{u:.9g}\n" for k, (a, u) in enumerate(zip(i, v)))
+    args = ["--ocv", ocv_file, "--capacity-ah", "2.5", "--soc0", "0.85", "--window", "64",
+            "--memory", "16"]
+    kw = dict(window=64, memory=16, ocv=table, capacity_ah=cap, soc0=0.85)
+    r = read_csv(record)
+    weights = {}
+    for spread in (None, 0.05):
+        extra = [] if spread is None else ["--soc-voltage-sigma-v", str(spread)]
+        cli = cli_track(host_sim, record, tmp_path, *args, *extra)
+        py = fracbms.OnlineCell(**kw, soc_voltage_sigma_v=spread).run(r["current_a"],
+                                                                      r["voltage_v"])
+        assert_same_track(py, cli)
+        weights[spread] = (py["soc_ocv_weight"][-1], abs(py["soc"][-1] - soc[-1]))
+    # One rest observed (at SOC 0.87, 1.06 V per unit SOC): the gain is
+    # p/(p + r), the start's spread 0.1 against the reading's, 5 mV or
+    # 50 mV over the slope with the table's 0.01: 0.988 by default, 0.80
+    # at 50 mV, which leaves a fifth of the start's 0.05.
+    assert weights[None][0] > 0.95 and weights[0.05][0] < 0.85, weights
+    assert weights[None][1] < 0.001 and weights[0.05][1] > 0.005, weights
+    with pytest.raises(ValueError, match="soc-voltage-sigma-v"):
+        fracbms.OnlineCell(**kw, soc_voltage_sigma_v=-1.0)
+
+
 def test_bad_rows_are_rejected_as_the_cli_rejects_them(host_sim, cell_record, tmp_path):
     """3 NaN voltages and 30 spikes (±0.1 to 0.5 V): OnlineCell.run rejects
     the same rows for the same reasons as `online battery`, and no other."""

@@ -36,8 +36,10 @@ def test_online_pack_equals_the_cli(host_sim, string, tmp_path, with_ocv):
     flags = ["--tail", "--horizons", "2,10"]
     kw = dict(tail=True, horizons=[2.0, 10.0])
     if with_ocv:
-        flags += ["--ocv", OCV, "--capacity-ah", "2.5", "--soc0", "0.7"]
-        kw.update(ocv=(ocv["soc"], ocv["ocv_v"]), capacity_ah=2.5, soc0=0.7)
+        flags += ["--ocv", OCV, "--capacity-ah", "2.5", "--soc0", "0.7",
+                  "--soc-voltage-sigma-v", "0.002"]
+        kw.update(ocv=(ocv["soc"], ocv["ocv_v"]), capacity_ah=2.5, soc0=0.7,
+                  soc_voltage_sigma_v=0.002)
     out = tmp_path / "track.csv"
     host_sim("online", "pack", "--input", string, *flags, "--out", out)
     cli = read_csv(out)
@@ -81,6 +83,9 @@ def test_online_pack_refuses_bad_arguments_with_the_keywords():
                             capacity_ah=2.5, soc0=1.5)
     with pytest.raises(ValueError, match="window="):
         fracbms.online_pack(i, np.full((10, 2), 3.7), window=100)
+    with pytest.raises(ValueError, match="soc-voltage-sigma-v"):
+        fracbms.online_pack(i, np.full((10, 2), 3.7), ocv=([0.0, 1.0], [3.0, 4.2]),
+                            capacity_ah=2.5, soc_voltage_sigma_v=float("inf"))
 
 
 def test_online_pack_snapshots_are_the_clis(host_sim, string, tmp_path):

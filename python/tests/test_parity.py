@@ -26,7 +26,8 @@ Which operation runs on which faces, and why:
   SOC the CLI gets from ``--soc0``).
 - ``soc_settings`` (CLI, C, Python; records with an OCV table): ``soc``
   with the observer's settings of SOC_SETTINGS (``--soc-rest-s``,
-  ``--soc-bias-sigma-a``; C: ``fracbms_cell_init_with_soc``), which must
+  ``--soc-bias-sigma-a``, ``--soc-voltage-sigma-v``; C:
+  ``fracbms_cell_init_with_soc``), which must
   change the run where the record rests.
 - ``sop`` (CLI, C, Python): the same run's state of power at 10 and 30 s
   (the CLI's ``sop_*``/``pulse_v_*`` columns, Python's, and C's
@@ -161,8 +162,9 @@ SOC_NUMBERS = ["soc", "soc_coulomb", "soc_sigma", "current_bias_a", "capacity_ah
 # ``-``), the C driver's (``fracbms_cell_init_with_soc``), Python's keywords.
 # Rests of two minutes are read, and the sensor is calibrated (no bias
 # estimated: the CLI's ``--soc-bias-sigma-a 0`` also zeroes the bias's walk,
-# which the C driver must do as well).
-SOC_SETTINGS = dict(soc_rest_s=120.0, soc_bias_sigma_a=0.0)
+# which the C driver must do as well), and a rested voltage is trusted to
+# 2 mV.
+SOC_SETTINGS = dict(soc_rest_s=120.0, soc_bias_sigma_a=0.0, soc_voltage_sigma_v=0.002)
 SOP_NUMBERS = [f"{k}_{h}s" for h in (10, 30)
                for k in ("sop_discharge_a", "sop_charge_a", "pulse_v")]
 IDENTIFY_NUMBERS = ["r_i", "r_ct", "q", "alpha", "u_oc", "bv_a_v", "bv_i0_a", "ocv_offset_v",

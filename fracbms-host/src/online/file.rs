@@ -45,7 +45,7 @@ pub struct OnlineBatteryOptions {
     /// `--voltage-max`, `--current-limit`, `--pulse-current-a`).
     pub power: power::PowerOptions,
     /// How the SOC is published (`--soc`, `--soc-rest-s`,
-    /// `--soc-bias-sigma-a`, `--soc-rest-load-sigma-a`).
+    /// `--soc-bias-sigma-a`, `--soc-rest-load-sigma-a`, `--soc-voltage-sigma-v`).
     pub soc: soc::SocOptions,
     /// A snapshot to start from (`--state-in`, [`state`]).
     pub state_in: Option<PathBuf>,

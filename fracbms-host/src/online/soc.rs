@@ -49,6 +49,11 @@ pub struct SocOptions {
     /// closely a rest's mean measured current reads the bias. A pack with
     /// a quiescent draw it does not know sets it larger.
     pub rest_load_sigma_a: Option<f64>,
+    /// The spread of a rested voltage as the OCV (V; default 5 mV): the
+    /// table's own error in volts (its test, hysteresis, temperature) and
+    /// the polarization a rest of `rest_s` still holds. On a flat curve it
+    /// sets how little a rest weighs (docs/bms-states.md).
+    pub voltage_sigma_v: Option<f64>,
 }
 
 impl Default for SocOptions {
@@ -58,6 +63,7 @@ impl Default for SocOptions {
             rest_s: None,
             bias_sigma_a: None,
             rest_load_sigma_a: None,
+            voltage_sigma_v: None,
         }
     }
 }
@@ -97,6 +103,15 @@ impl SocOptions {
                 );
             }
             s.rest_load_sigma_a = T::lit(l);
+        }
+        if let Some(v) = self.voltage_sigma_v {
+            if !(v.is_finite() && v >= 0.0) {
+                bail!(
+                    Options,
+                    "--soc-voltage-sigma-v {v}: must be finite and not negative"
+                );
+            }
+            s.voltage_sigma_v = T::lit(v);
         }
         Ok(())
     }

@@ -155,6 +155,12 @@ pub struct StateArgs {
     /// larger for a pack with a quiescent draw it does not know).
     #[arg(long)]
     pub soc_rest_load_sigma_a: Option<f64>,
+    /// The spread (V) of a rested voltage as the OCV: the table's own
+    /// error in volts (its test, hysteresis) and the polarization a rest
+    /// still holds (default 0.005). On a flat curve it sets how little a
+    /// rest weighs; smaller only for a table known that well.
+    #[arg(long)]
+    pub soc_voltage_sigma_v: Option<f64>,
 }
 
 impl StateArgs {
@@ -176,6 +182,7 @@ impl StateArgs {
             rest_s: self.soc_rest_s,
             bias_sigma_a: self.soc_bias_sigma_a,
             rest_load_sigma_a: self.soc_rest_load_sigma_a,
+            voltage_sigma_v: self.soc_voltage_sigma_v,
         }
     }
 }
