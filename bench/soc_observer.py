@@ -61,16 +61,22 @@ def rests(current, rest_s, capacity):
 
 
 def rest_readings(rec, d, rest_s, cap):
-    """The best a rest can read: the OCV table's inverse of each rest's last
-    voltage against the true SOC there, and the table's slope (V per unit
-    SOC). No estimator corrects a wrong start better at that rest."""
+    """What a rest reads: the OCV table's inverse of each rest's last
+    voltage against the true SOC there; the same of the voltage the
+    observer reads (the rest's mean over about its last half minute, the
+    core's `Rest::push`: an exponential mean with weight h/30 per sample);
+    and the table's slope (V per unit SOC)."""
     o = read(f"data/pybamm/{rec.split('-')[0]}-ocv.csv")
     slope = np.gradient(o["ocv_v"], o["soc"])
     rows = []
     for a, b in rests(d["current_a"], rest_s, cap):
         z = d["soc_true"][b - 1]
         read_z = np.interp(d["voltage_v"][b - 1], o["ocv_v"], o["soc"])
-        rows.append((a, b, z, read_z - z, np.interp(z, o["soc"], slope)))
+        mean = d["voltage_v"][a]
+        for v in d["voltage_v"][a + 1:b]:
+            mean += (v - mean) / 30.0
+        read_mean = np.interp(mean, o["ocv_v"], o["soc"])
+        rows.append((a, b, z, read_z - z, np.interp(z, o["soc"], slope), read_mean - z))
     return rows
 
 
@@ -78,7 +84,10 @@ def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--host-sim", default="target/release/host-sim")
     ap.add_argument("--out", default="target/soc-observer")
+    ap.add_argument("--soc-voltage-sigma-v", type=float,
+                    help="passed to online battery: the spread of a rested voltage as the OCV (default 0.005)")
     a = ap.parse_args()
+    extra = [] if a.soc_voltage_sigma_v is None else ["--soc-voltage-sigma-v", str(a.soc_voltage_sigma_v)]
     os.makedirs(a.out, exist_ok=True)
     meta = json.load(open("data/pybamm/meta.json"))["records"]
     print(f"| record | case | observer worst | coulomb worst | observer at end | coulomb at end | bias (A) | capacity (A·h) |")
@@ -102,7 +111,7 @@ def main():
             subprocess.run([a.host_sim, "online", "battery", "--input", path, "--window", "256",
                             "--ocv", f"data/pybamm/{rec.split('-')[0]}-ocv.csv",
                             "--capacity-ah", str(cap * cscale), "--soc0", str(m["soc0"] + off),
-                            "--soc-rest-s", str(rest_s), "--out", out],
+                            "--soc-rest-s", str(rest_s), "--out", out, *extra],
                            check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
             t = read(out)
             status = list(csv.DictReader(open(out)))[-1]["capacity_status"]
@@ -113,11 +122,14 @@ def main():
                   f"{t['current_bias_a'][-1]:+.4f} | {t['capacity_ah'][-1]:.3f} (true {cap:.3f}, {status}) |")
             if case.startswith("start"):
                 readings = rest_readings(rec, d, rest_s, cap)
-                good = [b for _, b, _, err, _ in readings if abs(err) <= 0.02]
+                good = [b for _, b, _, err, _, _ in readings if abs(err) <= 0.02]
                 after_good = f"{np.nanmax(obs[good[0]:]):.4f}" if good else "no such rest"
                 print(f"|   | rests: the table's reading of the rest's last voltage − truth "
-                      f"(slope V/unit) | {'; '.join(f'{z:.3f}: {err:+.4f} ({sl:.3f})' for _, _, z, err, sl in readings)} "
+                      f"(slope V/unit) | {'; '.join(f'{z:.3f}: {err:+.4f} ({sl:.3f})' for _, _, z, err, sl, _ in readings)} "
                       f"| observer worst after the first rest read within 0.02 | {after_good} |  |  |  |")
+                print(f"|   | rests: the table's reading of the observer's rested voltage (the last half "
+                      f"minute's mean) − truth | {'; '.join(f'{z:.3f}: {m:+.4f}' for _, _, z, _, _, m in readings)} "
+                      f"|  |  |  |  |  |")
 
 
 if __name__ == "__main__":
