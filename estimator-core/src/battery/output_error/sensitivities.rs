@@ -187,7 +187,15 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
             }
             return;
         }
-        if kinetic {
+        // A history at rest (every current exactly 0, as a rest longer than
+        // the window's history rows gives): the free responses to −I and
+        // to −∂η are those of a zero history, zero at every row, and are
+        // not run.
+        let rested = i[..warm].iter().all(|&il| il == T::zero());
+        if kinetic && rested {
+            self.s_bva[..n].fill(T::zero());
+            self.s_bvi0[..n].fill(T::zero());
+        } else if kinetic {
             // The history U_p = U_t − U_oc − R_i·I − η(I) moves with η's
             // parameters: the free responses to −∂η. (No tail: the model
             // with the Butler–Volmer term keeps the truncated sum.)
@@ -220,6 +228,12 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
         }
         let order_ri = |l: usize| (order(l), T::zero());
         match &tails {
+            // The order's sensitivity alone (the pair kernel gives each
+            // sequence what it would get alone).
+            None if rested => {
+                self.s_ri[..n].fill(T::zero());
+                self.solver.solve(wts, a, warm, &mut self.s_a[..n], order);
+            }
             Some((t, _)) => cpe_filter_pair_tail(
                 wts,
                 a,
