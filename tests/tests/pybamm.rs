@@ -292,6 +292,21 @@ fn sop_against_dfn() {
                 v_min >= sop_limit(cell) - 0.01 * drop,
                 "{line}: the true cell crosses the limit"
             );
+            // Consistent: the model's own pulse at its SOP current ends on
+            // the limit within 1 % of the drop to it, or above it where the
+            // current limit (5C) binds.
+            let limit = sop_limit(cell);
+            let capped = (sop - 5.0 * cap).abs() <= 1e-6 * sop;
+            println!("  the model's pulse at it ends at {predicted:.4} V ({:+.2} % of the drop from the limit{})",
+                100.0 * (predicted - limit) / (v0 - limit), if capped { ", at the 5C cap" } else { "" });
+            if capped {
+                assert!(predicted >= limit, "{line}: the model's pulse crosses the limit");
+            } else {
+                assert!(
+                    (predicted - limit).abs() <= 0.01 * (v0 - limit),
+                    "{line}: the model's pulse at its SOP current ends at {predicted}, not on {limit}"
+                );
+            }
         } else {
             let e = (predicted - v_end).abs() / (v0 - v_end);
             println!("{rec} t0 {t0}: {current:.2} A for {steps} s: predicted {predicted:.4} V, DFN {v_end:.4} V, {:.1} % of the drop", 100.0 * e);
