@@ -300,7 +300,10 @@ fn sop_against_dfn() {
             println!("  the model's pulse at it ends at {predicted:.4} V ({:+.2} % of the drop from the limit{})",
                 100.0 * (predicted - limit) / (v0 - limit), if capped { ", at the 5C cap" } else { "" });
             if capped {
-                assert!(predicted >= limit, "{line}: the model's pulse crosses the limit");
+                assert!(
+                    predicted >= limit,
+                    "{line}: the model's pulse crosses the limit"
+                );
             } else {
                 assert!(
                     (predicted - limit).abs() <= 0.01 * (v0 - limit),
