@@ -195,17 +195,16 @@ def test_the_observer_corrects_a_biased_sensor_and_coulomb_counting_does_not(hos
     assert np.all(np.isnan(coulomb["current_bias_a"]))
 
 
-def test_the_rest_load_spread_is_the_clis(host_sim, tmp_path):
-    # Each rest's mean measured current reads the sensor's bias, give or
-    # take the load a rest carries: `soc_rest_load_sigma_a` is
-    # `--soc-rest-load-sigma-a`, and a large one lets the reading count for
-    # less. Own-model record: 0.5 A discharges between 20-min rests, the
-    # sensor reading 0.025 A high.
+def rests_record(tmp_path, cycles, bias=0.0):
+    """An own-model record through the NMC curve from SOC 0.9: `cycles`
+    of a 0.5 A discharge for 20 min and 30 min at rest, the sensor reading
+    `bias` high. The record's path, the table, the true SOC and the
+    options both faces share (window 64, memory 16, capacity 2.5 A·h)."""
     ocv_file = REPO / "data" / "own-model" / "nmc-ocv.csv"
     o = read_csv(ocv_file)
     table = (o["soc"], o["ocv_v"])
-    cap, bias = 2.5, 0.025
-    rows = 3 * (1200 + 1800)
+    cap = 2.5
+    rows = cycles * (1200 + 1800)
     i = np.where((np.arange(rows) % 3000) < 1200, -0.5, 0.0)
     soc = 0.9 + np.cumsum(i) / (cap * 3600)
     v = np.interp(soc, table[0], table[1]) + 0.03 * i
@@ -213,9 +212,21 @@ def test_the_rest_load_spread_is_the_clis(host_sim, tmp_path):
     with open(record, "w") as f:
         f.write("time_s,current_a,voltage_v\n")
         f.writelines(f"{k},{a + bias:.9g},{u:.9g}\n" for k, (a, u) in enumerate(zip(i, v)))
-    args = ["--ocv", ocv_file, "--capacity-ah", "2.5", "--soc0", "0.9", "--window", "64",
-            "--memory", "16"]
-    kw = dict(window=64, memory=16, ocv=table, capacity_ah=cap, soc0=0.9)
+    args = ["--ocv", ocv_file, "--capacity-ah", "2.5", "--window", "64", "--memory", "16"]
+    kw = dict(window=64, memory=16, ocv=table, capacity_ah=cap)
+    return record, soc, args, kw
+
+
+def test_the_rest_load_spread_is_the_clis(host_sim, tmp_path):
+    # Each rest's mean measured current reads the sensor's bias, give or
+    # take the load a rest carries: `soc_rest_load_sigma_a` is
+    # `--soc-rest-load-sigma-a`, and a large one lets the reading count for
+    # less. Own-model record: 0.5 A discharges between 20-min rests, the
+    # sensor reading 0.025 A high.
+    bias = 0.025
+    record, _, args, kw = rests_record(tmp_path, 3, bias)
+    args += ["--soc0", "0.9"]
+    kw.update(soc0=0.9)
     r = read_csv(record)  # the samples as the CLI reads them
     tracks = {}
     for spread in (None, 1.0):
@@ -237,21 +248,9 @@ def test_the_rested_voltage_spread_is_the_clis(host_sim, tmp_path):
     # (`--soc-voltage-sigma-v`, default 5 mV): a smaller one makes a rest
     # weigh more. Own-model record through the NMC curve, told a start SOC
     # 0.05 low: 0.5 A discharges between 20-min rests.
-    ocv_file = REPO / "data" / "own-model" / "nmc-ocv.csv"
-    o = read_csv(ocv_file)
-    table = (o["soc"], o["ocv_v"])
-    cap = 2.5
-    rows = 2 * (1200 + 1800)
-    i = np.where((np.arange(rows) % 3000) < 1200, -0.5, 0.0)
-    soc = 0.9 + np.cumsum(i) / (cap * 3600)
-    v = np.interp(soc, table[0], table[1]) + 0.03 * i
-    record = tmp_path / "rests.csv"
-    with open(record, "w") as f:
-        f.write("time_s,current_a,voltage_v\n")
-        f.writelines(f"{k},{a:.9g},{u:.9g}\n" for k, (a, u) in enumerate(zip(i, v)))
-    args = ["--ocv", ocv_file, "--capacity-ah", "2.5", "--soc0", "0.85", "--window", "64",
-            "--memory", "16"]
-    kw = dict(window=64, memory=16, ocv=table, capacity_ah=cap, soc0=0.85)
+    record, soc, args, kw = rests_record(tmp_path, 2)
+    args += ["--soc0", "0.85"]
+    kw.update(soc0=0.85)
     r = read_csv(record)
     weights = {}
     for spread in (None, 0.05):

@@ -83,37 +83,29 @@ impl SocOptions {
             s.rest_s = T::lit(r);
             s.rest_max_s = s.rest_max_s.max(T::lit(r));
         }
-        if let Some(b) = self.bias_sigma_a {
-            if !(b.is_finite() && b >= 0.0) {
-                bail!(
-                    Options,
-                    "--soc-bias-sigma-a {b}: must be finite and not negative"
-                );
-            }
+        if let Some(b) = spread("--soc-bias-sigma-a", self.bias_sigma_a)? {
             s.bias_sigma_a = T::lit(b);
             if b == 0.0 {
                 s.bias_walk_a = T::ZERO;
             }
         }
-        if let Some(l) = self.rest_load_sigma_a {
-            if !(l.is_finite() && l >= 0.0) {
-                bail!(
-                    Options,
-                    "--soc-rest-load-sigma-a {l}: must be finite and not negative"
-                );
-            }
+        if let Some(l) = spread("--soc-rest-load-sigma-a", self.rest_load_sigma_a)? {
             s.rest_load_sigma_a = T::lit(l);
         }
-        if let Some(v) = self.voltage_sigma_v {
-            if !(v.is_finite() && v >= 0.0) {
-                bail!(
-                    Options,
-                    "--soc-voltage-sigma-v {v}: must be finite and not negative"
-                );
-            }
+        if let Some(v) = spread("--soc-voltage-sigma-v", self.voltage_sigma_v)? {
             s.voltage_sigma_v = T::lit(v);
         }
         Ok(())
+    }
+}
+
+/// A spread flag's value, refused unless finite and not negative.
+fn spread(flag: &str, x: Option<f64>) -> Result<Option<f64>> {
+    match x {
+        Some(v) if !(v.is_finite() && v >= 0.0) => {
+            bail!(Options, "{flag} {v}: must be finite and not negative")
+        }
+        _ => Ok(x),
     }
 }
 
