@@ -18,9 +18,15 @@ parameters solved at each) and refined by a bounded scalar search. A span
 whose current barely moves (std below 10 mA) identifies nothing: no
 prediction, as ours publishes none.
 
+With ``--prior MAP`` (the map of bench/panasonic_chain.sh, made from this
+same HPPC test: a best case for a characterized cell), ours also runs with
+that map as the prior. Each line adds the pulses whose published SOC is at
+least 0.2 (below it the cell's resistance climbs within a level).
+
     cargo build --release -p host-sim
-    bash bench/panasonic_chain.sh          # target/real-cells/panasonic/ocv.csv
-    python3 bench/sop_pulses.py [--host-sim target/release/host-sim] [--out target/sop]
+    bash bench/panasonic_chain.sh          # target/real-cells/panasonic/ocv.csv, map.csv
+    python3 bench/sop_pulses.py [--host-sim target/release/host-sim] [--out target/sop] \
+        [--prior target/real-cells/panasonic/map.csv]
 """
 
 import argparse
@@ -124,6 +130,8 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--host-sim", default="target/release/host-sim")
     ap.add_argument("--out", default="target/sop")
+    ap.add_argument("--prior", metavar="MAP", help="also run with this parameter map as the prior "
+                    "(e.g. target/real-cells/panasonic/map.csv, the map of bench/panasonic_chain.sh)")
     a = ap.parse_args()
     os.makedirs(a.out, exist_ok=True)
     ps, (t, v) = pulses()
@@ -137,11 +145,16 @@ def main():
         "window 256, --sop-carry-s 3600": ["--window", "256", "--sop-carry-s", "3600"],
         "window 1024 (2048 s: the previous pulse in it)": ["--window", "1024"],
     }
+    if a.prior:
+        variants[f"window 256, the map {a.prior} as the prior"] = ["--window", "256", "--prior", a.prior]
+        variants[f"window 256, the map as the prior, --sop-carry-s 3600"] = [
+            "--window", "256", "--prior", a.prior, "--sop-carry-s", "3600"]
     rows = {name: [] for name in variants}
     r_ct = {name: [] for name in variants}
     for name, extra in variants.items():
         for c in currents:
-            track = f"{a.out}/pulse{c}-{'-'.join(extra)}.csv"
+            tag = "-".join(x.replace("/", "_") for x in extra)
+            track = f"{a.out}/pulse{c}-{tag}.csv"
             subprocess.run([a.host_sim, "online", "battery", "--input", PANASONIC, "--ocv", PAN_OCV,
                             "--capacity-ah", str(CAPACITY_AH), "--pulse-current-a", str(c),
                             "--horizons", ",".join(map(str, HORIZONS)), "--out", track] + extra,
@@ -170,7 +183,7 @@ def main():
                     measured = np.interp(start + h, t, v)
                     rc = predict_1rc(model, soc[-1], ocv, cur, h) if model else np.nan
                     rows[name].append((h, c, start, float(p) if p else np.nan, measured,
-                                       before - measured, rc))
+                                       before - measured, rc, float(tr[k]["soc"] or "nan")))
                 if tr[k]["r_ct"]:
                     r_ct[name].append(float(tr[k]["r_ct"]))
     for name in variants:
@@ -192,6 +205,11 @@ def main():
             print("    1 RC: " + stats(r[both, 3], r[both, 1], r[both, 2]))
             print(f"  1 RC on all {rc.sum()} pulses it identifies: "
                   + stats(r[rc, 3], r[rc, 1], r[rc, 2]))
+            # Below SOC 0.2 the cell's resistance climbs within a level,
+            # past what a value held from the level above says.
+            high = pub & (r[:, 4] >= 0.2)
+            print(f"  ours at the {high.sum()} published pulses at SOC >= 0.2: "
+                  + stats(r[high, 0], r[high, 1], r[high, 2]))
 
 
 if __name__ == "__main__":

@@ -163,12 +163,17 @@ fn record_after_rest(at: usize, rest: usize, pulse: f64, k: usize) -> (Vec<f64>,
 /// Through a rest the polarization is carried sample by sample while the
 /// window still reaches back to the fit; after a rest longer than the
 /// window (no fit in its last part: the window holds no excitation) the
-/// state of power is no longer published. Before that, the 10 s pulse is
-/// predicted within 10 % of its true drop; after it, it would have been 4.1 %
-/// off at 10 s and 11.5 % at 30 s on this own-model record, and 22–41 %
-/// on the measured cell (docs/bms-states.md).
+/// state of power is not published, until the rest has lasted the SOC
+/// observer's `rest_s` (600 s): the cell is then taken as relaxed and the
+/// pulse is predicted from rest, at the rested voltage. Within the window
+/// and from the long rest the 10 s pulse is predicted within 10 % of its
+/// true drop (3.9 % and 3.6 %); from the long rest the 30 s pulse is
+/// 11.05 % off, on the safe side. Carried past the window instead, the
+/// pulse would have been 4.1 % off at 10 s and 11.5 % at 30 s on this
+/// own-model record, and 22–41 % on the measured cell
+/// (docs/bms-states.md).
 #[test]
-fn a_pulse_is_predicted_through_a_rest_until_the_window_has_passed() {
+fn a_pulse_is_predicted_through_a_rest_and_from_a_long_one() {
     let truth = CellParameters::<f64>::cell_18650();
     let s = OnlineSettings::new(1.0, 64, truth).with_ocv(nmc());
     let at = 1100;
@@ -177,7 +182,7 @@ fn a_pulse_is_predicted_through_a_rest_until_the_window_has_passed() {
         voltage_max: 4.2,
         current_limit: 50.0,
     };
-    for (rest, k) in [(250, 10), (600, 10)] {
+    for (rest, k) in [(250, 10), (580, 10), (700, 10), (700, 30)] {
         let (i, v) = record_after_rest(at, rest, -5.0, k);
         let mut est = Box::new(CellEstimator::<f64, 256, 64>::new(&s).unwrap());
         let mut carried = 0;
@@ -189,23 +194,49 @@ fn a_pulse_is_predicted_through_a_rest_until_the_window_has_passed() {
         }
         let ps = PowerSettings::new(limits, &[k as u32], Some(-5.0)).unwrap();
         let report = est.state_of_power(&s, &ps);
-        if rest > 256 {
+        if rest == 580 {
+            // Past the window, short of `rest_s`: nothing.
             assert!(report.is_none(), "{rest} s of rest");
             assert!(carried < rest, "{carried} of {rest}");
             continue;
         }
-        let pred = est.pulse_predictor(&s).expect("carried through the rest");
+        let pred = est.pulse_predictor(&s).expect("carried, or from rest");
         let got = pred.pulse_voltage(-5.0, k);
         let want = v[at + rest + k - 1];
         let drop = (v[at + rest - 1] - want).abs();
         let rel = (got - want).abs() / drop;
         println!(
-            "after {rest} s of rest ({carried} samples carried), {k} s at -5 A: predicted \
-             {got:.5} V, true {want:.5} V, drop {drop:.4} V: {:.2} %",
+            "after {rest} s of rest ({carried} samples with a predictor), {k} s at -5 A: \
+             predicted {got:.5} V, true {want:.5} V, drop {drop:.4} V: {:.2} %",
             100.0 * rel
         );
-        assert_eq!(carried, rest);
-        assert!(rel <= 0.10, "{k}: {rel}");
+        if rest > 256 {
+            // From rest: the predictor's voltage now is the rested
+            // voltage (the mean of the rest's last half minute), to the
+            // noise's mean.
+            let now = pred.pulse_voltage(0.0, 0);
+            assert!(
+                (now - v[at + rest - 1]).abs() < 1e-3,
+                "{now} vs {}",
+                v[at + rest - 1]
+            );
+            // Published from `rest_s` on, not through the whole rest.
+            assert!(carried < rest && carried > 0, "{carried} of {rest}");
+        } else {
+            assert_eq!(carried, rest);
+        }
+        if k <= 10 {
+            assert!(rel <= 0.10, "{rest}, {k}: {rel}");
+        } else {
+            // 30 s from a long rest: 11.05 %, past the issue's 10 % (not
+            // met; docs/bms-states.md). The window fitted with the short
+            // memory puts more in R_ct than the full-memory cell has, and
+            // from rest no history offsets it: the drop is overpredicted,
+            // on the safe side, and no worse than the 11.5 % the
+            // polarization carried past the window gave here.
+            assert!(got < want, "{rest}, {k}: {got} vs {want}");
+            assert!(rel <= 0.115, "{rest}, {k}: {rel}");
+        }
         assert_eq!(report.unwrap().horizons()[0].pulse_v, Some(got));
     }
 }

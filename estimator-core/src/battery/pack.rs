@@ -422,12 +422,15 @@ impl<T: Real, const N: usize, const MEM: usize, const CELLS: usize>
     /// constant-current pulse and the state of power from
     /// ([`crate::battery::power`]): its last good estimate (window
     /// coordinates) and the polarization that estimate's fit simulated,
-    /// carried forward through every sample since. `None` before an
-    /// estimate, after a new estimate until its simulation is taken, when
-    /// more samples have passed since the fit than the window holds (a
-    /// long rest, a restart), and with an OCV curve before the state of
-    /// charge is known (the open-circuit voltage follows the pulse's
-    /// charge from the count).
+    /// carried forward through every sample since. After a rest the SOC
+    /// observer reads ([`CellState::rested_voltage`]; linear model), the
+    /// cell is taken as relaxed instead: no polarization, at the rested
+    /// voltage. `None` before an estimate, after a new estimate until its
+    /// simulation is taken, when more samples have passed since the fit
+    /// than the window holds (a long rest that is not yet that long, a
+    /// restart), and with an OCV curve before the state of charge is known
+    /// (the open-circuit voltage follows the pulse's charge from the
+    /// count).
     pub fn pulse_predictor<'a, const P: usize>(
         &self,
         k: usize,
@@ -447,6 +450,31 @@ impl<T: Real, const N: usize, const MEM: usize, const CELLS: usize>
         let c = self.cell(k)?;
         let tail = &self.tails[k];
         let p = c.window_estimate()?;
+        let ocv = match (&s.ocv, c.state_of_charge()) {
+            (Some(m), Some(z)) => Some((m, z)),
+            (Some(_), None) => return None,
+            (None, _) => None,
+        };
+        // A rest long enough to read the OCV from (the SOC observer's
+        // `rest_s`) has relaxed the cell: the pulse starts from rest, at
+        // the rested voltage, with no polarization. The carried one would
+        // be the last fit's split between the OCV offset and the branch,
+        // which a window at rest does not identify (on the measured
+        // Panasonic cell the split reached ±32 mV and put the 2 s pulse
+        // 47 % of its drop off at the 90th percentile; docs/bms-states.md).
+        // Not for the Butler–Volmer term: its currents are capped at those
+        // of the window, which a long rest has emptied.
+        let rested = (p.bv_a == T::zero())
+            .then(|| c.rested_voltage(s).zip(ocv))
+            .flatten();
+        if let Some((v, (m, z))) = rested {
+            let w = self.weights_at(p, s)?;
+            let from_rest = CellParameters {
+                u_oc: v - m.table.ocv(z),
+                ..*p
+            };
+            return PulsePredictor::new(&from_rest, &w, &[], ocv);
+        }
         // Carried no farther from its fit than the window reaches (after a
         // restart: none). Farther, the model's relaxation is not what was
         // fitted: on the measured Panasonic cell, pulses after rests longer
@@ -456,22 +484,23 @@ impl<T: Real, const N: usize, const MEM: usize, const CELLS: usize>
         if tail.model() != Some(p) || tail.since_fit() as usize > reach {
             return None;
         }
-        let ocv = match (&s.ocv, c.state_of_charge()) {
-            (Some(m), Some(z)) => Some((m, z)),
-            (Some(_), None) => return None,
-            (None, _) => None,
-        };
-        // The working area's weights when they are at this order (the
-        // cell it holds), else new ones.
-        let held = self.work.weights();
-        let w =
-            if held.alpha() == p.alpha && held.h() == s.battery.h && held.len() == s.battery.memory
-            {
-                held.clone()
-            } else {
-                GlWeights::new(p.alpha, s.battery.h, s.battery.memory).ok()?
-            };
+        let w = self.weights_at(p, s)?;
         PulsePredictor::from_tail(tail, w, ocv)
+    }
+
+    /// The weights at `p`'s order: the working area's when they are (the
+    /// cell it holds), else new ones.
+    fn weights_at<const P: usize>(
+        &self,
+        p: &CellParameters<T>,
+        s: &OnlineSettings<T, P>,
+    ) -> Option<GlWeights<T, MEM>> {
+        let held = self.work.weights();
+        if held.alpha() == p.alpha && held.h() == s.battery.h && held.len() == s.battery.memory {
+            Some(held.clone())
+        } else {
+            GlWeights::new(p.alpha, s.battery.h, s.battery.memory).ok()
+        }
     }
 
     /// Cell `k`'s state of power now for `power`'s horizons: `None` unless

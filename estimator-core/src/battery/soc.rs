@@ -455,6 +455,28 @@ impl<T: Real> SocObserver<T> {
         }
     }
 
+    /// The rest in progress, if any: its length (s) and the mean of about
+    /// its last half minute of voltage (V), the voltage a rest reads.
+    ///
+    /// ```
+    /// use estimator_core::battery::ocv::OcvTable;
+    /// use estimator_core::battery::soc::{SocObserver, SocSettings};
+    /// let table = OcvTable::<f64, 2>::new(&[0.0, 1.0], &[3.0, 4.2]).unwrap();
+    /// let s = SocSettings::new(5.0, 1.0);
+    /// let mut soc = SocObserver::new(&s, Some(0.5));
+    /// for _ in 0..10 {
+    ///     soc.push(&s, &table, 0.0, 3.6);
+    /// }
+    /// let (len, v) = soc.rest().unwrap();
+    /// assert_eq!(len, 10.0);
+    /// assert!((v - 3.6).abs() < 1e-12);
+    /// soc.push(&s, &table, -5.0, 3.5);
+    /// assert!(soc.rest().is_none());
+    /// ```
+    pub fn rest(&self) -> Option<(T, T)> {
+        self.rest.map(|r| (r.len, r.mean))
+    }
+
     /// The estimate now (`None` before the start SOC is known).
     pub fn estimate(&self, s: &SocSettings<T>) -> Option<SocEstimate<T>> {
         let [soc, b, _] = self.x?;

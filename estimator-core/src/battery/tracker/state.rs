@@ -263,6 +263,18 @@ impl<T: Real, const N: usize> CellState<T, N> {
         self.soc
     }
 
+    /// The voltage of a rest that has lasted at least
+    /// [`SocSettings::rest_s`](crate::battery::soc::SocSettings::rest_s)
+    /// and goes on (the mean of about its last half minute, as the SOC
+    /// observer reads it): the cell is relaxed, its polarization gone.
+    /// `None` without an OCV curve (no observer runs), and while the cell
+    /// is not at rest or has rested less.
+    pub fn rested_voltage<const P: usize>(&self, s: &OnlineSettings<T, P>) -> Option<T> {
+        s.ocv.as_ref()?;
+        let (len, v) = self.soc_observer.rest()?;
+        (len >= s.soc.rest_s && v.is_finite()).then_some(v)
+    }
+
     /// Health after the last update.
     pub fn status(&self) -> Status {
         self.status
