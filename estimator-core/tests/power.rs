@@ -230,8 +230,9 @@ fn a_pulse_is_predicted_through_a_rest_and_from_a_long_one() {
         } else {
             // 30 s from a long rest: 11.05 %, past the 10 % (not
             // met; docs/bms-states.md). The window fitted with the short
-            // memory puts more in R_ct than the full-memory cell has, and
-            // from rest no history offsets it: the drop is overpredicted,
+            // memory puts more in R_ct than the full-memory cell has (24.5
+            // against 15 mΩ), and from rest no history offsets it: the
+            // drop is overpredicted,
             // on the safe side, and no worse than the 11.5 % the
             // polarization carried past the window gave here.
             assert!(got < want, "{rest}, {k}: {got} vs {want}");
