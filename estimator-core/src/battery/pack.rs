@@ -484,12 +484,23 @@ impl<T: Real, const N: usize, const MEM: usize, const CELLS: usize>
         if tail.model() != Some(p) || tail.since_fit() as usize > reach {
             return None;
         }
-        let w = self.weights_at(p, s)?;
+        // The working area's weights when they are at this order (the
+        // cell it holds), else new ones (written out here, not through
+        // `weights_at`: its `Option` cost a copy of the weights on every
+        // update on the Cortex-M4F).
+        let held = self.work.weights();
+        let w =
+            if held.alpha() == p.alpha && held.h() == s.battery.h && held.len() == s.battery.memory
+            {
+                held.clone()
+            } else {
+                GlWeights::new(p.alpha, s.battery.h, s.battery.memory).ok()?
+            };
         PulsePredictor::from_tail(tail, w, ocv)
     }
 
     /// The weights at `p`'s order: the working area's when they are (the
-    /// cell it holds), else new ones.
+    /// cell it holds), else new ones (for the pulse from rest).
     fn weights_at<const P: usize>(
         &self,
         p: &CellParameters<T>,
