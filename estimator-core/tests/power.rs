@@ -12,7 +12,7 @@ use estimator_core::battery::pack::{PackEstimator, PackSettings};
 use estimator_core::battery::power::{PowerLimits, PowerSettings};
 use estimator_core::battery::profile::{ocv_nmc, Profile};
 use estimator_core::battery::simulate::simulate;
-use estimator_core::battery::CellParameters;
+use estimator_core::battery::{CellModel, CellParameters};
 use estimator_core::frac::GlWeights;
 use rand::SeedableRng;
 use rand_distr::{Distribution, Normal};
@@ -240,6 +240,60 @@ fn a_pulse_is_predicted_through_a_rest_and_from_a_long_one() {
         }
         assert_eq!(report.unwrap().horizons()[0].pulse_v, Some(got));
     }
+}
+
+/// The same with the Butler–Volmer term: after 700 s of rest its pulse is
+/// predicted from rest too, and its state-of-power currents stay capped at
+/// the largest current of the window the estimate was fitted on, which the
+/// rest has emptied (the term is not extrapolated; docs/bms-states.md).
+#[test]
+fn a_butler_volmer_pulse_is_predicted_from_a_long_rest_within_the_currents_it_saw() {
+    let truth = CellParameters::<f64>::cell_18650().with_butler_volmer(2.0);
+    let mut s = OnlineSettings::new(1.0, 64, truth).with_ocv(nmc());
+    s.battery.model = CellModel::ButlerVolmer;
+    let (at, rest, k) = (1100, 700, 10);
+    let (mut i, _) = record(at, 0.0, rest + k);
+    for x in &mut i[at + rest..] {
+        *x = -5.0;
+    }
+    let v = noisy(truth_voltage(&truth, &i), at + rest);
+    let mut est = Box::new(CellEstimator::<f64, 256, 64>::new(&s).unwrap());
+    for l in 0..at + rest {
+        est.push(&s, i[l], v[l]);
+    }
+    let p = est.estimate().expect("an estimate");
+    assert!(p.is_butler_volmer(), "{p:?}");
+    let limits = PowerLimits {
+        voltage_min: 3.0,
+        voltage_max: 4.2,
+        current_limit: 50.0,
+    };
+    let ps = PowerSettings::new(limits, &[k as u32], Some(-5.0)).unwrap();
+    let report = est.state_of_power(&s, &ps).expect("from rest");
+    let h = report.horizons()[0];
+    // The pulse profile's largest current before the rest.
+    let seen = i[..at].iter().fold(0.0f64, |m, x| m.max(x.abs()));
+    let got = h.pulse_v.unwrap();
+    let want = v[at + rest + k - 1];
+    let drop = (v[at + rest - 1] - want).abs();
+    let rel = (got - want).abs() / drop;
+    println!(
+        "Butler–Volmer, after {rest} s of rest, {k} s at -5 A: predicted {got:.5} V, true \
+         {want:.5} V, drop {drop:.4} V: {:.2} %; state of power {:.3} A discharge, \
+         {:.3} A charge, the window's largest current {seen:.3} A",
+        100.0 * rel,
+        h.sop.discharge_a,
+        h.sop.charge_a
+    );
+    assert!(rel <= 0.10, "{rel}");
+    assert!(
+        h.sop.discharge_a > 0.0 && h.sop.discharge_a <= seen + 1e-9,
+        "{h:?}"
+    );
+    assert!(
+        h.sop.charge_a > 0.0 && h.sop.charge_a <= seen + 1e-9,
+        "{h:?}"
+    );
 }
 
 /// A pack's cell has the state of power it has alone (bit for bit: the

@@ -351,7 +351,9 @@ fn footprint_of_an_f32_estimator() {
     // last step, for the Butler–Volmer model's chord over it (4 B, 8 B
     // with padding): 31 864 B. A rest's mean current, which observes the
     // current sensor's bias (the SOC observer, 4 B, 8 B with padding):
-    // 31 872 B.
+    // 31 872 B. The tail's note of the largest current of the window, for
+    // a Butler–Volmer state of power from a long rest (4 B, in padding):
+    // 31 872 B; a pack cell 1 848 B.
     use estimator_core::battery::online::{CellState, CurrentHistory, WorkingArea};
     use estimator_core::battery::power::PolarizationTail;
     let tail = core::mem::size_of::<PolarizationTail<f32, 64>>();

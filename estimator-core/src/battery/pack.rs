@@ -402,6 +402,16 @@ impl<T: Real, const N: usize, const MEM: usize, const CELLS: usize>
                     None => tail.clear(),
                 }
             } else if follows {
+                if p.is_butler_volmer() && tail.largest_current() == T::zero() && c.resting() {
+                    // Carried into a rest: the largest current of the window
+                    // the estimate was fitted on, which the state of power
+                    // from a long rest caps the term at. Read once per rest
+                    // from the window now, which has lost the fit window's
+                    // oldest samples since: a cap at most the fit's, on the
+                    // safe side.
+                    let window = CellWindow::new(&self.history, c);
+                    tail.note_largest_current(window.largest_current());
+                }
                 if let Some(i) = stored {
                     if self.work.weights().alpha() == p.alpha {
                         tail.advance(self.work.weights(), i);
@@ -462,11 +472,13 @@ impl<T: Real, const N: usize, const MEM: usize, const CELLS: usize>
         // which a window at rest does not identify (on the measured
         // Panasonic cell the split reached ±32 mV and put the 2 s pulse
         // 47 % of its drop off at the 90th percentile; docs/bms-states.md).
-        // Not for the Butler–Volmer term: its currents are capped at those
-        // of the window, which a long rest has emptied.
-        let rested = (p.bv_a == T::zero())
-            .then(|| c.rested_voltage(s).zip(ocv))
-            .flatten();
+        // With the Butler–Volmer term, only while the tail knows the
+        // largest current of the window the estimate was fitted on (the
+        // term's state of power is capped there; a long rest has emptied
+        // the window itself).
+        let known =
+            p.bv_a == T::zero() || (tail.model() == Some(p) && tail.largest_current() > T::zero());
+        let rested = known.then(|| c.rested_voltage(s).zip(ocv)).flatten();
         if let Some((v, (m, z))) = rested {
             let w = self.weights_at(p, s)?;
             let from_rest = CellParameters {
@@ -541,7 +553,15 @@ impl<T: Real, const N: usize, const MEM: usize, const CELLS: usize>
         // cell 165–262 mV below its limit within 30 s; docs/bms-states.md).
         let mut power = *power;
         if c.window_estimate().is_some_and(|p| p.is_butler_volmer()) {
-            let seen = self.window(k).largest_current();
+            // The window's largest current; from a long rest, which has
+            // emptied the window, the one noted as the tail was carried
+            // into the rest (`follow_polarization`).
+            let noted = self.tails[k].largest_current();
+            let seen = if noted > T::zero() && c.rested_voltage(s).is_some() {
+                noted
+            } else {
+                self.window(k).largest_current()
+            };
             let cap = &mut power.limits.current_limit;
             *cap = cap.min(seen);
         }

@@ -203,6 +203,10 @@ pub struct PolarizationTail<T, const MEM: usize> {
     past: [T; MEM],
     /// Samples carried since it was last set from a fit.
     since: u32,
+    /// The largest current magnitude (A) of the cell's window when the
+    /// tail was first carried into a rest under an estimate with the
+    /// Butler–Volmer term (0: not noted since the tail was last set).
+    largest: T,
 }
 
 impl<T: Real, const MEM: usize> Default for PolarizationTail<T, MEM> {
@@ -211,6 +215,7 @@ impl<T: Real, const MEM: usize> Default for PolarizationTail<T, MEM> {
             p: None,
             past: [T::zero(); MEM],
             since: 0,
+            largest: T::zero(),
         }
     }
 }
@@ -224,6 +229,22 @@ impl<T: Real, const MEM: usize> PolarizationTail<T, MEM> {
     /// Follows nothing (an estimate the tail cannot follow).
     pub fn clear(&mut self) {
         self.p = None;
+        self.largest = T::zero();
+    }
+
+    /// The largest current magnitude (A) of the cell's window as
+    /// [`note_largest_current`](Self::note_largest_current) noted it since
+    /// the tail was last [`set`](Self::set) (0: not noted).
+    pub fn largest_current(&self) -> T {
+        self.largest
+    }
+
+    /// Notes the largest current magnitude (A) of the cell's window as the
+    /// tail is carried into a rest: a Butler–Volmer term's state of power
+    /// is capped at the currents its fit saw, also once a long rest has
+    /// emptied the window.
+    pub fn note_largest_current(&mut self, largest: T) {
+        self.largest = largest;
     }
 
     /// Takes a predictor's model and present polarization (from a fit's
@@ -232,6 +253,7 @@ impl<T: Real, const MEM: usize> PolarizationTail<T, MEM> {
         self.p = Some(pred.p);
         self.past = pred.past;
         self.since = 0;
+        self.largest = T::zero();
     }
 
     /// Samples carried forward since the tail was last [`set`](Self::set)

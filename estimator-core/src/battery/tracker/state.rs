@@ -263,6 +263,12 @@ impl<T: Real, const N: usize> CellState<T, N> {
         self.soc
     }
 
+    /// Whether the last sample was a rested one (the SOC observer's rest
+    /// is in progress; always false without an OCV curve).
+    pub(crate) fn resting(&self) -> bool {
+        self.soc_observer.rest().is_some()
+    }
+
     /// The voltage of a rest that has lasted at least
     /// [`SocSettings::rest_s`](crate::battery::soc::SocSettings::rest_s)
     /// and goes on (the mean of about its last half minute, as the SOC
