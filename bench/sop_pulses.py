@@ -26,7 +26,7 @@ least 0.2 (below it the cell's resistance climbs within a level).
     cargo build --release -p host-sim
     bash bench/panasonic_chain.sh          # target/real-cells/panasonic/ocv.csv, map.csv
     python3 bench/sop_pulses.py [--host-sim target/release/host-sim] [--out target/sop] \
-        [--prior target/real-cells/panasonic/map.csv]
+        [--prior target/real-cells/panasonic/map.csv] [--butler-volmer]
 """
 
 import argparse
@@ -132,6 +132,8 @@ def main():
     ap.add_argument("--out", default="target/sop")
     ap.add_argument("--prior", metavar="MAP", help="also run with this parameter map as the prior "
                     "(e.g. target/real-cells/panasonic/map.csv, the map of bench/panasonic_chain.sh)")
+    ap.add_argument("--butler-volmer", action="store_true",
+                    help="also run with the Butler-Volmer term (no prior)")
     a = ap.parse_args()
     os.makedirs(a.out, exist_ok=True)
     ps, (t, v) = pulses()
@@ -145,6 +147,8 @@ def main():
         "window 256, --sop-carry-s 3600": ["--window", "256", "--sop-carry-s", "3600"],
         "window 1024 (2048 s: the previous pulse in it)": ["--window", "1024"],
     }
+    if a.butler_volmer:
+        variants["window 256, --model butler-volmer"] = ["--window", "256", "--model", "butler-volmer"]
     if a.prior:
         variants[f"window 256, the map {a.prior} as the prior"] = ["--window", "256", "--prior", a.prior]
         variants[f"window 256, the map as the prior, --sop-carry-s 3600"] = [
