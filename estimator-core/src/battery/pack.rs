@@ -433,14 +433,15 @@ impl<T: Real, const N: usize, const MEM: usize, const CELLS: usize>
     /// ([`crate::battery::power`]): its last good estimate (window
     /// coordinates) and the polarization that estimate's fit simulated,
     /// carried forward through every sample since. After a rest the SOC
-    /// observer reads ([`CellState::rested_voltage`]; linear model), the
-    /// cell is taken as relaxed instead: no polarization, at the rested
-    /// voltage. `None` before an estimate, after a new estimate until its
-    /// simulation is taken, when more samples have passed since the fit
-    /// than the window holds (a long rest that is not yet that long, a
-    /// restart), and with an OCV curve before the state of charge is known
-    /// (the open-circuit voltage follows the pulse's charge from the
-    /// count).
+    /// observer reads ([`CellState::rested_voltage`]; with the
+    /// Butler–Volmer term, once the tail has noted its window's largest
+    /// current), the cell is taken as relaxed instead: no polarization, at
+    /// the rested voltage. `None` before an estimate, after a new estimate
+    /// until its simulation is taken, when more samples have passed since
+    /// the fit than the window holds (a long rest that is not yet that
+    /// long, a restart), and with an OCV curve before the state of charge
+    /// is known (the open-circuit voltage follows the pulse's charge from
+    /// the count).
     pub fn pulse_predictor<'a, const P: usize>(
         &self,
         k: usize,
