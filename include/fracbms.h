@@ -689,7 +689,8 @@ typedef struct FracbmsPowerRequest {
   /**
    * How long (s) the prediction may be carried from the last fit
    * without a new one (`--sop-carry-s`); NaN: as far as the window
-   * reaches.
+   * reaches. After a rest the SOC observer reads (its `rest_s`), the
+   * pulse is predicted from rest whatever this says.
    */
   float carry_s;
 } FracbmsPowerRequest;

@@ -503,7 +503,8 @@ pub struct FracbmsPowerRequest {
     pub pulse_current: f32,
     /// How long (s) the prediction may be carried from the last fit
     /// without a new one (`--sop-carry-s`); NaN: as far as the window
-    /// reaches.
+    /// reaches. After a rest the SOC observer reads (its `rest_s`), the
+    /// pulse is predicted from rest whatever this says.
     pub carry_s: f32,
 }
 

@@ -132,7 +132,9 @@ pub struct StateArgs {
     /// How long (s) the state of power may be predicted from the last fit
     /// without a new one, the polarization carried through a rest by the
     /// model (default: as far back as the window reaches; beyond it the
-    /// model's relaxation was not fitted, docs/bms-states.md).
+    /// model's relaxation was not fitted, docs/bms-states.md). A rest of
+    /// --soc-rest-s (with --ocv) is predicted from rest whatever this says:
+    /// the cell relaxed, at the rested voltage.
     #[arg(long)]
     pub sop_carry_s: Option<f64>,
     /// The `soc` column (with --ocv): `observer` (the default; coulomb
