@@ -195,6 +195,22 @@ def test_the_observer_corrects_a_biased_sensor_and_coulomb_counting_does_not(hos
     assert np.all(np.isnan(coulomb["current_bias_a"]))
 
 
+def spread_tracks(host_sim, record, tmp_path, args, kw, name, spreads):
+    """OnlineCell's track with the keyword `name` at each of `spreads`
+    (None: its default), each asserted equal to the CLI's with the flag of
+    the same name; {spread: track}."""
+    r = read_csv(record)  # the samples as the CLI reads them
+    flag = "--" + name.replace("_", "-")
+    out = {}
+    for spread in spreads:
+        extra = [] if spread is None else [flag, str(spread)]
+        cli = cli_track(host_sim, record, tmp_path, *args, *extra)
+        py = fracbms.OnlineCell(**kw, **{name: spread}).run(r["current_a"], r["voltage_v"])
+        assert_same_track(py, cli)
+        out[spread] = py
+    return out
+
+
 def rests_record(tmp_path, cycles, bias=0.0):
     """An own-model record through the NMC curve from SOC 0.9: `cycles`
     of a 0.5 A discharge for 20 min and 30 min at rest, the sensor reading
@@ -227,15 +243,8 @@ def test_the_rest_load_spread_is_the_clis(host_sim, tmp_path):
     record, _, args, kw = rests_record(tmp_path, 3, bias)
     args += ["--soc0", "0.9"]
     kw.update(soc0=0.9)
-    r = read_csv(record)  # the samples as the CLI reads them
-    tracks = {}
-    for spread in (None, 1.0):
-        extra = [] if spread is None else ["--soc-rest-load-sigma-a", str(spread)]
-        cli = cli_track(host_sim, record, tmp_path, *args, *extra)
-        py = fracbms.OnlineCell(**kw, soc_rest_load_sigma_a=spread).run(r["current_a"],
-                                                                        r["voltage_v"])
-        assert_same_track(py, cli)
-        tracks[spread] = py["current_bias_a"][-1]
+    tracks = {spread: py["current_bias_a"][-1] for spread, py in spread_tracks(
+        host_sim, record, tmp_path, args, kw, "soc_rest_load_sigma_a", (None, 1.0)).items()}
     # The default reads the bias; 1 A (forty times the bias) barely moves it.
     assert abs(tracks[None] - bias) < 0.1 * bias, tracks
     assert abs(tracks[1.0] - bias) > abs(tracks[None] - bias), tracks
@@ -251,15 +260,9 @@ def test_the_rested_voltage_spread_is_the_clis(host_sim, tmp_path):
     record, soc, args, kw = rests_record(tmp_path, 2)
     args += ["--soc0", "0.85"]
     kw.update(soc0=0.85)
-    r = read_csv(record)
-    weights = {}
-    for spread in (None, 0.05):
-        extra = [] if spread is None else ["--soc-voltage-sigma-v", str(spread)]
-        cli = cli_track(host_sim, record, tmp_path, *args, *extra)
-        py = fracbms.OnlineCell(**kw, soc_voltage_sigma_v=spread).run(r["current_a"],
-                                                                      r["voltage_v"])
-        assert_same_track(py, cli)
-        weights[spread] = (py["soc_ocv_weight"][-1], abs(py["soc"][-1] - soc[-1]))
+    weights = {spread: (py["soc_ocv_weight"][-1], abs(py["soc"][-1] - soc[-1]))
+               for spread, py in spread_tracks(host_sim, record, tmp_path, args, kw,
+                                               "soc_voltage_sigma_v", (None, 0.05)).items()}
     # One rest observed (at SOC 0.87, 1.06 V per unit SOC): the gain is
     # p/(p + r), the start's spread 0.1 against the reading's, 5 mV or
     # 50 mV over the slope with the table's 0.01: 0.988 by default, 0.80

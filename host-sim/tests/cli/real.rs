@@ -152,6 +152,17 @@ fn lg_m50_cold_pulse_needs_the_second_start() {
     assert!(rejected <= 3, "{j}");
 }
 
+/// Runs host-sim with `args`; fails the test with its error unless it
+/// succeeds.
+fn succeeds(args: &[&str]) {
+    let o = run(args);
+    assert!(
+        o.status.success(),
+        "{args:?}: {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+}
+
 /// The state of power after the long rests of a measured cell (issue 36):
 /// the Panasonic 25 °C HPPC test on its 2 s period, its OCV from the C/20
 /// test, its own per-SOC map as the prior (`identify battery --map-out`:
@@ -173,7 +184,7 @@ fn panasonic_pulses_after_long_rests_are_predicted_from_rest() {
         tmp("pan-sop-track.csv"),
     );
     let c20 = d.join("05-08-17_13.26 C20 OCV Test_C20_25dC.mat");
-    let o = run(&[
+    succeeds(&[
         "ocv",
         "--input",
         s(&c20),
@@ -182,7 +193,6 @@ fn panasonic_pulses_after_long_rests_are_predicted_from_rest() {
         "--out",
         s(&ocv),
     ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let hppc = d.join("03-11-17_08.47 25degC_5Pulse_HPPC_Pan18650PF.mat");
     let cell = ["--ocv", s(&ocv), "--capacity-ah", "2.9"];
     let mut args = vec!["identify", "battery", "--input", s(&hppc)];
@@ -195,8 +205,7 @@ fn panasonic_pulses_after_long_rests_are_predicted_from_rest() {
         "--map-out",
         s(&map),
     ]);
-    let o = run(&args);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    succeeds(&args);
     let mut args = vec!["online", "battery", "--input", s(&hppc), "--period", "2"];
     args.extend_from_slice(&cell);
     args.extend_from_slice(&[
@@ -209,8 +218,7 @@ fn panasonic_pulses_after_long_rests_are_predicted_from_rest() {
         "--out",
         s(&track),
     ]);
-    let o = run(&args);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    succeeds(&args);
     let text = std::fs::read_to_string(&track).unwrap();
     let mut lines = text.lines();
     let header: Vec<&str> = lines.next().unwrap().split(',').collect();
