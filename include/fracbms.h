@@ -168,7 +168,8 @@ enum FracbmsStatus
    */
   FRACBMS_STATUS_TRACKING = 2,
   /**
-   * The window's current carries no excitation: estimate held.
+   * The window's current carries no excitation, or carries it only in
+   * the warm-up before the rows it fits: estimate held.
    */
   FRACBMS_STATUS_NOT_EXCITED = 3,
   /**

@@ -133,7 +133,8 @@ pub enum FracbmsStatus {
     FRACBMS_STATUS_STARTING = 1,
     /// The estimate was updated from this window.
     FRACBMS_STATUS_TRACKING = 2,
-    /// The window's current carries no excitation: estimate held.
+    /// The window's current carries no excitation, or carries it only in
+    /// the warm-up before the rows it fits: estimate held.
     FRACBMS_STATUS_NOT_EXCITED = 3,
     /// The iteration failed (non-finite values): estimate held.
     FRACBMS_STATUS_HELD = 4,

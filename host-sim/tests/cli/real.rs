@@ -165,24 +165,24 @@ fn succeeds(args: &[&str]) {
 
 /// The state of power after the long rests of a measured cell (issue 36):
 /// the Panasonic 25 °C HPPC test on its 2 s period, its OCV from the C/20
-/// test, its own per-SOC map as the prior (`identify battery --map-out`:
-/// the best case of a characterized cell), `pulse_v_10s` for a 5.8 A
-/// discharge. At every 5.8 A discharge pulse after at least 600 s of rest
-/// (the SOC observer's `rest_s`) the last track row before the pulse
-/// predicts it from rest; at those above SOC 0.2 (below, the map's
-/// levels are not identifiable and the cell's resistance climbs), 90 %
-/// of them within 10 % of the pulse's drop 10 s in (the raw log), the
-/// issue's bound.
-/// Before the pulse from rest nothing was published there: the last fit
-/// is further back than the window reaches.
+/// test, `pulse_v_10s` for a 5.8 A discharge, at every 5.8 A discharge
+/// pulse after at least 600 s of rest (the SOC observer's `rest_s`), from
+/// the last track row before the pulse, against the raw log 10 s into it,
+/// at the pulses above SOC 0.2 (below, the map's levels are not
+/// identifiable and the cell's resistance climbs within a level).
+/// * With its own per-SOC map as the prior (`identify battery --map-out`:
+///   the best case of a characterized cell), every such pulse is predicted
+///   from rest, 90 % of them within 10 % of the pulse's drop, the issue's
+///   bound. Before the pulse from rest nothing was published there: the
+///   last fit is further back than the window reaches.
+/// * Without a prior, every one predicted is within 10 % (0.4–3.9 %
+///   today). Before a window whose excitation had left its fitted rows was
+///   no longer fitted, 7 of the 9 were off by 10.1–63.8 %: that last fit
+///   of each pulse, of the relaxation alone, was held through the rest.
 #[test]
 fn panasonic_pulses_after_long_rests_are_predicted_from_rest() {
     let d = data("panasonic-18650pf");
-    let (ocv, map, track) = (
-        tmp("pan-sop-ocv.csv"),
-        tmp("pan-sop-map.csv"),
-        tmp("pan-sop-track.csv"),
-    );
+    let (ocv, map) = (tmp("pan-sop-ocv.csv"), tmp("pan-sop-map.csv"));
     let c20 = d.join("05-08-17_13.26 C20 OCV Test_C20_25dC.mat");
     succeeds(&[
         "ocv",
@@ -206,34 +206,6 @@ fn panasonic_pulses_after_long_rests_are_predicted_from_rest() {
         s(&map),
     ]);
     succeeds(&args);
-    let mut args = vec!["online", "battery", "--input", s(&hppc), "--period", "2"];
-    args.extend_from_slice(&cell);
-    args.extend_from_slice(&[
-        "--prior",
-        s(&map),
-        "--horizons",
-        "10",
-        "--pulse-current-a",
-        "-5.8",
-        "--out",
-        s(&track),
-    ]);
-    succeeds(&args);
-    let text = std::fs::read_to_string(&track).unwrap();
-    let mut lines = text.lines();
-    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
-    let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
-    let (ct, cv, cs) = (col("time_s"), col("pulse_v_10s"), col("soc"));
-    let rows: Vec<(f64, Option<f64>, f64)> = lines
-        .map(|l| {
-            let f: Vec<&str> = l.split(',').collect();
-            (
-                f[ct].parse().unwrap(),
-                f[cv].parse().ok(),
-                f[cs].parse().unwrap_or(f64::NAN),
-            )
-        })
-        .collect();
     // The raw log: the pulses and the truth 10 s into each.
     let raw = fracbms_host::cycler::read_record(&hppc, &Default::default())
         .unwrap()
@@ -244,46 +216,95 @@ fn panasonic_pulses_after_long_rests_are_predicted_from_rest() {
         let w = (x - t[k - 1]) / (t[k] - t[k - 1]);
         v[k - 1] + w * (v[k] - v[k - 1])
     };
-    let (mut checked, mut within, mut worst) = (0, 0, 0.0f64);
-    for k in 1..t.len() {
-        // A 5.8 A discharge edge from rest, the log continuous across it.
-        if !(i[k - 1].abs() < 0.05 && (i[k] + 5.8).abs() < 0.2 && t[k] - t[k - 1] < 0.2) {
-            continue;
+    for prior in [Some(&map), None] {
+        let track = tmp(if prior.is_some() {
+            "pan-sop-track.csv"
+        } else {
+            "pan-sop-track-no-prior.csv"
+        });
+        let mut args = vec!["online", "battery", "--input", s(&hppc), "--period", "2"];
+        args.extend_from_slice(&cell);
+        if let Some(m) = prior {
+            args.extend_from_slice(&["--prior", s(m)]);
         }
-        let start = t[k - 1];
-        // At least 600 s of rest before it, without a gap in the log.
-        let rest_from = start - 600.0;
-        let j0 = t.partition_point(|&s| s < rest_from);
-        let rested = j0 > 0
-            && i[j0..k].iter().all(|x| x.abs() < 0.05)
-            && t[j0..k].windows(2).all(|w| w[1] - w[0] < 5.0);
-        if !rested {
-            continue;
+        args.extend_from_slice(&[
+            "--horizons",
+            "10",
+            "--pulse-current-a",
+            "-5.8",
+            "--out",
+            s(&track),
+        ]);
+        succeeds(&args);
+        let text = std::fs::read_to_string(&track).unwrap();
+        let mut lines = text.lines();
+        let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+        let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
+        let (ct, cv, cs) = (col("time_s"), col("pulse_v_10s"), col("soc"));
+        let rows: Vec<(f64, Option<f64>, f64)> = lines
+            .map(|l| {
+                let f: Vec<&str> = l.split(',').collect();
+                (
+                    f[ct].parse().unwrap(),
+                    f[cv].parse().ok(),
+                    f[cs].parse().unwrap_or(f64::NAN),
+                )
+            })
+            .collect();
+        let (mut checked, mut within, mut worst, mut unpublished) = (0, 0, 0.0f64, 0);
+        for k in 1..t.len() {
+            // A 5.8 A discharge edge from rest, the log continuous across it.
+            if !(i[k - 1].abs() < 0.05 && (i[k] + 5.8).abs() < 0.2 && t[k] - t[k - 1] < 0.2) {
+                continue;
+            }
+            let start = t[k - 1];
+            // At least 600 s of rest before it, without a gap in the log.
+            let rest_from = start - 600.0;
+            let j0 = t.partition_point(|&s| s < rest_from);
+            let rested = j0 > 0
+                && i[j0..k].iter().all(|x| x.abs() < 0.05)
+                && t[j0..k].windows(2).all(|w| w[1] - w[0] < 5.0);
+            if !rested {
+                continue;
+            }
+            // The last track row whose 2 s period ends before the pulse.
+            let r = rows.partition_point(|row| row.0 + 2.0 <= start) - 1;
+            let (_, pulse_v, soc) = rows[r];
+            let Some(pulse_v) = pulse_v else {
+                // With the map every one is published; without a prior
+                // the test's first 5.8 A pulse comes before the model is.
+                assert!(prior.is_none(), "nothing published before {start} s");
+                unpublished += 1;
+                continue;
+            };
+            if soc < 0.2 {
+                continue;
+            }
+            let drop = at(start) - at(start + 10.0);
+            let err = (pulse_v - at(start + 10.0)).abs() / drop;
+            eprintln!(
+                "prior {}: pulse at {start:.0} s, SOC {soc:.3}: {:.1} % of {drop:.3} V",
+                prior.is_some(),
+                100.0 * err
+            );
+            checked += 1;
+            within += usize::from(err <= 0.10);
+            worst = worst.max(err);
         }
-        // The last track row whose 2 s period ends before the pulse.
-        let r = rows.partition_point(|row| row.0 + 2.0 <= start) - 1;
-        let (_, pulse_v, soc) = rows[r];
-        let pulse_v = pulse_v.unwrap_or_else(|| panic!("nothing published before {start} s"));
-        if soc < 0.2 {
-            continue;
-        }
-        let drop = at(start) - at(start + 10.0);
-        let err = (pulse_v - at(start + 10.0)).abs() / drop;
         eprintln!(
-            "pulse at {start:.0} s, SOC {soc:.3}: {:.1} % of {drop:.3} V",
-            100.0 * err
+            "prior {}: {within} of {checked} within 10 %, worst {:.1} %, {unpublished} unpublished",
+            prior.is_some(),
+            100.0 * worst
         );
-        checked += 1;
-        within += usize::from(err <= 0.10);
-        worst = worst.max(err);
+        assert!(checked >= 8, "{checked}");
+        if prior.is_some() {
+            assert!(
+                10 * within >= 9 * checked,
+                "{within} of {checked}, worst {worst}"
+            );
+        } else {
+            assert!(unpublished <= 1, "{unpublished}");
+            assert_eq!(within, checked, "worst {worst}");
+        }
     }
-    eprintln!(
-        "{within} of {checked} within 10 %, worst {:.1} %",
-        100.0 * worst
-    );
-    assert!(checked >= 8, "{checked}");
-    assert!(
-        10 * within >= 9 * checked,
-        "{within} of {checked}, worst {worst}"
-    );
 }

@@ -431,7 +431,11 @@ fn the_track_carries_the_state_of_power() {
 /// `--sop-carry-s` bounds how far the state of power is carried from the
 /// last fit: 0 publishes it only at the samples a fit refreshed; the
 /// default (the window's reach) at least as often; a long carry at least
-/// as often again, through the HPPC record's rests.
+/// as often again, through the HPPC record's rests. The window is 128
+/// samples, so that the rests (about 300 s, shorter than the SOC observer's
+/// 600 s) outlast its reach: the last fit of a pulse is the one whose
+/// fitted rows still hold it, 65 s after it with memory 64, and the carry
+/// reaches 128 s further.
 #[test]
 fn the_state_of_power_is_carried_no_farther_than_asked() {
     let rec = data("pybamm/chen2020-hppc.csv");
@@ -447,6 +451,8 @@ fn the_state_of_power_is_carried_no_farther_than_asked() {
             s(&ocv),
             "--capacity-ah",
             "5.153198",
+            "--window",
+            "128",
             "--out",
             s(&out),
         ];

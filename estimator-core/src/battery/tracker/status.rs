@@ -12,7 +12,8 @@ pub enum Status {
     Starting,
     /// The estimate was updated from this window.
     Tracking,
-    /// The window's current carries no excitation: estimate held.
+    /// The window's current carries no excitation, or carries it only in
+    /// the warm-up before the rows it fits: estimate held.
     NotExcited,
     /// The iteration failed (non-finite values): estimate held.
     Held,
