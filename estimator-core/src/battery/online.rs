@@ -25,11 +25,12 @@
 //!    absorbs the error).
 //! 3. **Excitation.** A window whose current barely varies (rest) carries no
 //!    information on the resistances: the estimate is held and the status is
-//!    [`Status::NotExcited`]. So is one whose excitation has left the rows
-//!    it fits for its warm-up (the current's standard deviation over the
-//!    fitted rows under half the whole window's): the fit would see a
-//!    relaxation without the current that drove it, and trade the branch's
-//!    parameters along it (docs/bms-states.md).
+//!    [`Status::NotExcited`]. So is, once the output-error refinement runs,
+//!    one whose excitation has left the rows it fits for its warm-up (the
+//!    current's standard deviation over the fitted rows under half the
+//!    whole window's): the fit would see a relaxation without the current
+//!    that drove it, and trade the branch's parameters along it
+//!    (docs/bms-states.md).
 //! 4. **Iterations.** A bounded number of iterations of the chosen
 //!    [`Method`] runs. The refined method first runs the paper's 2S-OP-GI
 //!    until its estimate is physical (or a budget is spent), then refines
