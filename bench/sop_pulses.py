@@ -27,6 +27,7 @@ least 0.2 (below it the cell's resistance climbs within a level).
     bash bench/panasonic_chain.sh          # target/real-cells/panasonic/ocv.csv, map.csv
     python3 bench/sop_pulses.py [--host-sim target/release/host-sim] [--out target/sop] \
         [--prior target/real-cells/panasonic/map.csv] [--butler-volmer]
+    python3 bench/sop_pulses.py --resistances    # each pulse's measured resistance only
 """
 
 import argparse
@@ -134,9 +135,25 @@ def main():
                     "(e.g. target/real-cells/panasonic/map.csv, the map of bench/panasonic_chain.sh)")
     ap.add_argument("--butler-volmer", action="store_true",
                     help="also run with the Butler-Volmer term (no prior)")
+    ap.add_argument("--resistances", action="store_true",
+                    help="only print each pulse's measured 2 s and 10 s resistance "
+                    "(the drop over the current), a level's pulses on one line")
     a = ap.parse_args()
     os.makedirs(a.out, exist_ok=True)
     ps, (t, v) = pulses()
+    if a.resistances:
+        # The test's levels: five pulses each, -1.4 to -17.4 A.
+        line = []
+        for start, cur, length in ps:
+            if line and cur > -2.0:
+                print("; ".join(line))
+                line = []
+            r = [1e3 * (np.interp(start, t, v) - np.interp(start + h, t, v)) / -cur
+                 for h in HORIZONS]
+            line.append(f"{start:.0f} s {cur:.1f} A: " + ", ".join(
+                f"{h} s {x:.1f} mOhm" for h, x in zip(HORIZONS, r)))
+        print("; ".join(line))
+        return
     i_raw = sio.loadmat(PANASONIC)["meas"][0, 0]["Current"].ravel()
     ocv = ocv_table()
     currents = sorted({round(c, 1) for _, c, _ in ps})
