@@ -144,7 +144,7 @@ def main():
     if a.resistances:
         # The test's levels: five pulses each, -1.4 to -17.4 A.
         line = []
-        for start, cur, length in ps:
+        for start, cur, _ in ps:
             if line and cur > -2.0:
                 print("; ".join(line))
                 line = []
