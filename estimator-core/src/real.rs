@@ -43,6 +43,10 @@ pub trait Real: Float + Debug + Default + Send + Sync + 'static + sealed::Sealed
     /// [`asinh_f32`] for `f32` (a polynomial and a logarithm of its own,
     /// within 2 ulp of the correctly rounded value, tested).
     fn arsinh(self) -> Self;
+    /// The value's bits (`to_bits`, widened): equal exactly when two values
+    /// are the same bit for bit (`0.0` and `-0.0` differ, a NaN equals
+    /// itself).
+    fn bits(self) -> u64;
 }
 
 /// `√x` in `f32` arithmetic: an exponent-halving first guess (within 4 %)
@@ -203,6 +207,10 @@ impl Real for f32 {
     fn arsinh(self) -> Self {
         asinh_f32(self)
     }
+    #[inline]
+    fn bits(self) -> u64 {
+        u64::from(self.to_bits())
+    }
 }
 
 impl Real for f64 {
@@ -224,6 +232,10 @@ impl Real for f64 {
     #[inline]
     fn arsinh(self) -> Self {
         libm::asinh(self)
+    }
+    #[inline]
+    fn bits(self) -> u64 {
+        self.to_bits()
     }
 }
 

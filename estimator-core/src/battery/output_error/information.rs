@@ -35,7 +35,8 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
             window_cost(&data, &self.p, self.beta, &self.eta[..n], &self.up[..n])
         } else {
             self.stalled = None;
-            simulate_window(
+            let kept = take_kinetic(&mut self.kinetic_of, &mut self.kinetic_kept, &self.p, n);
+            simulate_window_with_free(
                 &mut self.solver,
                 &self.w,
                 &data,
@@ -44,7 +45,10 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
                 &mut self.up[..n],
                 &mut self.e[..n],
                 &mut self.eta[..n],
+                kept,
+                None,
             )
+            .0
         };
         if !cost.is_finite() {
             self.fresh = false;

@@ -259,6 +259,13 @@ pub struct OutputErrorRefinement<T, const N: usize, const MEM: usize, K = GlRecu
     /// The kinetic voltage `η(I(l))` of `p` (with `up`), and of the trial.
     eta: [T; N],
     trial_eta: [T; N],
+    /// `eta[..kinetic_kept]` is the kinetic voltage of the term
+    /// `kinetic_of = (a, i₀)` at the loaded window's first currents: the
+    /// estimate's simulation computes only the samples after them (a window
+    /// slid by one keeps all but its newest: one `asinh` a sample and update
+    /// instead of one a sample and simulation).
+    kinetic_of: Option<(T, T)>,
+    kinetic_kept: usize,
     n: usize,
     warm: usize,
     /// The modes of the loaded window's past (with `warm > 0`).
@@ -349,6 +356,8 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
             trial_e: [T::ZERO; N],
             eta: [T::ZERO; N],
             trial_eta: [T::ZERO; N],
+            kinetic_of: None,
+            kinetic_kept: 0,
             n: 0,
             warm: 0,
             past: None,
@@ -546,7 +555,33 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
         }
         let key = win.version();
         if self.stamp != Some(key) || self.n != win.len() {
-            self.n = win.copy_into(&mut self.i, &mut self.v);
+            let kinetic = matches!(self.kinetic_of, Some((a, _)) if a != T::zero());
+            if kinetic && self.kinetic_kept > 0 {
+                // The new currents into the trial buffer (free between
+                // iterations) first: the kinetic voltages of the old ones
+                // that the new window still holds are kept.
+                let old = self.n.min(N);
+                let n = win.copy_into(&mut self.trial, &mut self.v).min(N);
+                let pushed = self.stamp.map(|st| key.wrapping_sub(st) as usize);
+                let (dropped, kept) =
+                    kept_after_slide(&self.i[..old], &self.trial[..n], pushed, self.kinetic_kept);
+                // (`dropped + kept ≤ old ≤ N`: the test lets the optimizer
+                // see it.)
+                let kept = if kept > 0 && kept <= N && dropped <= N - kept {
+                    self.eta.copy_within(dropped..dropped + kept, 0);
+                    kept
+                } else {
+                    0
+                };
+                self.kinetic_kept = kept;
+                self.i[..n].copy_from_slice(&self.trial[..n]);
+                self.n = n;
+            } else {
+                // (The linear model's kinetic voltages are zeros, written
+                // whole by every simulation.)
+                self.n = win.copy_into(&mut self.i, &mut self.v);
+                self.kinetic_kept = 0;
+            }
             self.warm = match s.start {
                 Start::AtRest if !win.has_slid() => 0,
                 _ => s.memory - 1,
@@ -570,4 +605,53 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
         }
         Ok(())
     }
+}
+
+/// After `pushed` samples (`None`: unknown) took the window from `old` to
+/// `new`, the samples it dropped, `old + pushed − new`, and how many of
+/// the first `valid` of `old` that it kept start `new`, checked bit for
+/// bit (0 when they do not: then nothing is kept).
+#[inline(never)]
+fn kept_after_slide<T: Real>(
+    old: &[T],
+    new: &[T],
+    pushed: Option<usize>,
+    valid: usize,
+) -> (usize, usize) {
+    let Some(dropped) = pushed
+        .and_then(|p| old.len().checked_add(p))
+        .and_then(|all| all.checked_sub(new.len()))
+    else {
+        return (0, 0);
+    };
+    let kept = valid.min(old.len()).saturating_sub(dropped);
+    // Any differing bit of any pair (no early exit: a branch a sample
+    // costs more than the rare mismatch saves).
+    let differ = |o: &[T], w: &[T]| {
+        o.iter()
+            .zip(w)
+            .fold(0, |d, (&a, &b)| d | (a.bits() ^ b.bits()))
+    };
+    match (old.get(dropped..dropped + kept), new.get(..kept)) {
+        (Some(o), Some(w)) if differ(o, w) == 0 => (dropped, kept),
+        _ => (0, 0),
+    }
+}
+
+/// How many of the loaded window's first kinetic voltages (`eta`, of the
+/// term `of` for its first `kept` samples) a simulation of `p` over `n`
+/// samples keeps; then records that all `n` are `p`'s.
+pub(super) fn take_kinetic<T: Real>(
+    of: &mut Option<(T, T)>,
+    kept: &mut usize,
+    p: &CellParameters<T>,
+    n: usize,
+) -> usize {
+    let k = match *of {
+        Some(k) if k == (p.bv_a, p.bv_i0) => (*kept).min(n),
+        _ => 0,
+    };
+    *of = Some((p.bv_a, p.bv_i0));
+    *kept = n;
+    k
 }

@@ -290,6 +290,7 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
             } else {
                 None
             };
+            let kept = take_kinetic(&mut self.kinetic_of, &mut self.kinetic_kept, &self.p, n);
             let (cost, filled) = simulate_window_with_free(
                 &mut self.solver,
                 &self.w,
@@ -299,6 +300,7 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
                 &mut self.up[..n],
                 &mut self.e[..n],
                 &mut self.eta[..n],
+                kept,
                 free,
             );
             uoc_done = filled;
@@ -415,6 +417,8 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
                 core::mem::swap(&mut self.up, &mut self.trial);
                 core::mem::swap(&mut self.e, &mut self.trial_e);
                 core::mem::swap(&mut self.eta, &mut self.trial_eta);
+                self.kinetic_of = Some((trial.bv_a, trial.bv_i0));
+                self.kinetic_kept = n;
                 step.change = change;
                 self.p = trial;
                 self.beta = beta;

@@ -192,7 +192,7 @@ pub(super) fn simulate_window<T: Real, const MEM: usize>(
     e: &mut [T],
     eta: &mut [T],
 ) -> T {
-    simulate_window_with_free(solver, w, data, p, beta, buf, e, eta, None).0
+    simulate_window_with_free(solver, w, data, p, beta, buf, e, eta, 0, None).0
 }
 
 /// [`simulate_window`], and with `free` (a sequence holding its history
@@ -210,6 +210,7 @@ pub(super) fn simulate_window_with_free<T: Real, const MEM: usize>(
     buf: &mut [T],
     e: &mut [T],
     eta: &mut [T],
+    kept: usize,
     free: Option<&mut [T]>,
 ) -> (T, bool) {
     let mut filled = false;
@@ -221,7 +222,7 @@ pub(super) fn simulate_window_with_free<T: Real, const MEM: usize>(
         tail,
         ..
     } = *data;
-    fill_kinetic(p, i, eta);
+    fill_kinetic(p, i, eta, kept);
     let given = buf.iter_mut().zip(v).zip(c).zip(i).zip(eta.iter());
     for ((((b, &v), &c), &i), &eta) in given.take(warm) {
         *b = residual(v, p, beta, c, i, eta, T::zero());
@@ -292,11 +293,12 @@ fn store_sum<T: Real>(e: &mut [T], l: usize, x: T, h: T) {
 /// `eta[l] = η(I(l))`, the kinetic voltage of `p` at each sample of `i`
 /// (zeros in the linear model). The residuals, the kinetic columns of the
 /// Jacobian and the history's kinetic free responses at the estimate all
-/// read it: one `asinh` per sample and simulation, not one per use.
+/// read it: one `asinh` per sample and simulation, not one per use. The
+/// first `kept` are `p`'s already and are not computed again.
 #[inline]
-pub(super) fn fill_kinetic<T: Real>(p: &CellParameters<T>, i: &[T], eta: &mut [T]) {
+pub(super) fn fill_kinetic<T: Real>(p: &CellParameters<T>, i: &[T], eta: &mut [T], kept: usize) {
     if p.bv_a != T::zero() {
-        for (e, &il) in eta.iter_mut().zip(i) {
+        for (e, &il) in eta.iter_mut().zip(i).skip(kept) {
             // `kinetic_voltage` with `a ≠ 0` known, written out so that
             // the loop holds it; a rested sample (`asinh(±0) = ±0`) takes
             // no `asinh`.
