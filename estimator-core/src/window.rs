@@ -30,6 +30,13 @@ pub trait Window<T: Real> {
     /// True once the window has dropped a pair (the samples before the
     /// oldest one held are then unknown, not zero).
     fn has_slid(&self) -> bool;
+    /// True when the window began at rest: until it slides, the samples
+    /// before its first are rest (a model's state there zero), whatever
+    /// the estimator's settings say of a window's start (a window restarted
+    /// at a rested cell after a gap in the record).
+    fn starts_at_rest(&self) -> bool {
+        false
+    }
     /// The held pairs, newest first.
     fn recent(&self) -> impl Iterator<Item = (T, T)> + '_;
     /// Copies the held pairs, oldest first, into `u` and `y`; returns how

@@ -216,7 +216,8 @@ class OnlineCell:
     def resume_after_gap(self, rested: bool) -> None:
         """The record resumes after a gap of unknown charge: the window
         restarts and, when ``rested``, the state of charge is read again
-        from the next rested voltages through the OCV table."""
+        from the next rested voltages through the OCV table and the
+        restarted window is fitted from rest until it slides."""
     def save_state(self, saved_at_s: Optional[float] = None) -> bytes:
         """The snapshot of what the cell has learned (docs/persistence.md):
         the bytes of ``host-sim online battery --state-out`` and of the C

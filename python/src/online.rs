@@ -504,8 +504,10 @@ impl OnlineCell {
     /// The record resumes after a gap of unknown charge (a logger that
     /// stopped): the window restarts and, when ``rested`` (the cell at rest
     /// where it resumes), the state of charge is read again from the next
-    /// rested voltages through the OCV table, as at the start. What is
-    /// published stays, held. The CLI does this at every gap of a file.
+    /// rested voltages through the OCV table, as at the start, and the
+    /// restarted window is fitted from rest until it slides (a pulse right
+    /// after the gap is fitted). What is published stays, held. The CLI
+    /// does this at every gap of a file.
     fn resume_after_gap(&mut self, rested: bool) {
         self.tracker.resume_after_gap(rested);
     }

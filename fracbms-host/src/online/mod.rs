@@ -483,7 +483,8 @@ impl Tracker {
 
     /// The record resumes after a gap of unknown charge: the window
     /// restarts and, when `rested`, the state of charge is read again
-    /// from the next rested voltages
+    /// from the next rested voltages and the restarted window is fitted
+    /// from rest until it slides
     /// ([`estimator_core::battery::online::CellEstimator::resume_after_gap`]).
     pub fn resume_after_gap(&mut self, rested: bool) {
         self.cell.resume_after_gap(rested);

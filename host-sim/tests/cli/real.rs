@@ -175,25 +175,14 @@ fn succeeds(args: &[&str]) {
 ///   from rest, 90 % of them within 10 % of the pulse's drop, the issue's
 ///   bound. Before the pulse from rest nothing was published there: the
 ///   last fit is further back than the window reaches.
-/// * Without a prior, every one predicted is within 10 % (0.4–3.9 %
-///   today). Before a window whose excitation had left its fitted rows was
+/// * Without a prior, every one predicted is within 10 % (0.4–5.2 %
+///   today; 0.4–3.9 % before the restarted windows at rest). Before a window whose excitation had left its fitted rows was
 ///   no longer fitted, 7 of the 9 were off by 10.1–63.8 %: that last fit
 ///   of each pulse, of the relaxation alone, was held through the rest.
 #[test]
 fn panasonic_pulses_after_long_rests_are_predicted_from_rest() {
-    let d = data("panasonic-18650pf");
-    let (ocv, map) = (tmp("pan-sop-ocv.csv"), tmp("pan-sop-map.csv"));
-    let c20 = d.join("05-08-17_13.26 C20 OCV Test_C20_25dC.mat");
-    succeeds(&[
-        "ocv",
-        "--input",
-        s(&c20),
-        "--from",
-        "low-rate",
-        "--out",
-        s(&ocv),
-    ]);
-    let hppc = d.join("03-11-17_08.47 25degC_5Pulse_HPPC_Pan18650PF.mat");
+    let (hppc, ocv) = panasonic_hppc_and_ocv("pan-sop-ocv.csv");
+    let map = tmp("pan-sop-map.csv");
     let cell = ["--ocv", s(&ocv), "--capacity-ah", "2.9"];
     let mut args = vec!["identify", "battery", "--input", s(&hppc)];
     args.extend_from_slice(&cell);
@@ -206,91 +195,16 @@ fn panasonic_pulses_after_long_rests_are_predicted_from_rest() {
         s(&map),
     ]);
     succeeds(&args);
-    // The raw log: the pulses and the truth 10 s into each.
-    let raw = fracbms_host::cycler::read_record(&hppc, &Default::default())
-        .unwrap()
-        .rows;
-    let (t, i, v) = (&raw.time, &raw.current, &raw.voltage);
-    let at = |x: f64| {
-        let k = t.partition_point(|&s| s <= x).clamp(1, t.len() - 1);
-        let w = (x - t[k - 1]) / (t[k] - t[k - 1]);
-        v[k - 1] + w * (v[k] - v[k - 1])
-    };
     for prior in [Some(&map), None] {
-        let track = tmp(if prior.is_some() {
-            "pan-sop-track.csv"
-        } else {
-            "pan-sop-track-no-prior.csv"
-        });
-        let mut args = vec!["online", "battery", "--input", s(&hppc), "--period", "2"];
-        args.extend_from_slice(&cell);
-        if let Some(m) = prior {
-            args.extend_from_slice(&["--prior", s(m)]);
+        let (errors, unpublished) = pulses_from_rest(&hppc, &cell, prior, 5.8);
+        // With the map every one is published; without a prior the test's
+        // first 5.8 A pulse comes before the model is.
+        if prior.is_some() {
+            assert_eq!(unpublished, 0);
         }
-        args.extend_from_slice(&[
-            "--horizons",
-            "10",
-            "--pulse-current-a",
-            "-5.8",
-            "--out",
-            s(&track),
-        ]);
-        succeeds(&args);
-        let text = std::fs::read_to_string(&track).unwrap();
-        let mut lines = text.lines();
-        let header: Vec<&str> = lines.next().unwrap().split(',').collect();
-        let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
-        let (ct, cv, cs) = (col("time_s"), col("pulse_v_10s"), col("soc"));
-        let rows: Vec<(f64, Option<f64>, f64)> = lines
-            .map(|l| {
-                let f: Vec<&str> = l.split(',').collect();
-                (
-                    f[ct].parse().unwrap(),
-                    f[cv].parse().ok(),
-                    f[cs].parse().unwrap_or(f64::NAN),
-                )
-            })
-            .collect();
-        let (mut checked, mut within, mut worst, mut unpublished) = (0, 0, 0.0f64, 0);
-        for k in 1..t.len() {
-            // A 5.8 A discharge edge from rest, the log continuous across it.
-            if !(i[k - 1].abs() < 0.05 && (i[k] + 5.8).abs() < 0.2 && t[k] - t[k - 1] < 0.2) {
-                continue;
-            }
-            let start = t[k - 1];
-            // At least 600 s of rest before it, without a gap in the log.
-            let rest_from = start - 600.0;
-            let j0 = t.partition_point(|&s| s < rest_from);
-            let rested = j0 > 0
-                && i[j0..k].iter().all(|x| x.abs() < 0.05)
-                && t[j0..k].windows(2).all(|w| w[1] - w[0] < 5.0);
-            if !rested {
-                continue;
-            }
-            // The last track row whose 2 s period ends before the pulse.
-            let r = rows.partition_point(|row| row.0 + 2.0 <= start) - 1;
-            let (_, pulse_v, soc) = rows[r];
-            let Some(pulse_v) = pulse_v else {
-                // With the map every one is published; without a prior
-                // the test's first 5.8 A pulse comes before the model is.
-                assert!(prior.is_none(), "nothing published before {start} s");
-                unpublished += 1;
-                continue;
-            };
-            if soc < 0.2 {
-                continue;
-            }
-            let drop = at(start) - at(start + 10.0);
-            let err = (pulse_v - at(start + 10.0)).abs() / drop;
-            eprintln!(
-                "prior {}: pulse at {start:.0} s, SOC {soc:.3}: {:.1} % of {drop:.3} V",
-                prior.is_some(),
-                100.0 * err
-            );
-            checked += 1;
-            within += usize::from(err <= 0.10);
-            worst = worst.max(err);
-        }
+        let checked = errors.len();
+        let within = errors.iter().filter(|&&e| e <= 0.10).count();
+        let worst = errors.iter().fold(0.0f64, |m, &e| m.max(e));
         eprintln!(
             "prior {}: {within} of {checked} within 10 %, worst {:.1} %, {unpublished} unpublished",
             prior.is_some(),
@@ -307,4 +221,151 @@ fn panasonic_pulses_after_long_rests_are_predicted_from_rest() {
             assert_eq!(within, checked, "worst {worst}");
         }
     }
+}
+
+/// Each level of the Panasonic HPPC test starts seconds after one of the
+/// log's gaps (a 10 % discharge the export does not hold) with a 1.4 A
+/// pulse, then rests 20 minutes before its 2.9 A pulse. The window
+/// restarted at the gap begins at a rested cell and is fitted from rest
+/// (`CellEstimator::resume_after_gap`), so the 1.4 A pulse is fitted and
+/// the 2.9 A pulse is predicted from it: without a prior, of the 9 after
+/// 600 s of rest above SOC 0.2, all but one within 10 % of the drop at
+/// 10 s (measured 0.5–2.7 %; the last, at SOC 0.21, 19.8 %: there the
+/// cell's resistance starts to climb within a level, from 35 mΩ at SOC
+/// 0.21 to 52 mΩ at 0.11, docs/bms-states.md). Before, the 1.4 A pulse sat
+/// in the restarted window's first 63 samples, never fitted, and the
+/// 2.9 A pulse was predicted from the previous level's fit of its 17.4 A
+/// pulse (the cell's resistance falls with the current): 7 of the 9 off
+/// by 10.1–23.9 %, and this test fails.
+#[test]
+fn panasonic_pulses_after_a_gap_are_fitted_from_rest() {
+    let (hppc, ocv) = panasonic_hppc_and_ocv("pan-gap-ocv.csv");
+    let cell = ["--ocv", s(&ocv), "--capacity-ah", "2.9"];
+    let (errors, unpublished) = pulses_from_rest(&hppc, &cell, None, 2.9);
+    let worst = errors.iter().fold(0.0f64, |m, &e| m.max(e));
+    eprintln!(
+        "2.9 A: {} checked, worst {:.1} %, {unpublished} unpublished",
+        errors.len(),
+        100.0 * worst
+    );
+    let within = errors.iter().filter(|&&e| e <= 0.10).count();
+    assert!(errors.len() >= 8, "{}", errors.len());
+    assert!(within + 1 >= errors.len(), "{within} of {}", errors.len());
+}
+
+/// The Panasonic 25 °C HPPC test and its OCV table from the C/20 test
+/// (`host-sim ocv --from low-rate`, written to the test file `name`).
+fn panasonic_hppc_and_ocv(name: &str) -> (PathBuf, PathBuf) {
+    let d = data("panasonic-18650pf");
+    let ocv = tmp(name);
+    let c20 = d.join("05-08-17_13.26 C20 OCV Test_C20_25dC.mat");
+    succeeds(&[
+        "ocv",
+        "--input",
+        s(&c20),
+        "--from",
+        "low-rate",
+        "--out",
+        s(&ocv),
+    ]);
+    (
+        d.join("03-11-17_08.47 25degC_5Pulse_HPPC_Pan18650PF.mat"),
+        ocv,
+    )
+}
+
+/// The errors of `pulse_v_10s` (a fraction of the measured drop) at every
+/// discharge pulse of `current` A (magnitude) after at least 600 s of rest
+/// in the log of the Panasonic HPPC test `hppc`, from the last track row of
+/// `online battery` (2 s period, the `cell` arguments, `prior`) whose
+/// period ends before the pulse, against the raw log 10 s into it, at the
+/// pulses whose published SOC is at least 0.2 (below, the map's levels are
+/// not identifiable and the cell's resistance climbs within a level); and
+/// how many such pulses had nothing published before them.
+fn pulses_from_rest(
+    hppc: &Path,
+    cell: &[&str],
+    prior: Option<&PathBuf>,
+    current: f64,
+) -> (Vec<f64>, usize) {
+    // The raw log: the pulses and the truth 10 s into each.
+    let raw = fracbms_host::cycler::read_record(hppc, &Default::default())
+        .unwrap()
+        .rows;
+    let (t, i, v) = (&raw.time, &raw.current, &raw.voltage);
+    let at = |x: f64| {
+        let k = t.partition_point(|&s| s <= x).clamp(1, t.len() - 1);
+        let w = (x - t[k - 1]) / (t[k] - t[k - 1]);
+        v[k - 1] + w * (v[k] - v[k - 1])
+    };
+    let track = tmp(&format!(
+        "pan-sop-track-{current}-{}.csv",
+        if prior.is_some() { "prior" } else { "no-prior" }
+    ));
+    let pulse = format!("{}", -current);
+    let mut args = vec!["online", "battery", "--input", s(hppc), "--period", "2"];
+    args.extend_from_slice(cell);
+    if let Some(m) = prior {
+        args.extend_from_slice(&["--prior", s(m)]);
+    }
+    args.extend_from_slice(&[
+        "--horizons",
+        "10",
+        "--pulse-current-a",
+        &pulse,
+        "--out",
+        s(&track),
+    ]);
+    succeeds(&args);
+    let text = std::fs::read_to_string(&track).unwrap();
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
+    let (ct, cv, cs) = (col("time_s"), col("pulse_v_10s"), col("soc"));
+    let rows: Vec<(f64, Option<f64>, f64)> = lines
+        .map(|l| {
+            let f: Vec<&str> = l.split(',').collect();
+            (
+                f[ct].parse().unwrap(),
+                f[cv].parse().ok(),
+                f[cs].parse().unwrap_or(f64::NAN),
+            )
+        })
+        .collect();
+    let (mut errors, mut unpublished) = (Vec::new(), 0);
+    for k in 1..t.len() {
+        // A discharge edge from rest, the log continuous across it.
+        if !(i[k - 1].abs() < 0.05 && (i[k] + current).abs() < 0.2 && t[k] - t[k - 1] < 0.2) {
+            continue;
+        }
+        let start = t[k - 1];
+        // At least 600 s of rest before it, without a gap in the log.
+        let rest_from = start - 600.0;
+        let j0 = t.partition_point(|&s| s < rest_from);
+        let rested = j0 > 0
+            && i[j0..k].iter().all(|x| x.abs() < 0.05)
+            && t[j0..k].windows(2).all(|w| w[1] - w[0] < 5.0);
+        if !rested {
+            continue;
+        }
+        // The last track row whose 2 s period ends before the pulse.
+        let r = rows.partition_point(|row| row.0 + 2.0 <= start) - 1;
+        let (_, pulse_v, soc) = rows[r];
+        let Some(pulse_v) = pulse_v else {
+            unpublished += 1;
+            continue;
+        };
+        if soc < 0.2 {
+            continue;
+        }
+        let drop = at(start) - at(start + 10.0);
+        let err = (pulse_v - at(start + 10.0)).abs() / drop;
+        eprintln!(
+            "{current} A, prior {}: pulse at {start:.0} s, SOC {soc:.3}: {:.1} % of {drop:.3} V",
+            prior.is_some(),
+            100.0 * err
+        );
+        errors.push(err);
+    }
+    (errors, unpublished)
 }

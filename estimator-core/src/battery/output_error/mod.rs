@@ -583,8 +583,10 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
                 self.kinetic_kept = 0;
             }
             self.warm = match s.start {
-                Start::AtRest if !win.has_slid() => 0,
-                _ => s.memory - 1,
+                _ if win.has_slid() => s.memory - 1,
+                Start::AtRest => 0,
+                Start::FromData if win.starts_at_rest() => 0,
+                Start::FromData => s.memory - 1,
             };
             // From rest there is no past; from data it is the window's.
             self.past = if self.warm > 0 { win.past() } else { None };

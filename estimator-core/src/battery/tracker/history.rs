@@ -143,6 +143,9 @@ impl<T: Real, const N: usize> Window<T> for CellWindow<'_, T, N> {
     fn has_slid(&self) -> bool {
         self.cell.pushed > u64::from(self.cell.len)
     }
+    fn starts_at_rest(&self) -> bool {
+        self.cell.at_rest
+    }
     fn recent(&self) -> impl Iterator<Item = (T, T)> + '_ {
         self.newest_first()
     }

@@ -50,16 +50,23 @@ impl<T: Real, const N: usize> CellState<T, N> {
         self.published.expire(self.soc, s.hold_soc_span);
         // Saturating: `push` may be given other settings than the
         // constructor's (memory 0 or `usize::MAX` then means "never enough").
-        let need = b
-            .memory
-            .saturating_sub(1)
-            .saturating_add(crate::battery::regression::MIN_ROWS);
+        // A window begun at a rested cell (after a gap), once refining and
+        // until it slides, is fitted whole from rest (the refinement's
+        // `Window::starts_at_rest`): a pulse in its first `memory − 1`
+        // samples is fitted, not taken as the history of the rows after it.
         let len = usize::from(self.len);
+        let from_rest = self.refining && self.at_rest && self.pushed <= u64::from(self.len);
+        let warm = if from_rest {
+            0
+        } else {
+            b.memory.saturating_sub(1)
+        };
+        let need = warm.saturating_add(crate::battery::regression::MIN_ROWS);
         if len < need {
             return (Status::Filling, 0);
         }
         // Current excitation over the fitted part of the window.
-        let fitted = (len + 1).saturating_sub(b.memory);
+        let fitted = len.saturating_sub(warm);
         let count = T::lit(fitted as f64);
         // Newest first, as the window's samples (the same sums to the bit),
         // over the ring's two runs of the last `fitted` currents (fewer

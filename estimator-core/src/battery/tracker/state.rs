@@ -75,6 +75,10 @@ pub struct CellState<T, const N: usize> {
     pub(super) restoration: Restoration,
     /// A restored SOC not yet checked against a rested first voltage.
     pub(super) soc_check: bool,
+    /// The window began at a rested cell after a gap
+    /// ([`Self::resume_after_gap`]): until it slides, the refinement takes
+    /// the polarization before its first sample as zero and fits it whole.
+    pub(super) at_rest: bool,
 }
 
 /// The working area a pack's cells share, one cell at a time: the two
@@ -174,6 +178,7 @@ impl<T: Real, const N: usize> CellState<T, N> {
             step: None,
             restoration: Restoration::Clean,
             soc_check: false,
+            at_rest: false,
         }
     }
 
@@ -340,12 +345,18 @@ impl<T: Real, const N: usize> CellState<T, N> {
     /// The record resumes after a gap of unknown charge (a logger that
     /// stopped, a cell stored): the window restarts (no model runs across
     /// the gap) and, when `rested` (the cell at rest where the record
-    /// resumes), the state of charge is read again from the next rested
-    /// voltages through the OCV curve, as at the start. What is published
-    /// stays, held (and expires by state of charge,
-    /// [`super::OnlineSettings::hold_soc_span`]).
+    /// resumes, its polarization relaxed through the gap), the state of
+    /// charge is read again from the next rested voltages through the OCV
+    /// curve, as at the start, and the refinement fits the restarted
+    /// window from rest until it slides: a pulse in its first
+    /// `memory − 1` samples is fitted, not taken as the history of the
+    /// rows after it ([`crate::window::Window::starts_at_rest`]; on the
+    /// Panasonic test each level's first pulse comes seconds after a gap,
+    /// docs/bms-states.md). What is published stays, held (and expires by
+    /// state of charge, [`super::OnlineSettings::hold_soc_span`]).
     pub fn resume_after_gap(&mut self, rested: bool) {
         self.clear_window();
+        self.at_rest = rested;
         self.rmse = T::infinity();
         self.spike_scale = T::nan();
         self.soc_observer.resume_after_gap();
@@ -363,6 +374,7 @@ impl<T: Real, const N: usize> CellState<T, N> {
         self.pushed = 0;
         self.version = self.version.wrapping_add(1);
         self.past = PastModes::new();
+        self.at_rest = false;
     }
 
     /// Writes `u` into the ring slot the pack's next current goes to and
