@@ -35,7 +35,7 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
             window_cost(&data, &self.p, self.beta, &self.eta[..n], &self.up[..n])
         } else {
             self.stalled = None;
-            let kept = take_kinetic(&mut self.kinetic_of, &mut self.kinetic_kept, &self.p, n);
+            let kept = take_kinetic(&mut self.kinetic_kept, n);
             simulate_window_with_free(
                 &mut self.solver,
                 &self.w,

@@ -259,13 +259,13 @@ pub struct OutputErrorRefinement<T, const N: usize, const MEM: usize, K = GlRecu
     /// The kinetic voltage `η(I(l))` of `p` (with `up`), and of the trial.
     eta: [T; N],
     trial_eta: [T; N],
-    /// `eta[..kinetic_kept]` is the kinetic voltage of the term
-    /// `kinetic_of = (a, i₀)` at the loaded window's first currents: the
-    /// estimate's simulation computes only the samples after them (a window
-    /// slid by one keeps all but its newest: one `asinh` a sample and update
-    /// instead of one a sample and simulation).
-    kinetic_of: Option<(T, T)>,
-    kinetic_kept: usize,
+    /// `eta[..kinetic_kept]` is the kinetic voltage of `p` at the loaded
+    /// window's first currents: the estimate's simulation computes only the
+    /// samples after them (a window slid by one keeps all but its newest:
+    /// one `asinh` a sample and update instead of one a sample and
+    /// simulation). Zero whenever `p` is set other than by an accepted
+    /// trial (whose `eta` comes with it).
+    kinetic_kept: u32,
     n: usize,
     warm: usize,
     /// The modes of the loaded window's past (with `warm > 0`).
@@ -356,7 +356,6 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
             trial_e: [T::ZERO; N],
             eta: [T::ZERO; N],
             trial_eta: [T::ZERO; N],
-            kinetic_of: None,
             kinetic_kept: 0,
             n: 0,
             warm: 0,
@@ -382,6 +381,7 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
         }
         self.w.set(p.alpha, s.h, s.memory)?;
         self.p = p;
+        self.kinetic_kept = 0;
         self.beta = T::zero();
         self.k = 0;
         self.lambda = T::lit(LAMBDA0);
@@ -429,6 +429,7 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
     pub fn resume(&mut self, s: &BatterySettings<T>, st: &RefinementState<T>) -> Result<(), Error> {
         self.w.set(st.p.alpha, s.h, s.memory)?;
         self.p = st.p;
+        self.kinetic_kept = 0;
         self.lambda = st.lambda;
         self.beta = st.beta;
         self.k = st.k;
@@ -555,16 +556,19 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
         }
         let key = win.version();
         if self.stamp != Some(key) || self.n != win.len() {
-            let kinetic = matches!(self.kinetic_of, Some((a, _)) if a != T::zero());
-            if kinetic && self.kinetic_kept > 0 {
+            if self.p.bv_a != T::zero() && self.kinetic_kept > 0 {
                 // The new currents into the trial buffer (free between
                 // iterations) first: the kinetic voltages of the old ones
                 // that the new window still holds are kept.
                 let old = self.n.min(N);
                 let n = win.copy_into(&mut self.trial, &mut self.v).min(N);
                 let pushed = self.stamp.map(|st| key.wrapping_sub(st) as usize);
-                let (dropped, kept) =
-                    kept_after_slide(&self.i[..old], &self.trial[..n], pushed, self.kinetic_kept);
+                let (dropped, kept) = kept_after_slide(
+                    &self.i[..old],
+                    &self.trial[..n],
+                    pushed,
+                    self.kinetic_kept as usize,
+                );
                 // (`dropped + kept ≤ old ≤ N`: the test lets the optimizer
                 // see it.)
                 let kept = if kept > 0 && kept <= N && dropped <= N - kept {
@@ -573,7 +577,7 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
                 } else {
                     0
                 };
-                self.kinetic_kept = kept;
+                self.kinetic_kept = kept as u32;
                 self.i[..n].copy_from_slice(&self.trial[..n]);
                 self.n = n;
             } else {
@@ -640,20 +644,11 @@ fn kept_after_slide<T: Real>(
     }
 }
 
-/// How many of the loaded window's first kinetic voltages (`eta`, of the
-/// term `of` for its first `kept` samples) a simulation of `p` over `n`
-/// samples keeps; then records that all `n` are `p`'s.
-pub(super) fn take_kinetic<T: Real>(
-    of: &mut Option<(T, T)>,
-    kept: &mut usize,
-    p: &CellParameters<T>,
-    n: usize,
-) -> usize {
-    let k = match *of {
-        Some(k) if k == (p.bv_a, p.bv_i0) => (*kept).min(n),
-        _ => 0,
-    };
-    *of = Some((p.bv_a, p.bv_i0));
-    *kept = n;
+/// How many of the loaded window's first kinetic voltages (`eta`, the
+/// estimate's for its first `kept` samples) a simulation of the estimate
+/// over `n` samples keeps; then records that all `n` are.
+pub(super) fn take_kinetic(kept: &mut u32, n: usize) -> usize {
+    let k = (*kept as usize).min(n);
+    *kept = u32::try_from(n).unwrap_or(u32::MAX);
     k
 }

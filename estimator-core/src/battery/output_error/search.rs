@@ -252,6 +252,7 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
             // term with i₀ at the window's RMS current.
             let rms = rms(&self.i[warm..n]).max(T::lit(1e-3));
             self.p = self.p.with_butler_volmer(rms);
+            self.kinetic_kept = 0;
             self.fresh = false;
         }
         let data = WindowData {
@@ -290,7 +291,7 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
             } else {
                 None
             };
-            let kept = take_kinetic(&mut self.kinetic_of, &mut self.kinetic_kept, &self.p, n);
+            let kept = take_kinetic(&mut self.kinetic_kept, n);
             let (cost, filled) = simulate_window_with_free(
                 &mut self.solver,
                 &self.w,
@@ -417,8 +418,7 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
                 core::mem::swap(&mut self.up, &mut self.trial);
                 core::mem::swap(&mut self.e, &mut self.trial_e);
                 core::mem::swap(&mut self.eta, &mut self.trial_eta);
-                self.kinetic_of = Some((trial.bv_a, trial.bv_i0));
-                self.kinetic_kept = n;
+                self.kinetic_kept = u32::try_from(n).unwrap_or(u32::MAX);
                 step.change = change;
                 self.p = trial;
                 self.beta = beta;

@@ -634,7 +634,8 @@ fn the_kinetic_voltages_of_a_window_are_the_cells() {
 /// The kinetic voltages a slid window keeps are the ones it would compute:
 /// after every iteration `eta` is `η(I)` of the estimate at every loaded
 /// sample, bit for bit, whether the window slid by one sample or several,
-/// was restarted, or the estimate was set anew; and a window slid by one
+/// was restarted, or the estimate was set anew (another term, the window
+/// slid by one); and a window slid by one
 /// keeps all but its newest sample's (computes one `asinh`). The record
 /// is the start's own simulation, so that most trials are rejected and
 /// `eta` is then the estimate's simulation's, made with the kept values.
@@ -674,6 +675,14 @@ fn the_kept_kinetic_voltages_are_the_windows() {
             win.clear();
             oe.set_cell(&s, truth).unwrap();
         }
+        if l == 2 * N - 20 {
+            // Another term on the same window slid by one: nothing kept.
+            let other = CellParameters {
+                bv_i0: 1.5,
+                ..truth
+            };
+            oe.set_cell(&s, other).unwrap();
+        }
         for k in l..(l + step).min(len) {
             win.push(current[k], v[k]).unwrap();
         }
@@ -681,7 +690,7 @@ fn the_kept_kinetic_voltages_are_the_windows() {
         let before = oe.kinetic_kept;
         if let Ok(r) = oe.iterate(&s, &win) {
             check(&oe, l);
-            if !r.accepted && step == 1 && win.has_slid() && before == N {
+            if !r.accepted && step == 1 && win.has_slid() && before as usize == N {
                 // Loaded again, all but the newest sample's kept, and the
                 // estimate's simulation (not a trial's) left in `eta`.
                 kept += 1;

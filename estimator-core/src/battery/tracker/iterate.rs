@@ -55,7 +55,8 @@ impl<T: Real, const N: usize> CellState<T, N> {
         // `Window::starts_at_rest`): a pulse in its first `memory − 1`
         // samples is fitted, not taken as the history of the rows after it.
         let len = usize::from(self.len);
-        let from_rest = self.refining && self.at_rest && self.pushed <= u64::from(self.len);
+        let from_rest =
+            self.refining && self.at_rest && !crate::window::Window::has_slid(&self.view(history));
         let warm = if from_rest {
             0
         } else {
