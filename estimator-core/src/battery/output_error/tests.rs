@@ -749,3 +749,60 @@ fn a_slide_keeps_what_both_windows_hold() {
     assert_eq!(kept_after_slide(&zeros, &[0.0, 1.0], Some(1), 2), (1, 1));
     assert_eq!(kept_after_slide(&zeros, &[-0.0, 1.0], Some(1), 2), (0, 0));
 }
+
+/// [`OutputErrorRefinement::accumulate`]: every sum of `JᵀJ` and `Jᵀr` is
+/// the columns' products added row by row in order, bit for bit, for both
+/// models, with the OCV slope's column and (its column zero) without it,
+/// where its sums are left at zero.
+#[test]
+fn the_normal_equations_are_the_columns_sums() {
+    fn check<T: Real>() {
+        const N: usize = 40;
+        let s = BatterySettings::<T>::new(T::one(), 8);
+        let mut oe =
+            OutputErrorRefinement::<T, N, 8>::new(&s, CellParameters::<T>::cell_18650()).unwrap();
+        oe.n = N;
+        oe.warm = 7;
+        // Arbitrary columns: column k's row l, and the residuals.
+        let value = |k: usize, l: usize| T::lit(((k * 37 + l * 11) % 23) as f64 / 7.0 - 1.3);
+        for slope in [true, false] {
+            for l in 0..N {
+                oe.s_ri[l] = value(0, l);
+                oe.s_rct[l] = value(1, l);
+                oe.s_q[l] = value(2, l);
+                oe.s_a[l] = value(3, l);
+                oe.s_uoc[l] = value(4, l);
+                oe.s_beta[l] = if slope { value(5, l) } else { T::zero() };
+                oe.s_bva[l] = value(6, l);
+                oe.s_bvi0[l] = value(7, l);
+                oe.trial[l] = value(8, l);
+            }
+            let cols: [&[T]; COLUMNS + 1] = [
+                &oe.s_ri, &oe.s_rct, &oe.s_q, &oe.s_a, &oe.s_uoc, &oe.s_beta, &oe.s_bva,
+                &oe.s_bvi0, &oe.trial,
+            ];
+            let sum = |x: usize, y: usize| {
+                (oe.warm..N).fold(T::zero(), |acc, l| acc + cols[x][l] * cols[y][l])
+            };
+            for kinetic in [true, false] {
+                let c = if kinetic { COLUMNS } else { LINEAR_COLUMNS };
+                let (a, b) = match (kinetic, slope) {
+                    (true, true) => oe.accumulate::<COLUMNS, true>(),
+                    (true, false) => oe.accumulate::<COLUMNS, false>(),
+                    (false, true) => oe.accumulate::<LINEAR_COLUMNS, true>(),
+                    (false, false) => oe.accumulate::<LINEAR_COLUMNS, false>(),
+                };
+                for (x, (row, &bx)) in a.iter().zip(&b).enumerate() {
+                    let want = if x < c { sum(x, COLUMNS) } else { T::zero() };
+                    assert_eq!(bx.bits(), want.bits(), "b[{x}], {kinetic} {slope}");
+                    for (y, &axy) in row.iter().enumerate() {
+                        let want = if x < c && y < c { sum(x, y) } else { T::zero() };
+                        assert_eq!(axy.bits(), want.bits(), "a[{x}][{y}], {kinetic} {slope}");
+                    }
+                }
+            }
+        }
+    }
+    check::<f32>();
+    check::<f64>();
+}
