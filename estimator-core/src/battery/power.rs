@@ -25,6 +25,7 @@
 use core::cell::Cell;
 
 use super::ocv::OcvModel;
+use super::simulate::cpe_filter;
 use super::CellParameters;
 use crate::frac::GlWeights;
 use crate::real::Real;
@@ -394,10 +395,39 @@ impl<'a, T: Real, const MEM: usize, const P: usize> PulsePredictor<'a, T, MEM, P
     /// G_k)` for `k = 1…steps`: `F_k` the polarization's free response
     /// from the history, `G_k` its response to a unit current from rest,
     /// so that a constant current `I` gives `U_p = F_k + I·G_k`.
+    ///
+    /// Up to `MEM` steps the responses run through the simulation's own
+    /// block recursion ([`cpe_filter`]: the far taps of four rows per pass
+    /// of the weights), the free one after its history, the step's from
+    /// rest; longer horizons in chunks of `MEM` (the sums in tap order).
     fn responses(&self, steps: usize, mut seen: impl FnMut(usize, T, T)) {
         let wts = self.w.weights();
         let m = wts.len().min(MEM);
         let a = self.p.tau() * self.w.scale();
+        if steps <= MEM && m > 0 {
+            // x: the free response after the `m − 1` samples of its
+            // history (oldest first, the last is now); y: the unit step's
+            // from rest (its history is zero: only its own taps count).
+            let warm = m - 1;
+            let (mut xb, mut y) = ([[T::zero(); MEM]; 2], [T::zero(); MEM]);
+            let (Some(x), Some(y)) = (
+                xb.as_flattened_mut().get_mut(..warm + steps),
+                y.get_mut(..steps),
+            ) else {
+                return;
+            };
+            for (xl, &p) in x.iter_mut().take(warm).rev().zip(&self.past) {
+                *xl = p;
+            }
+            let w = wts.get(..m).unwrap_or_default();
+            cpe_filter(w, a, warm, x, |_| T::zero(), |_, _, _| {});
+            let r_ct = self.p.r_ct;
+            cpe_filter(w, a, 0, y, |_| r_ct, |_, _, _| {});
+            for (k, (&f, &g)) in x.iter().skip(warm).zip(y.iter()).enumerate() {
+                seen(k + 1, f, g);
+            }
+            return;
+        }
         let inv = T::one() / (T::one() + a);
         // The values in chunks of `MEM`: `fresh[i]` the chunk's `i`-th,
         // `past[i]` the value `i + 1` samples before the chunk's first (no
@@ -567,6 +597,7 @@ impl<'a, T: Real, const MEM: usize, const P: usize> PulsePredictor<'a, T, MEM, P
             o.sop.steps = k as usize;
         }
         let longest = horizons.iter().copied().max().unwrap_or(0) as usize;
+        let sure = T::lit(SURE_V);
         let (mut d, mut c) = (cap, cap);
         // The OCV table's segment of the last lookup: the next starts there.
         let segment = Cell::new(0);
@@ -611,16 +642,31 @@ impl<'a, T: Real, const MEM: usize, const P: usize> PulsePredictor<'a, T, MEM, P
                 d = largest(d, limits.voltage_min, |x| discharge(x, end, fe, ge));
                 c = largest(c, limits.voltage_max, |x| charge(x, end, fe, ge));
                 // The checks at the bounds found so far: their static
-                // voltages once for every sample they pass.
+                // voltages once for every sample they pass. A sample whose
+                // polarization at the bound is `SURE` nearer the limit's
+                // side at the end than there passes without its voltage:
+                // the end passes, and its open-circuit voltage, after more
+                // charge, is no nearer the other limit (the table is
+                // monotone).
                 let (mut sd, mut sc) = (self.p.static_voltage(-d), self.p.static_voltage(c));
                 for k in checked + 1..end {
                     let (f, g) = at(k);
-                    if self.voltage_with(-d, sd, k, f, g, &segment) - limits.voltage_min < T::zero()
+                    let (df, dg) = (f - fe, g - ge);
+                    let d_sure = df - d * dg >= sure;
+                    let c_sure = df + c * dg <= -sure;
+                    if d_sure && c_sure {
+                        continue;
+                    }
+                    if !d_sure
+                        && self.voltage_with(-d, sd, k, f, g, &segment) - limits.voltage_min
+                            < T::zero()
                     {
                         d = largest(d, limits.voltage_min, |x| discharge(x, k, f, g));
                         sd = self.p.static_voltage(-d);
                     }
-                    if limits.voltage_max - self.voltage_with(c, sc, k, f, g, &segment) < T::zero()
+                    if !c_sure
+                        && limits.voltage_max - self.voltage_with(c, sc, k, f, g, &segment)
+                            < T::zero()
                     {
                         c = largest(c, limits.voltage_max, |x| charge(x, k, f, g));
                         sc = self.p.static_voltage(c);
@@ -649,6 +695,12 @@ impl<'a, T: Real, const MEM: usize, const P: usize> PulsePredictor<'a, T, MEM, P
         out
     }
 }
+
+/// A margin (V) beyond any rounding of a predicted voltage (a few `f32`
+/// ulp of a cell's voltage): a sample whose voltage is known from the
+/// horizon's end to be at least this far inside the limits passes
+/// unchecked.
+const SURE_V: f64 = 1e-5;
 
 /// Iterations of a limit current's root at most.
 const ROOT_ITERATIONS: usize = 60;

@@ -220,3 +220,63 @@ fn one_pass_answers_every_horizon_as_each_alone() {
         }
     }
 }
+
+/// A sample before the horizon's end can be the one that binds: a cell
+/// relaxing from a deep discharge polarization has its lowest voltage
+/// under a small current at the pulse's first sample, not its last.
+/// Every sample is checked (the end's answer alone would cross the limit
+/// there), linear and with the Butler–Volmer term, and the answer is the
+/// bisection's on "every sample within the limits".
+#[test]
+fn a_sample_before_the_end_can_bind() {
+    let m = table();
+    for bv in [false, true] {
+        let mut p = CellParameters::<f64>::cell_18650();
+        if bv {
+            p = p.with_butler_volmer(2.0);
+        }
+        let w = GlWeights::<f64, 64>::new(p.alpha, 1.0, 64).unwrap();
+        let q = CellParameters { u_oc: 0.0, ..p };
+        // 120 mV of discharge polarization (−100 mV for charge), relaxing.
+        for (history, margin) in [(-0.12f64, -0.004f64), (0.10, 0.004)] {
+            let pred = PulsePredictor::new(&q, &w, &[history; 100], Some((&m, 0.5))).unwrap();
+            let first = pred.pulse_voltage(0.0, 1);
+            // 4 mV from the first sample's voltage at rest on the side
+            // that binds, a volt on the other.
+            let limits = PowerLimits {
+                voltage_min: first + if margin < 0.0 { margin } else { -1.0 },
+                voltage_max: first + if margin > 0.0 { margin } else { 1.0 },
+                current_limit: 100.0,
+            };
+            let k = 30;
+            let sop = pred.state_of_power(&limits, k);
+            // Discharge (a current drawn, the lower limit) or charge.
+            let discharge = margin < 0.0;
+            let x = if discharge {
+                sop.discharge_a
+            } else {
+                sop.charge_a
+            };
+            let within = |x: f64, j: usize| {
+                let v = pred.pulse_voltage(if discharge { -x } else { x }, j);
+                if discharge {
+                    v >= limits.voltage_min
+                } else {
+                    v <= limits.voltage_max
+                }
+            };
+            let at_end = |x: f64| within(x, k);
+            let all = |x: f64| (1..=k).all(|j| within(x, j));
+            let (end_only, every) = (bisect(100.0, at_end), bisect(100.0, all));
+            assert!(
+                end_only > 1.5 * every,
+                "bv {bv} {history}: the end alone allows {end_only} A, every sample {every} A"
+            );
+            assert!(
+                (x - every).abs() <= 1e-7,
+                "bv {bv} {history}: {x} vs {every}"
+            );
+            assert!(all(x), "bv {bv} {history}: {x} crosses");
+        }
+    }
+}
