@@ -90,7 +90,7 @@ pub fn root_f32(x: f32) -> f32 {
 /// let y = estimator_core::real::asinh_f32(0.5);
 /// assert!((y - 0.481_211_8).abs() < 1e-6);
 /// ```
-#[inline]
+#[inline(always)]
 pub fn asinh_f32(x: f32) -> f32 {
     /// `asinh(t)/t ≈ Σ_k P[k]·t^(2k)` on `0 ≤ t ≤ 1`.
     const P: [f32; 9] = [
@@ -203,7 +203,7 @@ impl Real for f32 {
     fn root(self) -> Self {
         root_f32(self)
     }
-    #[inline]
+    #[inline(always)]
     fn arsinh(self) -> Self {
         asinh_f32(self)
     }
