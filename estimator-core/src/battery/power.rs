@@ -27,7 +27,7 @@ use core::cell::Cell;
 use super::ocv::OcvModel;
 use super::simulate::cpe_filter;
 use super::CellParameters;
-use crate::frac::GlWeights;
+use crate::frac::{GlWeights, ROW_BLOCK};
 use crate::real::Real;
 
 /// The voltage and current limits the state of power keeps to.
@@ -408,12 +408,15 @@ impl<'a, T: Real, const MEM: usize, const P: usize> PulsePredictor<'a, T, MEM, P
             // x: the free response after the `m − 1` samples of its
             // history (oldest first, the last is now); y: the unit step's
             // from rest (its history is zero: only its own taps count).
+            // Both run to whole blocks (as far as their room goes), so
+            // that every row is summed alike whatever the length asked: a
+            // pulse's prediction does not depend on the other horizons.
             let warm = m - 1;
-            let (mut xb, mut y) = ([[T::zero(); MEM]; 2], [T::zero(); MEM]);
-            let (Some(x), Some(y)) = (
-                xb.as_flattened_mut().get_mut(..warm + steps),
-                y.get_mut(..steps),
-            ) else {
+            let rows = steps.div_ceil(ROW_BLOCK) * ROW_BLOCK;
+            let (mut xb, mut yb) = ([[T::zero(); MEM]; 2], [[T::zero(); MEM]; 2]);
+            let (xs, ys) = (xb.as_flattened_mut(), yb.as_flattened_mut());
+            let (nx, ny) = ((warm + rows).min(xs.len()), rows.min(ys.len()));
+            let (Some(x), Some(y)) = (xs.get_mut(..nx), ys.get_mut(..ny)) else {
                 return;
             };
             for (xl, &p) in x.iter_mut().take(warm).rev().zip(&self.past) {
@@ -423,7 +426,8 @@ impl<'a, T: Real, const MEM: usize, const P: usize> PulsePredictor<'a, T, MEM, P
             cpe_filter(w, a, warm, x, |_| T::zero(), |_, _, _| {});
             let r_ct = self.p.r_ct;
             cpe_filter(w, a, 0, y, |_| r_ct, |_, _, _| {});
-            for (k, (&f, &g)) in x.iter().skip(warm).zip(y.iter()).enumerate() {
+            let rows = x.iter().skip(warm).zip(y.iter()).take(steps);
+            for (k, (&f, &g)) in rows.enumerate() {
                 seen(k + 1, f, g);
             }
             return;
@@ -642,12 +646,13 @@ impl<'a, T: Real, const MEM: usize, const P: usize> PulsePredictor<'a, T, MEM, P
                 d = largest(d, limits.voltage_min, |x| discharge(x, end, fe, ge));
                 c = largest(c, limits.voltage_max, |x| charge(x, end, fe, ge));
                 // The checks at the bounds found so far: their static
-                // voltages once for every sample they pass. A sample whose
-                // polarization at the bound is `SURE` nearer the limit's
-                // side at the end than there passes without its voltage:
-                // the end passes, and its open-circuit voltage, after more
-                // charge, is no nearer the other limit (the table is
-                // monotone).
+                // voltages once for every sample they pass. A sample passes
+                // without its voltage when its polarization at the bound
+                // (free and forced) is at least `SURE_V` farther inside the
+                // limit than the end's: the end passes, the static voltage
+                // is the same at every sample, and the open-circuit voltage
+                // there, with less charge moved, is no nearer the limit
+                // (the table is monotone).
                 let (mut sd, mut sc) = (self.p.static_voltage(-d), self.p.static_voltage(c));
                 for k in checked + 1..end {
                     let (f, g) = at(k);

@@ -280,3 +280,30 @@ fn a_sample_before_the_end_can_bind() {
         }
     }
 }
+
+/// The responses' rows are the same to the bit at every length asked (a
+/// pulse's prediction does not depend on what else is asked with it):
+/// every row is summed by the block recursion alike, up to the memory.
+#[test]
+fn the_responses_do_not_depend_on_the_length_asked() {
+    for alpha in [0.55, 0.85] {
+        let p = CellParameters::<f64> {
+            alpha,
+            ..CellParameters::cell_18650()
+        };
+        let w = GlWeights::<f64, 64>::new(p.alpha, 1.0, 64).unwrap();
+        let (_, up) = truth(&p, 200, 0.0, 1, true);
+        let pred = PulsePredictor::<f64, 64, 2>::new(&p, &w, &up[..200], None).unwrap();
+        let mut all = vec![];
+        pred.responses(64, |_, f, g| all.push((f.to_bits(), g.to_bits())));
+        assert_eq!(all.len(), 64);
+        for steps in 1..64 {
+            let mut some = vec![];
+            pred.responses(steps, |k, f, g| {
+                assert_eq!(k, some.len() + 1);
+                some.push((f.to_bits(), g.to_bits()));
+            });
+            assert_eq!(some[..], all[..steps], "alpha {alpha}, {steps} steps");
+        }
+    }
+}
