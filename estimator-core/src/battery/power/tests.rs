@@ -41,17 +41,24 @@ fn truth(p: &CellParameters<f64>, at: usize, i: f64, k: usize, ocv: bool) -> (f6
     (v[at + k - 1], up)
 }
 
+/// The 18650 cell, linear or with a Butler–Volmer term, and its weights
+/// (memory 64, 1 s).
+fn cell(bv: bool) -> (CellParameters<f64>, GlWeights<f64, 64>) {
+    let mut p = CellParameters::<f64>::cell_18650();
+    if bv {
+        p = p.with_butler_volmer(2.0);
+    }
+    let w = GlWeights::<f64, 64>::new(p.alpha, 1.0, 64).unwrap();
+    (p, w)
+}
+
 /// The prediction is the simulator's continuation, to rounding: with
 /// and without an OCV curve, linear and with the Butler–Volmer term.
 #[test]
 fn a_predicted_pulse_is_the_models_continuation() {
     let m = table();
     for bv in [false, true] {
-        let mut p = CellParameters::<f64>::cell_18650();
-        if bv {
-            p = p.with_butler_volmer(2.0);
-        }
-        let w = GlWeights::<f64, 64>::new(p.alpha, 1.0, 64).unwrap();
+        let (p, w) = cell(bv);
         // 150 samples: longer than the memory (the recursion's chunks).
         for (ocv, k) in [(false, 30), (true, 30), (true, 150)] {
             let (at, i) = (200, -5.0);
@@ -168,11 +175,7 @@ fn bisect(bound: f64, passes: impl Fn(f64) -> bool) -> f64 {
 fn one_pass_answers_every_horizon_as_each_alone() {
     let m = table();
     for bv in [false, true] {
-        let mut p = CellParameters::<f64>::cell_18650();
-        if bv {
-            p = p.with_butler_volmer(2.0);
-        }
-        let w = GlWeights::<f64, 64>::new(p.alpha, 1.0, 64).unwrap();
+        let (p, w) = cell(bv);
         let (_, up) = truth(&p, 200, 0.0, 1, true);
         let q = CellParameters { u_oc: 0.0, ..p };
         let pred = PulsePredictor::new(&q, &w, &up[..200], Some((&m, 0.7))).unwrap();
@@ -231,11 +234,7 @@ fn one_pass_answers_every_horizon_as_each_alone() {
 fn a_sample_before_the_end_can_bind() {
     let m = table();
     for bv in [false, true] {
-        let mut p = CellParameters::<f64>::cell_18650();
-        if bv {
-            p = p.with_butler_volmer(2.0);
-        }
-        let w = GlWeights::<f64, 64>::new(p.alpha, 1.0, 64).unwrap();
+        let (p, w) = cell(bv);
         let q = CellParameters { u_oc: 0.0, ..p };
         // 120 mV of discharge polarization (−100 mV for charge), relaxing.
         for (history, margin) in [(-0.12f64, -0.004f64), (0.10, 0.004)] {
