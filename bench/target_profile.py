@@ -14,7 +14,11 @@ other bounds). The trace goes through a pipe, not a file (about 3 GB for
 Prints the instructions of each function per refining update (the count
 `bench-target` reports), the share of the whole run, and with `--calls
 NAME` the calls per refining update of the first function whose symbol
-holds NAME (executions of its entry block). The whole run includes the
+holds NAME (executions of its entry block); with `--lines N`, the N
+source lines with the most instructions per refining update (each
+instruction's executions mapped to its line, the innermost inlined frame,
+by `arm-none-eabi-addr2line`; `--depth` names the functions it was
+inlined into). The whole run includes the
 paper method's start-up and the firmware's own work (stack painting,
 logging), which `bench-target`'s per-update clock does not count.
 
@@ -65,7 +69,7 @@ def profile(trace):
     blocks = {}
     runs = collections.Counter()
     pending = None
-    sym, first, count = None, None, 0
+    sym, first, count, addrs = None, None, 0, []
     for line in trace:
         if line.startswith(b"Trace"):
             host = line.split()[2]
@@ -74,20 +78,63 @@ def profile(trace):
                 pending = None
             runs[host] += 1
         elif line.startswith(b"IN:"):
-            sym, first, count = line[3:].strip().decode(), None, 0
+            sym, first, count, addrs = line[3:].strip().decode(), None, 0, []
         elif line.startswith(b"0x"):
+            pc = int(line[:10], 16)
             if first is None:
-                first = int(line[:10], 16)
+                first = pc
             count += 1
-            pending = (sym, first, count)
+            addrs.append(pc)
+            pending = (sym, first, count, addrs)
     per_symbol = collections.Counter()
     entries = collections.Counter()
+    per_address = collections.Counter()
     for host, n in runs.items():
         if host in blocks:
-            s, pc, k = blocks[host]
+            s, pc, k, addrs = blocks[host]
             per_symbol[s] += n * k
             entries[(s, pc)] += n
-    return per_symbol, entries
+            for x in addrs:
+                per_address[x] += n
+    return per_symbol, entries, per_address
+
+
+def print_lines(per_address, refining, top, depth=3):
+    """The instructions per refining update of each source line, and the
+    chain of functions it was inlined into (innermost first)."""
+    addrs = sorted(per_address)
+    per_line = collections.Counter()
+    chains = {}
+    batch = 2000
+    for k in range(0, len(addrs), batch):
+        part = addrs[k:k + batch]
+        text = subprocess.run(["arm-none-eabi-addr2line", "-a", "-f", "-i", "-e", ELF]
+                              + [hex(x) for x in part], capture_output=True,
+                              text=True).stdout.splitlines()
+        frames, cur = {}, None
+        for line in text:
+            if re.match(r"^0x[0-9a-f]+$", line):
+                cur = int(line, 16)
+                frames[cur] = []
+            elif cur is not None:
+                frames[cur].append(line)
+        for x in part:
+            f = frames.get(x, [])
+            pairs = list(zip(f[0::2], f[1::2]))
+            if not pairs:
+                continue
+            func, loc = pairs[0]
+            loc = re.sub(r" \(discriminator \d+\)", "", loc)
+            loc = re.sub(r"^.*/(estimator-core|firmware)/src/", r"\1/", loc)
+            loc = re.sub(r"^.*/library/", "std/", loc)
+            key = loc
+            per_line[key] += per_address[x]
+            chain = " < ".join(demangle(fn).split("::")[-1] for fn, _ in pairs[1:depth + 1])
+            chains.setdefault(key, collections.Counter())[chain] += per_address[x]
+    print(f"{'per refining update':>20}  source line (inlined into)")
+    for key, n in per_line.most_common(top):
+        chain = chains[key].most_common(1)[0][0]
+        print(f"{n / refining:>20,.0f}  {key}  < {chain[:200]}")
 
 
 def main():
@@ -99,6 +146,11 @@ def main():
     ap.add_argument("--capacity-ah")
     ap.add_argument("--top", type=int, default=16)
     ap.add_argument("--calls", metavar="NAME", help="also count the calls of this function")
+    ap.add_argument("--lines", type=int, metavar="N",
+                    help="also the N source lines (innermost inlined frame, by "
+                         "arm-none-eabi-addr2line) with the most instructions per update")
+    ap.add_argument("--depth", type=int, default=3,
+                    help="with --lines, how many enclosing functions to name (default 3)")
     ap.add_argument("--out", default="target/profile")
     a = ap.parse_args()
     os.makedirs(a.out, exist_ok=True)
@@ -137,13 +189,15 @@ def main():
                         "-d", "in_asm,exec,nochain", "-D", fifo, "-kernel", ELF],
                        stdout=subprocess.DEVNULL, check=True)
         reader.join()
-    per_symbol, entries = result["p"]
+    per_symbol, entries, per_address = result["p"]
     total = sum(per_symbol.values())
     print(f"{a.input}, first {a.rows} rows, {a.model}: {refining} refining updates, "
           f"bench-target median {median.group(1) if median else '?'} instructions per update")
     print(f"{'per refining update':>20}  {'share':>6}  function")
     for s, n in per_symbol.most_common(a.top):
         print(f"{n / refining:>20,.0f}  {100 * n / total:>5.1f}%  {demangle(s)[:110]}")
+    if a.lines:
+        print_lines(per_address, refining, a.lines, a.depth)
     if a.calls:
         hits = {(s, pc): n for (s, pc), n in entries.items() if a.calls in s}
         if not hits:
