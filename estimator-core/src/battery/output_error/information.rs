@@ -32,19 +32,21 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
             tail: tail_context(s, self.past.as_ref()),
         };
         let cost = if self.fresh {
-            window_cost(&data, &self.p, self.beta, &self.eta[..n], &self.up[..n])
+            let sim = &self.sims[self.est()];
+            window_cost(&data, &self.p, self.beta, &sim.eta[..n], &sim.up[..n])
         } else {
             self.stalled = None;
             let kept = take_kinetic(&mut self.kinetic_kept, n);
+            let sim = &mut self.sims[usize::from(self.held & 1)];
             simulate_window_with_free(
                 &mut self.solver,
                 &self.w,
                 &data,
                 &self.p,
                 self.beta,
-                &mut self.up[..n],
-                &mut self.e[..n],
-                &mut self.eta[..n],
+                &mut sim.up[..n],
+                &mut sim.e[..n],
+                &mut sim.eta[..n],
                 kept,
                 None,
             )
@@ -100,7 +102,7 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
     /// for fewer than two rows or zero residuals).
     pub(super) fn residual_lag1(&self) -> T {
         let n = self.n.min(N);
-        let r = &self.trial[self.warm.min(n)..n];
+        let r = &self.sims[self.spare()].up[self.warm.min(n)..n];
         let (mut num, mut den) = (T::zero(), T::zero());
         let mut previous = None;
         for &x in r {

@@ -236,8 +236,10 @@ pub struct OutputErrorRefinement<T, const N: usize, const MEM: usize, K = GlRecu
     w: GlWeights<T, MEM>,
     i: [T; N],
     v: [T; N],
-    up: [T; N],
-    e: [T; N],
+    /// The simulations of the estimate and of the trial (or scratch):
+    /// `sims[held]` is the estimate's ([`Simulation`]). Accepting a trial
+    /// flips `held` instead of copying three buffers.
+    sims: [Simulation<T, N>; 2],
     s_rct: [T; N],
     s_q: [T; N],
     s_a: [T; N],
@@ -253,26 +255,22 @@ pub struct OutputErrorRefinement<T, const N: usize, const MEM: usize, K = GlRecu
     /// OCV slope dU_oc/dq inside the window (V/(A·s)); U_oc is the value at
     /// the newest sample.
     beta: T,
-    trial: [T; N],
-    /// `E` of the trial simulation.
-    trial_e: [T; N],
-    /// The kinetic voltage `η(I(l))` of `p` (with `up`), and of the trial.
-    eta: [T; N],
-    trial_eta: [T; N],
-    /// `eta[..kinetic_kept]` is the kinetic voltage of `p` at the loaded
+    /// `eta[..kinetic_kept]` of the estimate's simulation is the kinetic voltage of `p` at the loaded
     /// window's first currents: the estimate's simulation computes only the
     /// samples after them (a window slid by one keeps all but its newest:
     /// one `asinh` a sample and update instead of one a sample and
     /// simulation). Zero whenever `p` is set other than by an accepted
-    /// trial (whose `eta` comes with it).
+    /// trial (whose simulation, `eta` with it, becomes the estimate's).
     kinetic_kept: u32,
     n: usize,
     warm: usize,
     /// The modes of the loaded window's past (with `warm > 0`).
     past: Option<PastModes<T>>,
     stamp: Option<u32>,
-    /// `up` (and `e`, `eta`) hold the simulation of `p`, β over the loaded
-    /// window.
+    /// Which of `sims` is the estimate's (0 or 1; the other is the
+    /// trial's, and scratch between iterations).
+    held: u8,
+    /// `sims[held]` holds the simulation of `p`, β over the loaded window.
     fresh: bool,
     /// The settings (their [`BatterySettings::fingerprint`]) of the last
     /// iteration when it found no lower cost on the loaded window from the
@@ -289,6 +287,38 @@ pub struct OutputErrorRefinement<T, const N: usize, const MEM: usize, K = GlRecu
     /// ([`Self::set_r_i_evidence`]).
     evidence: Option<T>,
     work: RefinementWork,
+}
+
+/// One simulation of the window: the polarization `U_p`, the history
+/// sums `E(l) = U_p(l) + H(l)` the sensitivities' drives read, and the
+/// kinetic voltages `η(I(l))` of its parameters.
+#[derive(Clone, Debug)]
+struct Simulation<T, const N: usize> {
+    up: [T; N],
+    e: [T; N],
+    eta: [T; N],
+}
+
+impl<T: Real, const N: usize> Simulation<T, N> {
+    const ZERO: Self = Self {
+        up: [T::ZERO; N],
+        e: [T::ZERO; N],
+        eta: [T::ZERO; N],
+    };
+}
+
+/// The estimate's simulation and the other one (the trial's, or scratch),
+/// borrowed apart.
+fn estimate_and_spare<T, const N: usize>(
+    sims: &mut [Simulation<T, N>; 2],
+    held: u8,
+) -> (&Simulation<T, N>, &mut Simulation<T, N>) {
+    let [a, b] = sims;
+    if held & 1 == 0 {
+        (a, b)
+    } else {
+        (b, a)
+    }
 }
 
 /// The weight of [`OutputErrorRefinement::set_r_i_evidence`]'s term
@@ -340,8 +370,7 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
             w: GlWeights::new(start.alpha, s.h, s.memory)?,
             i: [T::ZERO; N],
             v: [T::ZERO; N],
-            up: [T::ZERO; N],
-            e: [T::ZERO; N],
+            sims: [Simulation::ZERO, Simulation::ZERO],
             s_rct: [T::ZERO; N],
             s_q: [T::ZERO; N],
             s_a: [T::ZERO; N],
@@ -352,15 +381,12 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
             s_bvi0: [T::ZERO; N],
             c: [T::ZERO; N],
             beta: T::ZERO,
-            trial: [T::ZERO; N],
-            trial_e: [T::ZERO; N],
-            eta: [T::ZERO; N],
-            trial_eta: [T::ZERO; N],
             kinetic_kept: 0,
             n: 0,
             warm: 0,
             past: None,
             stamp: None,
+            held: 0,
             fresh: false,
             stalled: None,
             linear: None,
@@ -467,7 +493,7 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
     /// the loaded window (after an iteration), and the index of the first
     /// fitted sample.
     pub fn polarization(&self) -> (&[T], usize) {
-        (&self.up[..self.n], self.warm)
+        (&self.sims[self.est()].up[..self.n], self.warm)
     }
 
     /// The estimate and its simulated polarization over the loaded window
@@ -476,7 +502,8 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
     /// iteration left them in step; `None` otherwise.
     pub fn simulated(&self) -> Option<(CellParameters<T>, &[T], u32)> {
         let stamp = self.stamp?;
-        (self.fresh && self.n > 0 && self.n <= N).then(|| (self.p, &self.up[..self.n], stamp))
+        (self.fresh && self.n > 0 && self.n <= N)
+            .then(|| (self.p, &self.sims[self.est()].up[..self.n], stamp))
     }
 
     /// The information of the last iteration's normal equations on the
@@ -543,10 +570,27 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
             return None;
         }
         // U_p(n) from U_p(0..n).
-        let h = history(self.w.weights(), &self.up[..self.n], self.n);
+        let h = history(
+            self.w.weights(),
+            &self.sims[self.est()].up[..self.n],
+            self.n,
+        );
         let a = self.p.tau() * self.w.scale();
         let up = (self.p.r_ct * current - a * h) / (T::one() + a);
         Some(self.p.u_oc + self.p.static_voltage(current) + up)
+    }
+
+    /// The index in `sims` of the estimate's simulation.
+    #[inline(always)]
+    fn est(&self) -> usize {
+        usize::from(self.held & 1)
+    }
+
+    /// The index in `sims` of the other simulation (the trial's, or
+    /// scratch).
+    #[inline(always)]
+    fn spare(&self) -> usize {
+        1 - self.est()
     }
 
     fn load(&mut self, s: &BatterySettings<T>, win: &impl Window<T>) -> Result<(), Error> {
@@ -561,24 +605,25 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
                 // iterations) first: the kinetic voltages of the old ones
                 // that the new window still holds are kept.
                 let old = self.n.min(N);
-                let n = win.copy_into(&mut self.trial, &mut self.v).min(N);
+                let (es, ts) = (self.est(), self.spare());
+                let n = win.copy_into(&mut self.sims[ts].up, &mut self.v).min(N);
                 let pushed = self.stamp.map(|st| key.wrapping_sub(st) as usize);
                 let (dropped, kept) = kept_after_slide(
                     &self.i[..old],
-                    &self.trial[..n],
+                    &self.sims[ts].up[..n],
                     pushed,
                     self.kinetic_kept as usize,
                 );
                 // (`dropped + kept ≤ old ≤ N`: the test lets the optimizer
                 // see it.)
                 let kept = if kept > 0 && kept <= N && dropped <= N - kept {
-                    self.eta.copy_within(dropped..dropped + kept, 0);
+                    self.sims[es].eta.copy_within(dropped..dropped + kept, 0);
                     kept
                 } else {
                     0
                 };
                 self.kinetic_kept = kept as u32;
-                self.i[..n].copy_from_slice(&self.trial[..n]);
+                self.i[..n].copy_from_slice(&self.sims[ts].up[..n]);
                 self.n = n;
             } else {
                 // (The linear model's kinetic voltages are zeros, written

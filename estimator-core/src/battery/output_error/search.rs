@@ -263,7 +263,7 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
             tail: tail_context(s, self.past.as_ref()),
         };
         // The last iteration on this window left the simulation of the
-        // estimate in `up` (its accepted trial, or the kept estimate's).
+        // estimate in its `sims` slot (its accepted trial, or the kept estimate's).
         let evidence = self.evidence;
         let prior_cost = |p: &CellParameters<T>| {
             s.prior.map_or(T::zero(), |pr| pr.cost(p, s)) + Self::evidence_cost(evidence, p)
@@ -273,7 +273,8 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
         // iteration only, so it cannot outlive the simulation it came with.
         let mut uoc_done = false;
         let data0 = if self.fresh {
-            window_cost(&data, &self.p, self.beta, &self.eta[..n], &self.up[..n])
+            let sim = &self.sims[self.est()];
+            window_cost(&data, &self.p, self.beta, &sim.eta[..n], &sim.up[..n])
         } else {
             self.stalled = None;
             self.linear = None;
@@ -292,15 +293,16 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
                 None
             };
             let kept = take_kinetic(&mut self.kinetic_kept, n);
+            let sim = &mut self.sims[usize::from(self.held & 1)];
             let (cost, filled) = simulate_window_with_free(
                 &mut self.solver,
                 &self.w,
                 &data,
                 &self.p,
                 self.beta,
-                &mut self.up[..n],
-                &mut self.e[..n],
-                &mut self.eta[..n],
+                &mut sim.up[..n],
+                &mut sim.e[..n],
+                &mut sim.eta[..n],
                 kept,
                 free,
             );
@@ -332,16 +334,11 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
             // minimum (to the cost's resolution) and the O(N·M) pass is
             // not needed. Anything else falls through to the exact step.
             let mut b = [T::zero(); COLUMNS];
+            let sim = &self.sims[self.est()];
             for l in warm..n {
                 let j = self.jacobian_row(s, l);
                 let r = residual(
-                    self.v[l],
-                    &self.p,
-                    self.beta,
-                    self.c[l],
-                    self.i[l],
-                    self.eta[l],
-                    self.up[l],
+                    self.v[l], &self.p, self.beta, self.c[l], self.i[l], sim.eta[l], sim.up[l],
                 );
                 for (bb, ja) in b.iter_mut().zip(j) {
                     *bb = *bb + ja * r;
@@ -403,21 +400,21 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
             };
             self.work.simulations = self.work.simulations.wrapping_add(1);
             self.work.trials = self.work.trials.wrapping_add(1);
+            let trial_sim = &mut self.sims[usize::from(!self.held & 1)];
             let c = simulate_window(
                 &mut self.solver,
                 &self.w,
                 &data,
                 &trial,
                 beta,
-                &mut self.trial[..n],
-                &mut self.trial_e[..n],
-                &mut self.trial_eta[..n],
+                &mut trial_sim.up[..n],
+                &mut trial_sim.e[..n],
+                &mut trial_sim.eta[..n],
             );
             let c = c + prior_cost(&trial);
             if c.is_finite() && c < cost0 {
-                core::mem::swap(&mut self.up, &mut self.trial);
-                core::mem::swap(&mut self.e, &mut self.trial_e);
-                core::mem::swap(&mut self.eta, &mut self.trial_eta);
+                // The trial's simulation is now the estimate's.
+                self.held ^= 1;
                 self.kinetic_kept = u32::try_from(n).unwrap_or(u32::MAX);
                 step.change = change;
                 self.p = trial;

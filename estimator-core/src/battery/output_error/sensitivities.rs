@@ -56,7 +56,7 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
     OutputErrorRefinement<T, N, MEM, K>
 {
     /// The sensitivities of `U_p` to every parameter, for the simulation
-    /// held in `up` and `e`; with `tail`, of the model with the taps beyond
+    /// held in the estimate's [`Simulation`]; with `tail`, of the model with the taps beyond
     /// the memory ([`BatterySettings::tail`]).
     /// With `uoc_done`, `s_uoc` already holds the free response from the
     /// history `−1` at this estimate's weights and `a` ([`Self::iterate`]
@@ -104,9 +104,10 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
         // into the trial buffer, free until the step search; with the tail,
         // its weights' derivatives too: h^(−α)·Σ_k ∂C_k/∂α·Z_k(l − M) over
         // the simulation.
-        let dup = &mut self.trial;
+        let (est, spare) = estimate_and_spare(&mut self.sims, self.held);
+        let dup = &mut spare.up;
         self.solver
-            .weight_derivative(&self.w, &self.up[..n], warm..n, |l, d| {
+            .weight_derivative(&self.w, &est.up[..n], warm..n, |l, d| {
                 if let Some(x) = dup.get_mut(l) {
                     *x = d;
                 }
@@ -115,7 +116,7 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
             let mut z = z_up;
             for (l, dl) in dup.iter_mut().enumerate().take(n).skip(warm) {
                 // The sample leaving the memory, when there is one.
-                if let Some(&x) = l.checked_sub(memory).and_then(|k| self.up.get(k)) {
+                if let Some(&x) = l.checked_sub(memory).and_then(|k| est.up.get(k)) {
                     for (zk, &r) in z.iter_mut().zip(&t.rates) {
                         *zk = r * *zk + x;
                     }
@@ -124,7 +125,7 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
                 *dl = *dl + g * d;
             }
         }
-        let (i, e, dup) = (&self.i, &self.e, &self.trial);
+        let (i, e, dup) = (&self.i, &est.e, &spare.up);
         for x in [
             &mut self.s_rct,
             &mut self.s_q,
@@ -203,7 +204,7 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
                 .iter_mut()
                 .zip(&mut self.s_bvi0[..warm])
                 .zip(&i[..warm])
-                .zip(&self.eta[..warm])
+                .zip(&est.eta[..warm])
             {
                 let (da, di) = kinetic_derivatives(&p, il, eta);
                 *sa = -da;
@@ -297,7 +298,7 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
     }
 
     /// Turns the sensitivities, taken at the estimate `p` (whose
-    /// simulation `up`, `eta` hold), into the columns of the Jacobian of
+    /// [`Simulation`] holds), into the columns of the Jacobian of
     /// the simulated voltage `Û_t(l)` with respect to
     /// `x = [ln R_i, ln R_ct, ln Q, α, U_oc, β, ln a, ln i₀]`, in place
     /// (zero columns for what the settings keep fixed; the kinetic columns
@@ -334,7 +335,8 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
         } else {
             self.s_beta[r.clone()].fill(T::zero());
         }
-        let eta = &self.eta[r.clone()];
+        let (est, spare) = estimate_and_spare(&mut self.sims, self.held);
+        let eta = &est.eta[r.clone()];
         if s.model == CellModel::ButlerVolmer {
             for (((sa, si), &il), &el) in self.s_bva[r.clone()]
                 .iter_mut()
@@ -349,7 +351,7 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
         }
         let rows = self.v[r.clone()].iter().zip(c).zip(i).zip(eta);
         for ((x, &up), (((&v, &cl), &il), &el)) in
-            self.trial[r.clone()].iter_mut().zip(&self.up[r]).zip(rows)
+            spare.up[r.clone()].iter_mut().zip(&est.up[r]).zip(rows)
         {
             *x = residual(v, &p, self.beta, cl, il, el, up);
         }
@@ -375,7 +377,7 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
         ]
     }
 
-    /// New sensitivities at the estimate (whose simulation `up` holds), the
+    /// New sensitivities at the estimate (whose [`Simulation`] is held), the
     /// Jacobian's columns from them, and the data's normal equations
     /// `JᵀJ`, `Jᵀr` in `x`.
     /// (`uoc_done`: see [`Self::sensitivities`].)
@@ -427,7 +429,7 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
             &self.s_beta[warm..n],
             &self.s_bva[warm..n],
             &self.s_bvi0[warm..n],
-            &self.trial[warm..n],
+            &self.sims[self.spare()].up[warm..n],
         ];
         let len = n - warm;
         // Opaque column addresses: otherwise the compiler addresses every

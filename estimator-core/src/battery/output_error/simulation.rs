@@ -358,7 +358,23 @@ pub(super) fn window_cost<T: Real>(
         i.get(warm..n),
         eta.get(warm..n),
     ) {
-        for l in 0..up.len() {
+        // Four rows a chunk: each slice's pointer moves once a chunk, and
+        // the rows' loads take immediate offsets (the Cortex-M4F's `VLDR`
+        // has no register offset). The rows are still added in order.
+        const ROWS: usize = 4;
+        let chunks = up
+            .chunks_exact(ROWS)
+            .zip(v.chunks_exact(ROWS))
+            .zip(c.chunks_exact(ROWS))
+            .zip(i.chunks_exact(ROWS))
+            .zip(eta.chunks_exact(ROWS));
+        for ((((u4, v4), c4), i4), e4) in chunks {
+            for k in 0..ROWS {
+                let r = residual(v4[k], p, beta, c4[k], i4[k], e4[k], u4[k]);
+                cost = cost + r * r;
+            }
+        }
+        for l in up.len() - up.len() % ROWS..up.len() {
             let r = residual(v[l], p, beta, c[l], i[l], eta[l], up[l]);
             cost = cost + r * r;
         }

@@ -375,15 +375,16 @@ fn jacobian_equals_finite_differences() {
             warm: oe.warm,
             tail: tail_context(&s, oe.past.as_ref()),
         };
+        let sim = &mut oe.sims[usize::from(oe.held & 1)];
         simulate_window(
             &mut GlRecursion,
             &oe.w,
             &data,
             &p,
             oe.beta,
-            &mut oe.up[..n],
-            &mut oe.e[..n],
-            &mut oe.eta[..n],
+            &mut sim.up[..n],
+            &mut sim.e[..n],
+            &mut sim.eta[..n],
         );
         oe.sensitivities(
             true,
@@ -448,15 +449,16 @@ fn jacobian_equals_finite_differences() {
                 };
                 other.s_uoc[..warm].fill(-1.0);
                 other.s_uoc[warm..n].fill(f64::NAN);
+                let sim = &mut other.sims[usize::from(other.held & 1)];
                 let (_, filled) = simulate_window_with_free(
                     &mut GlRecursion,
                     &other.w,
                     &data,
                     &p,
                     0.0,
-                    &mut other.up[..n],
-                    &mut other.e[..n],
-                    &mut other.eta[..n],
+                    &mut sim.up[..n],
+                    &mut sim.e[..n],
+                    &mut sim.eta[..n],
                     0,
                     Some(&mut other.s_uoc[..n]),
                 );
@@ -556,15 +558,16 @@ fn jacobian_with_the_tail_equals_finite_differences() {
         warm: oe.warm,
         tail: tail_context(&s, oe.past.as_ref()),
     };
+    let sim = &mut oe.sims[usize::from(oe.held & 1)];
     simulate_window(
         &mut GlRecursion,
         &oe.w,
         &data,
         &p,
         oe.beta,
-        &mut oe.up[..n],
-        &mut oe.e[..n],
-        &mut oe.eta[..n],
+        &mut sim.up[..n],
+        &mut sim.e[..n],
+        &mut sim.eta[..n],
     );
     oe.sensitivities(true, false, true, false);
     oe.jacobian_columns(&s);
@@ -629,11 +632,19 @@ fn the_normal_equations_are_the_columns_sums() {
                 oe.s_beta[l] = if slope { value(5, l) } else { T::zero() };
                 oe.s_bva[l] = value(6, l);
                 oe.s_bvi0[l] = value(7, l);
-                oe.trial[l] = value(8, l);
+                let spare = oe.spare();
+                oe.sims[spare].up[l] = value(8, l);
             }
             let cols: [&[T]; COLUMNS + 1] = [
-                &oe.s_ri, &oe.s_rct, &oe.s_q, &oe.s_a, &oe.s_uoc, &oe.s_beta, &oe.s_bva,
-                &oe.s_bvi0, &oe.trial,
+                &oe.s_ri,
+                &oe.s_rct,
+                &oe.s_q,
+                &oe.s_a,
+                &oe.s_uoc,
+                &oe.s_beta,
+                &oe.s_bva,
+                &oe.s_bvi0,
+                &oe.sims[oe.spare()].up,
             ];
             let sum = |x: usize, y: usize| {
                 (oe.warm..N).fold(T::zero(), |acc, l| acc + cols[x][l] * cols[y][l])

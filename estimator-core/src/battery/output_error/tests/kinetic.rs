@@ -66,7 +66,7 @@ fn the_kept_kinetic_voltages_are_the_windows() {
         let n = oe.n;
         let mut want = vec![f64::NAN; n];
         simulation::fill_kinetic(&oe.p, &oe.i[..n], &mut want, 0);
-        for (l, (&e, &w)) in oe.eta[..n].iter().zip(&want).enumerate() {
+        for (l, (&e, &w)) in oe.sims[oe.est()].eta[..n].iter().zip(&want).enumerate() {
             assert_eq!(e.to_bits(), w.to_bits(), "sample {l} of the window at {at}");
         }
     };
