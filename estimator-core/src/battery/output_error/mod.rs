@@ -255,8 +255,9 @@ pub struct OutputErrorRefinement<T, const N: usize, const MEM: usize, K = GlRecu
     /// OCV slope dU_oc/dq inside the window (V/(A·s)); U_oc is the value at
     /// the newest sample.
     beta: T,
-    /// `eta[..kinetic_kept]` of the estimate's simulation is the kinetic voltage of `p` at the loaded
-    /// window's first currents: the estimate's simulation computes only the
+    /// `eta[..kinetic_kept]` of the estimate's simulation is the kinetic
+    /// voltage of `p` at the loaded window's first currents: the
+    /// estimate's simulation computes only the
     /// samples after them (a window slid by one keeps all but its newest:
     /// one `asinh` a sample and update instead of one a sample and
     /// simulation). Zero whenever `p` is set other than by an accepted

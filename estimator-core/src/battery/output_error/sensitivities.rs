@@ -56,8 +56,8 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
     OutputErrorRefinement<T, N, MEM, K>
 {
     /// The sensitivities of `U_p` to every parameter, for the simulation
-    /// held in the estimate's [`Simulation`]; with `tail`, of the model with the taps beyond
-    /// the memory ([`BatterySettings::tail`]).
+    /// held in the estimate's [`Simulation`]; with `tail`, of the model
+    /// with the taps beyond the memory ([`BatterySettings::tail`]).
     /// With `uoc_done`, `s_uoc` already holds the free response from the
     /// history `−1` at this estimate's weights and `a` ([`Self::iterate`]
     /// ran it with the simulation), and is not run again.
