@@ -39,7 +39,6 @@ bench/prior_free.py's `*-levels/reference-map.csv`). About two minutes.
 """
 
 import argparse
-import csv
 import math
 import os
 import sys
@@ -135,18 +134,8 @@ def main():
     for rec, ocv_path in sw.RECORDS:
         if a.detail and rec != a.detail:
             continue
-        d = np.genfromtxt(f"data/pybamm/{rec}.csv", delimiter=",", names=True)
-        cur, volt = d["current_a"], d["voltage_v"]
-        z, u = np.loadtxt(ocv_path, delimiter=",", skiprows=1, unpack=True)
-        track = list(csv.DictReader(open(f"{a.tracks}/{rec}.csv")))
-        soc = np.array([sw.num(r["soc_coulomb"]) for r in track])
-        y_all = volt - np.interp(soc, z, u)
-        levels = list(csv.DictReader(open(f"{a.tracks}/{rec}-levels/reference-map.csv")))
-        lsoc = np.array([float(x["soc"]) for x in levels])
-        lrct = np.array([float(x["r_ct"]) for x in levels])
-
-        def ref(k):
-            return lrct[np.argmin(np.abs(lsoc - soc[k]))]
+        cur, y_all, track, soc, refs = sw.load_record(rec, ocv_path, a.tracks)
+        ref = refs.__getitem__
 
         def online_start(k):
             r = track[k]

@@ -14,7 +14,6 @@ base and extended R_ct against the reference. About four minutes.
     python3 bench/prior_free.py --out target/prior-free   # the tracks and references
     python3 bench/r_ct_drift.py
 """
-import csv
 import math
 import sys
 
@@ -32,18 +31,12 @@ def core_ext(p, i, y, c):
     past = (y[:warm] - du - beta * c[:warm] - r_i * i[:warm])[::-1]
     up, _ = lfilter(b, a, i[warm:], zi=lfiltic(b, a, past))
     return du + beta * c[warm:] + r_i * i[warm:] + up - y[warm:]
+
+
 def main(per=16):
     rng = np.random.default_rng(3)
     for rec, ocv_path in sw.RECORDS:
-        d = np.genfromtxt(f"data/pybamm/{rec}.csv", delimiter=",", names=True)
-        cur, volt = d["current_a"], d["voltage_v"]
-        z, u = np.loadtxt(ocv_path, delimiter=",", skiprows=1, unpack=True)
-        track = list(csv.DictReader(open(f"target/prior-free/{rec}.csv")))
-        soc = np.array([sw.num(r["soc_coulomb"]) for r in track])
-        y_all = volt - np.interp(soc, z, u)
-        levels = list(csv.DictReader(open(f"target/prior-free/{rec}-levels/reference-map.csv")))
-        lsoc = np.array([float(x["soc"]) for x in levels]); lrct = np.array([float(x["r_ct"]) for x in levels])
-        ref = {k: lrct[np.argmin(np.abs(lsoc - soc[k]))] for k in range(len(track))}
+        cur, y_all, track, soc, ref = sw.load_record(rec, ocv_path, "target/prior-free")
         ident = [k for k, r in enumerate(track) if r["r_ct_status"] == "identified" and k >= WINDOW]
         inside = lambda k, v: 0.5 <= v / ref[k] <= 2.0
         groups = {"wrong": [k for k in ident if not inside(k, sw.num(track[k]["window_r_ct"]))],

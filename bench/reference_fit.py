@@ -76,7 +76,7 @@ import time
 
 import numpy as np
 from scipy.optimize import least_squares
-from scipy.signal import fftconvolve
+from scipy.signal import fftconvolve, lfilter
 
 
 def read_csv(path, names):
@@ -129,14 +129,16 @@ def rc_polarization(i, h, r, tau):
     return up
 
 
-def fit_cpe(i, y, h, keep=None):
+def fit_cpe(i, y, h, keep=None, memory=None):
     """The constant-phase model y = dU + R_i I + U_p; p = ln R_i, ln R_ct,
     ln Q, alpha, dU. U_p is cpe_branch (cpe_polarization as a convolution,
     O(n log n)); the finite-difference Jacobian moves one coordinate at a
     time, so the branches of the last few (R_ct, Q, alpha) are kept: moving
     R_i or dU costs no branch. ``keep`` (a boolean mask, default every row):
     the rows the residuals are taken over; the model runs on every row's
-    current."""
+    current. ``memory``: the branch with that short memory from rest
+    (``short_memory_filter``, the online window's model) instead of the
+    full memory."""
     keep = np.ones(len(y), bool) if keep is None else np.asarray(keep, bool)
     branches = {}
 
@@ -147,7 +149,9 @@ def fit_cpe(i, y, h, keep=None):
         if up is None:
             if len(branches) >= 8:
                 branches.clear()
-            up = branches[key] = cpe_branch(i, h, r_ct, q, alpha)
+            up = branches[key] = (
+                cpe_branch(i, h, r_ct, q, alpha) if memory is None
+                else lfilter(*short_memory_filter(h, r_ct, q, alpha, memory), i))
         return du + r_i * i + up
 
     # A rough total resistance from the data: y ~ dU + R I.

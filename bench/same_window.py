@@ -65,6 +65,24 @@ def num(x):
     return float(x) if x not in ("", None) else math.nan
 
 
+def load_record(rec, ocv_path, tracks):
+    """A DFN HPPC record with the online track of `bench/prior_free.py`:
+    its current, its overpotential through the OCV table at the track's
+    counted SOC, the track's rows, that SOC, and the per-SOC reference's
+    R_ct at each row (the level nearest in SOC)."""
+    d = np.genfromtxt(f"data/pybamm/{rec}.csv", delimiter=",", names=True)
+    cur, volt = d["current_a"], d["voltage_v"]
+    z, u = np.loadtxt(ocv_path, delimiter=",", skiprows=1, unpack=True)
+    track = list(csv.DictReader(open(f"{tracks}/{rec}.csv")))
+    soc = np.array([num(r["soc_coulomb"]) for r in track])
+    y_all = volt - np.interp(soc, z, u)
+    levels = list(csv.DictReader(open(f"{tracks}/{rec}-levels/reference-map.csv")))
+    lsoc = np.array([float(x["soc"]) for x in levels])
+    lrct = np.array([float(x["r_ct"]) for x in levels])
+    ref = [lrct[np.argmin(np.abs(lsoc - soc[k]))] for k in range(len(track))]
+    return cur, y_all, track, soc, ref
+
+
 def short_branch(i, h, r_ct, q, alpha):
     """U_p from rest with the short memory."""
     return lfilter(*rf.short_memory_filter(h, r_ct, q, alpha, MEMORY), i)
@@ -125,16 +143,7 @@ def main():
     a = ap.parse_args()
     rng = np.random.default_rng(1)
     for rec, ocv_path in RECORDS:
-        d = np.genfromtxt(f"data/pybamm/{rec}.csv", delimiter=",", names=True)
-        cur, volt = d["current_a"], d["voltage_v"]
-        z, u = np.loadtxt(ocv_path, delimiter=",", skiprows=1, unpack=True)
-        track = list(csv.DictReader(open(f"{a.tracks}/{rec}.csv")))
-        soc = np.array([num(r["soc_coulomb"]) for r in track])
-        y_all = volt - np.interp(soc, z, u)
-        levels = list(csv.DictReader(open(f"{a.tracks}/{rec}-levels/reference-map.csv")))
-        lsoc = np.array([float(x["soc"]) for x in levels])
-        lrct = np.array([float(x["r_ct"]) for x in levels])
-        ref = {k: lrct[np.argmin(np.abs(lsoc - soc[k]))] for k in range(len(track))}
+        cur, y_all, track, soc, ref = load_record(rec, ocv_path, a.tracks)
         ident = [k for k, r in enumerate(track)
                  if r["r_ct_status"] == "identified" and k >= WINDOW + a.pre]
         inside = lambda k, v: 0.5 <= v / ref[k] <= 2.0  # noqa: E731
