@@ -29,7 +29,22 @@ the window holds such a rest itself (its first ``--min-rest`` samples).
 
     python3 bench/prior_free.py --out target/prior-free
     python3 bench/r_ct_recovery.py [target/prior-free] [--tol 0.1] [--min-load 3] [--min-rest 60]
+        [--branch --reach 0] [--settled C]
     python3 bench/r_ct_recovery.py --profile target/prior-free/prada2013-hppc-levels   # about a minute
+
+``--branch``: the test on the branch alone (twelfth stop): the measured
+recovery less the window's own ``R_i`` jump, ``dU + R_i I``, against its
+model's branch over the same rest, within a factor ``1 + tol``; a
+tolerance on the sum, which ``R_i`` dominates, is loose on ``R_ct``.
+``--reach 0``: each rest used to its end, not cut at the window's 256
+samples (the DFN HPPC records' rests after a discharge are 300 s).
+
+``--settled C`` (twelfth stop): instead of the rest, a window identifies
+``R_ct`` only when its fitted rows (after the history's first 63) hold a
+current edge (a change of more than 5 % of the record's largest current)
+followed by at least ``C`` times the window's own relaxation time
+``(R_ct Q)^(1/alpha)`` of steady current: the branch's asymptote seen
+settle, not extrapolated from the start of its answer.
 
 ``--profile``: each level of an HPPC record's per-SOC reference
 (bench/reference_map.py's levels) fitted again with R_ct fixed at 0.5x and
@@ -94,7 +109,47 @@ def recovered(e, i, h, r_i, r_ct, q, alpha):
     return y[-1] - y[e["k"] - 1 - e["a"]]
 
 
-def gated(rows, i, h, ev, tol, ref):
+def branch_recovered(e, i, h, r_ct, q, alpha):
+    """The voltage the model's branch U_p alone (short memory) recovers
+    over the rest of event e, run from rest at the load's start."""
+    seg = i[e["a"]:e["at"] + 1]
+    b, a = rf.short_memory_filter(h, r_ct, q, alpha, MEMORY)
+    up = lfilter(b, a, seg)
+    return up[-1] - up[e["k"] - 1 - e["a"]]
+
+
+def settled_steps(i):
+    """For every sample, the samples since the last current edge (a change
+    of more than 5 % of the record's largest current; 0 at the edge)."""
+    edge = 0.05 * np.max(np.abs(i))
+    s = np.zeros(len(i), dtype=int)
+    for k in range(1, len(i)):
+        s[k] = 0 if abs(i[k] - i[k - 1]) > edge else s[k - 1] + 1
+    return s
+
+
+def settled_gate(rows, i, h, ref, c, window=256, memory=MEMORY):
+    """The emulated published R_ct with the settling rule (``--settled``),
+    and the identifying windows counted by verdict as ``gated`` does."""
+    s = settled_steps(i)
+    tested = {"right, pass": 0, "right, fail": 0, "wrong, pass": 0, "wrong, fail": 0}
+
+    def take(k, r):
+        if r["r_ct_status"] != "identified":
+            return None
+        p = [num(r[c_]) for c_ in ("window_r_i", "window_r_ct", "window_q", "window_alpha")]
+        relax = (p[1] * p[2]) ** (1.0 / p[3]) * h
+        lo = max(k - window + memory - 1, 0)
+        seen = max((s[j] for j in range(lo, k + 1) if s[j] <= j - lo), default=0)
+        ok = seen * h >= c * relax
+        right = 0.5 <= p[1] / ref[k] <= 2.0
+        tested[("right" if right else "wrong") + (", pass" if ok else ", fail")] += 1
+        return p[1] if ok else None
+
+    return hold(rows, take), tested
+
+
+def gated(rows, i, h, ev, tol, ref, branch=False):
     """The emulated published R_ct with the test, and the count of the
     identifying windows by verdict and by whether their R_ct is inside
     [0.5x, 2x] of the reference ("right") or not ("wrong")."""
@@ -110,8 +165,12 @@ def gated(rows, i, h, ev, tol, ref):
             tested["no rest"] += 1
             return None
         p = [num(r[c]) for c in ("window_r_i", "window_r_ct", "window_q", "window_alpha")]
-        m = recovered(ev[j], i, h, *p)
-        ok = m * ev[j]["dU"] > 0 and abs(math.log(m / ev[j]["dU"])) <= math.log(1.0 + tol)
+        if branch:
+            m = branch_recovered(ev[j], i, h, *p[1:])
+            seen = ev[j]["dU"] + p[0] * i[ev[j]["k"] - 1]
+        else:
+            m, seen = recovered(ev[j], i, h, *p), ev[j]["dU"]
+        ok = m * seen > 0 and abs(math.log(m / seen)) <= math.log(1.0 + tol)
         right = 0.5 <= p[1] / ref[k] <= 2.0
         tested[("right" if right else "wrong") + (", pass" if ok else ", fail")] += 1
         return p[1] if ok else None
@@ -132,9 +191,9 @@ def dfn(out, rec, args):
         fit = json.load(open(doc))
         against, ref = "the whole-record fit", np.full(len(rows), (fit["cpe"] if rec.endswith("-soc") else fit[rec]["cpe"])["r_ct"])
     logged = np.ones(len(t), bool)
-    report(rec, rows, i, 1.0, (rests(i, v, logged, args.min_load, args.min_rest),
+    report(rec, rows, i, 1.0, (rests(i, v, logged, args.min_load, args.min_rest, reach=reach(args)),
                                rests(i, v, logged, args.min_load, args.min_rest, reach=args.min_rest)),
-           ref, against, args.tol)
+           ref, against, args)
 
 
 def panasonic(out, args):
@@ -154,9 +213,9 @@ def panasonic(out, args):
     ls, lr = levels(f"{out}/panasonic-map.csv")
     ref = np.array([lr[np.argmin(np.abs(ls - z))] if np.isfinite(z) else np.nan for z in soc])
     logged = hi > lo
-    report("panasonic", rows, i, h, (rests(i, v, logged, args.min_load, args.min_rest),
+    report("panasonic", rows, i, h, (rests(i, v, logged, args.min_load, args.min_rest, reach=reach(args)),
                                      rests(i, v, logged, args.min_load, args.min_rest, reach=args.min_rest)),
-           ref, "the per-SOC map", args.tol)
+           ref, "the per-SOC map", args)
 
 
 def inside(rows, ev, ref, window=256, memory=MEMORY):
@@ -175,15 +234,26 @@ def inside(rows, ev, ref, window=256, memory=MEMORY):
     return "; ".join(f"{key}: right {v[0]}, wrong {v[1]}" for key, v in out.items())
 
 
-def report(rec, rows, i, h, events, ref, against, tol):
+def reach(args):
+    """The samples of each rest the test uses (``--reach``; 0: all)."""
+    return args.reach if args.reach > 0 else 10 ** 12
+
+
+def report(rec, rows, i, h, events, ref, against, args):
     """``events``: the rests up to the window's reach (the test's), and the
     same rests cut at ``--min-rest`` samples (``inside``'s)."""
     ev, ev_in = events
     today = hold(rows, lambda k, r: num(r["window_r_ct"]) if r["r_ct_status"] == "identified" else None)
-    g, tested = gated(rows, i, h, ev, tol, ref)
+    if args.settled is not None:
+        g, tested = settled_gate(rows, i, h, ref, args.settled)
+        print(f"{rec} | R_ct vs {against}: as the core judges: {judge(today, ref)} | with the settling rule"
+              f" (C {args.settled:g}): {judge(g, ref)} | identifying windows: {tested}")
+        return
+    g, tested = gated(rows, i, h, ev, args.tol, ref, args.branch)
+    what = "the branch's" if args.branch else "the sum's"
     print(f"{rec} | {len(ev)} rests after a load | R_ct vs {against}: as the core judges: {judge(today, ref)}"
-          f" | with the last rest's test (tol {tol:g}): {judge(g, ref)} | identifying windows: {tested}"
-          f" | windows by whether they hold such a rest: {inside(rows, ev_in, ref)}")
+          f" | with the last rest's test ({what}, tol {args.tol:g}, reach {args.reach or 'all'}): {judge(g, ref)}"
+          f" | identifying windows: {tested} | windows by whether they hold such a rest: {inside(rows, ev_in, ref)}")
 
 
 def profile(folder):
@@ -219,6 +289,9 @@ def main():
     ap.add_argument("--tol", type=float, default=0.1)
     ap.add_argument("--min-load", type=int, default=3)
     ap.add_argument("--min-rest", type=int, default=60)
+    ap.add_argument("--branch", action="store_true", help="test the branch's recovery, not the sum's")
+    ap.add_argument("--reach", type=int, default=256, help="samples of each rest used (0: all; default 256)")
+    ap.add_argument("--settled", type=float, metavar="C", help="the settling rule instead of the rest's test")
     ap.add_argument("--profile", metavar="LEVELS_DIR")
     args = ap.parse_args()
     if args.profile:
