@@ -12,7 +12,7 @@ use estimator_core::battery::pack::{PackEstimator, PackSettings};
 use estimator_core::battery::power::{PowerLimits, PowerSettings};
 use estimator_core::battery::profile::{ocv_nmc, Profile};
 use estimator_core::battery::simulate::simulate;
-use estimator_core::battery::{CellModel, CellParameters};
+use estimator_core::battery::{CellModel, CellParameters, Prior, Start};
 use estimator_core::frac::GlWeights;
 use rand::SeedableRng;
 use rand_distr::{Distribution, Normal};
@@ -413,4 +413,39 @@ fn a_pulse_right_after_a_gap_is_fitted_from_rest() {
     );
     assert!(tracking > 0);
     assert!(rel <= 0.05, "{rel}");
+}
+
+/// `Start::AtRest` at power-up, with a prior (the refinement runs from the
+/// first sample): the cell rested, then a 10 s pulse of −2 A in the
+/// window's first `memory − 1` samples, then rest. The refinement fits
+/// that window whole from rest, as the setting says, and the tracker
+/// judges the same rows: the pulse excites them, so the window is fitted
+/// (`tracking`) and its `R_i` is the cell's. Before, the tracker counted a
+/// warm-up of `memory − 1` samples as `FromData` does: it saw no current
+/// in the rows after it, and no window was fitted until one slid (no
+/// sample `tracking` in these 200).
+#[test]
+fn at_power_up_from_rest_a_first_pulse_is_fitted() {
+    let truth = CellParameters::<f64>::cell_18650();
+    let mut s = OnlineSettings::new(1.0, 64, truth).with_ocv(nmc());
+    s.battery.start = Start::AtRest;
+    s.battery.prior = Some(Prior::new(truth));
+    let i: Vec<f64> = (0..200)
+        .map(|l| if (5..15).contains(&l) { -2.0 } else { 0.0 })
+        .collect();
+    let v = noisy(truth_voltage(&truth, &i), i.len());
+    let mut est = Box::new(CellEstimator::<f64, 256, 64>::new(&s).unwrap());
+    let mut tracking = 0;
+    for l in 0..i.len() {
+        if est.push(&s, i[l], v[l]).status == Status::Tracking {
+            tracking += 1;
+        }
+    }
+    let r_i = est.estimate().expect("a fit").r_i;
+    println!(
+        "from rest at power-up: {tracking} samples tracking, R_i {r_i:.5} Ohm (truth {:.5})",
+        truth.r_i
+    );
+    assert!(tracking > 100, "{tracking}");
+    assert!((r_i / truth.r_i - 1.0).abs() < 0.05, "{r_i}");
 }

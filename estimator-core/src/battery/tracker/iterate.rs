@@ -50,13 +50,15 @@ impl<T: Real, const N: usize> CellState<T, N> {
         self.published.expire(self.soc, s.hold_soc_span);
         // Saturating: `push` may be given other settings than the
         // constructor's (memory 0 or `usize::MAX` then means "never enough").
-        // A window begun at a rested cell (after a gap), once refining and
-        // until it slides, is fitted whole from rest (the refinement's
+        // A window begun at a rested cell (after a gap, or at power-up with
+        // `Start::AtRest`), once refining and until it slides, is fitted
+        // whole from rest, as the refinement fits it (its `warm`;
         // `Window::starts_at_rest`): a pulse in its first `memory − 1`
         // samples is fitted, not taken as the history of the rows after it.
         let len = usize::from(self.len);
+        let rested = self.at_rest || b.start == crate::battery::Start::AtRest;
         let from_rest =
-            self.refining && self.at_rest && !crate::window::Window::has_slid(&self.view(history));
+            self.refining && rested && !crate::window::Window::has_slid(&self.view(history));
         let warm = if from_rest {
             0
         } else {
