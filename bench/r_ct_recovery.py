@@ -139,7 +139,7 @@ def settled_gate(rows, i, h, ref, c, window=256, memory=MEMORY):
             return None
         p = [num(r[c_]) for c_ in ("window_r_i", "window_r_ct", "window_q", "window_alpha")]
         relax = (p[1] * p[2]) ** (1.0 / p[3]) * h
-        lo = max(k - window + memory - 1, 0)
+        lo = max(k - window + memory, 0)
         seen = max((s[j] for j in range(lo, k + 1) if s[j] <= j - lo), default=0)
         ok = seen * h >= c * relax
         right = 0.5 <= p[1] / ref[k] <= 2.0
