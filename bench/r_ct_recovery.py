@@ -104,9 +104,7 @@ def recovered(e, i, h, r_i, r_ct, q, alpha):
     """The voltage the model y = R_i I + U_p (short memory) recovers over the
     rest of event e, run from rest at the load's start."""
     seg = i[e["a"]:e["at"] + 1]
-    b, a = rf.short_memory_filter(h, r_ct, q, alpha, MEMORY)
-    y = r_i * seg + lfilter(b, a, seg)
-    return y[-1] - y[e["k"] - 1 - e["a"]]
+    return r_i * (seg[-1] - seg[e["k"] - 1 - e["a"]]) + branch_recovered(e, i, h, r_ct, q, alpha)
 
 
 def branch_recovered(e, i, h, r_ct, q, alpha):

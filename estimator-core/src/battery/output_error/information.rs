@@ -37,7 +37,8 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
         } else {
             self.stalled = None;
             let kept = take_kinetic(&mut self.kinetic_kept, n);
-            let sim = &mut self.sims[usize::from(self.held & 1)];
+            let es = self.est();
+            let sim = &mut self.sims[es];
             simulate_window_with_free(
                 &mut self.solver,
                 &self.w,

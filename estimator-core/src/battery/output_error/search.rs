@@ -263,7 +263,8 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
             tail: tail_context(s, self.past.as_ref()),
         };
         // The last iteration on this window left the simulation of the
-        // estimate in its `sims` slot (its accepted trial, or the kept estimate's).
+        // estimate in its `sims` slot (its accepted trial, or the kept
+        // estimate's).
         let evidence = self.evidence;
         let prior_cost = |p: &CellParameters<T>| {
             s.prior.map_or(T::zero(), |pr| pr.cost(p, s)) + Self::evidence_cost(evidence, p)
@@ -279,6 +280,7 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
             self.stalled = None;
             self.linear = None;
             self.work.simulations = self.work.simulations.wrapping_add(1);
+            let es = self.est();
             // Without the OCV slope and the tail, `∂U_p/∂U_oc` is one
             // recursion alone (the history's free response to −1, at these
             // weights and `a`): run with the simulation, through the pair
@@ -293,7 +295,7 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
                 None
             };
             let kept = take_kinetic(&mut self.kinetic_kept, n);
-            let sim = &mut self.sims[usize::from(self.held & 1)];
+            let sim = &mut self.sims[es];
             let (cost, filled) = simulate_window_with_free(
                 &mut self.solver,
                 &self.w,
@@ -400,7 +402,8 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
             };
             self.work.simulations = self.work.simulations.wrapping_add(1);
             self.work.trials = self.work.trials.wrapping_add(1);
-            let trial_sim = &mut self.sims[usize::from(!self.held & 1)];
+            let ts = self.spare();
+            let trial_sim = &mut self.sims[ts];
             let c = simulate_window(
                 &mut self.solver,
                 &self.w,

@@ -375,7 +375,8 @@ fn jacobian_equals_finite_differences() {
             warm: oe.warm,
             tail: tail_context(&s, oe.past.as_ref()),
         };
-        let sim = &mut oe.sims[usize::from(oe.held & 1)];
+        let es = oe.est();
+        let sim = &mut oe.sims[es];
         simulate_window(
             &mut GlRecursion,
             &oe.w,
@@ -449,7 +450,8 @@ fn jacobian_equals_finite_differences() {
                 };
                 other.s_uoc[..warm].fill(-1.0);
                 other.s_uoc[warm..n].fill(f64::NAN);
-                let sim = &mut other.sims[usize::from(other.held & 1)];
+                let es = other.est();
+                let sim = &mut other.sims[es];
                 let (_, filled) = simulate_window_with_free(
                     &mut GlRecursion,
                     &other.w,
@@ -558,7 +560,8 @@ fn jacobian_with_the_tail_equals_finite_differences() {
         warm: oe.warm,
         tail: tail_context(&s, oe.past.as_ref()),
     };
-    let sim = &mut oe.sims[usize::from(oe.held & 1)];
+    let es = oe.est();
+    let sim = &mut oe.sims[es];
     simulate_window(
         &mut GlRecursion,
         &oe.w,
