@@ -798,6 +798,12 @@ typedef struct FracbmsIdentifyOptions {
    * the record's rested start (as the CLI without `--soc0`).
    */
   double soc0;
+  /**
+   * Per row, nonzero where its voltage was not measured (a cycler's
+   * unlogged step start: the current known, the voltage not), or null:
+   * every row measured. No fit counts an unobserved row.
+   */
+  const uint8_t *unobserved;
 } FracbmsIdentifyOptions;
 #endif
 
@@ -1196,13 +1202,15 @@ FracbmsCode fracbms_identify_options_default(struct FracbmsIdentifyOptions *out)
  * charging) as `host-sim identify battery` does, with the same code: the
  * result has its JSON's keys. Bad rows (a NaN or implausible current or
  * voltage, a voltage spike) are rejected, substituted and counted in
- * `fit->rejected`, as the CLI and Python do. `options` may be null (the
+ * `fit->rejected`, as the CLI and Python do; rows marked in
+ * `options->unobserved` are counted in no fit. `options` may be null (the
  * defaults). On an error `fit->message` holds the CLI's one-line message.
  * Host only (the fit allocates).
  *
  * # Safety
  * The three arrays hold `rows` values; `options` is null or valid, its OCV
- * arrays hold `ocv_points` values; `fit` is valid for a write.
+ * arrays hold `ocv_points` values and its `unobserved` is null or holds
+ * `rows` values; `fit` is valid for a write.
  */
 FracbmsCode fracbms_identify_battery(const double *time_s,
                                      const double *current_a,

@@ -36,6 +36,10 @@ pub struct FracbmsIdentifyOptions {
     /// State of charge before the first row, with a table; NaN: read from
     /// the record's rested start (as the CLI without `--soc0`).
     pub soc0: f64,
+    /// Per row, nonzero where its voltage was not measured (a cycler's
+    /// unlogged step start: the current known, the voltage not), or null:
+    /// every row measured. No fit counts an unobserved row.
+    pub unobserved: *const u8,
 }
 
 /// The result of `fracbms_identify_battery`: the keys of
@@ -123,6 +127,7 @@ pub(crate) fn default_options() -> FracbmsIdentifyOptions {
         ocv_points: 0,
         capacity_ah: 0.0,
         soc0: f64::NAN,
+        unobserved: core::ptr::null(),
     }
 }
 
@@ -131,6 +136,7 @@ pub(crate) fn identify(
     time: &[f64],
     current: &[f64],
     voltage: &[f64],
+    unobserved: &[bool],
     ocv: Option<(&[f64], &[f64])>,
     o: &FracbmsIdentifyOptions,
     out: &mut FracbmsFit,
@@ -188,6 +194,7 @@ pub(crate) fn identify(
             time,
             current,
             voltage,
+            unobserved,
             spec.as_ref(),
             method,
             model,

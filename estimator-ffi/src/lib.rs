@@ -551,13 +551,15 @@ pub unsafe extern "C" fn fracbms_identify_options_default(
 /// charging) as `host-sim identify battery` does, with the same code: the
 /// result has its JSON's keys. Bad rows (a NaN or implausible current or
 /// voltage, a voltage spike) are rejected, substituted and counted in
-/// `fit->rejected`, as the CLI and Python do. `options` may be null (the
+/// `fit->rejected`, as the CLI and Python do; rows marked in
+/// `options->unobserved` are counted in no fit. `options` may be null (the
 /// defaults). On an error `fit->message` holds the CLI's one-line message.
 /// Host only (the fit allocates).
 ///
 /// # Safety
 /// The three arrays hold `rows` values; `options` is null or valid, its OCV
-/// arrays hold `ocv_points` values; `fit` is valid for a write.
+/// arrays hold `ocv_points` values and its `unobserved` is null or holds
+/// `rows` values; `fit` is valid for a write.
 #[cfg(not(target_os = "none"))]
 #[no_mangle]
 pub unsafe extern "C" fn fracbms_identify_battery(
@@ -595,9 +597,18 @@ pub unsafe extern "C" fn fracbms_identify_battery(
             }),
         )
     };
+    let unobserved: Vec<bool> = if o.unobserved.is_null() {
+        vec![]
+    } else {
+        // SAFETY: non-null; the caller guarantees `rows` values.
+        unsafe { core::slice::from_raw_parts(o.unobserved, rows) }
+            .iter()
+            .map(|&m| m != 0)
+            .collect()
+    };
     // SAFETY: non-null, valid for a write by the caller's contract.
     let fit = unsafe { &mut *fit };
-    identify::identify(t, i, v, ocv, &o, fit)
+    identify::identify(t, i, v, &unobserved, ocv, &o, fit)
 }
 
 /// The bare-metal library's panic handler: halts. No valid call is known

@@ -4,7 +4,7 @@
 //! take the same names. This module owns only the names; what each option
 //! means is documented where the enum lives.
 
-use crate::cycler::CurrentSign;
+use crate::cycler::{CurrentSign, StepsMode};
 use crate::identify::{Algorithm, BatteryMethod, HammersteinMethod, ModelRequest};
 use crate::online::soc::SocMode;
 use crate::online::Precision;
@@ -55,7 +55,12 @@ choice!(BatteryMethod: BatteryMethod::Paper, BatteryMethod::Refined);
 choice!(ModelRequest: ModelRequest::Linear, ModelRequest::ButlerVolmer, ModelRequest::Auto);
 choice!(Precision: Precision::F32, Precision::F64);
 choice!(SocMode: SocMode::Observer, SocMode::Coulomb);
-choice!(CurrentSign: CurrentSign::ChargePositive, CurrentSign::DischargePositive);
+choice!(
+    CurrentSign: CurrentSign::ChargePositive,
+    CurrentSign::DischargePositive,
+    CurrentSign::FromState
+);
+choice!(StepsMode: StepsMode::Auto, StepsMode::Ignore);
 choice!(ReproducePart: ReproducePart::All, ReproducePart::Example1, ReproducePart::Battery);
 
 impl Choice for Start {

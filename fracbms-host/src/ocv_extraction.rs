@@ -122,6 +122,9 @@ pub struct OcvExtraction {
     /// Points pooled to keep the OCV increasing (a rest whose voltage is
     /// below that of a lower SOC: hysteresis, or not yet relaxed).
     pub points_pooled: usize,
+    /// Points whose counted SOC fell outside [0, 1], put at the nearer
+    /// end.
+    pub points_clamped: usize,
 }
 
 impl OcvExtraction {
@@ -137,10 +140,16 @@ impl OcvExtraction {
                 .collect::<Vec<_>>()
                 .join(" and "),
         };
-        let pooled = match self.points_pooled {
+        let mut pooled = match self.points_pooled {
             0 => String::new(),
             p => format!("; {p} points pooled to keep the OCV increasing"),
         };
+        if self.points_clamped > 0 {
+            pooled += &format!(
+                "; {} points counted outside SOC [0, 1] put at the nearer end",
+                self.points_clamped
+            );
+        }
         format!(
             "wrote {}: {n} points from {what}, SOC {:.3}–{:.3}, OCV {:.4}–{:.4} V; capacity {:.4} A·h ({}), start SOC {:.4}{pooled}",
             out.display(),
@@ -283,6 +292,7 @@ pub fn extract_ocv(
         rests: vec![],
         branches: vec![],
         points_pooled: 0,
+        points_clamped: 0,
     };
     let points = match o.from {
         OcvSource::Rests => {
@@ -305,6 +315,17 @@ pub fn extract_ocv(
             pts
         }
     };
+    // A count that runs past full or empty (a start SOC of 1 given to a
+    // test that charges a little first) is no SOC: the table stays in
+    // [0, 1], as every command that reads it requires.
+    out.points_clamped = points
+        .iter()
+        .filter(|(z, _)| !(0.0..=1.0).contains(z))
+        .count();
+    let points: Points = points
+        .into_iter()
+        .map(|(z, v)| (z.clamp(0.0, 1.0), v))
+        .collect();
     let (s, v, pooled) = monotone(points);
     if s.len() > OCV_POINTS {
         bail!(

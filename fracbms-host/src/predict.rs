@@ -120,6 +120,9 @@ pub struct Prediction {
     /// Samples inside the record's gaps (made up by the resampling; not
     /// compared).
     pub samples_in_gaps: usize,
+    /// Samples inside a step's unlogged start (no measured voltage; not
+    /// compared; `observed` 0 in the output).
+    pub unobserved_samples: usize,
     /// Samples whose current was not finite (the one before held).
     pub currents_held: usize,
     /// SOC at the start (null without an OCV table).
@@ -183,7 +186,7 @@ pub fn predict(
             "the fit was made without an OCV table (no ocv_offset_v): leave out --ocv"
         ),
     };
-    let mut p = errors(path, rec, model_v, &[])?;
+    let mut p = errors(path, rec, model_v, &[], &[])?;
     p.currents_held = currents_held;
     p.soc0 = soc0;
     p.soc_end = soc_end;
@@ -215,7 +218,7 @@ pub fn predict_map(
             .unwrap_or(0.0)
             * rec.h
             / (3600.0 * c.model.capacity_ah);
-    let mut p = errors(path, rec, model_v, &crate::map::in_gaps(rec, gaps))?;
+    let mut p = errors(path, rec, model_v, &crate::map::in_gaps(rec, gaps), &[])?;
     p.soc0 = Some(c.soc0);
     p.soc_end = Some(end);
     p.currents_held = rec.current.iter().filter(|i| !i.is_finite()).count();
@@ -223,13 +226,24 @@ pub fn predict_map(
 }
 
 /// The error statistics of `model_v` against `rec`'s voltage, over the
-/// samples that are the log's: not those made up inside a gap (`gap[k]`;
-/// an empty `gap`: none).
-fn errors(path: &Path, rec: &BatteryRecord, model_v: Vec<f64>, gap: &[bool]) -> Result<Prediction> {
+/// samples that are the log's measurements: not those made up inside a gap
+/// (`gap[k]`) nor those inside a step's unlogged start (`unobserved[k]`;
+/// an empty mask: none).
+fn errors(
+    path: &Path,
+    rec: &BatteryRecord,
+    model_v: Vec<f64>,
+    gap: &[bool],
+    unobserved: &[bool],
+) -> Result<Prediction> {
     let (mut sum, mut n, mut worst, mut at) = (0.0, 0usize, 0.0f64, 0.0);
-    let in_gap = gap.iter().filter(|g| **g).count();
+    let is = |m: &[bool], k: usize| m.get(k).copied().unwrap_or(false);
+    let in_gap = (0..rec.time.len()).filter(|&k| is(gap, k)).count();
+    let unobs = (0..rec.time.len())
+        .filter(|&k| !is(gap, k) && is(unobserved, k))
+        .count();
     for (k, ((m, v), t)) in model_v.iter().zip(&rec.voltage).zip(&rec.time).enumerate() {
-        if gap.get(k).copied().unwrap_or(false) {
+        if is(gap, k) || is(unobserved, k) {
             continue;
         }
         if v.is_finite() {
@@ -250,8 +264,9 @@ fn errors(path: &Path, rec: &BatteryRecord, model_v: Vec<f64>, gap: &[bool]) -> 
         max_error_v: worst,
         max_error_time_s: at,
         samples: n,
-        voltages_skipped: rec.voltage.len() - n - in_gap,
+        voltages_skipped: rec.voltage.len() - n - in_gap - unobs,
         samples_in_gaps: in_gap,
+        unobserved_samples: unobs,
         currents_held: 0,
         soc0: None,
         soc_end: None,
@@ -301,19 +316,10 @@ pub fn run_model(
     t: Option<f64>,
 ) -> Result<Prediction> {
     check_model_ocv(model, spec)?;
+    let gap = crate::map::in_gaps(&read.record, &read.report.resampling.gaps);
+    let unobserved = read.report.unobserved(read.record.h, &read.record.time);
     let mut p = match (model, spec) {
-        (Model::Fit(fit), spec) => {
-            // Compared over the log's own samples, as a map is.
-            let mut p = predict(path, &read.record, fit, spec)?;
-            let gap = crate::map::in_gaps(&read.record, &read.report.resampling.gaps);
-            let e = errors(path, &read.record, std::mem::take(&mut p.model_v), &gap)?;
-            Prediction {
-                currents_held: p.currents_held,
-                soc0: p.soc0,
-                soc_end: p.soc_end,
-                ..e
-            }
-        }
+        (Model::Fit(fit), spec) => predict(path, &read.record, fit, spec)?,
         (Model::Map(map), Some(spec)) => {
             let t = t.or_else(|| {
                 let col = read.temperature.as_deref()?;
@@ -331,12 +337,28 @@ pub fn run_model(
         }
         (Model::Map(_), None) => bail!(Internal, "a map without an OCV table"),
     };
+    // Compared over the log's measured samples, a fit as a map.
+    let e = errors(
+        path,
+        &read.record,
+        std::mem::take(&mut p.model_v),
+        &gap,
+        &unobserved,
+    )?;
+    let mut p = Prediction {
+        currents_held: p.currents_held,
+        soc0: p.soc0,
+        soc_end: p.soc_end,
+        ..e
+    };
     p.record = Some(read.report.clone());
     Ok(p)
 }
 
 /// `predict battery` on the file `input`: reads it, runs the fit of
-/// `o.model` and writes `time_s,current_a,voltage_v,model_v` to `out`.
+/// `o.model` and writes `time_s,current_a,voltage_v,model_v,observed` to
+/// `out` (`observed` 0 where the sample's voltage was not measured: a
+/// step's unlogged start, or inside a gap; an RMSE is taken where it is 1).
 ///
 /// # Errors
 /// As [`read_fit`], [`crate::cycler::read_record`] and [`predict`]; the
@@ -348,20 +370,27 @@ pub fn battery_file(input: &Path, out: &Path, o: &PredictOptions) -> Result<Pred
     let read = crate::cycler::read_record(input, &o.record)?;
     let p = run_model(input, &read, &model, spec.as_ref(), o.temperature_c)?;
     let rec = &read.record;
+    let unmeasured = crate::identify::map::not_measured(
+        rec,
+        &read.report.resampling.gaps,
+        &read.report.steps.unlogged,
+    );
     io::write_csv(
         out,
-        &["time_s", "current_a", "voltage_v", "model_v"],
+        &["time_s", "current_a", "voltage_v", "model_v", "observed"],
         rec.time
             .iter()
             .zip(&rec.current)
             .zip(&rec.voltage)
             .zip(&p.model_v)
-            .map(|(((t, i), v), m)| {
+            .zip(&unmeasured)
+            .map(|((((t, i), v), m), u)| {
                 [
                     format!("{t}"),
                     format!("{i}"),
                     format!("{v}"),
                     format!("{m:.9}"),
+                    u8::from(!u).to_string(),
                 ]
             }),
     )?;

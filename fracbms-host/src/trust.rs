@@ -121,6 +121,10 @@ pub struct Screened {
     pub rejected: Vec<Option<Rejection>>,
     /// The measured voltages (for the spike test and the residuals).
     pub measured: Vec<f64>,
+    /// Per row: no voltage was measured (a cycler's unlogged step start,
+    /// [`crate::cycler::steps`]): substituted as a rejected row is, never
+    /// counted as one.
+    pub unobserved: Vec<bool>,
 }
 
 impl Screened {
@@ -135,7 +139,21 @@ impl Screened {
             },
             rejected: vec![None; rec.voltage.len()],
             measured: rec.voltage.clone(),
+            unobserved: vec![false; rec.voltage.len()],
         }
+    }
+
+    /// Whether row `k` counts in a fit's residuals: measured and not
+    /// rejected.
+    pub fn counted(&self, k: usize) -> bool {
+        self.rejected[k].is_none() && !self.unobserved.get(k).copied().unwrap_or(false)
+    }
+
+    /// The rows that do not count (rejected or unobserved).
+    pub fn excluded(&self) -> usize {
+        (0..self.rejected.len())
+            .filter(|&k| !self.counted(k))
+            .count()
     }
 
     /// The counts by reason.
@@ -184,14 +202,10 @@ impl Screened {
     /// Gives every rejected row the model's voltage (a substitute that adds
     /// nothing to the residuals).
     pub fn substitute_model(&mut self, model: &[f64]) {
-        for ((v, r), &m) in self
-            .record
-            .voltage
-            .iter_mut()
-            .zip(&self.rejected)
-            .zip(model)
-        {
-            if r.is_some() && m.is_finite() {
+        for (k, (v, &m)) in self.record.voltage.iter_mut().zip(model).enumerate() {
+            if (self.unobserved.get(k).copied().unwrap_or(false) || self.rejected[k].is_some())
+                && m.is_finite()
+            {
                 *v = m;
             }
         }
@@ -208,12 +222,8 @@ impl Screened {
     /// cycler's interpolated relaxation), not bad data: rejecting it would
     /// take away the rows that could correct the model.
     pub fn find_spikes(&mut self, model: &[f64], limits: &Limits) -> usize {
-        let res: Vec<Option<f64>> = self
-            .measured
-            .iter()
-            .zip(model)
-            .zip(&self.rejected)
-            .map(|((v, m), r)| r.is_none().then_some(v - m))
+        let res: Vec<Option<f64>> = (0..self.measured.len())
+            .map(|k| self.counted(k).then(|| self.measured[k] - model[k]))
             .collect();
         let accepted: Vec<f64> = res.iter().flatten().copied().collect();
         let sigma = robust_scale(&accepted);
@@ -277,7 +287,25 @@ fn robust_scale(x: &[f64]) -> f64 {
 /// When no row has a plausible voltage, or none a plausible current: there
 /// is nothing to fit.
 pub fn screen(path: &Path, rec: &BatteryRecord, limits: &Limits) -> Result<Screened> {
+    screen_observed(path, rec, limits, &[])
+}
+
+/// [`screen`] on a record some of whose rows have no measured voltage
+/// (`unobserved[k]`; empty: every row measured): they are substituted as
+/// rejected rows are, and counted apart.
+///
+/// # Errors
+/// As [`screen`].
+pub fn screen_observed(
+    path: &Path,
+    rec: &BatteryRecord,
+    limits: &Limits,
+    unobserved: &[bool],
+) -> Result<Screened> {
     let n = rec.current.len();
+    let unobserved: Vec<bool> = (0..n)
+        .map(|k| unobserved.get(k).copied().unwrap_or(false))
+        .collect();
     let mut rejected = vec![None; n];
     let plausible_i = |i: f64| i.is_finite() && i.abs() <= limits.current_limit;
     let plausible_v = |v: f64| v.is_finite() && v >= limits.voltage_min && v <= limits.voltage_max;
@@ -297,7 +325,9 @@ pub fn screen(path: &Path, rec: &BatteryRecord, limits: &Limits) -> Result<Scree
             limits.current_limit
         );
     };
-    let good: Vec<usize> = (0..n).filter(|&l| rejected[l].is_none()).collect();
+    let good: Vec<usize> = (0..n)
+        .filter(|&l| rejected[l].is_none() && !unobserved[l])
+        .collect();
     if good.is_empty() {
         bail!(
             Data,
@@ -329,7 +359,7 @@ pub fn screen(path: &Path, rec: &BatteryRecord, limits: &Limits) -> Result<Scree
         while k < good.len() && good[k] < l {
             k += 1;
         }
-        if r.is_none() {
+        if r.is_none() && !unobserved[l] {
             continue;
         }
         let before = k.checked_sub(1).map(|j| good[j]);
@@ -349,6 +379,7 @@ pub fn screen(path: &Path, rec: &BatteryRecord, limits: &Limits) -> Result<Scree
         record: out,
         rejected,
         measured: rec.voltage.clone(),
+        unobserved,
     })
 }
 
@@ -400,20 +431,13 @@ pub fn assess(
     alpha_bounds: [f64; 2],
     model: &[f64],
 ) -> Assessment {
-    let res: Vec<f64> = sc
-        .measured
-        .iter()
-        .zip(model)
-        .zip(&sc.rejected)
-        .filter(|(_, r)| r.is_none())
-        .map(|((v, m), _)| v - m)
+    let res: Vec<f64> = (0..sc.measured.len())
+        .filter(|&k| sc.counted(k))
+        .map(|k| sc.measured[k] - model[k])
         .collect();
-    let good_v: Vec<f64> = sc
-        .measured
-        .iter()
-        .zip(&sc.rejected)
-        .filter(|(_, r)| r.is_none())
-        .map(|(v, _)| *v)
+    let good_v: Vec<f64> = (0..sc.measured.len())
+        .filter(|&k| sc.counted(k))
+        .map(|k| sc.measured[k])
         .collect();
     let n = res.len().max(1) as f64;
     let rss: f64 = res.iter().map(|r| r * r).sum();

@@ -196,6 +196,10 @@ fn ocv_spec(
 ///     SOC bins), each level fitted; the dict's ``map`` holds the levels
 ///     (the map CSV's columns), the levels skipped and the whole-record
 ///     RMSE of the map model beside the single fit's. Needs ``ocv``.
+/// observed : array_like of 0/1, optional
+///     Per row, 1 where the voltage was measured and 0 where it was not (a
+///     cycler's unlogged step start: the current known, the voltage not);
+///     no fit counts an unobserved row. Default: every row.
 ///
 /// Returns
 /// -------
@@ -215,7 +219,7 @@ fn ocv_spec(
 #[pyo3(signature = (
     time_s, current_a, voltage_v, *, ocv = None, capacity_ah = None, soc0 = None,
     method = "refined", model = "auto", iterations = 50, memory = None,
-    map = false, soc_bins = None, min_rest = 600.0
+    map = false, soc_bins = None, min_rest = 600.0, observed = None
 ))]
 #[allow(clippy::too_many_arguments)]
 fn identify_battery<'py>(
@@ -233,8 +237,13 @@ fn identify_battery<'py>(
     map: bool,
     soc_bins: Option<usize>,
     min_rest: f64,
+    observed: Option<Floats<'py>>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let method: BatteryMethod = choice("method", method)?;
+    // `observed`: 1 where the voltage was measured, 0 where not (a cycler's
+    // unlogged step start); None: every row.
+    let unobserved: Vec<bool> =
+        observed.map_or_else(Vec::new, |m| vec(&m).iter().map(|&x| x == 0.0).collect());
     let model: ModelRequest = choice("model", model)?;
     let spec = ocv_spec(ocv, capacity_ah, soc0)?;
     if map && spec.is_none() {
@@ -258,6 +267,7 @@ fn identify_battery<'py>(
                     &t,
                     &i,
                     &v,
+                    &unobserved,
                     spec.as_ref(),
                     method,
                     model,
@@ -307,6 +317,7 @@ fn identify_battery<'py>(
                         &o,
                         &gaps,
                         Some(&read.rows),
+                        &read.report.steps.unlogged,
                     )
                 })
             })
@@ -314,7 +325,7 @@ fn identify_battery<'py>(
         for why in &m.skipped {
             warn(py, &format!("{RECORD}: {why}"))?;
         }
-        json.map = Some(m.json(rec, &r.model_voltage, &gaps));
+        json.map = Some(m.json(rec, &r.model_voltage));
     }
     json.record = Some(read.report);
     let d = to_dict(py, &json)?;
@@ -343,8 +354,10 @@ fn identify_battery<'py>(
 /// -------
 /// dict
 ///     ``rmse_v``, ``max_error_v``, ``max_error_time_s``, ``samples``,
-///     ``voltages_skipped``, ``samples_in_gaps``, ``currents_held``, ``soc0``, ``soc_end``,
-///     ``record``, and ``model_v`` (numpy array, V).
+///     ``voltages_skipped``, ``samples_in_gaps``, ``unobserved_samples``,
+///     ``currents_held``, ``soc0``, ``soc_end``, ``record``, ``model_v``
+///     (numpy array, V) and ``observed`` (numpy array of 0/1: 1 where the
+///     voltage is a measurement, the samples the RMSE is taken over).
 ///
 /// Examples
 /// --------
@@ -396,6 +409,15 @@ fn predict_battery<'py>(
     let model_v = std::mem::take(&mut p.model_v);
     let d = to_dict(py, &p)?;
     d.set_item("model_v", PyArray1::from_vec(py, model_v))?;
+    // 1 where the sample's voltage is a measurement (the RMSE's samples),
+    // as `predict battery`'s `observed` column.
+    let unmeasured = fracbms_host::identify::map::not_measured(
+        &read.record,
+        &read.report.resampling.gaps,
+        &read.report.steps.unlogged,
+    );
+    let observed: Vec<u8> = unmeasured.iter().map(|&u| u8::from(!u)).collect();
+    d.set_item("observed", PyArray1::from_vec(py, observed))?;
     Ok(d)
 }
 

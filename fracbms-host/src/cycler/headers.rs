@@ -20,11 +20,32 @@ pub enum Role {
     Voltage,
     /// Cell (or ambient) temperature; optional.
     Temperature,
+    /// The program step's index (`Step_Index`, `Step`, `Ns`); optional.
+    Step,
+    /// Time since the step's start (`Step_Time(s)`, `StepTime`,
+    /// `Step (Sec)`); optional.
+    StepTime,
+    /// The step's kind as letters (Maccor `State` C/D/R, Bitrode `Mode`
+    /// CHRG/DCHG/REST, Digatron `Status` C/D/P); optional.
+    State,
+    /// The export's own charge count (`Capacity(Ah)`, `Amp-hr`, `AhAccu`,
+    /// `Ah`, `(Q-Qo)/mA.h`, Arbin's `Charge_Capacity(Ah)` with its
+    /// `Discharge_Capacity(Ah)`); optional.
+    Charge,
 }
 
 impl Role {
     /// The roles, in the order of the `--columns` keys.
-    pub const ALL: [Role; 4] = [Role::Time, Role::Current, Role::Voltage, Role::Temperature];
+    pub const ALL: [Role; 8] = [
+        Role::Time,
+        Role::Current,
+        Role::Voltage,
+        Role::Temperature,
+        Role::Step,
+        Role::StepTime,
+        Role::State,
+        Role::Charge,
+    ];
 
     /// `time`, `current`, `voltage`, `temperature`: the `--columns` keys.
     pub fn as_str(self) -> &'static str {
@@ -33,7 +54,16 @@ impl Role {
             Role::Current => "current",
             Role::Voltage => "voltage",
             Role::Temperature => "temperature",
+            Role::Step => "step",
+            Role::StepTime => "step_time",
+            Role::State => "state",
+            Role::Charge => "charge",
         }
+    }
+
+    /// Whether a record can do without the role.
+    pub fn optional(self) -> bool {
+        !matches!(self, Role::Time | Role::Current | Role::Voltage)
     }
 
     /// Header names of this role, normalised (lower case, no blanks,
@@ -87,6 +117,21 @@ impl Role {
                 ],
                 &[],
             ],
+            Role::Step => &[&["step", "stepindex", "stepid", "stepnumber", "stepno", "ns"]],
+            Role::StepTime => &[&["steptime", "steptimes", "timeinstep"]],
+            Role::State => &[&["state", "status", "mode", "md"]],
+            Role::Charge => &[
+                &[
+                    "capacity",
+                    "amphr",
+                    "ahaccu",
+                    "ah",
+                    "qqo",
+                    "(qqo)",
+                    "chargecapacity",
+                ],
+                &[],
+            ],
         }
     }
 
@@ -98,6 +143,9 @@ impl Role {
             Role::Current => Unit::Ampere,
             Role::Voltage => Unit::Volt,
             Role::Temperature => Unit::Celsius,
+            Role::StepTime => Unit::Second,
+            Role::Charge => Unit::AmpereHour,
+            Role::Step | Role::State => Unit::Count,
         }
     }
 }
@@ -138,6 +186,15 @@ pub enum Unit {
     /// K.
     #[serde(rename = "K")]
     Kelvin,
+    /// A·h.
+    #[serde(rename = "Ah")]
+    AmpereHour,
+    /// mA·h.
+    #[serde(rename = "mAh")]
+    MilliampereHour,
+    /// No unit: a step index or a state's letters.
+    #[serde(rename = "")]
+    Count,
 }
 
 impl Unit {
@@ -155,14 +212,25 @@ impl Unit {
             Unit::Millivolt => "mV",
             Unit::Celsius => "°C",
             Unit::Kelvin => "K",
+            Unit::AmpereHour => "Ah",
+            Unit::MilliampereHour => "mAh",
+            Unit::Count => "",
         }
     }
 
     /// A value in this unit, in SI (s, A, V) or °C.
     pub fn to_si(self, x: f64) -> f64 {
         match self {
-            Unit::Second | Unit::Ampere | Unit::Volt | Unit::Celsius | Unit::Clock => x,
-            Unit::Millisecond | Unit::Milliampere | Unit::Millivolt => x / 1000.0,
+            Unit::Second
+            | Unit::Ampere
+            | Unit::Volt
+            | Unit::Celsius
+            | Unit::Clock
+            | Unit::AmpereHour
+            | Unit::Count => x,
+            Unit::Millisecond | Unit::Milliampere | Unit::Millivolt | Unit::MilliampereHour => {
+                x / 1000.0
+            }
             Unit::Minute => x * 60.0,
             Unit::Hour => x * 3600.0,
             Unit::Kelvin => x - 273.15,
@@ -174,7 +242,14 @@ impl Unit {
     fn parse(role: Role, symbol: &str) -> Option<Unit> {
         let s = symbol.trim().to_ascii_lowercase();
         let s = s.trim_start_matches('°');
+        let role = if role == Role::StepTime {
+            Role::Time
+        } else {
+            role
+        };
         Some(match (role, s) {
+            (Role::Charge, "ah" | "a.h" | "a·h" | "amphr" | "amp-hr") => Unit::AmpereHour,
+            (Role::Charge, "mah" | "ma.h" | "ma·h") => Unit::MilliampereHour,
             (Role::Time, "s" | "sec" | "secs" | "second" | "seconds") => Unit::Second,
             (Role::Time, "ms" | "msec") => Unit::Millisecond,
             (Role::Time, "min" | "mins" | "minute" | "minutes") => Unit::Minute,
@@ -265,12 +340,23 @@ pub struct ColumnChoice {
     pub voltage: Chosen,
     /// Temperature, if the record has a column for it.
     pub temperature: Option<Chosen>,
+    /// The step index, if any.
+    pub step: Option<Chosen>,
+    /// The time since the step's start, if any.
+    pub step_time: Option<Chosen>,
+    /// The step's kind as letters, if any.
+    pub state: Option<Chosen>,
+    /// The export's charge count, if any (Arbin's charge capacity).
+    pub charge: Option<Chosen>,
+    /// Arbin's discharge capacity, subtracted from [`ColumnChoice::charge`].
+    pub discharge_charge: Option<Chosen>,
 }
 
-/// A `--columns` map: `time=COL,current=COL,voltage=COL[,temperature=COL]`,
-/// each COL a header exactly as the file spells it (blanks around it
-/// trimmed). Roles left out are recognised from the header;
-/// `temperature=none` reads no temperature.
+/// A `--columns` map: `time=COL,current=COL,voltage=COL[,temperature=COL]`
+/// `[,step=COL,step_time=COL,state=COL,charge=COL]`, each COL a header
+/// exactly as the file spells it (blanks around it trimmed). Roles left
+/// out are recognised from the header; `none` for an optional role
+/// (`temperature=none`, `step_time=none`) reads no such column.
 #[derive(Clone, Debug, Default, PartialEq, Eq, serde::Deserialize, Serialize)]
 pub struct ColumnMap {
     /// The time column's header.
@@ -281,6 +367,14 @@ pub struct ColumnMap {
     pub voltage: Option<String>,
     /// The temperature column's header (`none`: no temperature).
     pub temperature: Option<String>,
+    /// The step index's header (`none`: not read).
+    pub step: Option<String>,
+    /// The step time's header (`none`: not read).
+    pub step_time: Option<String>,
+    /// The state column's header (`none`: not read).
+    pub state: Option<String>,
+    /// The export's charge column's header (`none`: not read).
+    pub charge: Option<String>,
 }
 
 impl ColumnMap {
@@ -295,7 +389,7 @@ impl ColumnMap {
             let Some((key, col)) = item.split_once('=') else {
                 bail!(
                     Options,
-                    "--columns: `{item}` is not KEY=COLUMN (keys: time, current, voltage, temperature)"
+                    "--columns: `{item}` is not KEY=COLUMN (keys: {KEYS})"
                 );
             };
             let (key, col) = (key.trim(), col.trim());
@@ -307,10 +401,11 @@ impl ColumnMap {
                 "current" => &mut m.current,
                 "voltage" => &mut m.voltage,
                 "temperature" => &mut m.temperature,
-                _ => bail!(
-                    Options,
-                    "--columns: unknown key `{key}` (keys: time, current, voltage, temperature)"
-                ),
+                "step" => &mut m.step,
+                "step_time" => &mut m.step_time,
+                "state" => &mut m.state,
+                "charge" => &mut m.charge,
+                _ => bail!(Options, "--columns: unknown key `{key}` (keys: {KEYS})"),
             };
             if slot.is_some() {
                 bail!(Options, "--columns: `{key}` is given twice");
@@ -326,9 +421,16 @@ impl ColumnMap {
             Role::Current => self.current.as_deref(),
             Role::Voltage => self.voltage.as_deref(),
             Role::Temperature => self.temperature.as_deref(),
+            Role::Step => self.step.as_deref(),
+            Role::StepTime => self.step_time.as_deref(),
+            Role::State => self.state.as_deref(),
+            Role::Charge => self.charge.as_deref(),
         }
     }
 }
+
+/// The `--columns` keys, as the errors list them.
+const KEYS: &str = "time, current, voltage, temperature, step, step_time, state, charge";
 
 /// Why no column could be chosen for a role (the caller words the line,
 /// with the file and the header found).
@@ -391,7 +493,7 @@ pub fn choose(
 ) -> std::result::Result<ColumnChoice, ChoiceError> {
     let pick = |role: Role| -> std::result::Result<Option<Chosen>, ChoiceError> {
         if let Some(name) = map.get(role) {
-            if role == Role::Temperature && name.eq_ignore_ascii_case("none") {
+            if role.optional() && name.eq_ignore_ascii_case("none") {
                 return Ok(None);
             }
             let hits: Vec<usize> = (0..headers.len())
@@ -418,20 +520,14 @@ pub fn choose(
         for tier in role.tiers() {
             let hits: Vec<usize> = (0..headers.len())
                 .filter(|&i| !taken(i))
-                .filter(|&i| {
-                    let name = split_unit(role, &headers[i]).0;
-                    if tier.is_empty() {
-                        // The temperature's last tier: any name with `temp`
-                        // in it (`Battery_Temp_degC`, `Aux_Temperature_3`).
-                        name.contains("temp")
-                    } else {
-                        tier.contains(&name.as_str())
-                    }
-                })
+                .filter(|&i| fits(role, tier, &headers[i]))
                 .collect();
             match hits.as_slice() {
                 [] => continue,
                 [i] => return Ok(Some(chosen(role, *i, &headers[*i]))),
+                // A step, state or charge column that is not clear is not
+                // read (it only refines the record): name it to read it.
+                _ if role.optional() && role != Role::Temperature => return Ok(None),
                 _ => {
                     return Err(ChoiceError::Ambiguous {
                         role,
@@ -440,19 +536,59 @@ pub fn choose(
                 }
             }
         }
-        if role == Role::Temperature {
+        if role.optional() {
             Ok(None)
         } else {
             Err(ChoiceError::Missing { role, asked: None })
         }
     };
     let need = |role| pick(role)?.ok_or(ChoiceError::Missing { role, asked: None });
+    let charge = pick(Role::Charge)?;
+    // Arbin counts charge and discharge in two columns.
+    let discharge_charge = charge
+        .as_ref()
+        .filter(|c| split_unit(Role::Charge, &c.header).0 == "chargecapacity")
+        .and_then(|_| {
+            let hits: Vec<usize> = (0..headers.len())
+                .filter(|&i| split_unit(Role::Charge, &headers[i]).0 == "dischargecapacity")
+                .collect();
+            match hits.as_slice() {
+                [i] => Some(chosen(Role::Charge, *i, &headers[*i])),
+                _ => None,
+            }
+        });
+    let charge = charge.filter(|c| {
+        split_unit(Role::Charge, &c.header).0 != "chargecapacity" || discharge_charge.is_some()
+    });
     Ok(ColumnChoice {
         time: need(Role::Time)?,
         current: need(Role::Current)?,
         voltage: need(Role::Voltage)?,
         temperature: pick(Role::Temperature)?,
+        step: pick(Role::Step)?,
+        step_time: pick(Role::StepTime)?,
+        state: pick(Role::State)?,
+        charge,
+        discharge_charge,
     })
+}
+
+/// Whether the header `h` names a column of `role` in `tier`.
+fn fits(role: Role, tier: &[&str], h: &str) -> bool {
+    let (name, unit) = split_unit(role, h);
+    // Maccor's `Step (Sec)` is a step time, not a step index.
+    let timed = split_unit(Role::Time, h).1.is_some();
+    match role {
+        // The temperature's last tier: any name with `temp` in it
+        // (`Battery_Temp_degC`, `Aux_Temperature_3`).
+        Role::Temperature if tier.is_empty() => name.contains("temp"),
+        // The charge's last tier: a name with a charge unit
+        // (`Q charge/discharge/mA.h`).
+        Role::Charge if tier.is_empty() => unit.is_some() && !name.contains("energy"),
+        Role::Step => tier.contains(&name.as_str()) && !timed,
+        Role::StepTime => tier.contains(&name.as_str()) || (name == "step" && timed),
+        _ => tier.contains(&name.as_str()),
+    }
 }
 
 fn chosen(role: Role, index: usize, header: &str) -> Chosen {
@@ -490,203 +626,5 @@ pub fn parse_time(cell: &str, unit: Unit) -> Option<f64> {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn h(names: &[&str]) -> Vec<String> {
-        names.iter().map(|s| s.to_string()).collect()
-    }
-
-    fn pick(names: &[&str]) -> ColumnChoice {
-        choose(&h(names), &ColumnMap::default()).unwrap()
-    }
-
-    #[test]
-    fn recognises_the_common_exports_with_their_units() {
-        // Arbin
-        let c = pick(&[
-            "Data_Point",
-            "Test_Time(s)",
-            "Date_Time",
-            "Step_Time(s)",
-            "Current(A)",
-            "Voltage(V)",
-            "Aux_Temperature_1(C)",
-        ]);
-        assert_eq!((c.time.index, c.time.unit), (1, Unit::Second));
-        assert_eq!((c.current.index, c.voltage.index), (4, 5));
-        assert_eq!(c.temperature.unwrap().unit, Unit::Celsius);
-        // BioLogic
-        let c = pick(&[
-            "mode",
-            "time/s",
-            "control/V/mA",
-            "Ewe/V",
-            "I/mA",
-            "Q-Qo/mA.h",
-        ]);
-        assert_eq!((c.time.index, c.voltage.index, c.current.index), (1, 3, 4));
-        assert_eq!(c.current.unit, Unit::Milliampere);
-        // PyBaMM / PyBOP
-        let c = pick(&["Time [s]", "Current [A]", "Voltage [V]"]);
-        assert_eq!(c.voltage.unit, Unit::Volt);
-        // Maccor: unitless Amps and Volts, time in hours.
-        let c = pick(&[
-            "Rec#",
-            "Cyc#",
-            "Step",
-            "Test Time (Hr)",
-            "Amp-hr",
-            "Amps",
-            "Volts",
-        ]);
-        assert_eq!((c.time.index, c.time.unit), (3, Unit::Hour));
-        assert_eq!((c.current.index, c.current.unit_stated), (5, true));
-        // Neware: a clock time, current in mA.
-        let c = pick(&[
-            "Record ID",
-            "Total Time",
-            "Current(mA)",
-            "Voltage(V)",
-            "Realtime",
-        ]);
-        assert_eq!((c.time.index, c.current.unit), (1, Unit::Milliampere));
-        assert!(!c.time.unit_stated);
-        // Ours.
-        let c = pick(&["time_s", "current_a", "voltage_v"]);
-        assert_eq!(
-            (c.time.unit, c.current.unit, c.voltage.unit),
-            (Unit::Second, Unit::Ampere, Unit::Volt)
-        );
-        // Bitrode-style, with step columns and repeated headers around.
-        let c = pick(&[
-            "Loop",
-            "Loop",
-            "Step",
-            "Mode",
-            "Time(s)",
-            "Current(A)",
-            "Voltage(V)",
-            "Temperature(C)",
-        ]);
-        assert_eq!((c.time.index, c.current.index, c.voltage.index), (4, 5, 6));
-        assert_eq!(
-            pick(&["Time (min)", "I (A)", "U (mV)"]).time.unit,
-            Unit::Minute
-        );
-        assert_eq!(pick(&["t/ms", "I/A", "U/mV"]).voltage.unit, Unit::Millivolt);
-    }
-
-    /// The headers of the table in docs/cycler.md.
-    #[test]
-    fn the_documented_headers_are_read() {
-        let c = pick(&["Test Time (sec)", "Amps", "Volts", "Temp 1"]);
-        assert_eq!(
-            (c.time.unit, c.temperature.unwrap().index),
-            (Unit::Second, 3)
-        );
-        let c = pick(&["Total Time", "Current(A)", "Voltage(V)", "T1(°C)"]);
-        assert_eq!(c.temperature.unwrap().unit, Unit::Celsius);
-        let c = pick(&["time/s", "I/mA", "Ecell/V"]);
-        assert_eq!(c.voltage.index, 2);
-        let c = pick(&[
-            "Time [s]",
-            "Current [A]",
-            "Terminal voltage [V]",
-            "Cell temperature [K]",
-        ]);
-        assert_eq!(c.temperature.unwrap().unit, Unit::Kelvin);
-        let c = pick(&[
-            "Test_Time(s)",
-            "Current(A)",
-            "Voltage(V)",
-            "Aux_Temperature_1(C)",
-        ]);
-        assert_eq!(c.temperature.unwrap().index, 3);
-        let c = pick(&["time_s", "current_a", "voltage_v", "temperature_c"]);
-        assert_eq!(c.temperature.unwrap().unit, Unit::Celsius);
-        let e = choose(
-            &h(&["time/s", "I/mA", "Ewe/V", "Ecell/V"]),
-            &ColumnMap::default(),
-        )
-        .unwrap_err();
-        assert_eq!(
-            e.to_string(),
-            "2 columns fit the voltage: `Ewe/V`, `Ecell/V`; name one with --columns voltage=COL"
-        );
-    }
-
-    #[test]
-    fn a_missing_or_doubled_column_is_named_not_guessed() {
-        let e = choose(&h(&["Time(s)", "Voltage(V)"]), &ColumnMap::default()).unwrap_err();
-        assert_eq!(
-            e,
-            ChoiceError::Missing {
-                role: Role::Current,
-                asked: None
-            }
-        );
-        let e = choose(
-            &h(&["Time(s)", "Current(A)", "Voltage(V)", "Voltage(V)"]),
-            &ColumnMap::default(),
-        )
-        .unwrap_err();
-        assert!(
-            matches!(
-                e,
-                ChoiceError::Ambiguous {
-                    role: Role::Voltage,
-                    ..
-                }
-            ),
-            "{e}"
-        );
-        let hd = h(&[
-            "Time(s)",
-            "Current(A)",
-            "Voltage(V)",
-            "Temp_1(C)",
-            "Chamber_Temp_degC",
-        ]);
-        let e = choose(&hd, &ColumnMap::default()).unwrap_err();
-        assert!(
-            e.to_string().contains("`Temp_1(C)`, `Chamber_Temp_degC`"),
-            "{e}"
-        );
-        // A name of the first tier (the battery's) wins over the chamber's.
-        let c = pick(&[
-            "Time(s)",
-            "Current(A)",
-            "Voltage(V)",
-            "Battery_Temp_degC",
-            "Chamber_Temp_degC",
-        ]);
-        assert_eq!(c.temperature.unwrap().index, 3);
-        // The map settles it, or drops the temperature.
-        let mut m = ColumnMap::parse("temperature=Temp_1(C)").unwrap();
-        assert_eq!(choose(&hd, &m).unwrap().temperature.unwrap().index, 3);
-        m.temperature = Some("none".into());
-        assert_eq!(choose(&hd, &m).unwrap().temperature, None);
-    }
-
-    #[test]
-    fn a_column_map_names_columns_exactly() {
-        let m = ColumnMap::parse("time=T, current=Ib,voltage=Vb").unwrap();
-        let c = choose(&h(&["Vb", "Ib", "T", "Current(A)"]), &m).unwrap();
-        assert_eq!((c.time.index, c.current.index, c.voltage.index), (2, 1, 0));
-        let e = choose(&h(&["Vb", "T"]), &m).unwrap_err();
-        assert_eq!(e.to_string(), "no column `Ib` (asked for as the current)");
-        for bad in ["time", "tiem=T", "time=T,time=U", "time="] {
-            assert!(ColumnMap::parse(bad).is_err(), "{bad}");
-        }
-    }
-
-    #[test]
-    fn clock_times_read_as_seconds() {
-        assert_eq!(parse_time("1:02:03.5", Unit::Clock), Some(3723.5));
-        assert_eq!(parse_time("2-00:00:01", Unit::Clock), Some(172_801.0));
-        assert_eq!(parse_time("90", Unit::Minute), Some(5400.0));
-        assert_eq!(parse_time("1:2", Unit::Clock), None);
-        assert_eq!(parse_time("x", Unit::Second), None);
-    }
-}
+#[path = "headers_tests.rs"]
+mod tests;

@@ -47,6 +47,11 @@ fn vector(v: &MatVariable) -> Option<Vec<f64>> {
         MatlabType::I32(x) => x.iter().map(|&v| f64::from(v)).collect(),
         MatlabType::U64(x) => x.iter().map(|&v| v as f64).collect(),
         MatlabType::I64(x) => x.iter().map(|&v| v as f64).collect(),
+        // A char vector (Digatron's `Status`, one letter a row): the
+        // letters' codes, read back as letters by the state column.
+        MatlabType::UTF8(x) | MatlabType::UTF16(x) => {
+            x.iter().map(|&c| f64::from(u32::from(c))).collect()
+        }
         _ => return None,
     };
     (x.len() >= 2).then_some(x)
@@ -81,6 +86,37 @@ fn tables(prefix: &str, fields: Vec<(String, &MatVariable)>, depth: usize, out: 
             let inner = s.value.iter().map(|(k, v)| (k.clone(), v)).collect();
             tables(&path, inner, depth + 1, out);
         }
+    }
+}
+
+/// The step, state and charge columns of a table (those of another length
+/// than the time are not read).
+fn extra<'a>(
+    c: &ColumnChoice,
+    col: &dyn Fn(usize) -> &'a Vec<f64>,
+    n: usize,
+) -> super::steps::Extra {
+    let take = |ch: &Option<headers::Chosen>| {
+        ch.as_ref()
+            .map(|ch| (ch, col(ch.index)))
+            .filter(|(_, v)| v.len() == n)
+            .map(|(ch, v)| v.iter().map(|&x| ch.unit.to_si(x)).collect::<Vec<f64>>())
+    };
+    super::steps::Extra {
+        step: take(&c.step),
+        step_time: take(&c.step_time),
+        state: c
+            .state
+            .as_ref()
+            .map(|ch| col(ch.index))
+            .filter(|v| v.len() == n)
+            .map(|v| {
+                v.iter()
+                    .map(|&x| char::from_u32(x as u32).map_or_else(String::new, |c| c.to_string()))
+                    .collect()
+            }),
+        charge: take(&c.charge),
+        discharge_charge: take(&c.discharge_charge),
     }
 }
 
@@ -230,6 +266,7 @@ pub(super) fn read(bytes: &[u8], path: &Path, o: &RecordOptions) -> Result<Cycle
         temperature,
         rows: (1..=n).collect(),
         clock_time: false,
+        extra: extra(&choice, &col, n),
     };
     let mut r = finish(raw, 0, &choice, path, o)?;
     r.report.table = Some(table.path.clone());

@@ -30,10 +30,12 @@
 pub mod headers;
 mod mat;
 pub mod resample;
+pub mod steps;
 mod text;
 
 pub use headers::{ColumnMap, Role, Unit};
 pub use resample::{Gap, Resampling};
+pub use steps::{ChargeCheck, StateReport, StepReport, StepsMode, Unlogged};
 
 use crate::bail;
 use crate::error::{IoContext, Result};
@@ -52,6 +54,10 @@ pub enum CurrentSign {
     ChargePositive,
     /// Positive when discharging (PyBaMM's): negated.
     DischargePositive,
+    /// A magnitude, signed by the state column (Maccor's `State` C/D/R):
+    /// the default when the current never goes negative and the export has
+    /// a state column of letters.
+    FromState,
 }
 
 impl CurrentSign {
@@ -60,14 +66,15 @@ impl CurrentSign {
         match self {
             CurrentSign::ChargePositive => "charge-positive",
             CurrentSign::DischargePositive => "discharge-positive",
+            CurrentSign::FromState => "from-state",
         }
     }
 
     /// What an export's current is multiplied by to read positive
-    /// charging: 1 or −1.
+    /// charging: 1 or −1 (1 from a state: the state signs it after).
     pub fn factor(self) -> f64 {
         match self {
-            CurrentSign::ChargePositive => 1.0,
+            CurrentSign::ChargePositive | CurrentSign::FromState => 1.0,
             CurrentSign::DischargePositive => -1.0,
         }
     }
@@ -98,6 +105,12 @@ pub struct RecordOptions {
     /// more is refused. A whole-record fit sets [`MAX_SAMPLES`].
     #[serde(skip)]
     pub max_samples: Option<usize>,
+    /// Step starts from the step-time column (`auto`, default) or each
+    /// row's current held to the next row (`ignore`).
+    pub steps: StepsMode,
+    /// The cell's capacity (A·h), if known: the export's charge count is
+    /// compared with ours to 0.5 % of it (else to 0.02 A·h).
+    pub capacity_ah: Option<f64>,
 }
 
 /// The most samples a non-uniform log is resampled to when no period is
@@ -152,6 +165,21 @@ pub struct RecordReport {
     /// For a MAT-file: the struct read (its dot path).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub table: Option<String>,
+    /// What the step columns did: where each step began.
+    pub steps: StepReport,
+    /// Samples inside a step's unlogged start (longer than a period):
+    /// their current is known, their voltage is not; no fit counts them.
+    pub unobserved_samples: usize,
+    /// How the state column signed the current, if there is one.
+    pub state: Option<StateReport>,
+    /// A warning when the current's sign and the state disagree on more
+    /// than 1 % of the loaded rows.
+    pub state_warning: Option<String>,
+    /// The export's own charge count against ours, if it has one.
+    pub charge_check: Option<ChargeCheck>,
+    /// A warning when the two counts part by more than 0.5 % of the
+    /// capacity (0.02 A·h without one).
+    pub charge_warning: Option<String>,
 }
 
 impl RecordReport {
@@ -166,15 +194,47 @@ impl RecordReport {
             Some(t) => format!("MAT table `{t}`"),
             None => format!("row {}", self.header_row + 1),
         };
+        let sign = match &self.state {
+            Some(s) if s.signs_current => format!("from-state `{}`", s.column),
+            _ => self.current_sign.as_str().to_string(),
+        };
+        let st = &self.steps;
+        let steps = match (st.starts_from, &st.step_time_column) {
+            ("ignored", _) => "; step starts ignored (--steps ignore): each row's current held to the next".to_string(),
+            (_, Some(h)) => format!(
+                "; step starts from `{h}`: {} of {} steps began before their first row ({} unobserved samples)",
+                st.unlogged.len(),
+                st.changes,
+                self.unobserved_samples
+            ),
+            _ => "; no step-time column: each row's current held to the next".to_string(),
+        };
         format!(
-            "read {}: {} rows from {at}: time {}, current {} {}, voltage {}{temp}",
+            "read {}: {} rows from {at}: time {}, current {} {sign}, voltage {}{temp}{steps}",
             path.display(),
             self.rows_read,
             col(&self.columns.time, self.units.time),
             col(&self.columns.current, self.units.current),
-            self.current_sign.as_str(),
             col(&self.columns.voltage, self.units.voltage),
         )
+    }
+
+    /// Which samples at `time` (period `h`) are unobserved: inside a step's
+    /// unlogged start longer than `h` ([`steps::unobserved`]).
+    pub fn unobserved(&self, h: f64, time: &[f64]) -> Vec<bool> {
+        steps::unobserved(&self.steps.unlogged, h, time)
+    }
+
+    /// The warnings on the record, one line each: the sign, the state,
+    /// the charge count.
+    pub fn warnings(&self) -> impl Iterator<Item = &String> {
+        [
+            &self.sign_warning,
+            &self.state_warning,
+            &self.charge_warning,
+        ]
+        .into_iter()
+        .flatten()
     }
 
     /// One line on the period and the rows merged, interpolated and
@@ -378,6 +438,7 @@ pub fn record_from_arrays(
         temperature: None,
         rows: (2..time.len() + 2).collect(),
         clock_time: false,
+        extra: steps::Extra::default(),
     };
     let chosen = |index: usize, header: &str, unit: Unit| headers::Chosen {
         index,
@@ -390,11 +451,21 @@ pub fn record_from_arrays(
         current: chosen(1, "current_a", Unit::Ampere),
         voltage: chosen(2, "voltage_v", Unit::Volt),
         temperature: None,
+        step: None,
+        step_time: None,
+        state: None,
+        charge: None,
+        discharge_charge: None,
     };
     finish(raw, 1, &choice, path, o)
 }
 
 fn check_options(o: &RecordOptions) -> Result<()> {
+    if let Some(c) = o.capacity_ah {
+        if !(c.is_finite() && c > 0.0) {
+            bail!(Options, "--capacity-ah must be positive (got {c})");
+        }
+    }
     if let Some(h) = o.period {
         if !(h.is_finite() && h > 0.0) {
             bail!(Options, "--period must be positive and finite (got {h})");
@@ -415,11 +486,12 @@ struct RawRows {
     temperature: Option<Vec<f64>>,
     rows: Vec<usize>,
     clock_time: bool,
+    extra: steps::Extra,
 }
 
 /// Cleans the rows, decides the period and resamples when needed.
 fn finish(
-    raw: RawRows,
+    mut raw: RawRows,
     header_row: usize,
     c: &ColumnChoice,
     path: &Path,
@@ -460,6 +532,25 @@ fn finish(
             c.time.header
         );
     }
+    // The current signed by the state, then the step starts put in.
+    let state = match &c.state {
+        Some(ch) => steps::sign_from_state(
+            &mut raw,
+            &ch.header,
+            o.current_sign == CurrentSign::FromState,
+            path,
+        )?,
+        None => None,
+    };
+    if o.current_sign == CurrentSign::FromState && state.is_none() {
+        bail!(
+            Options,
+            "{}: --current-sign from-state: no state column of letters (C/D/R) found; name it with --columns state=COL",
+            path.display()
+        );
+    }
+    let (raw, step_report) = steps::place_starts(raw, &keep, o.steps, c, path)?;
+    let keep: Vec<usize> = (0..raw.time.len()).collect();
     let kept_uniform = resample::uniform(&raw.time, &keep);
     let span = raw.time[keep[keep.len() - 1]] - raw.time[keep[0]];
     let limit = o.max_samples.unwrap_or(usize::MAX);
@@ -516,7 +607,49 @@ fn finish(
             raw.temperature.as_deref().map(pick),
         )
     };
+    let magnitude = !state.as_ref().is_some_and(|s| s.signs_current)
+        && raw.current.iter().all(|&i| i >= 0.0 || i.is_nan());
     let sign_warning = sign_warning(&current, &voltage, o.current_sign);
+    if let (true, Some(w), CurrentSign::ChargePositive) = (magnitude, &sign_warning, o.current_sign)
+    {
+        bail!(
+            Data,
+            "{}: column `{}`: the current is never negative and {w}; a magnitude needs a state column (--columns state=COL, --current-sign from-state)",
+            path.display(),
+            c.current.header
+        );
+    }
+    let state_warning = state.as_ref().and_then(|s| {
+        (!s.signs_current && s.disagreeing_rows * 100 > s.loaded_rows).then(|| {
+            format!(
+                "the current's sign and the state `{}` disagree at {} of {} loaded rows (a charge with a negative current or a discharge with a positive one); is the current a magnitude? (--current-sign from-state)",
+                s.column, s.disagreeing_rows, s.loaded_rows
+            )
+        })
+    });
+    let charge_check = c.charge.as_ref().and_then(|ch| {
+        let name = match &c.discharge_charge {
+            Some(d) => format!("{} − {}", ch.header, d.header),
+            None => ch.header.clone(),
+        };
+        steps::charge_check(&raw, &name, r.gap_threshold_s)
+    });
+    let charge_warning = charge_check.as_ref().and_then(|k| {
+        let (limit, of) = match o.capacity_ah {
+            Some(q) => (0.005 * q, format!("0.5 % of the capacity {q} A·h")),
+            None => (0.02, "0.02 A·h (no capacity given)".to_string()),
+        };
+        (k.max_gap_ah > limit).then(|| {
+            format!(
+                "the export's own charge `{}` and ours part by up to {:.4} A·h (over the record: ours {:.4} A·h, theirs {:.4} A·h), more than {of}: are the step starts or the current's sign read right? (--steps, --current-sign)",
+                k.column, k.max_gap_ah, k.ours_ah, k.theirs_ah
+            )
+        })
+    });
+    let unobserved_samples = steps::unobserved(&step_report.unlogged, h, &time)
+        .iter()
+        .filter(|&&u| u)
+        .count();
     let mut units = RoleColumns {
         time: c.time.unit,
         current: c.current.unit,
@@ -535,7 +668,10 @@ fn finish(
             temperature: c.temperature.as_ref().map(|t| t.header.clone()),
         },
         units,
-        current_sign: o.current_sign,
+        current_sign: match &state {
+            Some(s) if s.signs_current => CurrentSign::FromState,
+            _ => o.current_sign,
+        },
         rows_read: n,
         samples: time.len(),
         period_s: h,
@@ -544,6 +680,12 @@ fn finish(
         resampling: r,
         sign_warning,
         table: None,
+        steps: step_report,
+        unobserved_samples,
+        state,
+        state_warning,
+        charge_check,
+        charge_warning,
     };
     let pick = |col: &[f64]| keep.iter().map(|&i| col[i]).collect::<Vec<f64>>();
     let rows = BatteryRecord {
@@ -591,7 +733,7 @@ fn sign_warning(current: &[f64], voltage: &[f64], sign: CurrentSign) -> Option<S
     }
     (against >= 3 && against > 2 * with).then(|| {
         let other = match sign {
-            CurrentSign::ChargePositive => "discharge-positive",
+            CurrentSign::ChargePositive | CurrentSign::FromState => "discharge-positive",
             CurrentSign::DischargePositive => "charge-positive",
         };
         format!(

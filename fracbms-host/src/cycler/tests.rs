@@ -41,7 +41,7 @@ fn units_and_sign_are_converted_and_said() {
     let line = r.report.summary(Path::new("log.csv"));
     assert_eq!(
         line,
-        "read log.csv: 3 rows from row 2: time `Time [min]` (min), current `Current [mA]` (mA) discharge-positive, voltage `Voltage [mV]` (mV), temperature `Temperature [K]` (K)"
+        "read log.csv: 3 rows from row 2: time `Time [min]` (min), current `Current [mA]` (mA) discharge-positive, voltage `Voltage [mV]` (mV), temperature `Temperature [K]` (K); no step-time column: each row's current held to the next"
     );
 }
 
@@ -64,13 +64,29 @@ fn an_arbin_export_with_extra_and_repeated_columns_reads_as_it_comes() {
     };
     let r = read(text, &o).unwrap();
     assert_eq!(r.record.time.len(), 61);
-    // [0, 1): 0 A for 0.1 s, −3 A for 0.9 s.
+    // [0, 1): the pulse's step began at 0 s (its first row, at 0.1 s, says
+    // 0.1 s into it) and the rest's at 0.2 s (its first row, at 60.2 s,
+    // says 60 s): −3 A for 0.2 s.
     assert!(
-        (r.record.current[0] + 2.7).abs() < 1e-12,
+        (r.record.current[0] + 0.6).abs() < 1e-12,
         "{}",
         r.record.current[0]
     );
     assert!(r.report.resampling_line().unwrap().contains("(--period)"));
+    assert_eq!(r.report.steps.changes, 2);
+    assert_eq!(r.report.steps.unlogged.len(), 2);
+    // The rest's first 60 s have no voltage; the pulse's 0.1 s is within
+    // a period.
+    assert_eq!(r.report.unobserved_samples, 60);
+    // Read row by row (--steps ignore), as a reader without step times:
+    // 0 A for 0.1 s, −3 A for 0.9 s.
+    let o = RecordOptions {
+        steps: StepsMode::Ignore,
+        ..o
+    };
+    let r = read(text, &o).unwrap();
+    assert!((r.record.current[0] + 2.7).abs() < 1e-12);
+    assert_eq!(r.report.unobserved_samples, 0);
 }
 
 #[test]

@@ -139,6 +139,7 @@ pub(super) fn read_rows(
         temperature: c.temperature.as_ref().map(|_| Vec::new()),
         rows: Vec::new(),
         clock_time: false,
+        extra: super::steps::Extra::of(c),
     };
     let s = sign.factor();
     let mut rec = csv::ByteRecord::new();
@@ -214,6 +215,27 @@ pub(super) fn read_rows(
                     .map(|v| ch.unit.to_si(v))
                     .map_err(|_| not_a_number(ch, x))?
             });
+        }
+        // The step, state and charge columns: an empty cell is a missing
+        // reading (NaN, or an empty state).
+        let optional = |ch: &Option<Chosen>, col: &mut Option<Vec<f64>>| -> Result<()> {
+            if let (Some(ch), Some(v)) = (ch, col.as_mut()) {
+                let x = cell(ch)?;
+                v.push(if x.is_empty() {
+                    f64::NAN
+                } else {
+                    headers::parse_time(x, ch.unit).ok_or_else(|| not_a_number(ch, x))?
+                });
+            }
+            Ok(())
+        };
+        let e = &mut out.extra;
+        optional(&c.step, &mut e.step)?;
+        optional(&c.step_time, &mut e.step_time)?;
+        optional(&c.charge, &mut e.charge)?;
+        optional(&c.discharge_charge, &mut e.discharge_charge)?;
+        if let (Some(ch), Some(v)) = (&c.state, e.state.as_mut()) {
+            v.push(cell(ch)?.to_string());
         }
         out.rows.push(row);
     }

@@ -571,17 +571,12 @@ fn apply_assessment(r: &mut BatteryResult, sc: &trust::Screened) {
     let counts = sc.counts();
     j.rejected = counts.total();
     j.rejected_rows = counts;
-    if counts.total() > 0 {
-        // The RMSE over the accepted rows, against the measured voltages.
-        let (s, k) = sc
-            .measured
-            .iter()
-            .zip(&r.model_voltage)
-            .zip(&sc.rejected)
-            .filter(|(_, rej)| rej.is_none())
-            .fold((0.0, 0usize), |(s, k), ((v, m), _)| {
-                (s + (v - m) * (v - m), k + 1)
-            });
+    if sc.excluded() > 0 {
+        // The RMSE over the accepted, measured rows.
+        let (s, k) = (0..sc.measured.len())
+            .filter(|&k| sc.counted(k))
+            .map(|k| sc.measured[k] - r.model_voltage[k])
+            .fold((0.0, 0usize), |(s, k), e| (s + e * e, k + 1));
         j.rmse_v = (s / k.max(1) as f64).sqrt();
     }
 }
@@ -589,7 +584,9 @@ fn apply_assessment(r: &mut BatteryResult, sc: &trust::Screened) {
 /// [`battery_identify`] on a record whose bad rows are rejected first,
 /// then refitted without the spikes against the model (docs/trust.md): the
 /// rows rejected are substituted and counted (`rejected`, `rejected_rows`),
-/// and the verdict is computed over the accepted rows.
+/// and the verdict is computed over the accepted rows. The rows marked in
+/// `unobserved` (a cycler's unlogged step starts; empty: none) are
+/// substituted the same way and counted in none of it.
 ///
 /// # Errors
 /// As [`battery_identify`], and when every row is rejected.
@@ -597,6 +594,7 @@ fn apply_assessment(r: &mut BatteryResult, sc: &trust::Screened) {
 pub fn battery_identify_screened(
     path: &Path,
     rec: &io::BatteryRecord,
+    unobserved: &[bool],
     limits: &trust::Limits,
     ocv: Option<&crate::ocv::OcvSpec>,
     method: BatteryMethod,
@@ -605,7 +603,7 @@ pub fn battery_identify_screened(
     print_table: bool,
     refine: Refine,
 ) -> Result<(BatteryResult, trust::Screened)> {
-    let mut sc = trust::screen(path, rec, limits)?;
+    let mut sc = trust::screen_observed(path, rec, limits, unobserved)?;
     let cell_ocv = ocv.map(|o| o.resolve(path, &sc.record)).transpose()?;
     let fit = |record: &io::BatteryRecord, print_table: bool| {
         battery_identify_unassessed(
@@ -630,7 +628,7 @@ pub fn battery_identify_screened(
         // A substitute from an earlier fit pulls the refit towards it;
         // refitting with the latest model's substitutes converges fast
         // (each pass by the fraction of rejected rows).
-        if new == 0 && (sc.counts().total() == 0 || trust::settled(&r.cell, &previous)) {
+        if new == 0 && (sc.excluded() == 0 || trust::settled(&r.cell, &previous)) {
             break;
         }
         previous = r.cell;

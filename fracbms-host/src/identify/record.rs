@@ -29,8 +29,10 @@ pub struct BatteryArrays {
 /// would be ([`crate::cycler::record_from_arrays`]: a non-finite time is an
 /// error, a non-uniform one put on a uniform period), then bad rows are
 /// rejected, substituted and counted with the default plausibility limits,
-/// and the record is fitted, as the CLI does. `name` names the data in the
-/// messages (`record`).
+/// and the record is fitted, as the CLI does. `unobserved[k]` (empty: none)
+/// says row `k`'s voltage was not measured: a sample is unobserved where the
+/// row it is held from is, and counted in no fit (as a cycler's unlogged
+/// step start is). `name` names the data in the messages (`record`).
 ///
 /// # Errors
 /// [`crate::ErrorKind::Data`] for arrays of unequal lengths, a bad time,
@@ -42,12 +44,22 @@ pub fn battery_arrays(
     time: &[f64],
     current: &[f64],
     voltage: &[f64],
+    unobserved: &[bool],
     ocv: Option<&crate::ocv::OcvSpec>,
     method: BatteryMethod,
     model: ModelRequest,
     memory: Option<usize>,
     iterations: u32,
 ) -> Result<BatteryArrays> {
+    if !unobserved.is_empty() && unobserved.len() != time.len() {
+        crate::bail!(
+            Data,
+            "{}: the unobserved mask has {} values, the record {}",
+            name.display(),
+            unobserved.len(),
+            time.len()
+        );
+    }
     let read = crate::cycler::record_from_arrays(
         name,
         time,
@@ -67,9 +79,11 @@ pub fn battery_arrays(
         model: model_for(model, method),
         ..Refine::default()
     };
+    let unobserved = held_mask(time, unobserved, &read.record.time);
     let (mut result, screened) = battery_identify_screened(
         name,
         &read.record,
+        &unobserved,
         &trust::Limits::default(),
         ocv,
         method,
@@ -84,6 +98,21 @@ pub fn battery_arrays(
         result,
         screened,
     })
+}
+
+/// A mask of rows (`mask[k]` for the row at `rows[k]`, increasing) on the
+/// samples at `at`: each sample takes the mask of the last row at or
+/// before it (empty: all false).
+fn held_mask(rows: &[f64], mask: &[bool], at: &[f64]) -> Vec<bool> {
+    if mask.is_empty() {
+        return vec![];
+    }
+    at.iter()
+        .map(|&t| {
+            let k = rows.partition_point(|&r| r <= t);
+            k > 0 && mask[k - 1]
+        })
+        .collect()
 }
 
 /// How `identify battery` fits a record: every flag but the files and the
@@ -153,6 +182,7 @@ pub fn battery_file(input: &Path, o: &BatteryFitOptions, print_table: bool) -> R
     // The whole record: a longer uniform log is put on a longer period.
     let record = crate::cycler::RecordOptions {
         max_samples: Some(MAX_BATTERY_ROWS),
+        capacity_ah: o.record.capacity_ah.or(o.ocv.capacity_ah),
         ..o.record.clone()
     };
     let read = crate::cycler::read_record(input, &record)?;
@@ -164,9 +194,11 @@ pub fn battery_file(input: &Path, o: &BatteryFitOptions, print_table: bool) -> R
     };
     let limits = trust::Limits::checked(o.voltage_min, o.voltage_max, o.current_limit)?;
     let ocv = crate::ocv::OcvSpec::from_options(&o.ocv)?;
+    let unobserved = read.report.unobserved(rec.h, &rec.time);
     let (result, screened) = battery_identify_screened(
         input,
         &rec,
+        &unobserved,
         &limits,
         ocv.as_ref(),
         o.method,

@@ -128,7 +128,11 @@ pub const TRACK_HEADER: &str = "time_s,r_i,r_ct,q,alpha,u_oc,status,soc,ocv_offs
 /// refused.
 pub fn battery_file(input: &Path, out: &Path, o: &OnlineBatteryOptions) -> Result<OnlineReport> {
     let t0 = std::time::Instant::now();
-    let read = crate::cycler::read_record(input, &o.record)?;
+    let record = crate::cycler::RecordOptions {
+        capacity_ah: o.record.capacity_ah.or(o.ocv.capacity_ah),
+        ..o.record.clone()
+    };
+    let read = crate::cycler::read_record(input, &record)?;
     let rec = read.record;
     let cell = match (&o.state_in, o.ocv.soc0) {
         // From a snapshot the start SOC is the snapshot's: the record need
@@ -203,7 +207,23 @@ pub fn battery_file(input: &Path, out: &Path, o: &OnlineBatteryOptions) -> Resul
             )?;
             let gaps = &read.report.resampling.gaps;
             let temperature = read.temperature.as_deref();
-            res = track_with(&mut tracker, &rec, &t, temperature, gaps, |r| {
+            // A sample inside a step's unlogged start has no voltage: the
+            // estimator takes it as a missing reading (its current counted,
+            // its voltage substituted, never in the window's cost), and the
+            // track says `unobserved`.
+            let unobserved = read.report.unobserved(rec.h, &rec.time);
+            let fed = io::BatteryRecord {
+                voltage: (rec.voltage.iter().zip(&unobserved))
+                    .map(|(&v, &u)| if u { f64::NAN } else { v })
+                    .collect(),
+                ..rec.clone()
+            };
+            let mut k = 0usize;
+            res = track_with(&mut tracker, &fed, &t, temperature, gaps, |mut r| {
+                if unobserved.get(k).copied().unwrap_or(false) {
+                    r.rejected = Some("unobserved");
+                }
+                k += 1;
                 let bv = r.estimate.filter(|p| p.is_butler_volmer());
                 let pb = &r.published;
                 let statuses = pb.named().map(|(_, x)| x.status.as_str()).join(",");

@@ -15,7 +15,7 @@ mod simulate;
 use anyhow::Result;
 use clap::{Parser, Subcommand};
 use estimator_core::battery::Start;
-use fracbms_host::cycler::{ColumnMap, CurrentSign, RecordOptions};
+use fracbms_host::cycler::{ColumnMap, CurrentSign, RecordOptions, StepsMode};
 use fracbms_host::identify::{Algorithm, BatteryMethod, HammersteinMethod, ModelRequest};
 use fracbms_host::online::soc::SocMode;
 use fracbms_host::online::Precision;
@@ -193,6 +193,20 @@ value_enum! {
         ChargePositive,
         /// Positive when discharging (PyBaMM's): negated on reading.
         DischargePositive,
+        /// A magnitude signed by the state column (Maccor's `State`
+        /// C/D/R): the default when the current never goes negative and
+        /// the export has a state column of letters.
+        FromState,
+    }
+}
+
+value_enum! {
+    /// Where a cycler's step began (`--steps`).
+    StepsArg => StepsMode {
+        /// From the step-time column, where there is one.
+        Auto,
+        /// Each row's current held to the next row.
+        Ignore,
     }
 }
 
@@ -200,9 +214,11 @@ value_enum! {
 #[derive(clap::Args, Debug, Clone)]
 pub struct RecordArgs {
     /// Columns by their headers: `time=COL,current=COL,voltage=COL[,temperature=COL]`
-    /// (`temperature=none`: none). Roles left out are recognised from the
-    /// header (Arbin, Bitrode, Maccor, Neware, BioLogic, PyBaMM/PyBOP and
-    /// ours, units included: ms, min, h, mA, mV, K).
+    /// and the optional `step=COL,step_time=COL,state=COL,charge=COL`
+    /// (`temperature=none`, `step_time=none`…: none). Roles left out are
+    /// recognised from the header (Arbin, Bitrode, Maccor, Neware,
+    /// BioLogic, Digatron, PyBaMM/PyBOP and ours, units included: ms, min,
+    /// h, mA, mV, K, mAh).
     #[arg(long, value_parser = parse_columns)]
     pub columns: Option<ColumnMap>,
     /// The sign of the file's current.
@@ -222,6 +238,12 @@ pub struct RecordArgs {
     /// time, a current and a voltage.
     #[arg(long)]
     pub table: Option<String>,
+    /// Where each step began: `auto` from the step-time column (a step
+    /// whose first row is logged late began at its row's time less its
+    /// step time; the stretch before its first row is unobserved), or
+    /// `ignore`: each row's current held to the next row.
+    #[arg(long, value_enum, default_value = "auto")]
+    pub steps: StepsArg,
 }
 
 fn parse_columns(s: &str) -> std::result::Result<ColumnMap, String> {
@@ -237,6 +259,8 @@ impl From<&RecordArgs> for RecordOptions {
             max_gap: a.max_gap,
             table: a.table.clone(),
             max_samples: None,
+            steps: a.steps.into(),
+            capacity_ah: None,
         }
     }
 }
@@ -248,7 +272,7 @@ pub fn print_record(path: &std::path::Path, r: &fracbms_host::cycler::RecordRepo
     if let Some(l) = r.resampling_line() {
         eprintln!("{l}");
     }
-    if let Some(w) = &r.sign_warning {
+    for w in r.warnings() {
         eprintln!("warning: {}: {w}", path.display());
     }
 }

@@ -73,9 +73,7 @@ fn an_uneven_vendor_export_fits_as_its_plain_record() {
     let mut row = |t: &mut String, time: f64, i: f64, v: f64| {
         point += 1;
         t.push_str(&format!(
-            "{point},{time},{},{},{},{v},1,1\n",
-            time % 7.0,
-            point % 5,
+            "{point},{time},{time},1,{},{v},1,1\n",
             -1000.0 * i
         ));
     };

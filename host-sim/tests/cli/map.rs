@@ -183,7 +183,7 @@ fn an_hppc_export_gives_a_map_that_beats_one_fit() {
     assert_eq!(lj["capacity_ah"], 2.5);
     for (p, l) in parts.iter().zip(levels.iter().rev()) {
         let csv = std::fs::read_to_string(ldir.join(p["file"].as_str().unwrap())).unwrap();
-        assert!(csv.starts_with("time_s,current_a,voltage_v\n"));
+        assert!(csv.starts_with("time_s,current_a,voltage_v,observed\n"));
         assert_eq!(
             csv.lines().count() - 1,
             p["samples"].as_u64().unwrap() as usize

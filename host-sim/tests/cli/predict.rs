@@ -86,7 +86,8 @@ fn a_pulse_fit_predicts_a_drive_cycle() {
     assert_eq!(j["samples"], 2500);
     assert!((j["soc0"].as_f64().unwrap() - 0.9).abs() < 1e-12);
     let text = std::fs::read_to_string(&out).unwrap();
-    assert!(text.starts_with("time_s,current_a,voltage_v,model_v\n"));
+    assert!(text.starts_with("time_s,current_a,voltage_v,model_v,observed\n"));
+    assert!(text.lines().skip(1).all(|l| l.ends_with(",1")));
     assert_eq!(text.lines().count(), 2501);
 
     // A wrong model predicts worse: the check can fail.

@@ -169,6 +169,25 @@ pub struct MapFit {
     /// Each level's own record, as fitted (skipped levels too), in time
     /// order: what [`write_levels`] writes for an independent fit.
     pub parts: Vec<LevelPart>,
+    /// The samples of the record with no measurement: inside a gap or a
+    /// step's unlogged start ([`not_measured`]); no RMSE counts them.
+    pub unmeasured: Vec<bool>,
+}
+
+/// Which samples of `rec` were not measured: inside one of its `gaps`
+/// (made up by the resampling) or one of its steps' `unlogged` starts
+/// (the current known, not the voltage).
+pub fn not_measured(
+    rec: &BatteryRecord,
+    gaps: &[Gap],
+    unlogged: &[crate::cycler::Unlogged],
+) -> Vec<bool> {
+    let u = crate::cycler::steps::unobserved(unlogged, rec.h, &rec.time);
+    in_gaps(rec, gaps)
+        .into_iter()
+        .zip(u)
+        .map(|(a, b)| a || b)
+        .collect()
 }
 
 /// One level's record as its fit saw it.
@@ -187,6 +206,9 @@ pub struct LevelPart {
     /// The samples of `record` its fit rejected (indices from 0): the
     /// rows its `rmse_v` leaves out.
     pub rejected: Vec<usize>,
+    /// The samples of `record` with no measured voltage (a step's unlogged
+    /// start, indices from 0): no fit counts them, nor its `rmse_v`.
+    pub unobserved: Vec<usize>,
 }
 
 /// Builds the map of `rec` (file `path`): splits it into levels, fits each
@@ -209,6 +231,7 @@ pub fn build_map(
     o: &MapOptions,
     gaps: &[Gap],
     log: Option<&BatteryRecord>,
+    unlogged: &[crate::cycler::Unlogged],
 ) -> Result<MapFit> {
     if !(o.min_rest_s.is_finite() && o.min_rest_s > 0.0) {
         bail!(
@@ -268,9 +291,11 @@ pub fn build_map(
             part.time[0],
             part.time[part.time.len() - 1]
         );
+        let unobserved = crate::cycler::steps::unobserved(unlogged, part.h, &part.time);
         let fit = battery_identify_screened(
             path,
             &part,
+            &unobserved,
             limits,
             Some(&spec),
             method,
@@ -288,6 +313,7 @@ pub fn build_map(
                     .collect()
             },
         );
+        let unobserved: Vec<usize> = (0..unobserved.len()).filter(|&k| unobserved[k]).collect();
         kept.push(LevelPart {
             record: part.clone(),
             soc: p.soc,
@@ -295,6 +321,7 @@ pub fn build_map(
             temperature_c: record_t,
             fitted,
             rejected,
+            unobserved,
         });
         let (r, _) = match fit {
             Ok(x) => x,
@@ -336,22 +363,26 @@ pub fn build_map(
     let mut map = ParameterMap { rows };
     map.sort();
     let model_v = map_voltage(&map, rec, &whole, None, gaps)?;
-    let rmse_v = rmse(&model_v, &rec.voltage, &in_gaps(rec, gaps));
+    let unmeasured = not_measured(rec, gaps, unlogged);
+    let rmse_v = rmse(&model_v, &rec.voltage, &unmeasured);
     Ok(MapFit {
         map,
         skipped,
         model_v,
         rmse_v,
         parts: kept,
+        unmeasured,
     })
 }
 
 /// Writes each level of `fit` for an independent fit into the folder
-/// `dir` (made if missing): `level-NN.csv` (`time_s,current_a,voltage_v`,
-/// the level's uniform record), `ocv.csv` (`soc,ocv_v`, the table used)
+/// `dir` (made if missing): `level-NN.csv` (`time_s,current_a,voltage_v,`
+/// `observed`: the level's uniform record, `observed` 0 where no voltage
+/// was measured), `ocv.csv` (`soc,ocv_v`, the table used)
 /// and `levels.json` (the capacity, `model`, and per level its `file`,
 /// `soc`, `soc0`, `temperature_c`, `start_s`, `end_s`, `samples`,
-/// `fitted`, `rejected`: the samples its fit rejected, from 0).
+/// `fitted`, `rejected`: the samples its fit rejected, from 0;
+/// `unobserved`: those with no measured voltage, from 0).
 /// `bench/reference_map.py` reads it.
 ///
 /// # Errors
@@ -371,14 +402,19 @@ pub fn write_levels(dir: &Path, fit: &MapFit, ocv: &OcvSpec, model: &str) -> Res
     for (k, p) in fit.parts.iter().enumerate() {
         let file = format!("level-{:02}.csv", k + 1);
         let r = &p.record;
+        let mut observed = vec![true; r.time.len()];
+        for &j in &p.unobserved {
+            observed[j] = false;
+        }
         crate::io::write_csv(
             &dir.join(&file),
-            &["time_s", "current_a", "voltage_v"],
+            &["time_s", "current_a", "voltage_v", "observed"],
             (0..r.time.len()).map(|j| {
                 [
                     r.time[j].to_string(),
                     r.current[j].to_string(),
                     r.voltage[j].to_string(),
+                    u8::from(observed[j]).to_string(),
                 ]
             }),
         )?;
@@ -393,6 +429,7 @@ pub fn write_levels(dir: &Path, fit: &MapFit, ocv: &OcvSpec, model: &str) -> Res
             "h": r.h,
             "fitted": p.fitted,
             "rejected": p.rejected,
+            "unobserved": p.unobserved,
         }));
     }
     let doc = serde_json::json!({
@@ -449,26 +486,23 @@ pub fn battery_file(
         m,
         &f.report.resampling.gaps,
         Some(&f.rows),
+        &f.report.steps.unlogged,
     )?;
-    f.result.json.map = Some(map.json(
-        &f.record,
-        &f.result.model_voltage,
-        &f.report.resampling.gaps,
-    ));
+    f.result.json.map = Some(map.json(&f.record, &f.result.model_voltage));
     Ok((f, map))
 }
 
 impl MapFit {
     /// The map in the JSON of `identify battery`: its levels, those
     /// skipped, and the whole-record RMSE of the map model beside that of
-    /// the single fit `single_v`, over `rec`'s own samples (not inside
-    /// `gaps`).
-    pub fn json(&self, rec: &BatteryRecord, single_v: &[f64], gaps: &[Gap]) -> MapJson {
+    /// the single fit `single_v`, over `rec`'s measured samples (not
+    /// [`MapFit::unmeasured`]).
+    pub fn json(&self, rec: &BatteryRecord, single_v: &[f64]) -> MapJson {
         MapJson {
             levels: self.map.rows.clone(),
             skipped: self.skipped.clone(),
             map_rmse_v: self.rmse_v,
-            single_rmse_v: rmse(single_v, &rec.voltage, &in_gaps(rec, gaps)),
+            single_rmse_v: rmse(single_v, &rec.voltage, &self.unmeasured),
         }
     }
 }

@@ -141,6 +141,7 @@ fn map_recovers_each_level_and_beats_one_fit() {
         &MapOptions::default(),
         &[],
         None,
+        &[],
     )
     .unwrap();
     assert!(m.skipped.is_empty(), "{:?}", m.skipped);
@@ -170,6 +171,7 @@ fn map_recovers_each_level_and_beats_one_fit() {
     let (one, _) = battery_identify_screened(
         Path::new("r"),
         &rec,
+        &[],
         &limits,
         Some(&s),
         BatteryMethod::Refined,

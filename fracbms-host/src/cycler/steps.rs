@@ -1,0 +1,477 @@
+//! A cycler's steps as it ran them: the current signed from a state column
+//! (Maccor's `State` C/D/R), each step's start placed where its step time
+//! says it began (not at its first logged row), the stretch between that
+//! start and the first row marked *unobserved* (its current is known, its
+//! voltage is not), and the export's own charge count checked against
+//! ours.
+//!
+//! It owns what the step, step-time, state and charge columns say about
+//! the rows; it must not touch the time base (put on a uniform period by
+//! [`super::resample`] afterwards) nor the columns' names and units
+//! ([`super::headers`]).
+//!
+//! ```
+//! use fracbms_host::cycler::{read_record_from, RecordOptions};
+//! use std::path::Path;
+//!
+//! // A Bitrode-style log: the rest after the pulse is first logged 60 s
+//! // after it began (StepTime 60 at its first row).
+//! let log = "Time(s),Step,StepTime(s),Current(A),Voltage(V)\n\
+//!            0,1,0,0,3.70\n1,2,1,-10,3.50\n2,2,2,-10,3.49\n\
+//!            62,3,60,0,3.66\n122,3,120,0,3.67\n";
+//! let r = read_record_from(log.as_bytes(), Path::new("log.csv"), &RecordOptions::default())?;
+//! // The pulse held 10 A from 0 s (its step began at the row before) to
+//! // 2 s (the rest began at its last row): 20 A·s, not 620 A·s.
+//! let charge: f64 = r.record.current.iter().map(|i| i * r.record.h).sum();
+//! assert!((charge + 20.0).abs() < 1e-9, "{charge}");
+//! // Both steps began before their first rows; the rest's first minute
+//! // has no voltage (the pulse's 1 s is within a period).
+//! assert_eq!(r.report.steps.unlogged.len(), 2);
+//! assert_eq!(r.report.unobserved_samples, 60);
+//! # Ok::<(), fracbms_host::Error>(())
+//! ```
+
+use super::headers::ColumnChoice;
+use super::RawRows;
+use crate::bail;
+use crate::error::Result;
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+
+/// The optional columns of the rows, as read (SI: s, A·h).
+#[derive(Clone, Debug, Default)]
+pub(super) struct Extra {
+    pub step: Option<Vec<f64>>,
+    pub step_time: Option<Vec<f64>>,
+    pub state: Option<Vec<String>>,
+    pub charge: Option<Vec<f64>>,
+    pub discharge_charge: Option<Vec<f64>>,
+}
+
+impl Extra {
+    /// Empty columns for those `c` chose.
+    pub fn of(c: &ColumnChoice) -> Self {
+        Self {
+            step: c.step.as_ref().map(|_| vec![]),
+            step_time: c.step_time.as_ref().map(|_| vec![]),
+            state: c.state.as_ref().map(|_| vec![]),
+            charge: c.charge.as_ref().map(|_| vec![]),
+            discharge_charge: c.discharge_charge.as_ref().map(|_| vec![]),
+        }
+    }
+}
+
+/// How step starts are read (`--steps`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum StepsMode {
+    /// From the step-time column where there is one (default).
+    #[default]
+    Auto,
+    /// Each row's current held to the next row, whatever the step time
+    /// says.
+    Ignore,
+}
+
+impl StepsMode {
+    /// `auto` or `ignore`.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            StepsMode::Auto => "auto",
+            StepsMode::Ignore => "ignore",
+        }
+    }
+}
+
+/// A step's unlogged start: the step began at `start_s`, its first row
+/// is at `first_row_s`.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct Unlogged {
+    /// When the step began (s): its first row's time less its step time,
+    /// clamped between the row before and that row.
+    pub start_s: f64,
+    /// Its first logged row (s).
+    pub first_row_s: f64,
+}
+
+/// What the step columns did (JSON `record.steps`).
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct StepReport {
+    /// `step_time` (starts from the step time), `rows` (no step-time
+    /// column: each row's current is held to the next row) or `ignored`
+    /// (`--steps ignore`).
+    pub starts_from: &'static str,
+    /// The step index's header, if read.
+    pub step_column: Option<String>,
+    /// The step time's header, if read.
+    pub step_time_column: Option<String>,
+    /// Step changes seen.
+    pub changes: usize,
+    /// The steps that began before their first row (their start placed
+    /// by the step time).
+    pub unlogged: Vec<Unlogged>,
+}
+
+/// How the state column signed the current (JSON `record.state`).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct StateReport {
+    /// The state column's header.
+    pub column: String,
+    /// Whether it signed the current (`--current-sign from-state`).
+    pub signs_current: bool,
+    /// Rows whose current's sign the state contradicts (a charge with
+    /// a negative current, or a discharge with a positive one), of those
+    /// with a current above 1 % of the largest.
+    pub disagreeing_rows: usize,
+    /// Rows with a current above 1 % of the largest.
+    pub loaded_rows: usize,
+}
+
+/// The export's own charge count against ours (JSON
+/// `record.charge_check`): charge-positive A·h over the record, the
+/// export's count followed across its resets (per step or per cycle) and,
+/// for a count of magnitudes (Maccor's `Amp-hr`), signed by the current;
+/// the stretches over gaps left out of both.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ChargeCheck {
+    /// The export's charge column (Arbin: `charge − discharge`).
+    pub column: String,
+    /// Our count (A·h, + charging).
+    pub ours_ah: f64,
+    /// The export's (A·h, + charging).
+    pub theirs_ah: f64,
+    /// The largest difference of the two running counts (A·h).
+    pub max_gap_ah: f64,
+    /// Where the export's count restarts.
+    pub resets: usize,
+}
+
+/// The sign a state's letters give a magnitude current: +1 charge, −1
+/// discharge, 0 rest or a control mode without a direction (`CC`, `CV`);
+/// None for letters no cycler here writes.
+pub fn state_sign(state: &str) -> Option<i8> {
+    let s = state.trim().to_ascii_uppercase();
+    Some(match s.as_str() {
+        "C" | "CH" | "CHA" | "CHG" | "CHRG" | "CHARGE" | "CC_CHG" | "CCCV_CHG" | "CV_CHG" => 1,
+        "D" | "DC" | "DCH" | "DIS" | "DCHG" | "DISCHARGE" | "CC_DCHG" | "CV_DCHG" => -1,
+        "R" | "P" | "O" | "S" | "E" | "REST" | "PAUSE" | "OCV" | "STOP" | "END" | "" => 0,
+        // A control mode, not a direction (Bitrode's `CC`, `CV`): no sign.
+        "CC" | "CV" | "CCCV" | "CP" | "CR" | "PULSE" => 0,
+        _ => return None,
+    })
+}
+
+/// Reads the state column of `raw` (None when it holds numbers: BioLogic's
+/// `mode` is 1/2/3, not letters) and, when `sign` asks or the current is
+/// a magnitude (never negative), signs the current by it.
+///
+/// # Errors
+/// A state with letters [`state_sign`] does not know: one line naming the
+/// row and the letters.
+pub(super) fn sign_from_state(
+    raw: &mut RawRows,
+    header: &str,
+    from_state: bool,
+    path: &Path,
+) -> Result<Option<StateReport>> {
+    let Some(states) = raw.extra.state.take() else {
+        return Ok(None);
+    };
+    if states
+        .iter()
+        .all(|s| s.trim().is_empty() || s.trim().parse::<f64>().is_ok())
+    {
+        return Ok(None);
+    }
+    let mut signs = Vec::with_capacity(states.len());
+    for (k, s) in states.iter().enumerate() {
+        let Some(x) = state_sign(s) else {
+            bail!(
+                Data,
+                "{}: row {}, column `{header}`: `{}` is not a state this reader knows (C/D/R, CHRG/DCHG/REST, C/D/P, …); name another with --columns state=COL, or state=none",
+                path.display(),
+                raw.rows[k],
+                crate::io::shown(s.trim())
+            );
+        };
+        signs.push(x);
+    }
+    let magnitude = raw.current.iter().all(|&i| i >= 0.0 || i.is_nan());
+    // Unasked, only a column that says where the current goes signs it.
+    let signs_current = from_state || (magnitude && signs.iter().any(|&x| x != 0));
+    let big = raw
+        .current
+        .iter()
+        .filter(|x| x.is_finite())
+        .fold(0.0f64, |m, x| m.max(x.abs()));
+    let (mut loaded, mut against) = (0usize, 0usize);
+    for (i, &sg) in raw.current.iter_mut().zip(&signs) {
+        if signs_current {
+            *i = if sg < 0 { -i.abs() } else { i.abs() };
+        } else if i.abs() > 0.01 * big {
+            loaded += 1;
+            if (sg > 0 && *i < 0.0) || (sg < 0 && *i > 0.0) {
+                against += 1;
+            }
+        }
+    }
+    Ok(Some(StateReport {
+        column: header.to_string(),
+        signs_current,
+        disagreeing_rows: against,
+        loaded_rows: loaded,
+    }))
+}
+
+/// Rows in time order with the step starts put in: where a step began
+/// before its first row, a row is put in at that instant with the new
+/// step's current (and its first row's voltage, which is not a
+/// measurement: the stretch is [`Unlogged`]). `raw`'s rows `keep` (in
+/// time order) become the rows returned.
+///
+/// # Errors
+/// A step time that goes backwards within one step.
+pub(super) fn place_starts(
+    raw: RawRows,
+    keep: &[usize],
+    mode: StepsMode,
+    c: &ColumnChoice,
+    path: &Path,
+) -> Result<(RawRows, StepReport)> {
+    let pick = |col: &[f64]| keep.iter().map(|&i| col[i]).collect::<Vec<f64>>();
+    let step = raw.extra.step.as_deref().map(pick);
+    let step_time = raw.extra.step_time.as_deref().map(pick);
+    let mut report = StepReport {
+        starts_from: match (mode, &step_time) {
+            (StepsMode::Ignore, _) => "ignored",
+            (_, Some(_)) => "step_time",
+            (_, None) => "rows",
+        },
+        step_column: c.step.as_ref().map(|c| c.header.clone()),
+        step_time_column: c.step_time.as_ref().map(|c| c.header.clone()),
+        ..StepReport::default()
+    };
+    let mut out = RawRows {
+        time: vec![],
+        current: vec![],
+        voltage: vec![],
+        temperature: raw.temperature.as_ref().map(|_| vec![]),
+        rows: vec![],
+        clock_time: raw.clock_time,
+        extra: Extra {
+            charge: raw.extra.charge.as_ref().map(|_| vec![]),
+            discharge_charge: raw.extra.discharge_charge.as_ref().map(|_| vec![]),
+            ..Extra::default()
+        },
+    };
+    out.extra.step = None;
+    let mut put_in = Vec::with_capacity(keep.len());
+    let push = |out: &mut RawRows, i: usize| {
+        out.time.push(raw.time[i]);
+        out.current.push(raw.current[i]);
+        out.voltage.push(raw.voltage[i]);
+        if let (Some(v), Some(t)) = (out.temperature.as_mut(), raw.temperature.as_deref()) {
+            v.push(t[i]);
+        }
+        out.rows.push(raw.rows[i]);
+        for (o, r) in [
+            (&mut out.extra.charge, &raw.extra.charge),
+            (&mut out.extra.discharge_charge, &raw.extra.discharge_charge),
+        ] {
+            if let (Some(v), Some(x)) = (o.as_mut(), r.as_deref()) {
+                v.push(x[i]);
+            }
+        }
+    };
+    for (p, &i) in keep.iter().enumerate() {
+        if p > 0 {
+            let (t0, t1) = (raw.time[keep[p - 1]], raw.time[i]);
+            let same_step = step.as_ref().map(|s| s[p] == s[p - 1]);
+            let st = step_time.as_ref().map(|s| (s[p - 1], s[p]));
+            let tol = 1e-9 * t1.abs().max(1.0);
+            if let (Some(true), Some((a, b))) = (same_step, st) {
+                if b < a - tol {
+                    bail!(
+                        Data,
+                        "{}: row {}, column `{}`: the step time goes back within step {} ({b} s after {a} s); name the test's columns with --columns step=COL,step_time=COL, or --steps ignore",
+                        path.display(),
+                        raw.rows[i],
+                        report.step_time_column.as_deref().unwrap_or(""),
+                        step.as_ref().map_or(0.0, |s| s[p])
+                    );
+                }
+            }
+            // A new step: the index changes, or the step time restarts or
+            // says the step began after the row before.
+            let new_step = match (same_step, st) {
+                (Some(same), _) => !same,
+                (None, Some((a, b))) => b < a - tol || t1 - b > t0 + tol,
+                (None, None) => false,
+            };
+            if new_step {
+                report.changes += 1;
+                if let (StepsMode::Auto, Some((_, b))) = (mode, st) {
+                    if b.is_finite() {
+                        let start = (t1 - b).clamp(t0, t1);
+                        if t1 - start > tol {
+                            report.unlogged.push(Unlogged {
+                                start_s: start,
+                                first_row_s: t1,
+                            });
+                            push(&mut out, i);
+                            let k = out.time.len() - 1;
+                            out.time[k] = start;
+                            put_in.push(k);
+                        }
+                    }
+                }
+            }
+        }
+        push(&mut out, i);
+    }
+    // A row put in carries no count of the export's own.
+    for k in put_in {
+        for v in [&mut out.extra.charge, &mut out.extra.discharge_charge]
+            .into_iter()
+            .flatten()
+        {
+            v[k] = f64::NAN;
+        }
+    }
+    Ok((out, report))
+}
+
+/// Which of the samples at `time` fall in an unlogged step start longer
+/// than the period `h`: they have no measured voltage.
+pub fn unobserved(unlogged: &[Unlogged], h: f64, time: &[f64]) -> Vec<bool> {
+    let spans: Vec<&Unlogged> = unlogged
+        .iter()
+        .filter(|u| u.first_row_s - u.start_s > h * (1.0 + 1e-9))
+        .collect();
+    let mut out = vec![false; time.len()];
+    if spans.is_empty() {
+        return out;
+    }
+    let mut j = 0;
+    for (o, &t) in out.iter_mut().zip(time) {
+        while j < spans.len() && spans[j].first_row_s <= t {
+            j += 1;
+        }
+        if let Some(u) = spans.get(j) {
+            *o = t >= u.start_s - 1e-9 * t.abs().max(1.0) && t < u.first_row_s;
+        }
+    }
+    out
+}
+
+/// The export's charge against ours over the rows `r` (after the step
+/// starts), leaving out the steps longer than `gap_s`.
+pub(super) fn charge_check(r: &RawRows, column: &str, gap_s: f64) -> Option<ChargeCheck> {
+    let c = r.extra.charge.as_deref()?;
+    let theirs: Vec<f64> = match r.extra.discharge_charge.as_deref() {
+        Some(d) => c.iter().zip(d).map(|(a, b)| a - b).collect(),
+        None => c.to_vec(),
+    };
+    let n = r.time.len();
+    // Our count at each row (A·h), each row's current held to the next.
+    let mut q = vec![0.0; n];
+    for k in 1..n {
+        let i = r.current[k - 1];
+        q[k] =
+            q[k - 1] + if i.is_finite() { i } else { 0.0 } * (r.time[k] - r.time[k - 1]) / 3600.0;
+    }
+    let real: Vec<usize> = (0..n).filter(|&k| theirs[k].is_finite()).collect();
+    if real.len() < 2 {
+        return None;
+    }
+    // A count of magnitudes: it rises (between resets) where we discharge.
+    let (mut up, mut down) = (0usize, 0usize);
+    for w in real.windows(2) {
+        let (a, b) = (w[0], w[1]);
+        let d_ours = q[b] - q[a];
+        let d = theirs[b] - theirs[a];
+        if d_ours < -1e-9 && d.abs() < 2.0 * d_ours.abs() {
+            if d > 0.0 {
+                up += 1;
+            } else {
+                down += 1;
+            }
+        }
+    }
+    let magnitude = up > 0 && up > 9 * down;
+    let tol = 1e-6;
+    let (mut ours, mut them, mut gap, mut resets) = (0.0f64, 0.0f64, 0.0f64, 0usize);
+    for w in real.windows(2) {
+        let (a, b) = (w[0], w[1]);
+        if r.time[b] - r.time[a] > gap_s {
+            continue;
+        }
+        let d_ours = q[b] - q[a];
+        let expect = if magnitude { d_ours.abs() } else { d_ours };
+        let (ca, cb) = (theirs[a], theirs[b]);
+        // A restart: the count falls towards zero and is then explained
+        // by this step alone.
+        let reset = cb.abs() < ca.abs() - tol && (cb - expect).abs() < (cb - ca - expect).abs();
+        let d = if reset {
+            resets += 1;
+            cb
+        } else {
+            cb - ca
+        };
+        let d = if magnitude {
+            d.abs() * if d_ours < 0.0 { -1.0 } else { 1.0 }
+        } else {
+            d
+        };
+        ours += d_ours;
+        them += d;
+        gap = gap.max((ours - them).abs());
+    }
+    Some(ChargeCheck {
+        column: column.to_string(),
+        ours_ah: ours,
+        theirs_ah: them,
+        max_gap_ah: gap,
+        resets,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn states_sign_as_each_cycler_writes_them() {
+        for (s, want) in [
+            ("C", 1),
+            ("d", -1),
+            ("R", 0),
+            ("CHRG", 1),
+            ("DCHG", -1),
+            ("REST", 0),
+            ("P", 0),
+        ] {
+            assert_eq!(state_sign(s), Some(want), "{s}");
+        }
+        assert_eq!(state_sign("X"), None);
+    }
+
+    #[test]
+    fn unobserved_samples_are_those_inside_a_long_unlogged_start() {
+        let u = [
+            Unlogged {
+                start_s: 2.0,
+                first_row_s: 5.0,
+            },
+            // Shorter than a period: observed.
+            Unlogged {
+                start_s: 7.5,
+                first_row_s: 8.0,
+            },
+        ];
+        let t: Vec<f64> = (0..10).map(f64::from).collect();
+        let m = unobserved(&u, 1.0, &t);
+        let want: Vec<bool> = (0..10).map(|k| (2..5).contains(&k)).collect();
+        assert_eq!(m, want);
+    }
+}

@@ -1,0 +1,305 @@
+//! One HPPC-like test of a 30.5 A·h cell exported as Bitrode, Arbin and
+//! Maccor write it: pulses at 0.5 s rows, discharges at 1 s rows, rests at
+//! 60 s rows whose first row comes 60 s after the rest began (the step
+//! time says so). The cell is a known equivalent circuit evaluated exactly
+//! at the rows, so the charge and the SOC at every rest's end are known by
+//! hand, step by step.
+
+use fracbms_host::cycler::{read_record_from, CurrentSign, RecordOptions, StepsMode};
+use fracbms_host::ocv_extraction::{extract_ocv, OcvExtraction, OcvExtractionOptions};
+use std::path::Path;
+
+const CAPACITY_AH: f64 = 30.5;
+const R0: f64 = 1.5e-3;
+const R1: f64 = 1.0e-3;
+const TAU: f64 = 100.0;
+
+fn ocv(z: f64) -> f64 {
+    3.3 + 0.8 * z + 0.1 * (3.0 * z).sin()
+}
+
+/// A step of the schedule: its current (A, + charging), length (s), row
+/// period (s) and the offset of its first row after its start (s).
+struct Step {
+    current: f64,
+    length: f64,
+    every: f64,
+    first: f64,
+}
+
+/// One logged row: time, step index, step time, current, voltage, and the
+/// true SOC and counted charge (A·h) at the row.
+#[derive(Clone, Copy)]
+struct Row {
+    t: f64,
+    step: usize,
+    step_t: f64,
+    i: f64,
+    v: f64,
+    /// The charge counted since the step's start (A·h, signed).
+    step_q: f64,
+    /// The charge counted since the test's start (A·h, signed).
+    q: f64,
+}
+
+/// The schedule, the rows and, per rest, (its end time, SOC, voltage).
+fn test() -> (Vec<Row>, Vec<(f64, f64, f64)>) {
+    let rest = |length: f64| Step {
+        current: 0.0,
+        length,
+        every: 60.0,
+        first: 60.0,
+    };
+    let mut steps = vec![rest(600.0)];
+    for _ in 0..9 {
+        steps.push(Step {
+            current: -30.0,
+            length: 30.0,
+            every: 0.5,
+            first: 0.5,
+        });
+        steps.push(rest(600.0));
+        steps.push(Step {
+            current: -10.0,
+            length: 1000.0,
+            every: 1.0,
+            first: 1.0,
+        });
+        steps.push(rest(3600.0));
+    }
+    let mut rows = vec![];
+    let mut rest_ends = vec![];
+    let (mut t0, mut z, mut u1, mut q) = (0.0, 1.0, 0.0, 0.0);
+    for (k, s) in steps.iter().enumerate() {
+        let at = |dt: f64| {
+            let e = (-dt / TAU).exp();
+            let u = u1 * e + R1 * s.current * (1.0 - e);
+            let zz = z + s.current * dt / 3600.0 / CAPACITY_AH;
+            (zz, ocv(zz) + R0 * s.current + u, u)
+        };
+        // The test's first row is at its start; every other step's first
+        // row comes `first` after it.
+        let mut dt = if k == 0 { 0.0 } else { s.first };
+        while dt <= s.length + 1e-9 {
+            let (_, v, _) = at(dt);
+            let sq = s.current * dt / 3600.0;
+            rows.push(Row {
+                t: t0 + dt,
+                step: k + 1,
+                step_t: dt,
+                i: s.current,
+                v,
+                step_q: sq,
+                q: q + sq,
+            });
+            dt += s.every;
+        }
+        let (zz, v, u) = at(s.length);
+        if s.current == 0.0 {
+            rest_ends.push((t0 + s.length, zz, v));
+        }
+        z = zz;
+        u1 = u;
+        q += s.current * s.length / 3600.0;
+        t0 += s.length;
+    }
+    (rows, rest_ends)
+}
+
+fn bitrode(rows: &[Row]) -> String {
+    let mut s =
+        String::from("Test Time(s),Step,StepTime(s),Mode,Current(A),Voltage(V),Capacity(Ah)\n");
+    for r in rows {
+        let mode = if r.i < 0.0 { "DCHG" } else { "REST" };
+        s += &format!(
+            "{},{},{},{mode},{},{:.6},{:.6}\n",
+            r.t, r.step, r.step_t, r.i, r.v, r.q
+        );
+    }
+    s
+}
+
+fn arbin(rows: &[Row]) -> String {
+    let mut s = String::from(
+        "Data_Point,Test_Time(s),Step_Time(s),Step_Index,Current(A),Voltage(V),Charge_Capacity(Ah),Discharge_Capacity(Ah)\n",
+    );
+    for (k, r) in rows.iter().enumerate() {
+        s += &format!(
+            "{},{},{},{},{},{:.6},{:.6},{:.6}\n",
+            k + 1,
+            r.t,
+            r.step_t,
+            r.step,
+            r.i,
+            r.v,
+            0.0,
+            -r.q
+        );
+    }
+    s
+}
+
+/// Maccor: `Amps` a magnitude with the direction in `State`, `Amp-hr`
+/// the step's own count of magnitudes.
+fn maccor(rows: &[Row]) -> String {
+    let mut s = String::from("Rec#,Cyc#,Step,Test Time (sec),Step (Sec),Amp-hr,Amps,Volts,State\n");
+    for (k, r) in rows.iter().enumerate() {
+        let state = if r.i < 0.0 { "D" } else { "R" };
+        s += &format!(
+            "{},1,{},{},{},{:.6},{},{:.6},{state}\n",
+            k + 1,
+            r.step,
+            r.t,
+            r.step_t,
+            r.step_q.abs(),
+            r.i.abs(),
+            r.v
+        );
+    }
+    s
+}
+
+fn table(text: &str, o: &RecordOptions) -> (fracbms_host::cycler::CyclerRecord, OcvExtraction) {
+    let r = read_record_from(text.as_bytes(), Path::new("hppc.csv"), o).unwrap();
+    let x = extract_ocv(
+        Path::new("hppc.csv"),
+        &r.record,
+        &OcvExtractionOptions {
+            capacity_ah: Some(CAPACITY_AH),
+            soc0: Some(1.0),
+            ..OcvExtractionOptions::default()
+        },
+    )
+    .unwrap();
+    (r, x)
+}
+
+#[test]
+fn late_logged_rests_are_counted_step_by_step_in_every_vendors_export() {
+    let (rows, ends) = test();
+    let o = RecordOptions {
+        capacity_ah: Some(CAPACITY_AH),
+        ..RecordOptions::default()
+    };
+    let mut tables = vec![];
+    for (name, text) in [
+        ("bitrode", bitrode(&rows)),
+        ("arbin", arbin(&rows)),
+        ("maccor", maccor(&rows)),
+    ] {
+        let (r, x) = table(&text, &o);
+        let rec = &r.record;
+        assert_eq!(rec.h, 1.0, "{name}");
+        // The SOC counted from the record at every rest's end is the
+        // step-by-step count's.
+        for &(t_end, z, _) in &ends {
+            let k = rec.time.iter().position(|&t| t >= t_end - 1e-9).unwrap();
+            let counted = 1.0 + rec.current[..k].iter().sum::<f64>() * rec.h / 3600.0 / CAPACITY_AH;
+            assert!(
+                (counted - z).abs() < 0.002,
+                "{name}: SOC {counted} at {t_end} s, by hand {z}"
+            );
+        }
+        // 18 rests begin a minute before their first row: 60 samples each.
+        assert_eq!(r.report.steps.unlogged.len(), 18 + 9 + 9, "{name}");
+        assert_eq!(r.report.unobserved_samples, 18 * 60, "{name}");
+        // Every rest's end is a point of the table, where it truly is.
+        assert_eq!(x.rests.len(), ends.len(), "{name}");
+        for (p, &(t_end, z, v)) in x.rests.iter().zip(&ends) {
+            assert!(
+                (p.end_s - t_end).abs() <= 1.0,
+                "{name}: {} vs {t_end}",
+                p.end_s
+            );
+            assert!((p.soc - z).abs() < 0.01, "{name}: SOC {} vs {z}", p.soc);
+            assert!(
+                (p.voltage_v - v).abs() < 3e-3,
+                "{name}: {} V vs {v} V",
+                p.voltage_v
+            );
+        }
+        assert!(x.soc.iter().all(|z| (0.0..=1.0).contains(z)), "{name}");
+        // The export's own count agrees with ours.
+        let c = r.report.charge_check.as_ref().unwrap();
+        assert!(c.max_gap_ah < 0.02, "{name}: {c:?}");
+        assert!(
+            (c.theirs_ah - rows.last().unwrap().q).abs() < 0.01,
+            "{name}: {c:?}"
+        );
+        assert!(r.report.charge_warning.is_none(), "{name}");
+        tables.push((name, x));
+    }
+    // Maccor's magnitudes were signed by its state column, unasked.
+    let (r, _) = table(&maccor(&rows), &o);
+    assert_eq!(r.report.current_sign, CurrentSign::FromState);
+    assert!(r.report.state.as_ref().unwrap().signs_current);
+    assert!(r
+        .report
+        .summary(Path::new("m"))
+        .contains("from-state `State`"));
+    // The three exports give one table.
+    let (_, a) = &tables[0];
+    for (name, b) in &tables[1..] {
+        assert_eq!(a.soc.len(), b.soc.len(), "{name}");
+        for k in 0..a.soc.len() {
+            assert!((a.soc[k] - b.soc[k]).abs() < 1e-3, "{name}: {k}");
+            assert!((a.ocv_v[k] - b.ocv_v[k]).abs() < 1e-3, "{name}: {k}");
+        }
+    }
+}
+
+#[test]
+fn without_step_starts_the_charge_drifts_and_the_exports_count_says_so() {
+    let (rows, ends) = test();
+    let o = RecordOptions {
+        capacity_ah: Some(CAPACITY_AH),
+        steps: StepsMode::Ignore,
+        ..RecordOptions::default()
+    };
+    let (r, x) = table(&bitrode(&rows), &o);
+    let c = r.report.charge_check.as_ref().unwrap();
+    // Each rest holds the load before it for its first minute: 9 × (0.5 +
+    // 0.167) A·h too much discharge.
+    assert!((c.ours_ah - c.theirs_ah + 6.0).abs() < 0.1, "{c:?}");
+    let w = r.report.charge_warning.as_ref().unwrap();
+    assert!(w.contains("`Capacity(Ah)`"), "{w}");
+    assert!(r.report.summary(Path::new("b")).contains("--steps ignore"));
+    let last = x.rests.last().unwrap();
+    assert!((last.soc - ends.last().unwrap().1).abs() > 0.1);
+}
+
+#[test]
+fn an_export_that_contradicts_itself_is_one_line() {
+    let (rows, _) = test();
+    let o = RecordOptions::default();
+    let message = |text: &str| {
+        read_record_from(text.as_bytes(), Path::new("x.csv"), &o)
+            .unwrap_err()
+            .to_string()
+    };
+    // A step time that goes back within a step.
+    let text = bitrode(&rows[..200]).replacen(",2,1.5,DCHG", ",2,0.1,DCHG", 1);
+    let m = message(&text);
+    assert!(m.contains("the step time goes back within step 2"), "{m}");
+    assert_eq!(m.lines().count(), 1);
+    // A state no cycler here writes.
+    let text = maccor(&rows[..200]).replacen(",D\n", ",Q\n", 1);
+    let m = message(&text);
+    assert!(m.contains("`Q` is not a state"), "{m}");
+    // A magnitude current without a state column, the voltage falling
+    // where it rises.
+    let mut text = String::from("Test Time(s),Current(A),Voltage(V)\n");
+    for r in &rows[..300] {
+        text += &format!("{},{},{}\n", r.t, r.i.abs(), r.v);
+    }
+    let m = message(&text);
+    assert!(
+        m.contains("never negative") && m.contains("--current-sign"),
+        "{m}"
+    );
+    // The state disagrees with a signed current at most rows: a warning.
+    let text = bitrode(&rows).replace("DCHG", "CHRG");
+    let r = read_record_from(text.as_bytes(), Path::new("x.csv"), &o).unwrap();
+    let w = r.report.state_warning.unwrap();
+    assert!(w.contains("disagree"), "{w}");
+}
