@@ -125,6 +125,10 @@ pub struct OcvExtraction {
     /// Points whose counted SOC fell outside [0, 1], put at the nearer
     /// end.
     pub points_clamped: usize,
+    /// How the record was read (set by the caller that read it; the JSON
+    /// of `ocv` carries it).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub record: Option<crate::cycler::RecordReport>,
 }
 
 impl OcvExtraction {
@@ -293,6 +297,7 @@ pub fn extract_ocv(
         branches: vec![],
         points_pooled: 0,
         points_clamped: 0,
+        record: None,
     };
     let points = match o.from {
         OcvSource::Rests => {

@@ -56,7 +56,11 @@ pub struct OcvArgs {
 }
 
 pub(super) fn run(a: OcvArgs) -> Result<()> {
-    let rec = cycler::read_record(&a.input, &(&a.record).into())?;
+    let record = cycler::RecordOptions {
+        capacity_ah: a.capacity_ah,
+        ..(&a.record).into()
+    };
+    let rec = cycler::read_record(&a.input, &record)?;
     super::print_record(&a.input, &rec.report);
     let o = OcvExtractionOptions {
         from: a.from.into(),
@@ -68,6 +72,12 @@ pub(super) fn run(a: OcvArgs) -> Result<()> {
     let x = ocv_extraction::extract_ocv(&a.input, &rec.record, &o)?;
     ocv_extraction::write_table(&a.out, &x)?;
     if let Some(p) = &a.json {
+        // The extraction, and how the record was read (`record`, as in
+        // the JSON of `identify battery`).
+        let x = ocv_extraction::OcvExtraction {
+            record: Some(rec.report.clone()),
+            ..x.clone()
+        };
         fracbms_host::io::write_json(p, &x)?;
     }
     if let Some(p) = &a.plot {

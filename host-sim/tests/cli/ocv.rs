@@ -135,3 +135,97 @@ fn rests_give_a_table_through_the_rest_voltages() {
     assert!(err.contains("0 rests of at least 7200 s"), "{err}");
     assert!(!none.exists());
 }
+
+/// Every table `ocv` writes from the records in `data/` (rests and low-rate
+/// tests, measured and simulated) is one that `identify battery`, `online
+/// battery` and `predict battery` accept: they all read it with
+/// `fracbms_host::ocv::OcvSpec::from_options`, SOC in [0, 1].
+#[test]
+fn every_table_ocv_writes_from_data_is_accepted() {
+    let pan = "panasonic-18650pf";
+    let cases: Vec<(&str, PathBuf, Vec<&str>, f64)> = vec![
+        (
+            "pan-c20",
+            data(&format!("{pan}/05-08-17_13.26 C20 OCV Test_C20_25dC.mat")),
+            vec!["--from", "low-rate"],
+            2.9,
+        ),
+        (
+            "pan-c20-rests",
+            data(&format!("{pan}/05-08-17_13.26 C20 OCV Test_C20_25dC.mat")),
+            vec!["--from", "rests", "--soc0", "1.0"],
+            2.9,
+        ),
+        (
+            "pan-hppc-25",
+            data(&format!(
+                "{pan}/03-11-17_08.47 25degC_5Pulse_HPPC_Pan18650PF.mat"
+            )),
+            vec!["--from", "rests", "--soc0", "1.0"],
+            2.9,
+        ),
+        (
+            "pan-hppc-10",
+            data(&format!(
+                "{pan}/03-27-17_09.06 10degC_5Pulse_HPPC_Pan18650PF.mat"
+            )),
+            vec!["--from", "rests", "--soc0", "1.0"],
+            2.9,
+        ),
+        (
+            "lgm50-c10",
+            data("lg-m50/LGM50_5Ah_RateTest.mat"),
+            vec![
+                "--from",
+                "low-rate",
+                "--table",
+                "LGM50_5Ah_RateTest.T25.cRate_0p1C",
+                "--columns",
+                "time=timeVec,current=currVec,voltage=volVec,temperature=cellTemp_mid",
+            ],
+            5.0,
+        ),
+        (
+            "chen2020-hppc",
+            data("pybamm/chen2020-hppc.csv"),
+            vec!["--from", "rests", "--soc0", "0.9", "--min-rest", "300"],
+            5.0,
+        ),
+        (
+            "prada2013-hppc",
+            data("pybamm/prada2013-hppc.csv"),
+            vec!["--from", "rests", "--soc0", "1.0", "--min-rest", "300"],
+            2.3,
+        ),
+    ];
+    for (name, input, extra, cap) in cases {
+        let out = tmp(&format!("ocv-data-{name}.csv"));
+        let c = cap.to_string();
+        let mut args = vec![
+            "ocv",
+            "--input",
+            s(&input),
+            "--out",
+            s(&out),
+            "--capacity-ah",
+            &c,
+        ];
+        args.extend_from_slice(&extra);
+        let o = run(&args);
+        assert!(
+            o.status.success(),
+            "{name}: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+        let spec = fracbms_host::ocv::OcvSpec::from_options(&fracbms_host::ocv::OcvOptions {
+            ocv: Some(out.clone()),
+            capacity_ah: Some(cap),
+            soc0: None,
+        });
+        assert!(
+            matches!(spec, Ok(Some(_))),
+            "{name}: the table ocv wrote is refused: {:?}",
+            spec.err()
+        );
+    }
+}
