@@ -303,3 +303,39 @@ fn an_export_that_contradicts_itself_is_one_line() {
     let w = r.report.state_warning.unwrap();
     assert!(w.contains("disagree"), "{w}");
 }
+
+/// A whole-record fit of the Bitrode export with its own OCV table ends at
+/// the SOC the step-by-step count ends at.
+#[test]
+fn a_whole_record_fit_ends_at_the_step_counts_soc() {
+    use fracbms_host::identify::record::{battery_file, BatteryFitOptions};
+    let (rows, ends) = test();
+    let dir = std::env::temp_dir().join(format!("fracbms-steps-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let input = dir.join("bitrode.csv");
+    std::fs::write(&input, bitrode(&rows)).unwrap();
+    let table = dir.join("ocv.csv");
+    let mut t = String::from("soc,ocv_v\n");
+    for k in 0..=50 {
+        let z = f64::from(k) / 50.0;
+        t += &format!("{z},{}\n", ocv(z));
+    }
+    std::fs::write(&table, t).unwrap();
+    let o = BatteryFitOptions {
+        model: fracbms_host::identify::ModelRequest::Linear,
+        ocv: fracbms_host::ocv::OcvOptions {
+            ocv: Some(table),
+            capacity_ah: Some(CAPACITY_AH),
+            soc0: Some(1.0),
+        },
+        ..BatteryFitOptions::default()
+    };
+    // On a worker with the stack the CLI gives the fit.
+    let f = fracbms_host::worker::on_worker(|| battery_file(&input, &o, false)).unwrap();
+    let soc_end = f.result.json.soc_end.unwrap();
+    let by_hand = ends.last().unwrap().1;
+    assert!((soc_end - by_hand).abs() < 0.01, "{soc_end} vs {by_hand}");
+    assert_eq!(f.report.unobserved_samples, 18 * 60);
+    let r = f.result.json.record.as_ref().unwrap();
+    assert_eq!(r.unobserved_samples, 18 * 60);
+}
