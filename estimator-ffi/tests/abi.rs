@@ -687,3 +687,67 @@ fn a_map_through_the_abi_is_the_cores() {
         FRACBMS_ERROR_NULL
     );
 }
+
+/// Rows marked unobserved (`FracbmsIdentifyOptions.unobserved`) are counted
+/// in no fit: a block of made-up voltages there leaves the fit where the
+/// clean record puts it, and is not counted as rejected; unmarked, the
+/// same block moves the fit.
+#[test]
+fn unobserved_rows_are_counted_in_no_fit() {
+    let text = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../firmware/data/cell-pulse.csv"
+    ))
+    .unwrap();
+    let rows: Vec<Vec<f64>> = text
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').map(|x| x.parse().unwrap()).collect())
+        .collect();
+    let col = |k: usize| rows.iter().map(|r| r[k]).collect::<Vec<f64>>();
+    let (t, i, v) = (col(0), col(1), col(2));
+    let fit_of = |v: &[f64], mask: Option<&[u8]>| {
+        let mut o = MaybeUninit::<FracbmsIdentifyOptions>::uninit();
+        assert_eq!(
+            unsafe { fracbms_identify_options_default(o.as_mut_ptr()) },
+            FRACBMS_OK
+        );
+        let mut o = unsafe { o.assume_init() };
+        o.unobserved = mask.map_or(std::ptr::null(), <[u8]>::as_ptr);
+        let mut fit = MaybeUninit::<FracbmsFit>::uninit();
+        let code = unsafe {
+            fracbms_identify_battery(
+                t.as_ptr(),
+                i.as_ptr(),
+                v.as_ptr(),
+                t.len(),
+                &o,
+                fit.as_mut_ptr(),
+            )
+        };
+        assert_eq!(code, FRACBMS_OK);
+        unsafe { fit.assume_init() }
+    };
+    let clean = fit_of(&v, None);
+    // 40 rows from the first current step on: their voltage made up 50 mV
+    // high (a cycler's unlogged start, filled with its first row's value).
+    let k0 = (1..i.len()).find(|&k| i[k] != i[k - 1]).unwrap();
+    let mut made_up = v.clone();
+    let mut mask = vec![0u8; v.len()];
+    for k in k0..k0 + 40 {
+        made_up[k] += 0.05;
+        mask[k] = 1;
+    }
+    let masked = fit_of(&made_up, Some(&mask));
+    let unmasked = fit_of(&made_up, None);
+    assert_eq!(masked.rejected, 0);
+    let moved = |f: &FracbmsFit| (f.r_i / clean.r_i - 1.0).abs();
+    assert!(moved(&masked) < 0.02, "{} vs {}", masked.r_i, clean.r_i);
+    assert!(
+        moved(&unmasked) > 2.0 * moved(&masked),
+        "{} {} {}",
+        unmasked.r_i,
+        masked.r_i,
+        clean.r_i
+    );
+}

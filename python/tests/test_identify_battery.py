@@ -104,3 +104,25 @@ def test_uneven_steps_are_put_on_a_period_as_the_cli_does(host_sim, cell_record,
     r = py["record"]
     assert r["resampled"] and r["period_s"] == 1.0 and r["period_source"] == "chosen"
     assert r["rows_interpolated"] > 0 and r["samples"] > len(t)
+
+
+def test_unobserved_rows_are_counted_in_no_fit(cell_record):
+    """`observed=` marks rows with no measured voltage (a cycler's unlogged
+    step start): a block of made-up voltages there leaves the fit where the
+    clean record puts it; unmarked, it moves the fit."""
+    c = read_csv(cell_record)
+    t, i, v = c["time_s"], c["current_a"], c["voltage_v"]
+    clean = fracbms.identify_battery(t, i, v)
+    k0 = int(np.argmax(np.diff(i) != 0)) + 1
+    made_up = v.copy()
+    made_up[k0:k0 + 40] += 0.05
+    observed = np.ones(len(t))
+    observed[k0:k0 + 40] = 0
+    masked = fracbms.identify_battery(t, i, made_up, observed=observed)
+    unmasked = fracbms.identify_battery(t, i, made_up)
+    assert masked["rejected"] == 0
+    moved = lambda f: abs(f["r_i"] / clean["r_i"] - 1)
+    assert moved(masked) < 0.02
+    assert moved(unmasked) > 2 * moved(masked)
+    with pytest.raises(ValueError, match="unobserved mask has 3 values"):
+        fracbms.identify_battery(t, i, v, observed=[1, 1, 1])

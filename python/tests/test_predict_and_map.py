@@ -80,7 +80,10 @@ def test_predict_equals_the_cli_for_a_fit_and_a_map(host_sim, tmp_path):
         py = fracbms.predict_battery(t, i, v, model=model, ocv=ocv_table(), capacity_ah=2.5,
                                      soc0=0.9)
         model_v = py.pop("model_v")
-        for k in ("rmse_v", "max_error_v", "samples", "soc0"):
+        # The samples the RMSE is taken over: the CLI's `observed` column.
+        np.testing.assert_array_equal(py.pop("observed"),
+                                      read_csv(tmp_path / "pred.csv")["observed"])
+        for k in ("rmse_v", "max_error_v", "samples", "soc0", "unobserved_samples"):
             assert py[k] == pytest.approx(cli[k], rel=1e-9), k
         np.testing.assert_allclose(model_v, read_csv(tmp_path / "pred.csv")["model_v"],
                                    rtol=0, atol=1e-8)
