@@ -409,8 +409,8 @@ fn a_pack_through_the_abi_is_the_core_pack_bit_for_bit() {
     );
 }
 
-#[test]
-fn whole_record_identification_is_the_clis() {
+/// `firmware/data/cell-pulse.csv`: time, current, voltage.
+fn cell_pulse() -> (Vec<f64>, Vec<f64>, Vec<f64>) {
     let text = std::fs::read_to_string(concat!(
         env!("CARGO_MANIFEST_DIR"),
         "/../firmware/data/cell-pulse.csv"
@@ -422,7 +422,12 @@ fn whole_record_identification_is_the_clis() {
         .map(|l| l.split(',').map(|x| x.parse().unwrap()).collect())
         .collect();
     let col = |k: usize| rows.iter().map(|r| r[k]).collect::<Vec<f64>>();
-    let (t, i, mut v) = (col(0), col(1), col(2));
+    (col(0), col(1), col(2))
+}
+
+#[test]
+fn whole_record_identification_is_the_clis() {
+    let (t, i, mut v) = cell_pulse();
     let mut fit = MaybeUninit::<FracbmsFit>::uninit();
     let code = unsafe {
         fracbms_identify_battery(
@@ -694,18 +699,7 @@ fn a_map_through_the_abi_is_the_cores() {
 /// same block moves the fit.
 #[test]
 fn unobserved_rows_are_counted_in_no_fit() {
-    let text = std::fs::read_to_string(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../firmware/data/cell-pulse.csv"
-    ))
-    .unwrap();
-    let rows: Vec<Vec<f64>> = text
-        .lines()
-        .skip(1)
-        .map(|l| l.split(',').map(|x| x.parse().unwrap()).collect())
-        .collect();
-    let col = |k: usize| rows.iter().map(|r| r[k]).collect::<Vec<f64>>();
-    let (t, i, v) = (col(0), col(1), col(2));
+    let (t, i, v) = cell_pulse();
     let fit_of = |v: &[f64], mask: Option<&[u8]>| {
         let mut o = MaybeUninit::<FracbmsIdentifyOptions>::uninit();
         assert_eq!(
