@@ -73,12 +73,15 @@ def identify_battery(
     map: bool = False,
     soc_bins: Optional[int] = None,
     min_rest: float = 600.0,
+    observed: Optional[ArrayLike] = None,
 ) -> dict[str, Any]:
     """Identify a battery cell from a whole record: the keys of
     ``host-sim identify battery --json`` (r_i, r_ct, q, alpha, u_oc, model,
     bv_a_v, bv_i0_a, ocv_offset_v, soc0, soc_end, rmse_v, confidence,
     identifiable, rejected, ...) plus ``model_v`` (numpy array). Current
-    positive when charging. Raises ValueError with the CLI's message."""
+    positive when charging; ``observed`` (0/1 per row) marks rows whose
+    voltage was not measured, counted in no fit. Raises ValueError with the
+    CLI's message."""
 
 def simulate_battery(
     time_s: ArrayLike,
@@ -284,5 +287,6 @@ def predict_battery(
     soc0: Optional[float] = None,
 ) -> dict[str, Any]:
     """Run the model of identify_battery (its dict, or its ``map``) on
-    another record: ``host-sim predict battery``'s errors plus ``model_v``."""
+    another record: ``host-sim predict battery``'s errors plus ``model_v``
+    and ``observed`` (0/1: the samples the RMSE is taken over)."""
     ...

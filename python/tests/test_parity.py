@@ -425,6 +425,7 @@ class Runs:
                 assert p.returncode == 0, p.stderr
                 j = json.loads(js.read_text())
                 j["model_v"] = read_csv(out)["model_v"]
+                j["observed"] = read_csv(out)["observed"]
                 return j
         else:
             def make():
@@ -510,6 +511,7 @@ def test_the_faces_agree(runs, name, op):
         cli, py = runs.predict("cli", name), runs.predict("python", name)
         same_numbers(cli.pop("model_v"), [float(f"{v:.9f}") for v in py.pop("model_v")],
                      "model_v")
+        same_numbers(cli.pop("observed"), py.pop("observed"), "observed")
         assert json.dumps(py, sort_keys=True) == json.dumps(cli, sort_keys=True)
         return
     if op == "online_f64":
