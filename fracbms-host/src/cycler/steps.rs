@@ -264,7 +264,6 @@ pub(super) fn place_starts(
             ..Extra::default()
         },
     };
-    out.extra.step = None;
     let mut put_in = Vec::with_capacity(keep.len());
     let push = |out: &mut RawRows, i: usize| {
         out.time.push(raw.time[i]);
