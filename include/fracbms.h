@@ -1221,10 +1221,12 @@ FracbmsCode fracbms_identify_battery(const double *time_s,
 #endif
 
 /**
- * Writes to `out` the map's cell at `soc` and the temperature nearest
- * `temperature_c` (NaN: unknown): each parameter linear in SOC between
- * the two levels around `soc`, held beyond the first and the last (a NaN
- * `soc`: the middle level's). `levels` holds `n_levels` levels (at most
+ * Writes to `out` the map's cell at `soc` and `temperature_c` (NaN:
+ * unknown): each parameter linear in SOC between the two levels around
+ * `soc`, held beyond the first and the last (a NaN `soc`: the middle
+ * level's); strictly between two of the map's temperatures, Arrhenius
+ * between their cells (`ln R_i`, `ln R_ct`, `ln τ` linear in `1/T`);
+ * beyond them, the nearest temperature held. `levels` holds `n_levels` levels (at most
  * `FRACBMS_MAP_LEVELS_MAX`) sorted by temperature (unknown first), then
  * SOC; `FRACBMS_ERROR_MAP` otherwise.
  *

@@ -285,8 +285,11 @@ def predict_battery(
     ocv: Optional[OcvTable] = None,
     capacity_ah: Optional[float] = None,
     soc0: Optional[float] = None,
+    temperature_c: Optional[float] = None,
 ) -> dict[str, Any]:
     """Run the model of identify_battery (its dict, or its ``map``) on
-    another record: ``host-sim predict battery``'s errors plus ``model_v``
-    and ``observed`` (0/1: the samples the RMSE is taken over)."""
+    another record: ``host-sim predict battery``'s errors (``in_table``:
+    inside the OCV table; ``map``: what a map used) plus ``model_v`` and
+    ``observed`` (0/1: the samples the RMSE is taken over); a map over
+    temperature is taken at ``temperature_c`` (Arrhenius between)."""
     ...

@@ -322,7 +322,9 @@ fn identify_battery<'py>(
                 })
             })
             .map_err(value_error)?;
-        for why in &m.skipped {
+        let mut m = m;
+        m.check_against(rec, &r.model_voltage, &json);
+        for why in m.skipped.iter().chain(&m.warnings) {
             warn(py, &format!("{RECORD}: {why}"))?;
         }
         json.map = Some(m.json(rec, &r.model_voltage));
@@ -349,13 +351,20 @@ fn identify_battery<'py>(
 /// ocv, capacity_ah, soc0 :
 ///     As for ``identify_battery``; needed when the model was fitted with
 ///     an OCV table, and for a map.
+/// temperature_c : float, optional
+///     The record's temperature (°C) for a map over temperature: Arrhenius
+///     between the map's temperatures, the nearest held beyond them
+///     (default: the map's first).
 ///
 /// Returns
 /// -------
 /// dict
 ///     ``rmse_v``, ``max_error_v``, ``max_error_time_s``, ``samples``,
 ///     ``voltages_skipped``, ``samples_in_gaps``, ``unobserved_samples``,
-///     ``currents_held``, ``soc0``, ``soc_end``, ``record``, ``model_v``
+///     ``currents_held``, ``soc0``, ``soc_end``, ``record``, ``in_table``
+///     (the errors over the samples inside the OCV table), ``map`` (for a
+///     map: the rows left out, the temperature rule, the activation
+///     energies), ``model_v``
 ///     (numpy array, V) and ``observed`` (numpy array of 0/1: 1 where the
 ///     voltage is a measurement, the samples the RMSE is taken over).
 ///
@@ -369,7 +378,7 @@ fn identify_battery<'py>(
 /// >>> bool(p["rmse_v"] < 1e-9)
 /// True
 #[pyfunction]
-#[pyo3(signature = (time_s, current_a, voltage_v, *, model, ocv=None, capacity_ah=None, soc0=None))]
+#[pyo3(signature = (time_s, current_a, voltage_v, *, model, ocv=None, capacity_ah=None, soc0=None, temperature_c=None))]
 #[allow(clippy::too_many_arguments)]
 fn predict_battery<'py>(
     py: Python<'py>,
@@ -380,6 +389,7 @@ fn predict_battery<'py>(
     ocv: Option<(Floats<'py>, Floats<'py>)>,
     capacity_ah: Option<f64>,
     soc0: Option<f64>,
+    temperature_c: Option<f64>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let spec = ocv_spec(ocv, capacity_ah, soc0)?;
     let text: String = py
@@ -398,14 +408,15 @@ fn predict_battery<'py>(
     )
     .map_err(value_error)?;
     let model = predict::model_from_json(&j, Path::new("model")).map_err(value_error)?;
-    let mut p = predict::run_model(name, &read, &model, spec.as_ref(), None).map_err(|e| {
-        // The CLI's flags are keywords here.
-        let m = e
-            .to_string()
-            .replace("give --ocv and --capacity-ah", "give ocv and capacity_ah")
-            .replace("leave out --ocv", "leave out ocv");
-        PyValueError::new_err(m)
-    })?;
+    let mut p =
+        predict::run_model(name, &read, &model, spec.as_ref(), temperature_c).map_err(|e| {
+            // The CLI's flags are keywords here.
+            let m = e
+                .to_string()
+                .replace("give --ocv and --capacity-ah", "give ocv and capacity_ah")
+                .replace("leave out --ocv", "leave out ocv");
+            PyValueError::new_err(m)
+        })?;
     let model_v = std::mem::take(&mut p.model_v);
     let d = to_dict(py, &p)?;
     d.set_item("model_v", PyArray1::from_vec(py, model_v))?;

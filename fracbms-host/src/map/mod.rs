@@ -15,7 +15,7 @@ use crate::error::Result;
 use crate::io::BatteryRecord;
 use crate::ocv::CellOcv;
 use crate::trust::Confidence;
-use estimator_core::battery::map::{MapLevel, ParameterMap as CoreMap};
+use estimator_core::battery::map::{MapLevel, ParameterMap as CoreMap, KELVIN};
 use estimator_core::battery::CellParameters;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
@@ -137,15 +137,216 @@ impl ParameterMap {
             .collect()
     }
 
-    /// The cell at SOC `z` (temperature nearest `t`): each parameter
-    /// linear in SOC between the two levels around `z`, held beyond the
-    /// first and the last; the middle level's for a non-finite `z`. The
+    /// The cell at SOC `z` and temperature `t`: each parameter linear in
+    /// SOC between the two levels around `z`, held beyond the first and the
+    /// last; the middle level's for a non-finite `z`; Arrhenius between two
+    /// temperatures, the nearest held beyond the map's. The
     /// core's [`CoreMap::cell_at`], the firmware's and the C ABI's.
     /// `None` for an empty map or one with a level that is not physical.
     pub fn cell_at(&self, z: f64, t: Option<f64>) -> Option<CellParameters<f64>> {
         let levels = self.levels();
         let m = CoreMap::new(&levels).ok()?;
         Some(m.cell_at(z, t))
+    }
+}
+
+/// The gas constant (J/(mol·K)), for activation energies.
+pub const GAS_CONSTANT: f64 = 8.314_462_618;
+
+/// The activation energies of a map over several temperatures (J/mol):
+/// per parameter, the slope of `ln x` against `1/T` fitted over every
+/// SOC the temperatures share (one intercept per SOC), times the gas
+/// constant. Between two temperatures the map is Arrhenius with the
+/// energy those two give ([`estimator_core::battery::map::arrhenius_mix`]);
+/// these fitted energies say how far one energy describes the whole map.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ActivationEnergies {
+    /// Of R_i.
+    pub r_i_j_mol: f64,
+    /// Of R_ct.
+    pub r_ct_j_mol: f64,
+    /// Of the time constant τ = R_ct·Q.
+    pub tau_j_mol: f64,
+    /// The temperatures (°C) they were fitted over.
+    pub temperatures_c: [f64; 2],
+    /// The SOCs (shared by every temperature) they were fitted at.
+    pub socs: usize,
+}
+
+impl std::fmt::Display for ActivationEnergies {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "activation energy (Arrhenius, {}–{} °C, {} SOCs): R_i {:.1} kJ/mol, R_ct {:.1} kJ/mol, τ {:.1} kJ/mol",
+            self.temperatures_c[0],
+            self.temperatures_c[1],
+            self.socs,
+            self.r_i_j_mol / 1e3,
+            self.r_ct_j_mol / 1e3,
+            self.tau_j_mol / 1e3
+        )
+    }
+}
+
+impl ParameterMap {
+    /// The rows a map model may use, and each row left out with why:
+    /// a row that is not identifiable (its parameters are not what the
+    /// data say; `identifiable_reason` quoted) or not a physical cell.
+    /// Its neighbours carry the map across it.
+    pub fn usable(&self) -> (ParameterMap, Vec<String>) {
+        let mut kept = ParameterMap::default();
+        let mut left_out = vec![];
+        for r in &self.rows {
+            let at = match r.temperature_c {
+                Some(t) => format!("level at SOC {:.3}, {t} °C", r.soc),
+                None => format!("level at SOC {:.3}", r.soc),
+            };
+            if !r.cell().is_physical() {
+                left_out.push(format!("{at}: not a physical cell"));
+            } else if !r.identifiable {
+                left_out.push(format!(
+                    "{at}: not identifiable ({})",
+                    r.identifiable_reason
+                        .as_deref()
+                        .unwrap_or("no reason given")
+                ));
+            } else {
+                kept.rows.push(r.clone());
+            }
+        }
+        kept.sort();
+        (kept, left_out)
+    }
+
+    /// The distinct known temperatures (°C), ascending.
+    pub fn temperatures(&self) -> Vec<f64> {
+        let mut t: Vec<f64> = self.rows.iter().filter_map(|r| r.temperature_c).collect();
+        t.sort_by(f64::total_cmp);
+        t.dedup();
+        t
+    }
+
+    /// The map at the temperature `t`, as rows sorted by SOC: strictly
+    /// between two of its temperatures, one row at every SOC of either
+    /// with the core's cell there ([`CoreMap::cell_at`]: Arrhenius between
+    /// the temperatures, linear in SOC within each); otherwise the rows of
+    /// the temperature nearest (held beyond the map's). Empty for an empty
+    /// map or one the core refuses.
+    pub fn rows_at(&self, t: Option<f64>) -> Vec<MapRow> {
+        let temps = self.temperatures();
+        let inside = t.filter(|t| {
+            t.is_finite()
+                && temps.first().is_some_and(|lo| lo < t)
+                && temps.last().is_some_and(|hi| hi > t)
+                && !temps.contains(t)
+        });
+        let Some(t) = inside else {
+            return self.slice(t).into_iter().cloned().collect();
+        };
+        let levels = self.levels();
+        let Ok(core) = CoreMap::new(&levels) else {
+            return vec![];
+        };
+        let lo = temps
+            .iter()
+            .copied()
+            .filter(|x| *x < t)
+            .fold(f64::NAN, f64::max);
+        let hi = temps
+            .iter()
+            .copied()
+            .filter(|x| *x > t)
+            .fold(f64::NAN, f64::min);
+        let mut socs: Vec<f64> = self
+            .rows
+            .iter()
+            .filter(|r| r.temperature_c == Some(lo) || r.temperature_c == Some(hi))
+            .map(|r| r.soc)
+            .collect();
+        socs.sort_by(f64::total_cmp);
+        socs.dedup_by(|a, b| (*a - *b).abs() < 1e-9);
+        socs.into_iter()
+            .map(|soc| {
+                let c = core.cell_at(soc, Some(t));
+                let bv = c.bv_a > 0.0;
+                MapRow {
+                    temperature_c: Some(t),
+                    soc,
+                    r_i: c.r_i,
+                    r_ct: c.r_ct,
+                    q: c.q,
+                    alpha: c.alpha,
+                    bv_a_v: bv.then_some(c.bv_a),
+                    bv_i0_a: bv.then_some(c.bv_i0),
+                    ocv_offset_v: c.u_oc,
+                    rmse_v: f64::NAN,
+                    identifiable: true,
+                    identifiable_reason: None,
+                    confidence: None,
+                    start_s: f64::NAN,
+                    end_s: f64::NAN,
+                    samples: 0,
+                }
+            })
+            .collect()
+    }
+
+    /// The activation energies of a map over at least two temperatures
+    /// that share SOCs (each temperature's cell at every SOC inside all
+    /// of their SOC ranges, on a 0.05 grid); `None` otherwise.
+    pub fn activation_energies(&self) -> Option<ActivationEnergies> {
+        let temps = self.temperatures();
+        if temps.len() < 2 {
+            return None;
+        }
+        let levels = self.levels();
+        let core = CoreMap::new(&levels).ok()?;
+        let (mut lo, mut hi) = (0.0f64, 1.0f64);
+        for &t in &temps {
+            let run = self.slice(Some(t));
+            lo = lo.max(run.first()?.soc);
+            hi = hi.min(run.last()?.soc);
+        }
+        let socs: Vec<f64> = (0..=20)
+            .map(|k| f64::from(k) * 0.05)
+            .filter(|z| *z >= lo - 1e-9 && *z <= hi + 1e-9)
+            .collect();
+        let socs = if socs.is_empty() {
+            vec![0.5 * (lo + hi)]
+        } else {
+            socs
+        };
+        if lo > hi {
+            return None;
+        }
+        // Slope of ln x on 1/T with one intercept per SOC.
+        let slope = |f: &dyn Fn(&CellParameters<f64>) -> f64| -> f64 {
+            let (mut sxy, mut sxx) = (0.0, 0.0);
+            for &z in &socs {
+                let pts: Vec<(f64, f64)> = temps
+                    .iter()
+                    .map(|&t| {
+                        let c = core.cell_at(z, Some(t));
+                        (1.0 / (t + KELVIN), f(&c).max(f64::MIN_POSITIVE).ln())
+                    })
+                    .collect();
+                let n = pts.len() as f64;
+                let mx = pts.iter().map(|p| p.0).sum::<f64>() / n;
+                let my = pts.iter().map(|p| p.1).sum::<f64>() / n;
+                for (x, y) in &pts {
+                    sxy += (x - mx) * (y - my);
+                    sxx += (x - mx) * (x - mx);
+                }
+            }
+            sxy / sxx * GAS_CONSTANT
+        };
+        Some(ActivationEnergies {
+            r_i_j_mol: slope(&|c| c.r_i),
+            r_ct_j_mol: slope(&|c| c.r_ct),
+            tau_j_mol: slope(&|c| c.tau()),
+            temperatures_c: [temps[0], temps[temps.len() - 1]],
+            socs: socs.len(),
+        })
     }
 }
 

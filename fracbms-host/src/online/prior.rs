@@ -53,26 +53,7 @@ impl PriorMap {
     /// [`crate::ErrorKind::Data`] when no level is left, or the spreads
     /// are not positive.
     pub fn new(map: &ParameterMap, log_sigma: f64, alpha_sigma: f64, noise_v: f64) -> Result<Self> {
-        let mut kept = ParameterMap::default();
-        let mut left_out = vec![];
-        for r in &map.rows {
-            let at = match r.temperature_c {
-                Some(t) => format!("level at SOC {:.3}, {t} °C", r.soc),
-                None => format!("level at SOC {:.3}", r.soc),
-            };
-            if !r.cell().is_physical() {
-                left_out.push(format!("{at}: not a physical cell"));
-            } else if !r.identifiable {
-                left_out.push(format!(
-                    "{at}: not identifiable ({})",
-                    r.identifiable_reason
-                        .as_deref()
-                        .unwrap_or("no reason given")
-                ));
-            } else {
-                kept.rows.push(r.clone());
-            }
-        }
+        let (kept, left_out) = map.usable();
         if kept.rows.is_empty() {
             bail!(
                 Data,
@@ -80,7 +61,6 @@ impl PriorMap {
                 left_out.join("; ")
             );
         }
-        kept.sort();
         let levels = kept.levels();
         let levels_f32 = levels
             .iter()
@@ -122,8 +102,10 @@ impl PriorMap {
     }
 
     /// The prior at SOC `z` and temperature `t` (°C): the map's cell there
-    /// (each parameter linear in SOC between the levels around `z`, at the
-    /// temperature nearest `t`). Without a SOC, the middle level's.
+    /// (each parameter linear in SOC between the levels around `z`;
+    /// Arrhenius between the map's temperatures, the nearest held beyond
+    /// them: the core's [`CoreMap::cell_at`]). Without a SOC, the middle
+    /// level's.
     pub fn prior_at(&self, z: Option<f64>, t: Option<f64>) -> Prior<f64> {
         let z = z.unwrap_or(f64::NAN);
         let center = self

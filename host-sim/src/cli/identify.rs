@@ -331,6 +331,9 @@ pub(super) fn battery(a: IdBatteryArgs) -> Result<()> {
         for why in &m.skipped {
             eprintln!("warning: {}: {why}", a.input.display());
         }
+        for w in &m.warnings {
+            eprintln!("warning: {}: {w}", a.input.display());
+        }
         m.map.write_csv(p)?;
         eprintln!("wrote {}", p.display());
         if let Some(dir) = &a.levels_out {

@@ -143,3 +143,138 @@ fn a_pulse_fit_predicts_a_drive_cycle() {
         assert!(err.contains(expect), "{err}");
     }
 }
+
+/// `--report DIR` on two records: one table row, figure and CSV each, the
+/// errors inside the OCV table as the one-record runs give them; `--out`
+/// with two records is one line.
+#[test]
+fn the_report_validates_several_records() {
+    let table = tmp("report-nmc.csv");
+    super::battery::nmc_table(&table);
+    let pulse = simulate("report-pulse.csv", "pulse", &table, "0.9", "21");
+    let drive = simulate("report-drive.csv", "drive", &table, "0.9", "22");
+    let fit = tmp("report-fit.json");
+    let ocv = ["--ocv", s(&table), "--capacity-ah", "2.5", "--soc0", "0.9"];
+    let mut a = vec![
+        "identify",
+        "battery",
+        "--input",
+        s(&pulse),
+        "--json",
+        s(&fit),
+    ];
+    a.extend(ocv);
+    let o = run(&a);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let dir = tmp("report-dir");
+    let _ = std::fs::remove_dir_all(&dir);
+    let mut a = vec!["predict", "battery", "--model", s(&fit)];
+    a.extend(["--input", s(&pulse), s(&drive), "--report", s(&dir)]);
+    a.extend(ocv);
+    let o = run(&a);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert_eq!(
+        stdout.matches("inside the OCV table").count(),
+        2,
+        "{stdout}"
+    );
+    let page = std::fs::read_to_string(dir.join("report.md")).unwrap();
+    let rows: Vec<&str> = page.lines().filter(|l| l.starts_with("| `")).collect();
+    assert_eq!(rows.len(), 2, "{page}");
+    let j = read_json(&dir.join("report.json"));
+    let j = j.as_array().unwrap();
+    assert_eq!(j.len(), 2);
+    for (k, (e, rec)) in j.iter().zip([&pulse, &drive]).enumerate() {
+        let svg = std::fs::read_to_string(dir.join(e["figure"].as_str().unwrap())).unwrap();
+        assert!(svg.contains("<svg"), "{k}");
+        let csv = std::fs::read_to_string(dir.join(e["csv"].as_str().unwrap())).unwrap();
+        assert!(csv.starts_with("time_s,current_a,voltage_v,model_v,observed\n"));
+        assert_eq!(csv.lines().count(), 2501);
+        // The same numbers as a run on the record alone.
+        let (out, json) = (tmp("report-one.csv"), tmp("report-one.json"));
+        let mut a = vec!["predict", "battery", "--model", s(&fit), "--input", s(rec)];
+        a.extend(["--out", s(&out), "--json", s(&json)]);
+        a.extend(ocv);
+        assert!(run(&a).status.success());
+        let one = read_json(&json);
+        assert_eq!(e["rmse_v"], one["rmse_v"], "{k}");
+        let t = &e["in_table"];
+        assert_eq!(t, &one["in_table"], "{k}");
+        // Every sample of a simulated record lies inside the table here.
+        assert_eq!(t["samples"], 2500, "{t}");
+        assert!(t["rmse_v"].as_f64().unwrap() < 1.5e-3, "{t}");
+        let shown = format!("{:.2}", 1e3 * t["rmse_v"].as_f64().unwrap());
+        assert!(rows[k].contains(&shown), "{} vs {shown}", rows[k]);
+    }
+    // --out takes one record.
+    let x = tmp("report-x.csv");
+    let mut a = vec!["predict", "battery", "--model", s(&fit)];
+    a.extend(["--input", s(&pulse), s(&drive), "--out", s(&x)]);
+    a.extend(ocv);
+    let o = run(&a);
+    assert_eq!(o.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(err.trim_end().lines().count(), 1, "{err}");
+    assert!(err.contains("--report"), "{err}");
+}
+
+/// A map of two temperatures predicts between them by Arrhenius (said in
+/// the JSON, the activation energies printed) and holds the nearest beyond
+/// them with a warning; a row that is not identifiable is left out and
+/// counted.
+#[test]
+fn a_map_over_temperature_predicts_between_and_holds_beyond() {
+    let table = tmp("tmap-nmc.csv");
+    super::battery::nmc_table(&table);
+    let drive = simulate("tmap-drive.csv", "drive", &table, "0.9", "23");
+    let map = tmp("tmap.csv");
+    std::fs::write(
+        &map,
+        "temperature_c,soc,r_i,r_ct,q,alpha,bv_a_v,bv_i0_a,ocv_offset_v,rmse_v,identifiable,identifiable_reason\n\
+         10,0.2,0.040,0.030,900,0.7,,,0,0.001,true,\n\
+         10,0.9,0.036,0.028,900,0.7,,,0,0.001,true,\n\
+         10,0.5,0.900,0.978,900,0.7,,,0,0.001,false,R_ct at its bound\n\
+         40,0.2,0.020,0.012,900,0.7,,,0,0.001,true,\n\
+         40,0.9,0.018,0.011,900,0.7,,,0,0.001,true,\n",
+    )
+    .unwrap();
+    let out = tmp("tmap.out.csv");
+    let rmse_at = |t: &str| {
+        let json = tmp(&format!("tmap-{t}.json"));
+        let mut a = vec![
+            "predict",
+            "battery",
+            "--model",
+            s(&map),
+            "--input",
+            s(&drive),
+        ];
+        a.extend(["--ocv", s(&table), "--capacity-ah", "2.5", "--soc0", "0.9"]);
+        a.extend(["--temperature-c", t, "--out", s(&out)]);
+        a.extend(["--json", s(&json)]);
+        let o = run(&a);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        (read_json(&json), o)
+    };
+    let (j25, o) = rmse_at("25");
+    let m = &j25["map"];
+    assert_eq!(m["temperature_rule"], "arrhenius", "{m}");
+    assert_eq!(m["left_out"].as_array().unwrap().len(), 1, "{m}");
+    assert!(m["activation"]["r_i_j_mol"].as_f64().unwrap() > 10e3, "{m}");
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(stdout.contains("activation energy"), "{stdout}");
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(stderr.contains("1 map level(s) not used"), "{stderr}");
+    let (j10, _) = rmse_at("10");
+    let (j40, _) = rmse_at("40");
+    assert_eq!(j10["map"]["temperature_rule"], "at");
+    // Between the two temperatures' predictions: not either one.
+    let r = |j: &serde_json::Value| j["rmse_v"].as_f64().unwrap();
+    assert!(r(&j25) != r(&j10) && r(&j25) != r(&j40));
+    let (j60, o) = rmse_at("60");
+    assert_eq!(j60["map"]["temperature_rule"], "held");
+    assert_eq!(r(&j60), r(&j40));
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(stderr.contains("outside the map's 10–40 °C"), "{stderr}");
+}

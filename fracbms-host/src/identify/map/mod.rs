@@ -3,7 +3,9 @@
 //! and model choice, and the map model's voltage over a record.
 //!
 //! It owns the split ([`levels`]), the per-level fits ([`build_map`]), the
-//! `--map-out` run ([`battery_file`]) and the map model ([`map_voltage`]).
+//! check against the single fit ([`MapFit::check_against`]) and the
+//! `--map-out` run ([`battery_file`]); the map model ([`map_voltage`]) is
+//! [`model`]'s.
 //! The map's data and CSV are [`crate::map`]'s.
 //!
 //! The map model's voltage at a sample is the linear interpolation in SOC,
@@ -12,17 +14,16 @@
 //! R_i, ΔU and the OCV, which enter linearly; a gain-scheduled blend for
 //! the polarization).
 
-use super::battery::{battery_identify_screened, model_voltage, Refine};
+use super::battery::{battery_identify_screened, Refine};
 use super::BatteryMethod;
 use crate::cycler::resample::Gap;
 use crate::error::Result;
 use crate::io::BatteryRecord;
-use crate::map::{
-    bracket as map_bracket, counted_soc, in_gaps, MapJson, MapOptions, MapRow, ParameterMap,
-};
-use crate::ocv::{CellOcv, OcvSpec};
+use crate::map::{counted_soc, in_gaps, MapJson, MapOptions, MapRow, ParameterMap};
+use crate::ocv::OcvSpec;
 use crate::trust::Limits;
 use crate::{bail, err};
+use estimator_core::battery::CellParameters;
 use std::path::Path;
 
 /// A part of a record: samples `start..end`, its SOC level.
@@ -39,8 +40,33 @@ pub struct Level {
 /// Splits `rec` into its SOC levels: between its rests of at least
 /// `o.min_rest_s` (each part from `o.lead_s` before its pulses to the end
 /// of the rest after them), or into `o.soc_bins` equal bins of the counted
-/// SOC.
+/// SOC. A part without excitation (fewer than [`MIN_EXCITED`] samples
+/// whose current is beyond 1 % of the record's largest: a rest alone) is
+/// not a level.
 pub fn levels(rec: &BatteryRecord, soc: &[f64], o: &MapOptions, gap: &[bool]) -> Vec<Level> {
+    let big = rec
+        .current
+        .iter()
+        .filter(|x| x.is_finite())
+        .fold(0.0f64, |m, x| m.max(x.abs()));
+    let excited = |l: &Level| {
+        rec.current[l.start..l.end]
+            .iter()
+            .filter(|i| i.is_finite() && i.abs() > 0.01 * big)
+            .count()
+            >= MIN_EXCITED
+    };
+    split(rec, soc, o, gap)
+        .into_iter()
+        .filter(excited)
+        .collect()
+}
+
+/// The fewest samples under current that make a part of a record a level.
+pub const MIN_EXCITED: usize = 2;
+
+/// [`levels`] before the parts without excitation are left out.
+fn split(rec: &BatteryRecord, soc: &[f64], o: &MapOptions, gap: &[bool]) -> Vec<Level> {
     let n = rec.current.len();
     if gap.iter().any(|&g| g) {
         // Each stretch between gaps apart: no level spans a gap.
@@ -172,6 +198,11 @@ pub struct MapFit {
     /// The samples of the record with no measurement: inside a gap or a
     /// step's unlogged start ([`not_measured`]); no RMSE counts them.
     pub unmeasured: Vec<bool>,
+    /// The record's temperature (°C) the rows carry, if known.
+    pub temperature_c: Option<f64>,
+    /// What a user should know of the map: no identifiable level, or the
+    /// single fit written in its place ([`MapFit::check_against`]).
+    pub warnings: Vec<String>,
 }
 
 /// Which samples of `rec` were not measured: inside one of its `gaps`
@@ -362,7 +393,13 @@ pub fn build_map(
     }
     let mut map = ParameterMap { rows };
     map.sort();
-    let model_v = map_voltage(&map, rec, &whole, None, gaps)?;
+    // The map model runs on the identifiable levels only: without one it
+    // has no voltage (NaN), and the check against the single fit
+    // ([`MapFit::check_against`]) decides and says so.
+    let model_v = match map.usable() {
+        (u, _) if u.rows.is_empty() => vec![f64::NAN; rec.time.len()],
+        _ => map_voltage(&map, rec, &whole, record_t, gaps)?,
+    };
     let unmeasured = not_measured(rec, gaps, unlogged);
     let rmse_v = rmse(&model_v, &rec.voltage, &unmeasured);
     Ok(MapFit {
@@ -372,6 +409,8 @@ pub fn build_map(
         rmse_v,
         parts: kept,
         unmeasured,
+        temperature_c: record_t,
+        warnings: vec![],
     })
 }
 
@@ -488,11 +527,86 @@ pub fn battery_file(
         Some(&f.rows),
         &f.report.steps.unlogged,
     )?;
+    let mut map = map;
+    map.check_against(&f.record, &f.result.model_voltage, &f.result.json);
     f.result.json.map = Some(map.json(&f.record, &f.result.model_voltage));
     Ok((f, map))
 }
 
 impl MapFit {
+    /// The map against the single whole-record fit `j` of the same record
+    /// `rec` (its model voltage `single_v`): a map whose whole-record RMSE
+    /// (its identifiable levels, over the measured samples) is above the
+    /// single fit's, or that has no identifiable level, is replaced by the
+    /// single fit as its one row when that fit is identifiable, and a
+    /// warning says so; otherwise a warning says what is left.
+    pub fn check_against(
+        &mut self,
+        rec: &BatteryRecord,
+        single_v: &[f64],
+        j: &crate::identify::battery::BatteryJson,
+    ) {
+        let single = rmse(single_v, &rec.voltage, &self.unmeasured);
+        // A NaN map RMSE (no identifiable level) is worse too.
+        if self.rmse_v.is_finite() && self.rmse_v <= single {
+            return;
+        }
+        let why = if self.rmse_v.is_finite() {
+            format!(
+                "the map's whole-record RMSE {:.2} mV is above the single fit's {:.2} mV",
+                self.rmse_v * 1e3,
+                single * 1e3
+            )
+        } else {
+            "the map has no identifiable level".to_owned()
+        };
+        let cell_ok = CellParameters {
+            r_i: j.r_i,
+            r_ct: j.r_ct,
+            q: j.q,
+            alpha: j.alpha,
+            u_oc: j.ocv_offset_v.unwrap_or(j.u_oc),
+            bv_a: j.bv_a_v.unwrap_or(0.0),
+            bv_i0: j.bv_i0_a.unwrap_or(1.0),
+        }
+        .is_physical();
+        let Some(d) = j.ocv_offset_v.filter(|_| j.identifiable && cell_ok) else {
+            self.warnings.push(format!(
+                "{why}, and the single fit is not identifiable either: the map is written as fitted; `predict` and `online --prior` use only its identifiable levels"
+            ));
+            return;
+        };
+        let soc = match (j.soc0, j.soc_end) {
+            (Some(a), Some(b)) => (0.5 * (a + b)).clamp(0.0, 1.0),
+            _ => 0.5,
+        };
+        self.map = ParameterMap {
+            rows: vec![MapRow {
+                temperature_c: self.temperature_c,
+                soc,
+                r_i: j.r_i,
+                r_ct: j.r_ct,
+                q: j.q,
+                alpha: j.alpha,
+                bv_a_v: j.bv_a_v,
+                bv_i0_a: j.bv_i0_a,
+                ocv_offset_v: d,
+                rmse_v: j.rmse_v,
+                identifiable: true,
+                identifiable_reason: None,
+                confidence: j.confidence.clone(),
+                start_s: rec.time[0],
+                end_s: rec.time[rec.time.len() - 1],
+                samples: rec.time.len(),
+            }],
+        };
+        self.model_v = single_v.to_vec();
+        self.rmse_v = single;
+        self.warnings.push(format!(
+            "{why}: the single fit is written as the map's one row"
+        ));
+    }
+
     /// The map in the JSON of `identify battery`: its levels, those
     /// skipped, and the whole-record RMSE of the map model beside that of
     /// the single fit `single_v`, over `rec`'s measured samples (not
@@ -507,71 +621,8 @@ impl MapFit {
     }
 }
 
-/// RMSE over the samples with a finite voltage that are the log's (not
-/// made up inside a gap: `gap[k]`).
-pub fn rmse(model: &[f64], measured: &[f64], gap: &[bool]) -> f64 {
-    let (s, n) = model
-        .iter()
-        .zip(measured)
-        .zip(gap)
-        .filter(|((_, v), g)| v.is_finite() && !**g)
-        .fold((0.0, 0usize), |(s, n), ((m, v), _)| {
-            (s + (m - v) * (m - v), n + 1)
-        });
-    (s / n.max(1) as f64).sqrt()
-}
-
-/// The map model's voltage over `rec` with the OCV `c`, at the map's
-/// temperature nearest `t`: each level's
-/// model run over the whole record, blended linearly in the counted
-/// SOC between the two levels around it (module docs).
-///
-/// # Errors
-/// [`crate::ErrorKind::Data`] for an empty map or a level whose cell is
-/// not physical.
-pub fn map_voltage(
-    map: &ParameterMap,
-    rec: &BatteryRecord,
-    c: &CellOcv,
-    t: Option<f64>,
-    gaps: &[Gap],
-) -> Result<Vec<f64>> {
-    let rows = map.slice(t);
-    if rows.is_empty() {
-        bail!(Data, "the parameter map has no levels");
-    }
-    let soc = counted_soc(rec, c, gaps);
-    let current: Vec<f64> = rec
-        .current
-        .iter()
-        .map(|i| if i.is_finite() { *i } else { 0.0 })
-        .collect();
-    let runs = rows
-        .iter()
-        .map(|r| {
-            let cell = r.cell();
-            if !cell.is_physical() {
-                return Err(err!(
-                    Data,
-                    "the map's level at SOC {} is not a physical cell",
-                    r.soc
-                ));
-            }
-            model_voltage(&cell, rec.h, &current)
-        })
-        .collect::<Result<Vec<Vec<f64>>>>()?;
-    Ok((0..current.len())
-        .map(|k| {
-            // The SOC after sample k's charge, as the OCV is taken.
-            let z = soc[k] + current[k] * rec.h / (3600.0 * c.model.capacity_ah);
-            let (j, w) = map_bracket(&rows, z).unwrap_or((0, 0.0));
-            let j1 = (j + 1).min(rows.len() - 1);
-            // The OCV at the same SOC, read again after each gap (as the
-            // levels are placed), not counted through it.
-            runs[j][k] + w * (runs[j1][k] - runs[j][k]) + c.model.table.ocv(z)
-        })
-        .collect())
-}
+pub mod model;
+pub use model::{map_use, map_voltage, rmse, MapUse};
 
 #[cfg(test)]
 mod tests;

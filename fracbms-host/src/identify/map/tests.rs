@@ -1,4 +1,5 @@
 use super::*;
+use crate::identify::battery::model_voltage;
 use crate::io::HostOcvTable;
 use crate::ocv::OcvSpec;
 use estimator_core::battery::profile::ocv_nmc;
@@ -204,4 +205,161 @@ fn map_recovers_each_level_and_beats_one_fit() {
     let mid = m.map.cell_at(0.5 * (lo.soc + hi.soc), None).unwrap();
     assert!((mid.r_i - 0.5 * (lo.r_i + hi.r_i)).abs() < 1e-12);
     let _ = std::fs::remove_file(&p);
+}
+
+/// A record that ends in a long rest after its last level's rest: the rest
+/// alone has no excitation and is not a level (it was fitted to a runaway
+/// R_ct before).
+#[test]
+fn a_rest_alone_is_not_a_level() {
+    let mut rec = hppc(2);
+    let n0 = rec.time.len();
+    let last = *rec.voltage.last().unwrap();
+    for k in 0..3000 {
+        rec.time.push((n0 + k) as f64);
+        rec.current.push(0.0);
+        rec.voltage.push(last);
+    }
+    // A rest of 700 s, a 1-sample blip (above 1 % of the largest current:
+    // not rest) and the 2300 s rest: split() makes a part of them, levels()
+    // not (one sample under current).
+    rec.current[n0 + 700] = 0.2;
+    let c = spec(Some(0.95)).resolve(Path::new("r"), &rec).unwrap();
+    let soc = counted_soc(&rec, &c, &[]);
+    let gap = vec![false; rec.time.len()];
+    let o = MapOptions::default();
+    let all = split(&rec, &soc, &o, &gap);
+    let kept = levels(&rec, &soc, &o, &gap);
+    assert_eq!(all.len(), 3, "{all:?}");
+    assert_eq!(kept.len(), 2, "{kept:?}");
+    // The second level ends where its rest ends (at the blip); the part
+    // after it holds the blip and the rest alone.
+    assert_eq!(kept[1].end, n0 + 700, "{kept:?}");
+    assert!(all[2].start >= n0 + 600, "{all:?}");
+}
+
+/// A row that is not identifiable is not used by the map model: with a
+/// runaway row between two good ones the voltage is that of the two good
+/// ones alone, and [`map_use`] counts it.
+#[test]
+fn the_map_model_leaves_out_rows_that_are_not_identifiable() {
+    let rec = hppc(2);
+    let c = spec(Some(0.95)).resolve(Path::new("r"), &rec).unwrap();
+    let row = |soc: f64, cell: CellParameters<f64>, ok: bool| MapRow {
+        temperature_c: None,
+        soc,
+        r_i: cell.r_i,
+        r_ct: cell.r_ct,
+        q: cell.q,
+        alpha: cell.alpha,
+        bv_a_v: None,
+        bv_i0_a: None,
+        ocv_offset_v: 0.0,
+        rmse_v: 1e-3,
+        identifiable: ok,
+        identifiable_reason: (!ok).then(|| "R_ct at its bound".to_owned()),
+        confidence: None,
+        start_s: 0.0,
+        end_s: 1.0,
+        samples: 2,
+    };
+    let runaway = CellParameters {
+        r_ct: 0.978,
+        ..truth(0)
+    };
+    let good = ParameterMap {
+        rows: vec![row(0.7, truth(1), true), row(0.95, truth(0), true)],
+    };
+    let mut with = good.clone();
+    with.rows.insert(1, row(0.85, runaway, false));
+    let a = map_voltage(&good, &rec, &c, None, &[]).unwrap();
+    let b = map_voltage(&with, &rec, &c, None, &[]).unwrap();
+    assert_eq!(a, b);
+    let u = map_use(&with, None);
+    assert_eq!((u.levels_used, u.left_out.len()), (2, 1));
+    assert!(u.warnings()[0].contains("SOC 0.850"), "{:?}", u.warnings());
+    // A map with no usable row is refused in one line.
+    let none = ParameterMap {
+        rows: vec![row(0.85, runaway, false)],
+    };
+    let e = map_voltage(&none, &rec, &c, None, &[]).unwrap_err();
+    assert!(
+        e.to_string()
+            .contains("no level of the map is identifiable"),
+        "{e}"
+    );
+}
+
+/// Between two temperatures the map model's rows are the core's Arrhenius
+/// cells; the activation energies of a map made with one energy per
+/// parameter are that energy; beyond the temperatures the nearest is held.
+#[test]
+fn a_map_over_temperature_is_arrhenius() {
+    use crate::map::GAS_CONSTANT;
+    let (e_ri, e_rct, e_tau) = (22e3, 48e3, 31e3);
+    let row = |t: f64, soc: f64| {
+        let x = 1.0 / (t + 273.15) - 1.0 / 298.15;
+        // R_ct and τ the same at every SOC, R_i linear in SOC: the map's
+        // own interpolation in SOC is then exact.
+        let r_ct = 0.015 * (e_rct / GAS_CONSTANT * x).exp();
+        let tau = 40.0 * (e_tau / GAS_CONSTANT * x).exp();
+        MapRow {
+            temperature_c: Some(t),
+            soc,
+            r_i: 0.02 * (2.0 - soc) * (e_ri / GAS_CONSTANT * x).exp(),
+            r_ct,
+            q: tau / r_ct,
+            alpha: 0.7,
+            bv_a_v: None,
+            bv_i0_a: None,
+            ocv_offset_v: 0.001,
+            rmse_v: 1e-3,
+            identifiable: true,
+            identifiable_reason: None,
+            confidence: None,
+            start_s: 0.0,
+            end_s: 1.0,
+            samples: 2,
+        }
+    };
+    let mut map = ParameterMap {
+        rows: vec![
+            row(10.0, 0.2),
+            row(10.0, 0.8),
+            row(40.0, 0.2),
+            row(40.0, 0.5),
+            row(40.0, 0.8),
+        ],
+    };
+    map.sort();
+    let a = map.activation_energies().unwrap();
+    for (got, want) in [
+        (a.r_i_j_mol, e_ri),
+        (a.r_ct_j_mol, e_rct),
+        (a.tau_j_mol, e_tau),
+    ] {
+        assert!((got / want - 1.0).abs() < 1e-9, "{got} vs {want}");
+    }
+    assert_eq!(a.socs, 13);
+    assert_eq!(a.temperatures_c, [10.0, 40.0]);
+    let at25 = map.rows_at(Some(25.0));
+    assert_eq!(
+        at25.iter().map(|r| r.soc).collect::<Vec<_>>(),
+        vec![0.2, 0.5, 0.8]
+    );
+    for r in &at25 {
+        let want = map.cell_at(r.soc, Some(25.0)).unwrap();
+        assert_eq!(r.cell(), want);
+        let truth = row(25.0, r.soc);
+        assert!((r.r_ct / truth.r_ct - 1.0).abs() < 1e-9, "{}", r.soc);
+    }
+    assert_eq!(map_use(&map, Some(25.0)).temperature_rule, "arrhenius");
+    // Beyond: held, and said.
+    assert_eq!(map.rows_at(Some(45.0)), map.rows_at(Some(40.0)));
+    let u = map_use(&map, Some(45.0));
+    assert_eq!(u.temperature_rule, "held");
+    assert!(u
+        .warnings()
+        .iter()
+        .any(|w| w.contains("outside the map's 10–40 °C")));
 }

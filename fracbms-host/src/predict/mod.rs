@@ -131,9 +131,35 @@ pub struct Prediction {
     pub soc_end: Option<f64>,
     /// How the record was read.
     pub record: Option<crate::cycler::RecordReport>,
+    /// The errors over the measured samples whose counted SOC lies inside
+    /// the OCV table (null without a table): where the model is defined.
+    pub in_table: Option<InTable>,
+    /// What a map model used (null for a fit): rows left out, the
+    /// temperature rule, the map's activation energies.
+    pub map: Option<crate::identify::map::MapUse>,
     /// The model's voltage at each sample (V).
     #[serde(skip)]
     pub model_v: Vec<f64>,
+    /// Whether each sample's voltage is a measurement (not inside a gap
+    /// nor a step's unlogged start): the RMSE's samples.
+    #[serde(skip)]
+    pub observed: Vec<bool>,
+}
+
+/// The errors of a prediction over the measured samples inside the OCV
+/// table's SOC range.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct InTable {
+    /// Samples compared.
+    pub samples: usize,
+    /// RMSE (V).
+    pub rmse_v: f64,
+    /// The largest |model − measured| (V).
+    pub max_error_v: f64,
+    /// Where it is (s).
+    pub max_error_time_s: f64,
+    /// The table's SOC range.
+    pub soc_range: [f64; 2],
 }
 
 /// Runs `fit` on `rec`'s current (file `path`, named in errors) with the
@@ -193,8 +219,9 @@ pub fn predict(
     Ok(p)
 }
 
-/// Runs the map `map` on `rec` (file `path`) with the OCV `spec`, at the
-/// map's temperature nearest `t`.
+/// Runs the map `map` on `rec` (file `path`) with the OCV `spec` at the
+/// temperature `t` ([`crate::identify::map::map_voltage`]: its
+/// identifiable rows, Arrhenius between temperatures).
 ///
 /// # Errors
 /// As [`predict`].
@@ -208,6 +235,7 @@ pub fn predict_map(
 ) -> Result<Prediction> {
     let c = spec.resolve(path, rec)?;
     let model_v = crate::identify::map::map_voltage(map, rec, &c, t, gaps)?;
+    let used = crate::identify::map::map_use(map, t);
     let soc = crate::map::counted_soc(rec, &c, gaps);
     let end = soc.last().copied().unwrap_or(c.soc0)
         + rec
@@ -222,6 +250,7 @@ pub fn predict_map(
     p.soc0 = Some(c.soc0);
     p.soc_end = Some(end);
     p.currents_held = rec.current.iter().filter(|i| !i.is_finite()).count();
+    p.map = Some(used);
     Ok(p)
 }
 
@@ -271,7 +300,10 @@ fn errors(
         soc0: None,
         soc_end: None,
         record: None,
+        in_table: None,
+        map: None,
         model_v,
+        observed: vec![],
     })
 }
 
@@ -349,10 +381,75 @@ pub fn run_model(
         currents_held: p.currents_held,
         soc0: p.soc0,
         soc_end: p.soc_end,
+        map: p.map,
         ..e
     };
     p.record = Some(read.report.clone());
+    p.observed = (0..read.record.time.len())
+        .map(|k| !gap[k] && !unobserved.get(k).copied().unwrap_or(false))
+        .collect();
+    if let Some(spec) = spec {
+        p.in_table = Some(in_table(path, read, spec, &p)?);
+    }
     Ok(p)
+}
+
+/// The errors of `p` over its measured samples whose counted SOC (from
+/// `spec`'s start, read again after each gap) is inside the table.
+fn in_table(
+    path: &Path,
+    read: &crate::cycler::CyclerRecord,
+    spec: &OcvSpec,
+    p: &Prediction,
+) -> Result<InTable> {
+    let rec = &read.record;
+    let held = BatteryRecord {
+        current: rec
+            .current
+            .iter()
+            .scan(0.0, |last, i| {
+                if i.is_finite() {
+                    *last = *i;
+                }
+                Some(*last)
+            })
+            .collect(),
+        ..rec.clone()
+    };
+    let c = spec.resolve(path, &held)?;
+    let soc = crate::map::counted_soc(&held, &c, &read.report.resampling.gaps);
+    let t = &c.model.table;
+    let (lo, hi) = (
+        t.soc_points().first().copied().unwrap_or(0.0),
+        t.soc_points().last().copied().unwrap_or(1.0),
+    );
+    let (mut sum, mut n, mut worst, mut at) = (0.0, 0usize, 0.0f64, f64::NAN);
+    let samples = (rec.time.iter().zip(&rec.voltage))
+        .zip(p.model_v.iter().zip(&p.observed))
+        .zip(&soc);
+    for (((t, v), (m, seen)), z) in samples {
+        if !(*seen && v.is_finite() && *z >= lo && *z <= hi) {
+            continue;
+        }
+        let e = m - v;
+        sum += e * e;
+        n += 1;
+        if e.abs() > worst {
+            worst = e.abs();
+            at = *t;
+        }
+    }
+    Ok(InTable {
+        samples: n,
+        rmse_v: if n > 0 {
+            (sum / n as f64).sqrt()
+        } else {
+            f64::NAN
+        },
+        max_error_v: if n > 0 { worst } else { f64::NAN },
+        max_error_time_s: at,
+        soc_range: [lo, hi],
+    })
 }
 
 /// `predict battery` on the file `input`: reads it, runs the fit of
@@ -364,38 +461,89 @@ pub fn run_model(
 /// As [`read_fit`], [`crate::cycler::read_record`] and [`predict`]; the
 /// options are checked before the record is read.
 pub fn battery_file(input: &Path, out: &Path, o: &PredictOptions) -> Result<Prediction> {
+    let mut v = battery_files(&[input.to_path_buf()], Some(out), None, o)?;
+    v.pop()
+        .ok_or_else(|| err!(Internal, "no prediction for {}", input.display()))
+}
+
+/// `predict battery` on several records: each read and run as
+/// [`battery_file`]; with one record its CSV goes to `out`; with `report`,
+/// the validation page of [`report::write`] and each record's CSV go into
+/// that folder.
+///
+/// # Errors
+/// As [`battery_file`]; [`crate::ErrorKind::Options`] for `out` with
+/// several records, or neither `out` nor `report`.
+pub fn battery_files(
+    inputs: &[PathBuf],
+    out: Option<&Path>,
+    report: Option<&Path>,
+    o: &PredictOptions,
+) -> Result<Vec<Prediction>> {
+    if inputs.is_empty() {
+        bail!(Options, "give a record to predict (--input)");
+    }
+    if out.is_some() && inputs.len() > 1 {
+        bail!(
+            Options,
+            "--out takes one --input; with {} give --report DIR (each record's CSV goes there)",
+            inputs.len()
+        );
+    }
+    if out.is_none() && report.is_none() {
+        bail!(Options, "give --out FILE or --report DIR");
+    }
     let model = read_model(&o.model)?;
     let spec = OcvSpec::from_options(&o.ocv)?;
     check_model_ocv(&model, spec.as_ref())?;
-    let read = crate::cycler::read_record(input, &o.record)?;
-    let p = run_model(input, &read, &model, spec.as_ref(), o.temperature_c)?;
-    let rec = &read.record;
-    let unmeasured = crate::identify::map::not_measured(
-        rec,
-        &read.report.resampling.gaps,
-        &read.report.steps.unlogged,
-    );
+    let mut done = vec![];
+    for input in inputs {
+        let read = crate::cycler::read_record(input, &o.record)?;
+        let p = run_model(input, &read, &model, spec.as_ref(), o.temperature_c)?;
+        if let Some(out) = out {
+            write_csv(out, &read.record, &p)?;
+        }
+        if let Some(dir) = report {
+            std::fs::create_dir_all(dir)
+                .map_err(|e| err!(Io, "cannot make {}: {e}", dir.display()))?;
+            let csv = dir.join(format!("{}.csv", report::stem(done.len() + 1, input)));
+            write_csv(&csv, &read.record, &p)?;
+        }
+        done.push((read.record, p));
+    }
+    if let Some(dir) = report {
+        let entries: Vec<report::Entry<'_>> = inputs
+            .iter()
+            .zip(&done)
+            .map(|(input, (record, prediction))| report::Entry {
+                input,
+                record,
+                prediction,
+            })
+            .collect();
+        report::write(dir, &o.model, &entries)?;
+    }
+    Ok(done.into_iter().map(|(_, p)| p).collect())
+}
+
+/// Writes `time_s,current_a,voltage_v,model_v,observed` of `p` on `rec`.
+fn write_csv(out: &Path, rec: &BatteryRecord, p: &Prediction) -> Result<()> {
     io::write_csv(
         out,
         &["time_s", "current_a", "voltage_v", "model_v", "observed"],
-        rec.time
-            .iter()
-            .zip(&rec.current)
-            .zip(&rec.voltage)
-            .zip(&p.model_v)
-            .zip(&unmeasured)
-            .map(|((((t, i), v), m), u)| {
-                [
-                    format!("{t}"),
-                    format!("{i}"),
-                    format!("{v}"),
-                    format!("{m:.9}"),
-                    u8::from(!u).to_string(),
-                ]
-            }),
-    )?;
-    Ok(p)
+        (0..rec.time.len()).map(|k| {
+            [
+                format!("{}", rec.time[k]),
+                format!("{}", rec.current[k]),
+                format!("{}", rec.voltage[k]),
+                format!("{:.9}", p.model_v[k]),
+                u8::from(p.observed.get(k).copied().unwrap_or(true)).to_string(),
+            ]
+        }),
+    )
 }
+
+pub mod report;
 
 #[cfg(test)]
 mod tests {
