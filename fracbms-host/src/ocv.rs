@@ -38,6 +38,38 @@ pub struct CellOcv {
 }
 
 impl CellOcv {
+    /// [`overpotential_record`](Self::overpotential_record) of a record
+    /// with `gaps` (a log that leaves out stretches: the Panasonic HPPC
+    /// tests' discharges between levels): the SOC is read again at rest
+    /// after each gap through the inverse OCV, as the map's
+    /// ([`crate::map::counted_soc`]), not counted through it.
+    pub fn overpotential_record_across(
+        &self,
+        rec: &BatteryRecord,
+        gaps: &[crate::cycler::resample::Gap],
+    ) -> (BatteryRecord, f64) {
+        if gaps.is_empty() {
+            return self.overpotential_record(rec);
+        }
+        let soc = crate::map::counted_soc(rec, self, gaps);
+        let mut end = self.soc0;
+        let y = (soc.iter().zip(&rec.current).zip(&rec.voltage))
+            .map(|((&z, &i), &v)| {
+                end = self.model.soc_after(z, i, rec.h);
+                self.model.overpotential(end, v)
+            })
+            .collect();
+        (
+            BatteryRecord {
+                time: rec.time.clone(),
+                current: rec.current.clone(),
+                voltage: y,
+                h: rec.h,
+            },
+            end,
+        )
+    }
+
     /// The record with its voltage replaced by the overpotential
     /// `U_t − OCV(SOC)`, and the SOC after its last row.
     pub fn overpotential_record(&self, rec: &BatteryRecord) -> (BatteryRecord, f64) {

@@ -533,7 +533,7 @@ pub fn battery_identify(
     let mut r = battery_identify_unassessed(
         path,
         rec,
-        cell_ocv,
+        cell_ocv.map(|c| (c, &[][..])),
         method,
         memory,
         iterations,
@@ -595,6 +595,7 @@ pub fn battery_identify_screened(
     path: &Path,
     rec: &io::BatteryRecord,
     unobserved: &[bool],
+    gaps: &[crate::cycler::resample::Gap],
     limits: &trust::Limits,
     ocv: Option<&crate::ocv::OcvSpec>,
     method: BatteryMethod,
@@ -609,7 +610,7 @@ pub fn battery_identify_screened(
         battery_identify_unassessed(
             path,
             record,
-            cell_ocv.as_ref(),
+            cell_ocv.as_ref().map(|c| (c, gaps)),
             method,
             memory,
             iterations,
@@ -644,14 +645,14 @@ pub fn battery_identify_screened(
 fn battery_identify_unassessed(
     path: &Path,
     rec: &io::BatteryRecord,
-    cell_ocv: Option<&crate::ocv::CellOcv>,
+    cell_ocv: Option<(&crate::ocv::CellOcv, &[crate::cycler::resample::Gap])>,
     method: BatteryMethod,
     memory: Option<usize>,
     iterations: u32,
     print_table: bool,
     refine: Refine,
 ) -> Result<BatteryResult> {
-    let Some(c) = cell_ocv else {
+    let Some((c, gaps)) = cell_ocv else {
         return battery_run_with(path, rec, method, memory, iterations, print_table, refine);
     };
     if refine.ocv_slope {
@@ -660,7 +661,7 @@ fn battery_identify_unassessed(
             "--ocv-slope goes without --ocv (the OCV curve carries the drift)"
         );
     }
-    let (y, soc_end) = c.overpotential_record(rec);
+    let (y, soc_end) = c.overpotential_record_across(rec, gaps);
     let mut r = battery_run_with(path, &y, method, memory, iterations, print_table, refine)?;
     let offset = r.cell.u_oc;
     for (m, (v, yv)) in r

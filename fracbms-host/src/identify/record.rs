@@ -79,11 +79,18 @@ pub fn battery_arrays(
         model: model_for(model, method),
         ..Refine::default()
     };
-    let unobserved = held_mask(time, unobserved, &read.record.time);
+    let gaps = &read.report.resampling.gaps;
+    // Inside a gap no voltage was measured either.
+    let unobserved: Vec<bool> = held_mask(time, unobserved, &read.record.time)
+        .into_iter()
+        .zip(crate::map::in_gaps(&read.record, gaps))
+        .map(|(a, b)| a || b)
+        .collect();
     let (mut result, screened) = battery_identify_screened(
         name,
         &read.record,
         &unobserved,
+        gaps,
         &trust::Limits::default(),
         ocv,
         method,
@@ -194,11 +201,14 @@ pub fn battery_file(input: &Path, o: &BatteryFitOptions, print_table: bool) -> R
     };
     let limits = trust::Limits::checked(o.voltage_min, o.voltage_max, o.current_limit)?;
     let ocv = crate::ocv::OcvSpec::from_options(&o.ocv)?;
-    let unobserved = read.report.unobserved(rec.h, &rec.time);
+    // Inside a step's unlogged start or a gap, no voltage was measured.
+    let gaps = &read.report.resampling.gaps;
+    let unobserved = crate::identify::map::not_measured(&rec, gaps, &read.report.steps.unlogged);
     let (result, screened) = battery_identify_screened(
         input,
         &rec,
         &unobserved,
+        gaps,
         &limits,
         ocv.as_ref(),
         o.method,

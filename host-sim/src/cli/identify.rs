@@ -319,14 +319,16 @@ pub(super) fn battery(a: IdBatteryArgs) -> Result<()> {
     }
     if let (Some(m), Some(p)) = (&map, &a.map_out) {
         let rows = &m.map.rows;
+        // Both over the same samples: the log's measured ones.
+        let single = m.json(rec, &r.model_voltage).single_rmse_v;
         println!(
-            "map: {} levels, SOC {:.3}–{:.3} ({} not identifiable); whole-record RMSE: map {:.2} mV, single fit {:.2} mV",
+            "map: {} levels, SOC {:.3}–{:.3} ({} not identifiable); whole-record RMSE over the measured samples: map {:.2} mV, single fit {:.2} mV",
             rows.len(),
             rows[0].soc,
             rows[rows.len() - 1].soc,
             rows.iter().filter(|r| !r.identifiable).count(),
             m.rmse_v * 1e3,
-            j.rmse_v * 1e3
+            single * 1e3
         );
         for why in &m.skipped {
             eprintln!("warning: {}: {why}", a.input.display());

@@ -327,6 +327,7 @@ pub fn build_map(
             path,
             &part,
             &unobserved,
+            &[],
             limits,
             Some(&spec),
             method,

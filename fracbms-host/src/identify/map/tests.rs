@@ -173,6 +173,7 @@ fn map_recovers_each_level_and_beats_one_fit() {
         Path::new("r"),
         &rec,
         &[],
+        &[],
         &limits,
         Some(&s),
         BatteryMethod::Refined,
