@@ -92,7 +92,7 @@ for T in (25, 10, 45):
 PY
 grep -h "rows rejected" "$out/T25/SoC5/log.txt" | sed 's/^.*: \([0-9]* rows rejected\)/T25 SoC5: \1/' | cut -c1-220
 grep -h "^map:" "$out/T25/SoC5/log.txt" | sed 's/^/T25 SoC5 /'
-python3 -c "import json,sys;m=json.load(open(sys.argv[1]))['map'];print(f\"T25 SoC5 JSON: map_rmse_v {1e3*m['map_rmse_v']:.2f} mV, single_rmse_v {1e3*m['single_rmse_v']:.2f} mV\")" "$out/T25/SoC5/fit.json"
+python3 -c "import json,sys;m=json.load(open(sys.argv[1]))['map'];r=m['map_rmse_v'];print(f\"T25 SoC5 JSON: map_rmse_v {'null (no identifiable level)' if r is None else f'{1e3*r:.2f} mV'}, single_rmse_v {1e3*m['single_rmse_v']:.2f} mV\")" "$out/T25/SoC5/fit.json"
 
 # The levels of each temperature into one folder for bench/reference_map.py
 # (level-NN.csv in SOC order 0.9 -> 0.1, one levels.json), and the maps

@@ -2,11 +2,14 @@
 # Parameter maps validated on records they were not fitted on
 # (docs/maps.md, "How accurate is a map"): the Panasonic NCR18650PF HPPC
 # tests at 25 and 10 °C (data/panasonic-18650pf, the exports as they come)
-# each give a map and a single whole-record fit; both run on the US06 drive
-# cycles at 25 and 10 °C, and the map of both temperatures joined runs at
-# each record's own temperature (its temperature column's mean: Arrhenius
-# between 10 and 25 °C) and at the nearest map temperature. Prints one
-# Markdown table; `--report` pages go into OUT/report-*.
+# each give a map of its levels fitted one by one (`--map-method levels`),
+# a joint map (`--map-method joint`) and a single whole-record fit; all
+# run on the US06 drive cycles at 25 and 10 °C, and the maps of both
+# temperatures joined run at each record's own temperature (its
+# temperature column's mean: Arrhenius between 10 and 25 °C) and at the
+# nearest map temperature. Prints two Markdown tables; `--report` pages go
+# into OUT/report-*. About 2.5 minutes on one core (the joint maps 35-45 s
+# each).
 #
 #   bash bench/map_validation.sh [OUT]
 #   HOST_SIM=path/to/host-sim bash bench/map_validation.sh [OUT]   # no build
@@ -24,28 +27,38 @@ declare -A hppc=([25]="$d/03-11-17_08.47 25degC_5Pulse_HPPC_Pan18650PF.mat"
                  [10]="$d/03-27-17_09.06 10degC_5Pulse_HPPC_Pan18650PF.mat")
 declare -A us06=([25]="$d/03-20-17_01.43 25degC_US06_Pan18650PF.mat"
                  [10]="$d/03-27-17_09.06 10degC_US06_Pan18650PF.mat")
-echo "| map of | levels (identifiable) | in-sample RMSE: map / single fit (mV) | time (s) |"
+echo "| map of | rows (identifiable) | in-sample RMSE: map / single fit (mV) | time (s) |"
 echo "|---|---|---|---|"
-for T in 25 10; do
-  start=$(date +%s.%N)
-  $hs identify battery --input "${hppc[$T]}" "${ocv[@]}" --min-rest 3000 --model linear \
-    --temperature-c $T --map-out "$out/map-$T.csv" --json "$out/fit-$T.json" > "$out/map-$T.log" 2>&1
-  took=$(python3 -c "import sys;print(f'{float(sys.argv[2]) - float(sys.argv[1]):.1f}')" "$start" "$(date +%s.%N)")
-  python3 - "$out/fit-$T.json" "$T" "$took" <<'PY'
+for method in levels joint; do
+  for T in 25 10; do
+    tag=$T; [ $method = joint ] && tag=joint-$T
+    start=$(date +%s.%N)
+    $hs identify battery --input "${hppc[$T]}" "${ocv[@]}" --min-rest 3000 --model linear \
+      --temperature-c $T --map-method $method --map-out "$out/map-$tag.csv" --json "$out/fit-$tag.json" \
+      > "$out/map-$tag.log" 2>&1
+    took=$(python3 -c "import sys;print(f'{float(sys.argv[2]) - float(sys.argv[1]):.1f}')" "$start" "$(date +%s.%N)")
+    python3 - "$out/fit-$tag.json" "$T °C HPPC, $method" "$took" <<'PY'
 import json, sys
 j = json.load(open(sys.argv[1]))
 m = j["map"]
 n = len(m["levels"])
 ok = sum(1 for r in m["levels"] if r["identifiable"])
-print(f"| {sys.argv[2]} °C HPPC | {n} ({ok}) | {1e3 * m['map_rmse_v']:.2f} / {1e3 * m['single_rmse_v']:.2f} | {sys.argv[3]} |")
+how = ""
+if m.get("joint"):
+    b = min(m["joint"], key=lambda c: c["left_out_rmse_v"])
+    how = f" (λ {b['smoothing']:g} V², varying {','.join(b['vary'])})"
+print(f"| {sys.argv[2]}{how} | {n} ({ok}) | {1e3 * m['map_rmse_v']:.2f} / {1e3 * m['single_rmse_v']:.2f} | {sys.argv[3]} |")
 PY
+  done
 done
 (cat "$out/map-10.csv"; tail -n +2 "$out/map-25.csv") > "$out/map-10-25.csv"
+(cat "$out/map-joint-10.csv"; tail -n +2 "$out/map-joint-25.csv") > "$out/map-joint-10-25.csv"
 echo
 echo "| record | model | RMSE (mV) | RMSE inside the OCV table (mV) | max error (mV) | temperature rule |"
 echo "|---|---|---|---|---|---|"
 for T in 25 10; do
-  for m in "map-$T.csv" "fit-$T.json" "map-10-25.csv" "map-10-25.csv@$T"; do
+  for m in "map-$T.csv" "map-joint-$T.csv" "fit-$T.json" "map-10-25.csv" "map-10-25.csv@$T" \
+           "map-joint-10-25.csv" "map-joint-10-25.csv@$T"; do
     model="$out/${m%@*}"
     t=(); [ "$m" != "${m%@*}" ] && t=(--temperature-c "${m#*@}")
     name=$(echo "$m" | tr '@' '-')

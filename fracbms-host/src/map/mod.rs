@@ -20,7 +20,7 @@ use estimator_core::battery::CellParameters;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
-pub use row::{MapJson, MapOptions, MapRow, MAP_COLUMNS};
+pub use row::{MapJson, MapMethod, MapOptions, MapRow, MAP_COLUMNS};
 
 mod csv;
 mod row;

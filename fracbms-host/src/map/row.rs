@@ -52,6 +52,28 @@ pub struct MapOptions {
     /// period from the log's rows (the median step there, raised to keep
     /// within this), finer than the whole record's where the log is.
     pub level_samples: usize,
+    /// How the map is fitted: `levels` (each level on its own) or `joint`
+    /// (every knot together over the whole record).
+    pub method: MapMethod,
+    /// The joint fit's knots (SOCs); default: the levels' SOCs.
+    pub knots: Option<Vec<f64>>,
+    /// The joint fit's smoothing penalty λ (V²); default: chosen by
+    /// leaving levels out.
+    pub smoothing: Option<f64>,
+    /// Which of `r_i, r_ct, tau, alpha, du` vary with SOC in the joint
+    /// fit; default: chosen by leaving levels out.
+    pub vary: Option<[bool; 5]>,
+}
+
+/// How a map is fitted (`--map-method`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum MapMethod {
+    /// Each level fitted on its own stretch.
+    #[default]
+    Levels,
+    /// Every knot fitted together over the whole record, smooth in SOC.
+    Joint,
 }
 
 impl Default for MapOptions {
@@ -62,6 +84,10 @@ impl Default for MapOptions {
             temperature_c: None,
             lead_s: 60.0,
             level_samples: 8192,
+            method: MapMethod::Levels,
+            knots: None,
+            smoothing: None,
+            vary: None,
         }
     }
 }
@@ -132,4 +158,10 @@ pub struct MapJson {
     pub map_rmse_v: f64,
     /// The single fit's RMSE over the same samples (V).
     pub single_rmse_v: f64,
+    /// The joint fit's candidates (`--map-method joint`): per candidate
+    /// `smoothing`, `vary`, `rmse_v`, `left_out_rmse_v` (each level left
+    /// out, predicted) and `iterations`; the map is the one with the least
+    /// `left_out_rmse_v`. Empty for the per-level fits.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub joint: Vec<crate::identify::map::joint::Candidate>,
 }

@@ -168,6 +168,90 @@ pub struct IdBatteryArgs {
     /// or empty).
     #[arg(long)]
     pub temperature_c: Option<f64>,
+    /// How the map is fitted: `levels` (each level on its own stretch) or
+    /// `joint` (every knot together over the whole record, smooth in SOC;
+    /// docs/maps.md).
+    #[arg(long, value_enum, default_value_t = MapMethodArg::Levels, requires = "map_out")]
+    pub map_method: MapMethodArg,
+    /// The joint map's knots: SOCs, comma-separated (default: the levels'
+    /// SOCs).
+    #[arg(long, value_delimiter = ',', requires = "map_out")]
+    pub soc_knots: Option<Vec<f64>>,
+    /// The joint map's smoothing penalty λ (V²) on the second differences
+    /// across knots, or `auto`: chosen by leaving levels out (default).
+    #[arg(long, default_value = "auto", requires = "map_out")]
+    pub map_smoothing: String,
+    /// Which parameters vary with SOC in the joint map, comma-separated of
+    /// `r_i,r_ct,tau,alpha,du` (the others shared), or `auto`: chosen by
+    /// leaving levels out (default).
+    #[arg(long, default_value = "auto", requires = "map_out")]
+    pub map_vary: String,
+}
+
+/// `--map-method`.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MapMethodArg {
+    /// Each level fitted on its own stretch.
+    Levels,
+    /// Every knot together over the whole record.
+    Joint,
+}
+
+impl IdBatteryArgs {
+    /// The map options of these flags.
+    fn map_options(&self) -> Result<MapOptions> {
+        let smoothing = match self.map_smoothing.trim() {
+            "auto" => None,
+            x => Some(
+                x.parse::<f64>()
+                    .ok()
+                    .filter(|v| v.is_finite() && *v >= 0.0)
+                    .ok_or_else(|| {
+                        anyhow::anyhow!(
+                            "--map-smoothing {x}: give a non-negative number (V²) or auto"
+                        )
+                    })?,
+            ),
+        };
+        let vary = match self.map_vary.trim() {
+            "auto" => None,
+            x => {
+                let names = fracbms_host::identify::map::joint::PARAMETERS;
+                let mut set = [false; 5];
+                for part in x.split(',').map(str::trim).filter(|p| !p.is_empty()) {
+                    let i = names.iter().position(|n| *n == part).ok_or_else(|| {
+                        anyhow::anyhow!(
+                            "--map-vary: `{part}` is not one of {} (or auto)",
+                            names.join(",")
+                        )
+                    })?;
+                    set[i] = true;
+                }
+                Some(set)
+            }
+        };
+        if let Some(k) = &self.soc_knots {
+            if k.is_empty()
+                || k.iter()
+                    .any(|z| !(z.is_finite() && (0.0..=1.0).contains(z)))
+            {
+                anyhow::bail!("--soc-knots: give SOCs in [0, 1], comma-separated");
+            }
+        }
+        Ok(MapOptions {
+            min_rest_s: self.min_rest,
+            soc_bins: self.soc_bins,
+            temperature_c: self.temperature_c,
+            method: match self.map_method {
+                MapMethodArg::Levels => fracbms_host::map::MapMethod::Levels,
+                MapMethodArg::Joint => fracbms_host::map::MapMethod::Joint,
+            },
+            knots: self.soc_knots.clone(),
+            smoothing,
+            vary,
+            ..MapOptions::default()
+        })
+    }
 }
 
 /// The cell's open-circuit voltage curve and state of charge.
@@ -253,12 +337,7 @@ pub(super) fn battery(a: IdBatteryArgs) -> Result<()> {
     }
     let (f, map) = match &a.map_out {
         Some(_) => {
-            let m = MapOptions {
-                min_rest_s: a.min_rest,
-                soc_bins: a.soc_bins,
-                temperature_c: a.temperature_c,
-                ..MapOptions::default()
-            };
+            let m = a.map_options()?;
             let (f, map) = fracbms_host::identify::map::battery_file(&a.input, &o, &m, true)?;
             (f, Some(map))
         }
@@ -336,6 +415,23 @@ pub(super) fn battery(a: IdBatteryArgs) -> Result<()> {
         for w in &m.warnings {
             eprintln!("warning: {}: {w}", a.input.display());
         }
+        if let Some(best) = m
+            .joint
+            .iter()
+            .filter(|c| c.left_out_rmse_v.is_finite())
+            .min_by(|x, y| x.left_out_rmse_v.total_cmp(&y.left_out_rmse_v))
+        {
+            let names = fracbms_host::identify::map::joint::PARAMETERS;
+            let vary: Vec<&str> = (0..5).filter(|&i| best.vary[i]).map(|i| names[i]).collect();
+            println!(
+                "joint map: smoothing {:e} V², varying {} (of {} candidates, by leaving levels out: {:.2} mV predicted, {:.2} mV fitted)",
+                best.smoothing,
+                vary.join(","),
+                m.joint.len(),
+                best.left_out_rmse_v * 1e3,
+                best.rmse_v * 1e3
+            );
+        }
         m.map.write_csv(p)?;
         eprintln!("wrote {}", p.display());
         if let Some(dir) = &a.levels_out {
@@ -389,12 +485,10 @@ fn battery_many(a: &IdBatteryArgs, o: &BatteryFitOptions) -> Result<()> {
         }
     }
     let m = ManyOptions {
-        map: a.map_out.as_ref().map(|_| MapOptions {
-            min_rest_s: a.min_rest,
-            soc_bins: a.soc_bins,
-            temperature_c: a.temperature_c,
-            ..MapOptions::default()
-        }),
+        map: match &a.map_out {
+            Some(_) => Some(a.map_options()?),
+            None => None,
+        },
         jobs: a.jobs,
     };
     many::check_options(o, &m)?;

@@ -318,3 +318,90 @@ fn online_with_the_map(log: &Path, ocv: &Path, map: &Path, fit: &Path) {
         "{err}"
     );
 }
+
+/// `--map-method joint` with its penalty and varying set given: one row
+/// per level, fitted together (R_i varying, the slow part shared), closer
+/// in-sample than the single fit, the candidate in the JSON; bad joint
+/// flags are one line each.
+#[test]
+fn a_joint_map_with_given_flags() {
+    let log = tmp("jmap-hppc.csv");
+    export(&log);
+    let ocv = tmp("jmap-ocv.csv");
+    let o = run(&[
+        "ocv",
+        "--input",
+        s(&log),
+        "--capacity-ah",
+        "2.5",
+        "--soc0",
+        "0.95",
+        "--out",
+        s(&ocv),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let (map, json) = (tmp("jmap.csv"), tmp("jmap.json"));
+    let base = [
+        "identify",
+        "battery",
+        "--input",
+        s(&log),
+        "--ocv",
+        s(&ocv),
+        "--capacity-ah",
+        "2.5",
+        "--soc0",
+        "0.95",
+        "--model",
+        "linear",
+        "--map-out",
+        s(&map),
+        "--json",
+        s(&json),
+        "--map-method",
+        "joint",
+    ];
+    let mut a = base.to_vec();
+    a.extend(["--map-smoothing", "1e-5", "--map-vary", "r_i,du"]);
+    let o = run(&a);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        stdout.contains("joint map: smoothing 1e-5 V², varying r_i,du"),
+        "{stdout}"
+    );
+    let j = read_json(&json);
+    let m = &j["map"];
+    let cands = m["joint"].as_array().unwrap();
+    assert_eq!(cands.len(), 1);
+    assert_eq!(cands[0]["vary"], serde_json::json!(["r_i", "du"]));
+    let rows = m["levels"].as_array().unwrap();
+    assert_eq!(rows.len(), 5, "{m}");
+    // The slow part is shared: one τ = R_ct·Q and one α at every knot.
+    let tau = |r: &serde_json::Value| r["r_ct"].as_f64().unwrap() * r["q"].as_f64().unwrap();
+    for r in rows {
+        assert!((tau(r) / tau(&rows[0]) - 1.0).abs() < 1e-9, "{r}");
+        assert_eq!(r["alpha"], rows[0]["alpha"]);
+    }
+    // R_i rises as the cell empties (0.020 at SOC 0.95 … 0.044 at 0.55).
+    let r_i: Vec<f64> = rows.iter().map(|r| r["r_i"].as_f64().unwrap()).collect();
+    assert!(r_i.windows(2).all(|w| w[1] < w[0]), "{r_i:?}");
+    let (mr, sr) = (
+        m["map_rmse_v"].as_f64().unwrap(),
+        m["single_rmse_v"].as_f64().unwrap(),
+    );
+    assert!(mr < sr, "map {mr} single {sr}");
+    for (flag, value, expect) in [
+        ("--map-vary", "r_i,foo", "`foo` is not one of"),
+        ("--map-smoothing", "nan", "give a non-negative number"),
+        ("--soc-knots", "0.5,1.5", "give SOCs in [0, 1]"),
+    ] {
+        let mut a = base.to_vec();
+        a.extend([flag, value]);
+        let o = run(&a);
+        assert_eq!(o.status.code(), Some(1), "{flag}");
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(err.trim_end().lines().count(), 1, "{err}");
+        assert!(err.contains(expect), "{err}");
+    }
+}

@@ -203,6 +203,9 @@ pub struct MapFit {
     /// What a user should know of the map: no identifiable level, or the
     /// single fit written in its place ([`MapFit::check_against`]).
     pub warnings: Vec<String>,
+    /// The joint fit's candidates, each scored by leaving levels out
+    /// (empty for `--map-method levels`).
+    pub joint: Vec<joint::Candidate>,
 }
 
 /// Which samples of `rec` were not measured: inside one of its `gaps`
@@ -394,6 +397,13 @@ pub fn build_map(
     }
     let mut map = ParameterMap { rows };
     map.sort();
+    let unmeasured = not_measured(rec, gaps, unlogged);
+    let mut chosen = vec![];
+    if o.method == crate::map::MapMethod::Joint {
+        let (m, tried) = joint_map(rec, &whole, gaps, &unmeasured, &parts, &map, record_t, o)?;
+        map = m;
+        chosen = tried;
+    }
     // The map model runs on the identifiable levels only: without one it
     // has no voltage (NaN), and the check against the single fit
     // ([`MapFit::check_against`]) decides and says so.
@@ -401,7 +411,6 @@ pub fn build_map(
         (u, _) if u.rows.is_empty() => vec![f64::NAN; rec.time.len()],
         _ => map_voltage(&map, rec, &whole, record_t, gaps)?,
     };
-    let unmeasured = not_measured(rec, gaps, unlogged);
     let rmse_v = rmse(&model_v, &rec.voltage, &unmeasured);
     Ok(MapFit {
         map,
@@ -412,7 +421,167 @@ pub fn build_map(
         unmeasured,
         temperature_c: record_t,
         warnings: vec![],
+        joint: chosen,
     })
+}
+
+/// The joint map of `rec` (its levels `parts`, fitted on their own into
+/// `levels`): knots at the levels' SOCs (or `o.knots`), started from the
+/// identifiable levels' cells interpolated at each knot (all levels' when
+/// none is identifiable), the penalty and the varying set given or chosen
+/// by leaving each level out, and the record's long discharges (over 300
+/// s under one sign of current) as one more fold.
+#[allow(clippy::too_many_arguments)]
+fn joint_map(
+    rec: &BatteryRecord,
+    whole: &crate::ocv::CellOcv,
+    gaps: &[Gap],
+    unmeasured: &[bool],
+    parts: &[Level],
+    levels: &ParameterMap,
+    record_t: Option<f64>,
+    o: &MapOptions,
+) -> Result<(ParameterMap, Vec<joint::Candidate>)> {
+    let mut knots: Vec<f64> = o
+        .knots
+        .clone()
+        .unwrap_or_else(|| parts.iter().map(|p| p.soc).collect());
+    knots.sort_by(f64::total_cmp);
+    knots.dedup_by(|a, b| (*a - *b).abs() < 1e-6);
+    if knots.is_empty() {
+        bail!(Data, "the joint map fit needs at least one knot");
+    }
+    let (usable, _) = levels.usable();
+    let from = if usable.rows.is_empty() {
+        levels
+    } else {
+        &usable
+    };
+    let start: Vec<CellParameters<f64>> = knots
+        .iter()
+        .map(|&z| {
+            let mut c = from
+                .cell_at(z, record_t)
+                .unwrap_or_else(CellParameters::cell_18650);
+            c.bv_a = 0.0;
+            c.bv_i0 = 1.0;
+            c
+        })
+        .collect();
+    let before = counted_soc(rec, whole, gaps);
+    let soc: Vec<f64> = before
+        .iter()
+        .zip(&rec.current)
+        .map(|(z, i)| {
+            z + if i.is_finite() { *i } else { 0.0 } * rec.h / (3600.0 * whole.model.capacity_ah)
+        })
+        .collect();
+    let counted: Vec<bool> = unmeasured
+        .iter()
+        .zip(&rec.voltage)
+        .map(|(u, v)| !u && v.is_finite())
+        .collect();
+    let d = joint::JointData {
+        record: rec,
+        soc: &soc,
+        ocv: whole,
+        counted: &counted,
+        knots: &knots,
+    };
+    let n = rec.time.len();
+    let mut folds: Vec<Vec<bool>> = parts
+        .iter()
+        .map(|p| (0..n).map(|k| k >= p.start && k < p.end).collect())
+        .collect();
+    let long = long_discharges(rec, 300.0);
+    if long.iter().any(|x| *x) {
+        folds.push(long);
+    }
+    let smoothing = o
+        .smoothing
+        .map_or(joint::SMOOTHING_GRID.to_vec(), |x| vec![x]);
+    let vary = o.vary.map_or(joint::VARY_SETS.to_vec(), |x| vec![x]);
+    let (fit, tried) = joint::choose(&d, &start, &folds, &smoothing, &vary, JOINT_ITERATIONS)?;
+    let rows = knots
+        .iter()
+        .enumerate()
+        .map(|(j, &z)| {
+            let c = fit.cells[j];
+            // The samples this knot weighs most: its RMSE and span.
+            let near: Vec<usize> = (0..n)
+                .filter(|&k| counted[k] && nearest(&knots, soc[k]) == j)
+                .collect();
+            let err = near
+                .iter()
+                .map(|&k| (fit.model_v[k] - rec.voltage[k]).powi(2))
+                .sum::<f64>();
+            let why = &fit.reasons[j];
+            MapRow {
+                temperature_c: record_t,
+                soc: z,
+                r_i: c.r_i,
+                r_ct: c.r_ct,
+                q: c.q,
+                alpha: c.alpha,
+                bv_a_v: None,
+                bv_i0_a: None,
+                ocv_offset_v: c.u_oc,
+                rmse_v: (err / near.len().max(1) as f64).sqrt(),
+                identifiable: why.is_empty(),
+                identifiable_reason: (!why.is_empty()).then(|| why.join("; ")),
+                confidence: fit.confidence[j].clone(),
+                start_s: near.first().map_or(f64::NAN, |&k| rec.time[k]),
+                end_s: near.last().map_or(f64::NAN, |&k| rec.time[k]),
+                samples: near.len(),
+            }
+        })
+        .collect();
+    Ok((ParameterMap { rows }, tried))
+}
+
+/// The joint fit's Levenberg–Marquardt iterations per candidate at most.
+pub const JOINT_ITERATIONS: usize = 25;
+
+/// The knot nearest SOC `z`.
+fn nearest(knots: &[f64], z: f64) -> usize {
+    (0..knots.len())
+        .min_by(|&a, &b| (knots[a] - z).abs().total_cmp(&(knots[b] - z).abs()))
+        .unwrap_or(0)
+}
+
+/// The samples of `rec`'s stretches of one sign of current beyond 1 % of
+/// its largest, lasting at least `min_s`: the long discharges (and
+/// charges) a BMS most needs predicted.
+pub fn long_discharges(rec: &BatteryRecord, min_s: f64) -> Vec<bool> {
+    let n = rec.current.len();
+    let big = rec
+        .current
+        .iter()
+        .filter(|x| x.is_finite())
+        .fold(0.0f64, |m, x| m.max(x.abs()));
+    let sign = |i: f64| {
+        if i.is_finite() && i.abs() > 0.01 * big {
+            i.signum() as i8
+        } else {
+            0
+        }
+    };
+    let mut out = vec![false; n];
+    let mut k = 0;
+    while k < n {
+        let s = sign(rec.current[k]);
+        let a = k;
+        while k < n && sign(rec.current[k]) == s {
+            k += 1;
+        }
+        if s != 0 && (k - a) as f64 * rec.h >= min_s {
+            out[a..k].fill(true);
+        }
+        if k == a {
+            k += 1;
+        }
+    }
+    out
 }
 
 /// Writes each level of `fit` for an independent fit into the folder
@@ -618,10 +787,12 @@ impl MapFit {
             skipped: self.skipped.clone(),
             map_rmse_v: self.rmse_v,
             single_rmse_v: rmse(single_v, &rec.voltage, &self.unmeasured),
+            joint: self.joint.clone(),
         }
     }
 }
 
+pub mod joint;
 pub mod model;
 pub use model::{map_use, map_voltage, rmse, MapUse};
 

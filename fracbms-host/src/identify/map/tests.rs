@@ -364,3 +364,153 @@ fn a_map_over_temperature_is_arrhenius() {
         .iter()
         .any(|w| w.contains("outside the map's 10–40 °C")));
 }
+
+/// The joint fit over the whole record recovers each level's R_i at its
+/// knot and fits to the noise; a knot beyond the data takes its
+/// neighbours' values (never R_i = 0 nor a runaway); leaving a level out
+/// predicts it; the choice by leaving levels out returns a scored
+/// candidate.
+#[test]
+fn the_joint_fit_recovers_the_levels_and_holds_an_unseen_knot() {
+    crate::worker::on_worker(|| {
+        joint_fit_recovers_the_levels();
+        Ok::<_, crate::Error>(())
+    })
+    .unwrap();
+}
+
+fn joint_fit_recovers_the_levels() {
+    let rec = hppc(3);
+    let c = spec(Some(0.95)).resolve(Path::new("r"), &rec).unwrap();
+    let before = counted_soc(&rec, &c, &[]);
+    let soc: Vec<f64> = before
+        .iter()
+        .zip(&rec.current)
+        .map(|(z, i)| z + i / (3600.0 * CAP))
+        .collect();
+    let counted = vec![true; rec.time.len()];
+    // Knots at the levels' SOCs (0.95, 0.85, 0.75) and one at 0.99 that
+    // no sample reaches.
+    let knots = [0.75, 0.85, 0.95, 0.99];
+    let d = joint::JointData {
+        record: &rec,
+        soc: &soc,
+        ocv: &c,
+        counted: &counted,
+        knots: &knots,
+    };
+    // A start 30 % off the truth everywhere.
+    let start: Vec<CellParameters<f64>> = (0..4)
+        .map(|_| CellParameters {
+            r_i: 0.03,
+            r_ct: 0.02,
+            q: 400.0,
+            alpha: 0.8,
+            ..truth(0)
+        })
+        .collect();
+    let o = joint::JointOptions {
+        smoothing: 1e-7,
+        vary: [true; 5],
+        iterations: 40,
+    };
+    let fit = joint::joint_fit(&d, &start, &o).unwrap();
+    // The record switches its cell per level, the map model blends in SOC:
+    // neither fits to the noise (0.5 mV). The joint fit fits it closer
+    // than the map of the levels fitted one by one.
+    let limits = Limits::checked(None, None, None).unwrap();
+    let refine = Refine {
+        model: crate::identify::ModelRequest::Linear,
+        ..Refine::default()
+    };
+    let by_levels = build_map(
+        Path::new("r"),
+        &rec,
+        None,
+        &limits,
+        &spec(Some(0.95)),
+        BatteryMethod::Refined,
+        50,
+        refine,
+        &MapOptions::default(),
+        &[],
+        None,
+        &[],
+    )
+    .unwrap();
+    assert!(
+        fit.rmse_v < by_levels.rmse_v,
+        "{} vs {}",
+        fit.rmse_v,
+        by_levels.rmse_v
+    );
+    for (j, level) in [(2usize, 0usize), (1, 1), (0, 2)] {
+        let (got, want) = (fit.cells[j].r_i, truth(level).r_i);
+        assert!((got / want - 1.0).abs() < 0.05, "knot {j}: {got} vs {want}");
+    }
+    let (r_lo, r_hi) = (fit.cells[1].r_i, fit.cells[2].r_i);
+    let unseen = fit.cells[3].r_i;
+    assert!(
+        unseen > 0.5 * r_lo.min(r_hi) && unseen < 2.0 * r_lo.max(r_hi),
+        "{unseen} against {r_lo}, {r_hi}"
+    );
+    // Leaving out nothing is no fold.
+    assert!(fit.left_out(&vec![false; rec.time.len()]).is_none());
+    let l = levels(
+        &rec,
+        &before,
+        &MapOptions::default(),
+        &vec![false; rec.time.len()],
+    );
+    assert_eq!(l.len(), 3);
+    let folds: Vec<Vec<bool>> = l
+        .iter()
+        .map(|p| {
+            (0..rec.time.len())
+                .map(|k| k >= p.start && k < p.end)
+                .collect()
+        })
+        .collect();
+    let (best, tried) = joint::choose(
+        &d,
+        &start,
+        &folds,
+        &[1e-7, 1e-4],
+        &[[true; 5], joint::VARY_SETS[2]],
+        30,
+    )
+    .unwrap();
+    assert_eq!(tried.len(), 4);
+    // The chosen candidate is the one that predicts the levels left out
+    // best; the weak penalty fits closer and predicts worse.
+    assert!(tried.iter().all(|c| c.left_out_rmse_v.is_finite()));
+    let chosen = tried
+        .iter()
+        .min_by(|a, b| a.left_out_rmse_v.total_cmp(&b.left_out_rmse_v))
+        .unwrap();
+    assert_eq!(best.rmse_v, chosen.rmse_v);
+    let weak = &tried[1];
+    assert_eq!((weak.smoothing, weak.vary), (1e-7, [true; 5]));
+    assert!(weak.rmse_v < chosen.rmse_v && weak.left_out_rmse_v > chosen.left_out_rmse_v);
+    // Each level left out is predicted closer than the map of the levels
+    // fitted one by one fits it with the level in.
+    for (p, f) in l.iter().zip(&folds) {
+        let (r, m) = best.left_out(f).unwrap();
+        assert!(
+            m > 1000 && r < by_levels.rmse_v,
+            "level at {}: {r} over {m}",
+            p.soc
+        );
+    }
+}
+
+/// The long discharges of a record: stretches of one sign of current of
+/// at least the given length.
+#[test]
+fn long_discharges_are_the_long_stretches_under_one_sign() {
+    let rec = hppc(2);
+    let long = long_discharges(&rec, 300.0);
+    // Each level's 360 s discharge, nothing else.
+    assert_eq!(long.iter().filter(|x| **x).count(), 2 * 360);
+    assert!(long_discharges(&rec, 400.0).iter().all(|x| !x));
+}
