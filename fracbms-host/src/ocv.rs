@@ -38,6 +38,39 @@ pub struct CellOcv {
 }
 
 impl CellOcv {
+    /// SOC before each sample's charge: counted from `c.soc0`, and after
+    /// each of the record's `gaps` read again from the rested voltage through
+    /// the inverse OCV where the record resumes at rest (the charge of a gap
+    /// is unknown: a pulse test logged without its discharges between levels).
+    pub fn counted_soc(
+        &self,
+        rec: &BatteryRecord,
+        gaps: &[crate::cycler::resample::Gap],
+    ) -> Vec<f64> {
+        let c = self;
+        let n = rec.current.len();
+        let mut z = c.soc0;
+        let mut out = Vec::with_capacity(n);
+        let mut next_gap = 0;
+        for k in 0..n {
+            // The first sample at or after a gap's end: anchor there.
+            while next_gap < gaps.len()
+                && rec.time[k] >= gaps[next_gap].start_s + gaps[next_gap].length_s
+            {
+                if let Ok(at_rest) = c.model.soc_at_rest(&rec.current[k..], &rec.voltage[k..]) {
+                    z = at_rest;
+                }
+                next_gap += 1;
+            }
+            out.push(z);
+            let i = rec.current[k];
+            if i.is_finite() {
+                z += i * rec.h / (3600.0 * c.model.capacity_ah);
+            }
+        }
+        out
+    }
+
     /// [`overpotential_record`](Self::overpotential_record) of a record
     /// with `gaps` (a log that leaves out stretches: the Panasonic HPPC
     /// tests' discharges between levels): the SOC is read again at rest
@@ -51,7 +84,7 @@ impl CellOcv {
         if gaps.is_empty() {
             return self.overpotential_record(rec);
         }
-        let soc = crate::map::counted_soc(rec, self, gaps);
+        let soc = self.counted_soc(rec, gaps);
         let mut end = self.soc0;
         let y = (soc.iter().zip(&rec.current).zip(&rec.voltage))
             .map(|((&z, &i), &v)| {

@@ -203,7 +203,13 @@ pub fn battery_file(input: &Path, o: &BatteryFitOptions, print_table: bool) -> R
     let ocv = crate::ocv::OcvSpec::from_options(&o.ocv)?;
     // Inside a step's unlogged start or a gap, no voltage was measured.
     let gaps = &read.report.resampling.gaps;
-    let unobserved = crate::identify::map::not_measured(&rec, gaps, &read.report.steps.unlogged);
+    let unobserved: Vec<bool> = read
+        .report
+        .unobserved(rec.h, &rec.time)
+        .into_iter()
+        .zip(crate::map::in_gaps(&rec, gaps))
+        .map(|(a, b)| a || b)
+        .collect();
     let (result, screened) = battery_identify_screened(
         input,
         &rec,

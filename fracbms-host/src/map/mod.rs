@@ -20,7 +20,9 @@ use estimator_core::battery::CellParameters;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
-pub use row::{MapJson, MapMethod, MapOptions, MapRow, MAP_COLUMNS};
+pub use row::{
+    JointCandidate, MapJson, MapMethod, MapOptions, MapRow, JOINT_PARAMETERS, MAP_COLUMNS,
+};
 
 mod csv;
 mod row;
@@ -34,30 +36,9 @@ pub struct ParameterMap {
 
 /// SOC before each sample's charge: counted from `c.soc0`, and after
 /// each of the record's `gaps` read again from the rested voltage through
-/// the inverse OCV where the record resumes at rest (the charge of a gap
-/// is unknown: a pulse test logged without its discharges between levels).
+/// the inverse OCV ([`CellOcv::counted_soc`]).
 pub fn counted_soc(rec: &BatteryRecord, c: &CellOcv, gaps: &[Gap]) -> Vec<f64> {
-    let n = rec.current.len();
-    let mut z = c.soc0;
-    let mut out = Vec::with_capacity(n);
-    let mut next_gap = 0;
-    for k in 0..n {
-        // The first sample at or after a gap's end: anchor there.
-        while next_gap < gaps.len()
-            && rec.time[k] >= gaps[next_gap].start_s + gaps[next_gap].length_s
-        {
-            if let Ok(at_rest) = c.model.soc_at_rest(&rec.current[k..], &rec.voltage[k..]) {
-                z = at_rest;
-            }
-            next_gap += 1;
-        }
-        out.push(z);
-        let i = rec.current[k];
-        if i.is_finite() {
-            z += i * rec.h / (3600.0 * c.model.capacity_ah);
-        }
-    }
-    out
+    c.counted_soc(rec, gaps)
 }
 
 /// Which samples lie inside one of `gaps` (made up by the resampling: no

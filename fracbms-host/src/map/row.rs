@@ -163,5 +163,42 @@ pub struct MapJson {
     /// out, predicted) and `iterations`; the map is the one with the least
     /// `left_out_rmse_v`. Empty for the per-level fits.
     #[serde(skip_serializing_if = "Vec::is_empty")]
-    pub joint: Vec<crate::identify::map::joint::Candidate>,
+    pub joint: Vec<JointCandidate>,
+}
+
+/// The five parameters of a joint map's knot, in the order of its
+/// unknowns (`--map-vary` names them).
+pub const JOINT_PARAMETERS: [&str; 5] = ["r_i", "r_ct", "tau", "alpha", "du"];
+
+/// What the joint map fit (`crate::identify::map::joint::choose`) tried: per candidate its penalty, varying set, fit
+/// RMSE and the RMSE of the folds left out (over all their samples).
+#[derive(Clone, Debug)]
+pub struct JointCandidate {
+    /// λ (V²).
+    pub smoothing: f64,
+    /// The varying set.
+    pub vary: [bool; 5],
+    /// RMSE over every counted sample (V).
+    pub rmse_v: f64,
+    /// RMSE of the folds' samples predicted with each fold left out (V).
+    pub left_out_rmse_v: f64,
+    /// Levenberg–Marquardt iterations run.
+    pub iterations: usize,
+}
+
+impl serde::Serialize for JointCandidate {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> core::result::Result<S::Ok, S::Error> {
+        let vary: Vec<&str> = (0..5)
+            .filter(|&i| self.vary[i])
+            .map(|i| JOINT_PARAMETERS[i])
+            .collect();
+        serde_json::json!({
+            "smoothing": self.smoothing,
+            "vary": vary,
+            "rmse_v": self.rmse_v,
+            "left_out_rmse_v": self.left_out_rmse_v,
+            "iterations": self.iterations,
+        })
+        .serialize(s)
+    }
 }

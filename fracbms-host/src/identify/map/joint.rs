@@ -36,8 +36,7 @@ use crate::trust::{Confidence, MAX_ALPHA_HALF_WIDTH, MAX_FACTOR, Z95};
 use estimator_core::battery::CellParameters;
 use nalgebra::{DMatrix, DVector};
 
-/// The five parameters of a knot, in the order of the unknowns.
-pub const PARAMETERS: [&str; 5] = ["r_i", "r_ct", "tau", "alpha", "du"];
+pub use crate::map::{JointCandidate as Candidate, JOINT_PARAMETERS as PARAMETERS};
 
 /// The scale of each parameter's second difference in the penalty.
 const SCALE: [f64; 5] = [1.0, 1.0, 1.0, 0.1, 0.01];
@@ -554,39 +553,6 @@ pub const VARY_SETS: [[bool; 5]; 3] = [
     [true, false, false, false, true],
 ];
 
-/// What [`choose`] tried: per candidate its penalty, varying set, fit
-/// RMSE and the RMSE of the folds left out (over all their samples).
-#[derive(Clone, Debug)]
-pub struct Candidate {
-    /// λ (V²).
-    pub smoothing: f64,
-    /// The varying set.
-    pub vary: [bool; 5],
-    /// RMSE over every counted sample (V).
-    pub rmse_v: f64,
-    /// RMSE of the folds' samples predicted with each fold left out (V).
-    pub left_out_rmse_v: f64,
-    /// Levenberg–Marquardt iterations run.
-    pub iterations: usize,
-}
-
-impl serde::Serialize for Candidate {
-    fn serialize<S: serde::Serializer>(&self, s: S) -> core::result::Result<S::Ok, S::Error> {
-        let vary: Vec<&str> = (0..5)
-            .filter(|&i| self.vary[i])
-            .map(|i| PARAMETERS[i])
-            .collect();
-        serde_json::json!({
-            "smoothing": self.smoothing,
-            "vary": vary,
-            "rmse_v": self.rmse_v,
-            "left_out_rmse_v": self.left_out_rmse_v,
-            "iterations": self.iterations,
-        })
-        .serialize(s)
-    }
-}
-
 /// Fits every candidate of `smoothing` × `vary` (each from the last fit
 /// of the same varying set, from the largest penalty down) and takes the
 /// one whose folds, each left out, are predicted best.
@@ -646,4 +612,49 @@ pub fn choose(
             "no joint map candidate could be scored by leaving levels out"
         )
     })
+}
+
+/// The joint fit's Levenberg–Marquardt iterations per candidate at most.
+pub const JOINT_ITERATIONS: usize = 25;
+
+/// The knot nearest SOC `z`.
+pub fn nearest(knots: &[f64], z: f64) -> usize {
+    (0..knots.len())
+        .min_by(|&a, &b| (knots[a] - z).abs().total_cmp(&(knots[b] - z).abs()))
+        .unwrap_or(0)
+}
+
+/// The samples of `rec`'s stretches of one sign of current beyond 1 % of
+/// its largest, lasting at least `min_s`: the long discharges (and
+/// charges) a BMS most needs predicted.
+pub fn long_discharges(rec: &BatteryRecord, min_s: f64) -> Vec<bool> {
+    let n = rec.current.len();
+    let big = rec
+        .current
+        .iter()
+        .filter(|x| x.is_finite())
+        .fold(0.0f64, |m, x| m.max(x.abs()));
+    let sign = |i: f64| {
+        if i.is_finite() && i.abs() > 0.01 * big {
+            i.signum() as i8
+        } else {
+            0
+        }
+    };
+    let mut out = vec![false; n];
+    let mut k = 0;
+    while k < n {
+        let s = sign(rec.current[k]);
+        let a = k;
+        while k < n && sign(rec.current[k]) == s {
+            k += 1;
+        }
+        if s != 0 && (k - a) as f64 * rec.h >= min_s {
+            out[a..k].fill(true);
+        }
+        if k == a {
+            k += 1;
+        }
+    }
+    out
 }

@@ -493,7 +493,7 @@ fn joint_map(
         .iter()
         .map(|p| (0..n).map(|k| k >= p.start && k < p.end).collect())
         .collect();
-    let long = long_discharges(rec, 300.0);
+    let long = joint::long_discharges(rec, 300.0);
     if long.iter().any(|x| *x) {
         folds.push(long);
     }
@@ -501,7 +501,14 @@ fn joint_map(
         .smoothing
         .map_or(joint::SMOOTHING_GRID.to_vec(), |x| vec![x]);
     let vary = o.vary.map_or(joint::VARY_SETS.to_vec(), |x| vec![x]);
-    let (fit, tried) = joint::choose(&d, &start, &folds, &smoothing, &vary, JOINT_ITERATIONS)?;
+    let (fit, tried) = joint::choose(
+        &d,
+        &start,
+        &folds,
+        &smoothing,
+        &vary,
+        joint::JOINT_ITERATIONS,
+    )?;
     let rows = knots
         .iter()
         .enumerate()
@@ -509,7 +516,7 @@ fn joint_map(
             let c = fit.cells[j];
             // The samples this knot weighs most: its RMSE and span.
             let near: Vec<usize> = (0..n)
-                .filter(|&k| counted[k] && nearest(&knots, soc[k]) == j)
+                .filter(|&k| counted[k] && joint::nearest(&knots, soc[k]) == j)
                 .collect();
             let err = near
                 .iter()
@@ -537,51 +544,6 @@ fn joint_map(
         })
         .collect();
     Ok((ParameterMap { rows }, tried))
-}
-
-/// The joint fit's Levenberg–Marquardt iterations per candidate at most.
-pub const JOINT_ITERATIONS: usize = 25;
-
-/// The knot nearest SOC `z`.
-fn nearest(knots: &[f64], z: f64) -> usize {
-    (0..knots.len())
-        .min_by(|&a, &b| (knots[a] - z).abs().total_cmp(&(knots[b] - z).abs()))
-        .unwrap_or(0)
-}
-
-/// The samples of `rec`'s stretches of one sign of current beyond 1 % of
-/// its largest, lasting at least `min_s`: the long discharges (and
-/// charges) a BMS most needs predicted.
-pub fn long_discharges(rec: &BatteryRecord, min_s: f64) -> Vec<bool> {
-    let n = rec.current.len();
-    let big = rec
-        .current
-        .iter()
-        .filter(|x| x.is_finite())
-        .fold(0.0f64, |m, x| m.max(x.abs()));
-    let sign = |i: f64| {
-        if i.is_finite() && i.abs() > 0.01 * big {
-            i.signum() as i8
-        } else {
-            0
-        }
-    };
-    let mut out = vec![false; n];
-    let mut k = 0;
-    while k < n {
-        let s = sign(rec.current[k]);
-        let a = k;
-        while k < n && sign(rec.current[k]) == s {
-            k += 1;
-        }
-        if s != 0 && (k - a) as f64 * rec.h >= min_s {
-            out[a..k].fill(true);
-        }
-        if k == a {
-            k += 1;
-        }
-    }
-    out
 }
 
 /// Writes each level of `fit` for an independent fit into the folder

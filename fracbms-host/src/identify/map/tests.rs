@@ -509,8 +509,8 @@ fn joint_fit_recovers_the_levels() {
 #[test]
 fn long_discharges_are_the_long_stretches_under_one_sign() {
     let rec = hppc(2);
-    let long = long_discharges(&rec, 300.0);
+    let long = joint::long_discharges(&rec, 300.0);
     // Each level's 360 s discharge, nothing else.
     assert_eq!(long.iter().filter(|x| **x).count(), 2 * 360);
-    assert!(long_discharges(&rec, 400.0).iter().all(|x| !x));
+    assert!(joint::long_discharges(&rec, 400.0).iter().all(|x| !x));
 }
