@@ -45,7 +45,9 @@ def test_identify_files_gives_the_rows_of_the_cli_summary(host_sim, folder, tmp_
     for r, c in zip(rows[1:], cli[1:]):
         for k in NUMBERS:
             assert r[k] == float(c[k]), k  # the same f64, to the last bit
-        assert r["model"] == c["model"] and r["map_levels"] == int(c["map_levels"]) == 3
+        # Three levels, or the single fit's one row where the three fit the
+        # record worse (docs/maps.md): as the CLI's summary says.
+        assert r["model"] == c["model"] and r["map_levels"] == int(c["map_levels"]) in (1, 3)
         assert str(r["identifiable"]).lower() == c["identifiable"]
 
 

@@ -51,12 +51,13 @@ def test_the_map_equals_the_cli(host_sim, tmp_path):
     py.pop("model_v")
     assert json.dumps(py["map"], sort_keys=True) == json.dumps(cli["map"], sort_keys=True)
     levels = py["map"]["levels"]
-    assert len(levels) == 4
+    # One cell at every level: the four levels' map model is no better than
+    # the one fit (0.36 against 0.35 mV, both at the noise), so the map is
+    # the single fit's one row, and never worse than it (docs/maps.md).
+    assert len(levels) == 1
     for level in levels:
         assert level["r_i"] == pytest.approx(CELL["r_i"], rel=0.05)
-    # One cell at every level: the map model is as good as the one fit
-    # (both at the 0.35 mV noise), not better.
-    assert py["map"]["map_rmse_v"] <= py["map"]["single_rmse_v"] * 1.05
+    assert py["map"]["map_rmse_v"] == py["map"]["single_rmse_v"]
     with pytest.raises(ValueError, match="map=True needs ocv"):
         fracbms.identify_battery(t, i, v, map=True)
 
