@@ -83,7 +83,7 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
         FitInformation {
             jtj,
             cost,
-            rows: self.n - self.warm,
+            rows: (self.n - self.warm).saturating_sub(self.unobserved as usize),
             fitted: [
                 true,
                 true,

@@ -64,6 +64,14 @@
 //! branch is not identifiable from the window, and `R_ct` could otherwise
 //! run away along it.
 //!
+//! A NaN voltage in the window is an *unobserved* sample (a logger's
+//! gap, a rejected row): its current still drives the model, but its
+//! residual and its row of the Jacobian are zero, and it is not counted in
+//! the rows. Such samples belong after the warm-up (a history from data
+//! needs measured voltages). [`crate::window::SampleWindow`] refuses NaN;
+//! a host's own [`Window`](crate::window::Window) over a logged record
+//! passes them.
+//!
 //! Bounds are held, not crept up to. A resistance below 10⁻⁶ of
 //! `R_i + R_ct` is at its bound 0 (its logarithm has none), and α at
 //! `alpha_min` or `alpha_max` is at its bound: where the step would push
@@ -263,6 +271,9 @@ pub struct OutputErrorRefinement<T, const N: usize, const MEM: usize, K = GlRecu
     /// simulation). Zero whenever `p` is set other than by an accepted
     /// trial (whose simulation, `eta` with it, becomes the estimate's).
     kinetic_kept: u32,
+    /// Fitted samples (after `warm`) whose voltage is NaN: unobserved,
+    /// left out of the cost, the Jacobian and the rows.
+    unobserved: u32,
     n: usize,
     warm: usize,
     /// The modes of the loaded window's past (with `warm > 0`).
@@ -383,6 +394,7 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
             c: [T::ZERO; N],
             beta: T::ZERO,
             kinetic_kept: 0,
+            unobserved: 0,
             n: 0,
             warm: 0,
             past: None,
@@ -640,6 +652,9 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
             };
             // From rest there is no past; from data it is the window's.
             self.past = if self.warm > 0 { win.past() } else { None };
+            let fitted = self.v.get(self.warm..self.n.min(N)).unwrap_or(&[]);
+            let unobserved = fitted.iter().filter(|v| v.is_nan()).count();
+            self.unobserved = u32::try_from(unobserved).unwrap_or(u32::MAX);
             self.stamp = Some(key);
             self.fresh = false;
             self.information = None;

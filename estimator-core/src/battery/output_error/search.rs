@@ -318,7 +318,7 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
             return Err(Error::Diverged);
         }
         self.fresh = true;
-        let rows = n - warm;
+        let rows = (n - warm).saturating_sub(self.unobserved as usize);
         if let Some((_, why)) = self.stalled.filter(|&(f, _)| f == s.fingerprint()) {
             // The last iteration, from this estimate on this window with
             // these settings, found no lower cost with any damping, or no
@@ -342,6 +342,10 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
                 let r = residual(
                     self.v[l], &self.p, self.beta, self.c[l], self.i[l], sim.eta[l], sim.up[l],
                 );
+                if self.v[l].is_nan() {
+                    // An unobserved sample (its Jacobian row is zero).
+                    continue;
+                }
                 for (bb, ja) in b.iter_mut().zip(j) {
                     *bb = *bb + ja * r;
                 }

@@ -355,6 +355,35 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
         {
             *x = residual(v, &p, self.beta, cl, il, el, up);
         }
+        if self.unobserved > 0 {
+            self.mask_unobserved();
+        }
+    }
+
+    /// Zeroes the residual and the Jacobian's row at every unobserved
+    /// sample (a NaN voltage) of the fitted rows: they add nothing to
+    /// `JᵀJ`, `Jᵀr` or a chord step.
+    fn mask_unobserved(&mut self) {
+        let n = self.n.min(N);
+        let warm = self.warm.min(n);
+        let spare = self.spare();
+        for l in warm..n {
+            if self.v[l].is_nan() {
+                for col in [
+                    &mut self.s_ri,
+                    &mut self.s_rct,
+                    &mut self.s_q,
+                    &mut self.s_a,
+                    &mut self.s_uoc,
+                    &mut self.s_beta,
+                    &mut self.s_bva,
+                    &mut self.s_bvi0,
+                ] {
+                    col[l] = T::zero();
+                }
+                self.sims[spare].up[l] = T::zero();
+            }
+        }
     }
 
     /// Row `l` of the Jacobian left by [`Self::jacobian_columns`] (the

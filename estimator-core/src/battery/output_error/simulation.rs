@@ -378,6 +378,18 @@ pub(super) fn window_cost<T: Real>(
             let r = residual(v[l], p, beta, c[l], i[l], eta[l], up[l]);
             cost = cost + r * r;
         }
+        if cost.is_nan() {
+            // Unobserved samples (NaN voltages) are left out: summed again
+            // without them (only on such windows; the loop above stays
+            // branch-free).
+            cost = T::zero();
+            for l in 0..up.len() {
+                if !v[l].is_nan() {
+                    let r = residual(v[l], p, beta, c[l], i[l], eta[l], up[l]);
+                    cost = cost + r * r;
+                }
+            }
+        }
     }
     cost / T::lit(2.0)
 }

@@ -6,6 +6,7 @@ use super::*;
 use crate::window::SampleWindow;
 
 mod kinetic;
+mod unobserved;
 
 /// The simulated terminal voltage of `p`, β over the loaded window.
 fn predicted<const N: usize, const MEM: usize>(
