@@ -5,7 +5,7 @@
 //! `estimator-core`'s; this module drives them in `f64` and reports.
 
 use super::model_choice::{
-    choose_model, refine_fit, stop_reason_name, Fit, ModelChoice, Refinement,
+    choose_model, refine_fit, stop_reason_name, Fit, LoggedWindow, ModelChoice, Refinement,
 };
 use super::{table_row, BatteryMethod, HistoryEntry, ModelRequest, BAT_MEM, MAX_BATTERY_ROWS};
 use crate::branch::FftBranch;
@@ -187,9 +187,45 @@ pub fn model_voltage(cell: &CellParameters<f64>, h: f64, current: &[f64]) -> Res
     Ok(FftBranch::default().simulate(cell, h, current))
 }
 
+/// The RMSE of `a` against the measured `b` over the samples measured (a
+/// NaN in `b` is an unobserved one).
 fn rmse(a: &[f64], b: &[f64]) -> f64 {
-    let s: f64 = a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum();
-    (s / a.len().max(1) as f64).sqrt()
+    let (s, k) = a
+        .iter()
+        .zip(b)
+        .filter(|(_, y)| !y.is_nan())
+        .fold((0.0, 0usize), |(s, k), (x, y)| {
+            (s + (x - y) * (x - y), k + 1)
+        });
+    (s / k.max(1) as f64).sqrt()
+}
+
+/// `v` with each run of NaN (unobserved samples) filled by the straight
+/// line between its measured neighbours (held at the record's ends): the
+/// paper's regression and the rough starts need a voltage at every
+/// sample; the refinement leaves these out.
+fn filled(v: &[f64]) -> Vec<f64> {
+    let mut out = v.to_vec();
+    let mut last: Option<usize> = None;
+    let mut l = 0;
+    while l < out.len() {
+        if !out[l].is_nan() {
+            last = Some(l);
+            l += 1;
+            continue;
+        }
+        let end = (l..out.len()).find(|&k| !out[k].is_nan());
+        for k in l..end.unwrap_or(out.len()) {
+            out[k] = match (last, end) {
+                (Some(a), Some(b)) => out[a] + (out[b] - out[a]) * (k - a) as f64 / (b - a) as f64,
+                (Some(a), None) => out[a],
+                (None, Some(b)) => out[b],
+                (None, None) => 0.0,
+            };
+        }
+        l = end.unwrap_or(out.len());
+    }
+    out
 }
 
 /// Rough physical starts from the data alone: least squares of U on
@@ -258,6 +294,11 @@ pub struct Refine {
     pub ocv_slope: bool,
     /// The cell model (default linear: the paper's).
     pub model: ModelRequest,
+    /// A warm start for `--method refined` (an earlier fit of nearly the
+    /// same record, in the fitted record's own terms): when set, the
+    /// paper's regression and the rough starts are passed over and the
+    /// refinement starts from it alone. `None` (the default): every start.
+    pub start: Option<CellParameters<f64>>,
 }
 
 /// [`battery_run`] with refinement options.
@@ -317,10 +358,17 @@ fn battery_run_sized<const N: usize, const MEM: usize>(
         );
     }
     let ctx = |e: estimator_core::Error| err!(Estimator, "{}: {e}", path.display());
+    // The regression needs a voltage at every sample; the refinement
+    // leaves the unobserved ones (NaN) out.
+    let measured = filled(&rec.voltage);
     let mut win = Box::new(SampleWindow::<f64, N>::new());
-    for (&i, &v) in rec.current.iter().zip(&rec.voltage) {
+    for (&i, &v) in rec.current.iter().zip(&measured) {
         win.push(i, v).map_err(ctx)?;
     }
+    let logged = LoggedWindow {
+        current: &rec.current,
+        voltage: &rec.voltage,
+    };
     let sg = BatterySettings::new(rec.h, mem);
     let mut gi = Box::new(PaperRegressionGi::<f64, N, MEM>::new(&sg, 0.5).map_err(ctx)?);
     let mut history = Vec::new();
@@ -334,7 +382,10 @@ fn battery_run_sized<const N: usize, const MEM: usize>(
             "k", "R_i", "R_ct", "Q", "alpha", "U_oc", "cost"
         );
     }
-    for _ in 0..iterations {
+    // A warm start needs no regression to start from.
+    let warm = refine.start.filter(|_| method == BatteryMethod::Refined);
+    let paper_iterations = if warm.is_some() { 0 } else { iterations };
+    for _ in 0..paper_iterations {
         let it = gi.iterate(&sg, &*win).map_err(ctx)?;
         history.push(HistoryEntry {
             k: it.k,
@@ -381,7 +432,7 @@ fn battery_run_sized<const N: usize, const MEM: usize>(
             // estimate (for its intervals; nothing is refitted).
             let si = BatterySettings::new(rec.h, n);
             let info = Refinement::<N>::new(&si, cell)
-                .and_then(|mut oe| oe.information(&si, &*win))
+                .and_then(|mut oe| oe.information(&si, &logged))
                 .ok();
             // The RMSE of the model voltage, computed below.
             (cell, None, info, [si.alpha_min, si.alpha_max])
@@ -405,13 +456,17 @@ fn battery_run_sized<const N: usize, const MEM: usize>(
             let paper = gi
                 .cell()
                 .filter(|c| c.alpha >= so.alpha_min && c.alpha <= so.alpha_max);
+            let starts: Vec<CellParameters<f64>> = match warm {
+                Some(w) => vec![w.linearized()],
+                None => paper
+                    .into_iter()
+                    .chain(rough_starts(&rec.current, &measured))
+                    .collect(),
+            };
             let mut lin: Option<Fit<N>> = None;
             let mut failed = None;
-            for start in paper
-                .into_iter()
-                .chain(rough_starts(&rec.current, &rec.voltage))
-            {
-                let fit = match refine_fit::<N>(&so, start, &win) {
+            for start in starts {
+                let fit = match refine_fit::<N>(&so, start, &logged) {
                     Ok(f) => f,
                     Err(e) => {
                         failed = Some(e);
@@ -438,11 +493,11 @@ fn battery_run_sized<const N: usize, const MEM: usize>(
                 converged = lin.converged;
                 stop = Some(lin.stop.as_str());
                 stop_reason = Some(stop_reason_name(lin.stop, lin.reason));
-                let info = lin.oe.information(&so, &*win).ok();
+                let info = lin.oe.information(&so, &logged).ok();
                 (lin.cell, Some(lin.rmse), info, bounds)
             } else {
                 let (mut fit, why) =
-                    choose_model(&so, &lin, &win, &rec.current, refine.model).map_err(ctx)?;
+                    choose_model(&so, &lin, &logged, &rec.current, refine.model).map_err(ctx)?;
                 iters += fit.iterations;
                 converged = fit.converged;
                 stop = Some(fit.stop.as_str());
@@ -456,7 +511,7 @@ fn battery_run_sized<const N: usize, const MEM: usize>(
                     },
                     ..so
                 };
-                let info = fit.oe.information(&sf, &*win).ok();
+                let info = fit.oe.information(&sf, &logged).ok();
                 (fit.cell, Some(fit.rmse), info, bounds)
             }
         }
@@ -533,6 +588,7 @@ pub fn battery_identify(
     let mut r = battery_identify_unassessed(
         path,
         rec,
+        &[],
         cell_ocv.map(|c| (c, &[][..])),
         method,
         memory,
@@ -606,45 +662,48 @@ pub fn battery_identify_screened(
 ) -> Result<(BatteryResult, trust::Screened)> {
     let mut sc = trust::screen_observed(path, rec, limits, unobserved)?;
     let cell_ocv = ocv.map(|o| o.resolve(path, &sc.record)).transpose()?;
-    let fit = |record: &io::BatteryRecord, print_table: bool| {
+    let fit = |sc: &trust::Screened, print_table: bool, start| {
+        // The rows that do not count are left out of the fit (not fitted
+        // to substitutes, which would pull it towards the fit they came
+        // from).
+        let left_out: Vec<bool> = (0..sc.measured.len()).map(|k| !sc.counted(k)).collect();
         battery_identify_unassessed(
             path,
-            record,
+            &sc.record,
+            &left_out,
             cell_ocv.as_ref().map(|c| (c, gaps)),
             method,
             memory,
             iterations,
             print_table,
-            refine,
+            Refine { start, ..refine },
         )
     };
-    let mut r = fit(&sc.record, print_table)?;
-    // No earlier fit yet: nothing has settled.
-    let mut previous = CellParameters {
-        alpha: f64::NAN,
-        ..r.cell
-    };
+    let mut r = fit(&sc, print_table, refine.start)?;
     for _ in 0..trust::MAX_SPIKE_PASSES {
-        let new = sc.find_spikes(&r.model_voltage, limits);
-        // A substitute from an earlier fit pulls the refit towards it;
-        // refitting with the latest model's substitutes converges fast
-        // (each pass by the fraction of rejected rows).
-        if new == 0 && (sc.excluded() == 0 || trust::settled(&r.cell, &previous)) {
+        if sc.find_spikes(&r.model_voltage, limits) == 0 {
             break;
         }
-        previous = r.cell;
         sc.substitute_model(&r.model_voltage);
-        r = fit(&sc.record, false)?;
+        // The refit without the new spikes starts from the fit it
+        // corrects; the regression's history stays the first fit's.
+        let mut next = fit(&sc, false, Some(r.cell))?;
+        next.json.iterations += r.json.iterations;
+        next.json.history = std::mem::take(&mut r.json.history);
+        next.paper_track = std::mem::take(&mut r.paper_track);
+        r = next;
     }
     apply_assessment(&mut r, &sc);
     Ok((r, sc))
 }
 
-/// [`battery_identify`] without the verdict.
+/// [`battery_identify`] without the verdict; the rows marked in
+/// `left_out` (empty: none) are unobserved to the fit.
 #[allow(clippy::too_many_arguments)]
 fn battery_identify_unassessed(
     path: &Path,
     rec: &io::BatteryRecord,
+    left_out: &[bool],
     cell_ocv: Option<(&crate::ocv::CellOcv, &[crate::cycler::resample::Gap])>,
     method: BatteryMethod,
     memory: Option<usize>,
@@ -652,8 +711,15 @@ fn battery_identify_unassessed(
     print_table: bool,
     refine: Refine,
 ) -> Result<BatteryResult> {
+    let masked = |v: &mut [f64]| {
+        for (x, _) in v.iter_mut().zip(left_out).filter(|(_, &out)| out) {
+            *x = f64::NAN;
+        }
+    };
     let Some((c, gaps)) = cell_ocv else {
-        return battery_run_with(path, rec, method, memory, iterations, print_table, refine);
+        let mut y = rec.clone();
+        masked(&mut y.voltage);
+        return battery_run_with(path, &y, method, memory, iterations, print_table, refine);
     };
     if refine.ocv_slope {
         bail!(
@@ -661,16 +727,20 @@ fn battery_identify_unassessed(
             "--ocv-slope goes without --ocv (the OCV curve carries the drift)"
         );
     }
-    let (y, soc_end) = c.overpotential_record_across(rec, gaps);
+    let (mut y, soc_end) = c.overpotential_record_across(rec, gaps);
+    // The OCV along the record, before the rows left out are masked.
+    let ocv: Vec<f64> = rec
+        .voltage
+        .iter()
+        .zip(&y.voltage)
+        .map(|(v, yv)| v - yv)
+        .collect();
+    masked(&mut y.voltage);
     let mut r = battery_run_with(path, &y, method, memory, iterations, print_table, refine)?;
     let offset = r.cell.u_oc;
-    for (m, (v, yv)) in r
-        .model_voltage
-        .iter_mut()
-        .zip(rec.voltage.iter().zip(&y.voltage))
-    {
+    for (m, o) in r.model_voltage.iter_mut().zip(&ocv) {
         // The overpotential model plus the OCV it was taken from.
-        *m += v - yv;
+        *m += o;
     }
     r.json.u_oc = c.model.table.ocv(soc_end) + offset;
     r.json.ocv_offset_v = Some(offset);

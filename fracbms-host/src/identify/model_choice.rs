@@ -7,7 +7,7 @@ use super::ModelRequest;
 use crate::branch::FftBranch;
 use estimator_core::battery::output_error::{OutputErrorRefinement, StopReason, COLUMN_NAMES};
 use estimator_core::battery::{BatterySettings, CellModel, CellParameters};
-use estimator_core::window::SampleWindow;
+use estimator_core::window::{SampleWindow, Window};
 use serde::Serialize;
 
 /// Both fits of `--model auto` (or `butler-volmer`) and the choice.
@@ -112,7 +112,7 @@ pub(super) struct Fit<const N: usize> {
 pub(super) fn refine_fit<const N: usize>(
     s: &BatterySettings<f64>,
     start: CellParameters<f64>,
-    win: &SampleWindow<f64, N>,
+    win: &impl Window<f64>,
 ) -> std::result::Result<Fit<N>, estimator_core::Error> {
     let mut oe = Box::new(Refinement::<N>::new(s, start)?);
     let (mut rmse, mut iterations) = (f64::NAN, 0);
@@ -206,7 +206,7 @@ pub fn refine_from_start(
             },
             ..BatterySettings::new(h, i.len().min(v.len()).max(1))
         };
-        let f = refine_fit::<N>(&s, start, &win).map_err(ctx)?;
+        let f = refine_fit::<N>(&s, start, &*win).map_err(ctx)?;
         Ok(SingleFit {
             cell: f.cell,
             rmse_v: f.rmse,
@@ -228,13 +228,49 @@ pub fn refine_from_start(
     }
 }
 
+/// A whole logged record as the refinement's window: a NaN voltage is a
+/// sample that was not observed (a logger's gap, a rejected row), which
+/// the refinement leaves out of its fit while its current still drives
+/// the model (`estimator_core::battery::output_error`).
+pub(super) struct LoggedWindow<'a> {
+    pub(super) current: &'a [f64],
+    pub(super) voltage: &'a [f64],
+}
+
+impl Window<f64> for LoggedWindow<'_> {
+    fn len(&self) -> usize {
+        self.current.len().min(self.voltage.len())
+    }
+    fn version(&self) -> u32 {
+        // One record a window: its contents never change.
+        0
+    }
+    fn has_slid(&self) -> bool {
+        false
+    }
+    fn recent(&self) -> impl Iterator<Item = (f64, f64)> + '_ {
+        let n = self.len();
+        self.current[..n]
+            .iter()
+            .copied()
+            .zip(self.voltage[..n].iter().copied())
+            .rev()
+    }
+    fn copy_into(&self, u: &mut [f64], y: &mut [f64]) -> usize {
+        let n = self.len().min(u.len()).min(y.len());
+        u[..n].copy_from_slice(&self.current[..n]);
+        y[..n].copy_from_slice(&self.voltage[..n]);
+        n
+    }
+}
+
 /// The Butler–Volmer fit from the linear one `lin` (the best of starts
 /// with i₀ at 0.1, 0.3 and 1 times the largest current), and the model
 /// `requested` (`butler-volmer` or `auto`) publishes, with the reason.
 pub(super) fn choose_model<const N: usize>(
     s: &BatterySettings<f64>,
     lin: &Fit<N>,
-    win: &SampleWindow<f64, N>,
+    win: &impl Window<f64>,
     current: &[f64],
     requested: ModelRequest,
 ) -> std::result::Result<(Fit<N>, ModelChoice), estimator_core::Error> {
@@ -423,7 +459,7 @@ mod tests {
             alpha: 0.7,
             ..truth
         };
-        let fit = refine_fit::<N>(&s, start, &win).unwrap();
+        let fit = refine_fit::<N>(&s, start, &*win).unwrap();
         let c = fit.cell;
         assert_eq!(
             fit.stop,

@@ -198,6 +198,7 @@ pub fn battery_file(input: &Path, o: &BatteryFitOptions, print_table: bool) -> R
         memory: o.refine_memory,
         ocv_slope: o.ocv_slope,
         model: model_for(o.model, o.method),
+        ..Refine::default()
     };
     let limits = trust::Limits::checked(o.voltage_min, o.voltage_max, o.current_limit)?;
     let ocv = crate::ocv::OcvSpec::from_options(&o.ocv)?;

@@ -643,6 +643,7 @@ pub fn battery_file(
         memory: o.refine_memory,
         ocv_slope: o.ocv_slope,
         model: crate::identify::battery::model_for(o.model, o.method),
+        ..Refine::default()
     };
     let map = build_map(
         input,
