@@ -277,6 +277,48 @@ impl FftBranch {
         size
     }
 
+    /// The unit branch (`R_ct = 1`: the polarization per ohm) of time
+    /// constant `τ = e^{ln τ}` (`τ^α = R_ct·Q`) and order α over `current`
+    /// from rest with the full memory, and its exact derivatives with
+    /// respect to `ln τ` and α: `[y, ∂y/∂ln τ, ∂y/∂α]`.
+    ///
+    /// With `a = τ·h^(−α)` and `g = 1/(δ + a·w)`, `y = g ∗ I`,
+    /// `∂y/∂ln τ = −a·g ∗ (w ∗ y)` and
+    /// `∂y/∂α = −a·g ∗ (∂w/∂α ∗ y) − ln h·∂y/∂ln τ`: one inverse series for
+    /// all three (where finite differences take three).
+    pub fn unit_branch_with_derivatives(
+        &mut self,
+        ln_tau: f64,
+        alpha: f64,
+        h: f64,
+        current: &[f64],
+    ) -> [Vec<f64>; 3] {
+        let n = current.len();
+        let (mut w, mut dw) = (vec![0.0; n], vec![0.0; n]);
+        fill_weights(alpha, &mut w, &mut dw);
+        let a = (ln_tau - alpha * h.ln()).exp();
+        let size = self.prepare(&w, a, n);
+        let (mut y, mut wy, mut d_tau, mut d_alpha) = (vec![], vec![], vec![], vec![]);
+        let t = &mut self.t;
+        t.convolve(current, &self.inverse.hat, size, &mut self.spec, &mut y);
+        y.truncate(n);
+        t.convolve(&y, &self.weights.hat, size, &mut self.spec, &mut wy);
+        wy.truncate(n);
+        t.convolve(&wy, &self.inverse.hat, size, &mut self.spec, &mut d_tau);
+        d_tau.truncate(n);
+        d_tau.iter_mut().for_each(|x| *x *= -a);
+        self.derivatives.keep(t, &dw, size);
+        t.convolve(&y, &self.derivatives.hat, size, &mut self.spec, &mut wy);
+        wy.truncate(n);
+        t.convolve(&wy, &self.inverse.hat, size, &mut self.spec, &mut d_alpha);
+        d_alpha.truncate(n);
+        let ln_h = h.ln();
+        for (x, &dt) in d_alpha.iter_mut().zip(&d_tau) {
+            *x = -a * *x - ln_h * dt;
+        }
+        [y, d_tau, d_alpha]
+    }
+
     /// The voltage of `cell` over a current record from rest with the full
     /// memory (`U_oc + R_i·I + η(I) + U_p`), the period `h` in s.
     pub fn simulate(&mut self, cell: &CellParameters<f64>, h: f64, current: &[f64]) -> Vec<f64> {

@@ -189,3 +189,49 @@ fn solve_without_the_history_sums_is_filter() {
     assert_eq!(quiet, full);
     assert!(relative(&direct, &quiet) < 1e-9);
 }
+
+/// The unit branch's derivatives with respect to `ln τ` and α are those
+/// of central differences of [`FftBranch::simulate`] (within 1e−6 of the
+/// largest, the differences' own error), and the branch is `simulate`'s
+/// polarization per ohm.
+#[test]
+fn the_unit_branch_derivatives_are_central_differences() {
+    let n = 3000;
+    let h = 2.0;
+    let current: Vec<f64> = (0..n).map(drive).collect();
+    let (ln_tau, alpha) = (3.0f64, 0.63);
+    let unit = |ln_tau: f64, alpha: f64| {
+        let cell = CellParameters {
+            r_i: 0.0,
+            r_ct: 1.0,
+            q: ln_tau.exp(),
+            alpha,
+            u_oc: 0.0,
+            bv_a: 0.0,
+            bv_i0: 1.0,
+        };
+        FftBranch::default().simulate(&cell, h, &current)
+    };
+    let [y, d_tau, d_alpha] =
+        FftBranch::default().unit_branch_with_derivatives(ln_tau, alpha, h, &current);
+    assert!(relative(&unit(ln_tau, alpha), &y) < 1e-12);
+    let e = 1e-5;
+    let central = |plus: Vec<f64>, minus: Vec<f64>| -> Vec<f64> {
+        plus.iter()
+            .zip(&minus)
+            .map(|(p, m)| (p - m) / (2.0 * e))
+            .collect()
+    };
+    let fd_tau = central(unit(ln_tau + e, alpha), unit(ln_tau - e, alpha));
+    let fd_alpha = central(unit(ln_tau, alpha + e), unit(ln_tau, alpha - e));
+    assert!(
+        relative(&fd_tau, &d_tau) < 1e-6,
+        "{}",
+        relative(&fd_tau, &d_tau)
+    );
+    assert!(
+        relative(&fd_alpha, &d_alpha) < 1e-6,
+        "{}",
+        relative(&fd_alpha, &d_alpha)
+    );
+}

@@ -19,8 +19,8 @@
 //! takes its neighbours' values, plus a pull of 1 % of that weight
 //! towards the start on every unknown (which only matters where nothing
 //! else pins it). Levenberg–Marquardt; the Jacobian of
-//! `ln R_i`, `ln R_ct` and ΔU exact, of `ln τ` and α by a forward
-//! difference of the branch.
+//! every unknown exact (those of `ln τ` and α from the branch's own
+//! transforms, [`FftBranch::unit_branch_with_derivatives`]).
 //!
 //! Leaving a fold of samples out (a level, or the record's long
 //! discharges) is one Newton step from the fit on every sample: the fold's
@@ -264,33 +264,46 @@ pub fn joint_fit(
     let lam = o.smoothing.max(0.0) * nf;
     let ridge = 0.01 * lam;
     let mut b = FftBranch::default();
+    // A knot's branch is needed up to the last sample it weighs (its value
+    // there depends on the current before it only): shorter transforms.
+    // Knots that share τ and α share one branch, up to the furthest end.
+    let ends: Vec<usize> = (0..kn)
+        .map(|j| {
+            (0..n)
+                .rev()
+                .find(|&k| w[k].iter().any(|&(i, x)| i == j && x > 0.0))
+                .map_or(0, |k| k + 1)
+        })
+        .collect();
+    let shared_end = ends.iter().copied().max().unwrap_or(0);
+    let tau_alpha_vary = o.vary[2] || o.vary[3];
     // The model at theta: the voltage, and with `jac` its Jacobian rows.
-    // Knots that share τ and α share their branch (computed once).
     let mut evaluate = |theta: &[f64], jac: bool| -> (Vec<f64>, Vec<Vec<(usize, f64)>>) {
         let mut v = ocv.clone();
         let mut rows: Vec<Vec<(usize, f64)>> = if jac { vec![vec![]; n] } else { vec![] };
         type Branches = (Vec<f64>, Vec<f64>, Vec<f64>);
-        let mut memo: Vec<((u64, u64), std::rc::Rc<Branches>)> = vec![];
+        let mut memo: Vec<((u64, u64, usize), std::rc::Rc<Branches>)> = vec![];
         for j in 0..kn {
             let p = knot(theta, &l, j);
             let (r_i, r_ct) = (p[0].exp(), p[1].exp());
-            let key = (p[2].to_bits(), p[3].to_bits());
+            let end = if tau_alpha_vary { ends[j] } else { shared_end };
+            if end == 0 {
+                continue;
+            }
+            let current = &current[..end];
+            let key = (p[2].to_bits(), p[3].to_bits(), end);
             let found = memo.iter().find(|(k, _)| *k == key).map(|(_, x)| x.clone());
             let ys = match found {
                 Some(x) => x,
                 None => {
-                    let y = branch(&mut b, p[2], p[3], rec.h, &current);
-                    let (dy_tau, dy_alpha) = if jac {
-                        let e = 1e-5;
-                        let yt = branch(&mut b, p[2] + e, p[3], rec.h, &current);
-                        let da = if p[3] + e <= 1.0 { e } else { -e };
-                        let ya = branch(&mut b, p[2], p[3] + da, rec.h, &current);
-                        (
-                            yt.iter().zip(&y).map(|(a, c)| (a - c) / e).collect(),
-                            ya.iter().zip(&y).map(|(a, c)| (a - c) / da).collect(),
-                        )
+                    // The branch, with its exact derivatives for the
+                    // Jacobian.
+                    let (y, dy_tau, dy_alpha) = if jac {
+                        let [y, dt, da] =
+                            b.unit_branch_with_derivatives(p[2], p[3], rec.h, current);
+                        (y, dt, da)
                     } else {
-                        (vec![], vec![])
+                        (branch(&mut b, p[2], p[3], rec.h, current), vec![], vec![])
                     };
                     let x = std::rc::Rc::new((y, dy_tau, dy_alpha));
                     memo.push((key, x.clone()));
@@ -298,7 +311,7 @@ pub fn joint_fit(
                 }
             };
             let (y, dy_tau, dy_alpha) = (&ys.0, &ys.1, &ys.2);
-            for k in 0..n {
+            for k in 0..end {
                 let wk = w[k]
                     .iter()
                     .filter(|(i, x)| *i == j && *x > 0.0)
@@ -407,7 +420,7 @@ pub fn joint_fit(
             cost = cost_of(&v, &theta);
             (a, g) = normal(&theta, &v, &jrows);
             mu = (mu / 3.0).max(1e-9);
-            if gain < 1e-7 {
+            if gain < 1e-5 {
                 break;
             }
         } else {
@@ -553,9 +566,12 @@ pub const VARY_SETS: [[bool; 5]; 3] = [
     [true, false, false, false, true],
 ];
 
-/// Fits every candidate of `smoothing` × `vary` (each from the last fit
+/// Fits the candidates of `smoothing` × `vary` (each from the last fit
 /// of the same varying set, from the largest penalty down) and takes the
-/// one whose folds, each left out, are predicted best.
+/// one whose folds, each left out, are predicted best. Down one set's
+/// penalties, the first score above the one before ends that set: past
+/// the least left-out error, less smoothing only fits the data it sees
+/// more closely (and the smallest penalties take the most iterations).
 ///
 /// # Errors
 /// As [`joint_fit`]; [`crate::ErrorKind::Data`] when no candidate could
@@ -571,6 +587,7 @@ pub fn choose(
     let mut best: Option<(f64, JointFit)> = None;
     let mut tried = vec![];
     for &set in vary {
+        let mut before = f64::INFINITY;
         let mut from = start.to_vec();
         let mut lams = smoothing.to_vec();
         lams.sort_by(|a, b| b.total_cmp(a));
@@ -604,6 +621,10 @@ pub fn choose(
             if score.is_finite() && best.as_ref().is_none_or(|(s, _)| score < *s) {
                 best = Some((score, fit));
             }
+            if score > before {
+                break;
+            }
+            before = score;
         }
     }
     best.map(|(_, f)| (f, tried)).ok_or_else(|| {
