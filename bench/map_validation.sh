@@ -8,8 +8,7 @@
 # temperatures joined run at each record's own temperature (its
 # temperature column's mean: Arrhenius between 10 and 25 °C) and at the
 # nearest map temperature. Prints two Markdown tables; `--report` pages go
-# into OUT/report-*. About 2.5 minutes on one core (the joint maps 35-45 s
-# each).
+# into OUT/report-*. About 40 s on one core (the joint maps 9-11 s each).
 #
 #   bash bench/map_validation.sh [OUT]
 #   HOST_SIM=path/to/host-sim bash bench/map_validation.sh [OUT]   # no build
