@@ -1,4 +1,7 @@
 #!/usr/bin/env python3
+# Research script (docs/research.md), not a benchmark.
+# Question: Do two R_ct gates, the order at its bound and the consensus of two windows, remove the wrong online R_ct?
+# Answer: only a little (chen2020-hppc 89.9 % -> 91.7 % and 91.2 %, prada2013-hppc 51.5 % -> 56.8 % and 62.3 %); wrong windows agree; not adopted.
 """Two candidate R_ct gates, emulated on the tracks of bench/prior_free.py
 (issue 35; docs/real-cells.md, "False spike rejections and the R_ct gate").
 
@@ -17,7 +20,7 @@ reproduce bench/prior_free.py's per-SOC figures; the Panasonic row here is
 over all samples against the map, not only after the first pulse group).
 
     python3 bench/prior_free.py --out target/prior-free
-    python3 bench/r_ct_gate.py target/prior-free
+    python3 research/r_ct_gate.py target/prior-free
 """
 
 import csv

@@ -1,4 +1,7 @@
 #!/usr/bin/env python3
+# Research script (docs/research.md), not a benchmark.
+# Question: Does an arrival cost (the previous windows as a decaying prior) bring the online R_ct into the band?
+# Answer: not on every record: prada2013-hppc 61 % -> 89 % at lambda 0.8, but chains drift to the order's bound (lambda 0.5); not adopted.
 """The previous window's estimate as a decaying prior: an arrival cost
 (issue 35; docs/real-cells.md, issue 35's table of R_ct candidates).
 
@@ -10,7 +13,7 @@ ones before it, without storing them: a longer horizon at no cost in
 state beyond the estimate and a 4x4 information matrix.
 
 This script emulates it offline on the DFN HPPC records, in the core's
-formulation of the window (bench/same_window.py's `core_residuals`:
+formulation of the window (research/same_window.py's `core_residuals`:
 R_i + R_ct || CPE(Q, alpha), short memory M = 64, the first M - 1 rows'
 polarization from the data, the OCV table at the track's counted SOC).
 Windows of 256 samples end every 256 samples (chains from two offsets,
@@ -34,8 +37,8 @@ per-SOC reference (the level's multi-start scipy fit,
 bench/prior_free.py's `*-levels/reference-map.csv`). About two minutes.
 
     python3 bench/prior_free.py                  # tracks and references
-    python3 bench/arrival_cost.py [--tracks target/prior-free] [--lambdas 0,0.5,0.8,0.9,1]
-    python3 bench/arrival_cost.py --detail prada2013-hppc --lambdas 0,0.5,0.8   # one chain, window by window
+    python3 research/arrival_cost.py [--tracks target/prior-free] [--lambdas 0,0.5,0.8,0.9,1]
+    python3 research/arrival_cost.py --detail prada2013-hppc --lambdas 0,0.5,0.8   # one chain, window by window
 """
 
 import argparse
@@ -47,6 +50,7 @@ import numpy as np
 from scipy.optimize import least_squares
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(1, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "bench"))
 import same_window as sw  # noqa: E402
 
 Z95 = 1.959964

@@ -1,4 +1,7 @@
 #!/usr/bin/env python3
+# Research script (docs/research.md), not a benchmark.
+# Question: Would a second, slower (block-averaged) window fitting the branch, with R_i from the fast window, bring R_ct into the band?
+# Answer: not on the LFP record: prada2013-hppc 79.9 % at D = 2, worse as D grows (55.9 % at D = 4); not built.
 """Two windows (emulated): R_i from the fast window, the branch from a slow one.
 
 Go / no-go for a second, slower online window (docs/real-cells.md, "The
@@ -39,7 +42,7 @@ and the fraction of published values within [0.5x, 2x] of the reference
 (ratios min..median..max). Per-window fits go to <out>/windows-*.csv.
 
     python3 bench/prior_free.py           # target/prior-free (references)
-    python3 bench/two_window.py [--host-sim target/release/host-sim] [--out target/two-window]
+    python3 research/two_window.py [--host-sim target/release/host-sim] [--out target/two-window]
         [--only chen2020-hppc,prada2013-hppc,panasonic] [--runs A2,A4,A8,B4,C4]
 
 The fast tracks are ``host-sim online battery --window 256`` (Panasonic:
@@ -48,8 +51,8 @@ take 6-16 s each; a Panasonic run with ``--every 64`` 70-300 s (about 4x
 that at the default 16 s, since its windows run up to 100 evaluations over
 up to 3 700 samples of memory). The numbers of the first study:
 
-    python3 bench/two_window.py --only chen2020-hppc,prada2013-hppc --runs A2,A4,A8,B4,C4,A4s
-    python3 bench/two_window.py --only panasonic --runs A4,A8,C4 --every 64
+    python3 research/two_window.py --only chen2020-hppc,prada2013-hppc --runs A2,A4,A8,B4,C4,A4s
+    python3 research/two_window.py --only panasonic --runs A4,A8,C4 --every 64
 """
 
 import argparse
@@ -65,6 +68,7 @@ import numpy as np
 from scipy.optimize import least_squares
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(1, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "bench"))
 from reference_fit import cpe_branch, read_csv  # noqa: E402
 
 PANASONIC = "data/panasonic-18650pf/03-11-17_08.47 25degC_5Pulse_HPPC_Pan18650PF.mat"

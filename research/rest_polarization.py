@@ -1,4 +1,7 @@
 #!/usr/bin/env python3
+# Research script (docs/research.md), not a benchmark.
+# Question: Would taking the model's polarization off a rested voltage make the SOC observer's rest reading better?
+# Answer: with the full memory on Chen2020 yes (0.92-1.75 % -> 0.12-1.07 %), on the LFP plateau worse at three of ten rests; not built.
 """What the model says is left of the polarization at the end of a rest
 (issue 36; docs/bms-states.md, "Tried and dropped").
 
@@ -21,7 +24,7 @@ SOC) and two of the model's:
 and the SOC error each reading would make through the table's slope.
 
     python3 bench/prior_free.py --out target/prior-free
-    python3 bench/rest_polarization.py [target/prior-free]
+    python3 research/rest_polarization.py [target/prior-free]
 """
 
 import csv
@@ -32,6 +35,7 @@ import numpy as np
 from scipy.signal import lfilter
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(1, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "bench"))
 import reference_fit as rf  # noqa: E402
 
 

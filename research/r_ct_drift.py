@@ -1,8 +1,11 @@
 #!/usr/bin/env python3
+# Research script (docs/research.md), not a benchmark.
+# Question: Does a wrong window R_ct move when the window's model gets a slow drift term (beta times the charge still to flow)?
+# Answer: no: 4 of 16 wrong windows move into the band on chen2020-hppc, 2 of 16 on prada2013-hppc; not adopted.
 """Does a wrong online R_ct move when the window's model gets a slow
 drift term? (issue 35; docs/real-cells.md, the table of candidates.)
 
-Windows drawn as bench/same_window.py draws them (R_ct `identified`,
+Windows drawn as research/same_window.py draws them (R_ct `identified`,
 outside or inside [0.5x, 2x] of the per-SOC reference; 16 of each, seed 3), fitted again in the core's formulation (history from the data in
 the first M - 1 rows), once as the core's model and once with a term
 linear in the charge still to flow in the window, `beta c(l)` (the OCV
@@ -12,13 +15,15 @@ R_ct when the drift takes that process; one line per window with the
 base and extended R_ct against the reference. About four minutes.
 
     python3 bench/prior_free.py --out target/prior-free   # the tracks and references
-    python3 bench/r_ct_drift.py
+    python3 research/r_ct_drift.py
 """
 import math
+import os
 import sys
 
 import numpy as np
-sys.path.insert(0, "bench")  # noqa: E402
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "bench"))  # noqa: E402
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))  # noqa: E402
 import same_window as sw
 import reference_fit as rf
 from scipy.signal import lfilter, lfiltic

@@ -1,4 +1,7 @@
 #!/usr/bin/env python3
+# Research script (docs/research.md), not a benchmark.
+# Question: Is a wrong online R_ct the window's own optimum, or a fault of the online search?
+# Answer: the window's own optimum: refitted offline by multi-start, 0 of 12 wrong windows move into [0.5x, 2x] on either DFN HPPC record.
 """Is a wrong online R_ct the window's own optimum? (issue 35;
 docs/real-cells.md, "The same window, fitted offline").
 
@@ -28,7 +31,7 @@ reference; then per record and group, how many offline optima are within
 window does not determine it). About a minute.
 
     python3 bench/prior_free.py --out target/prior-free   # the tracks and references
-    python3 bench/same_window.py [--tracks target/prior-free] [--per-group 12] [--pre 600] [--profile]
+    python3 research/same_window.py [--tracks target/prior-free] [--per-group 12] [--pre 600] [--profile]
 
 ``--profile`` (about two minutes): instead, the same windows' profile
 likelihood in the core's formulation. R_ct is fixed at 0.5x and 2x of the
@@ -51,6 +54,7 @@ import numpy as np
 from scipy.signal import lfilter, lfiltic
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(1, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "bench"))
 import reference_fit as rf  # noqa: E402
 
 MEMORY, WINDOW = 64, 256

@@ -1,4 +1,7 @@
 #!/usr/bin/env python3
+# Research script (docs/research.md), not a benchmark.
+# Question: Is the online window's low R_ct caused by its 64-sample short memory?
+# Answer: no: the per-SOC levels fitted with the short memory give an R_ct 0.96-1.45x the full-memory one, higher, where the wrong windows are lower.
 """Is the window's low R_ct its short memory? (issue 35; docs/real-cells.md,
 "The whole-record fit is no reference".)
 
@@ -11,14 +14,16 @@ both fits' R_ct, R_i, alpha and RMSE, and the ratio of the R_cts. About
 two minutes.
 
     python3 bench/prior_free.py --out target/prior-free
-    python3 bench/short_memory_reference.py
+    python3 research/short_memory_reference.py
 """
 import json
 import math
+import os
 import sys
 
 import numpy as np
-sys.path.insert(0, "bench")  # noqa: E402
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "bench"))  # noqa: E402
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))  # noqa: E402
 import reference_fit as rf
 
 
