@@ -35,14 +35,14 @@ the window holds such a rest itself (its first ``--min-rest`` samples).
         [--branch --reach 0] [--settled C]
     python3 research/r_ct_recovery.py --profile target/prior-free/prada2013-hppc-levels   # about a minute
 
-``--branch``: the test on the branch alone (twelfth stop): the measured
+``--branch``: the test on the branch alone: the measured
 recovery less the window's own ``R_i`` jump, ``dU + R_i I``, against its
 model's branch over the same rest, within a factor ``1 + tol``; a
 tolerance on the sum, which ``R_i`` dominates, is loose on ``R_ct``.
 ``--reach 0``: each rest used to its end, not cut at the window's 256
 samples (the DFN HPPC records' rests after a discharge are 300 s).
 
-``--settled C`` (twelfth stop): instead of the rest, a window identifies
+``--settled C``: instead of the rest, a window identifies
 ``R_ct`` only when its fitted rows (after the history's first 63) hold a
 current edge (a change of more than 5 % of the record's largest current)
 followed by at least ``C`` times the window's own relaxation time
