@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # How the measured exports in data/ are read as the cycler ran them
-# (docs/real-cells.md, "Step starts on the measured cells"): per record, the
+# (docs/measured-cells.md, "Step starts on the measured cells"): per record, the
 # `read` line (step starts, unobserved samples), the state column, the
 # export's own charge count against ours, and the whole-record fit with the
 # step starts (`--steps auto`) beside the row-by-row reading

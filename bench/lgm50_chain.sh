@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The whole chain of docs/real-cells.md on the second measured cell, the
+# The whole chain of docs/measured-cells.md on the second measured cell, the
 # LG M50 21700 (NMC811, 5 A·h; data/lg-m50, the MAT exports as they come):
 #
 #   raw C/10 discharge -> OCV table -> 9 one-pulse records per temperature

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The whole chain of docs/real-cells.md on a measured cell, the Panasonic
+# The whole chain of docs/measured-cells.md on a measured cell, the Panasonic
 # NCR18650PF at 25 °C (data/panasonic-18650pf, the exports as they come):
 #
 #   raw C/20 export -> OCV table -> HPPC export -> parameter map (+ each

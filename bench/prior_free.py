@@ -70,7 +70,7 @@ def judge(name, values, ref):
 
 
 # `online battery`'s window and period (`--window`, `--period` of this
-# script): the horizon experiments of docs/real-cells.md.
+# script): the horizon experiments of docs/research.md.
 ONLINE = ["--window", "256"]
 
 

@@ -3,7 +3,7 @@
 # Question: Does an arrival cost (the previous windows as a decaying prior) bring the online R_ct into the band?
 # Answer: not on every record: prada2013-hppc 61 % -> 89 % at lambda 0.8, but chains drift to the order's bound (lambda 0.5); not adopted.
 """The previous window's estimate as a decaying prior: an arrival cost
-(issue 35; docs/real-cells.md, issue 35's table of R_ct candidates).
+(issue 35; docs/research.md, issue 35's table of R_ct candidates).
 
 Moving-horizon estimation carries what the samples before a window said
 into the window's fit as an *arrival cost*: a quadratic term around the

@@ -3,7 +3,7 @@
 # Question: Does a wrong window R_ct move when the window's model gets a slow drift term (beta times the charge still to flow)?
 # Answer: no: 4 of 16 wrong windows move into the band on chen2020-hppc, 2 of 16 on prada2013-hppc; not adopted.
 """Does a wrong online R_ct move when the window's model gets a slow
-drift term? (issue 35; docs/real-cells.md, the table of candidates.)
+drift term? (issue 35; docs/research.md, the table of candidates.)
 
 Windows drawn as research/same_window.py draws them (R_ct `identified`,
 outside or inside [0.5x, 2x] of the per-SOC reference; 16 of each, seed 3), fitted again in the core's formulation (history from the data in

@@ -3,7 +3,7 @@
 # Question: Would taking the model's polarization off a rested voltage make the SOC observer's rest reading better?
 # Answer: with the full memory on Chen2020 yes (0.92-1.75 % -> 0.12-1.07 %), on the LFP plateau worse at three of ten rests; not built.
 """What the model says is left of the polarization at the end of a rest
-(issue 36; docs/bms-states.md, "Tried and dropped").
+(issue 36; docs/research.md, "The SOC observer at rest").
 
 The SOC observer reads a rested voltage as the OCV. The model could say
 how much polarization the rest still holds, and the observer could read

@@ -3,7 +3,7 @@
 # Question: Is a wrong online R_ct the window's own optimum, or a fault of the online search?
 # Answer: the window's own optimum: refitted offline by multi-start, 0 of 12 wrong windows move into [0.5x, 2x] on either DFN HPPC record.
 """Is a wrong online R_ct the window's own optimum? (issue 35;
-docs/real-cells.md, "The same window, fitted offline").
+docs/research.md, "The same window, fitted offline").
 
 On the DFN HPPC records, `online battery` (window 256, memory 64, no
 prior) publishes an R_ct outside [0.5x, 2x] of the per-SOC reference in

@@ -219,7 +219,7 @@ fn sop_limit(cell: &str) -> f64 {
 /// * a 1C discharge for 10 and 30 s: the error over the pulse's true drop
 ///   is printed; on the HPPC records its median is within the 10 %
 ///   (asserted), the worst is not (14.4 %; 19–20 % on the drive cycle,
-///   docs/bms-states.md);
+///   docs/state-of-power-accuracy.md);
 /// * at the state-of-power current (the track's own
 ///   `sop_discharge_a_{H}s` for that limit, reproduced here to 1e−6) the
 ///   true cell stays above the limit: the prediction errs on the safe side
@@ -331,7 +331,7 @@ fn the_butler_volmer_model_predicts_the_drive_cycles_pulses() {
 
 /// The 1C rows of the committed truth on the drive cycles, predicted by the
 /// online Butler–Volmer model with the HPPC record's Butler–Volmer fit as
-/// prior (docs/bms-states.md, `bench/sop_truth.py --model butler-volmer`):
+/// prior (docs/state-of-power-accuracy.md, `bench/sop_truth.py --model butler-volmer`):
 /// within 10 % of the DFN's drop at every Chen2020 instant. The prior's
 /// R_i (the term took its place in the HPPC fit) is published as the
 /// prior's, never as identified; the linear run's R_ct is mostly the

@@ -52,7 +52,7 @@ pub struct SocOptions {
     /// The spread of a rested voltage as the OCV (V; default 5 mV): the
     /// table's own error in volts (its test, hysteresis, temperature) and
     /// the polarization a rest of `rest_s` still holds. On a flat curve it
-    /// sets how little a rest weighs (docs/bms-states.md).
+    /// sets how little a rest weighs (docs/soc-observer.md).
     pub voltage_sigma_v: Option<f64>,
 }
 

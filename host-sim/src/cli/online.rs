@@ -82,7 +82,7 @@ pub struct OnlineBatteryArgs {
     /// alpha_status,step_resistance_ohm,window_r_i,window_r_ct,window_q,
     /// window_alpha,soc_coulomb,current_bias_a,capacity_ah,
     /// capacity_sigma_ah,soc_sigma,soc_ocv_weight,soh_r,capacity_status`, then the state-of-power columns (r_i…alpha:
-    /// the published values, docs/real-cells.md; soc: see --soc; soh_r: the
+    /// the published values, docs/online-publication.md; soc: see --soc; soh_r: the
     /// published R_i over the prior's or map's; u_oc: the open-circuit voltage now,
     /// OCV(SOC) + ΔU with --ocv; soc and ocv_offset_v empty without --ocv;
     /// bv_a_v and bv_i0_a empty for the linear model; predicted_v: the
@@ -111,7 +111,7 @@ pub struct StateArgs {
     /// current magnitudes whose predicted voltage stays within the limits
     /// for H seconds) and `pulse_v_{H}s` (the voltage at the end of a pulse
     /// of --pulse-current-a for H seconds), from the model after each
-    /// sample; empty until every parameter is published (docs/bms-states.md).
+    /// sample; empty until every parameter is published (docs/state-of-power.md).
     #[arg(long, value_delimiter = ',', default_value = "10,30")]
     pub horizons: Vec<f64>,
     /// The lowest voltage a state-of-power pulse may reach (V; default:
@@ -132,7 +132,7 @@ pub struct StateArgs {
     /// How long (s) the state of power may be predicted from the last fit
     /// without a new one, the polarization carried through a rest by the
     /// model (default: as far back as the window reaches; beyond it the
-    /// model's relaxation was not fitted, docs/bms-states.md). A rest of
+    /// model's relaxation was not fitted, docs/state-of-power.md). A rest of
     /// --soc-rest-s (with --ocv) is predicted from rest whatever this says:
     /// the cell relaxed, at the rested voltage.
     #[arg(long)]

@@ -102,7 +102,7 @@ fn panasonic_hppc_rests_give_the_ocv_within_2_mv() {
 /// basin at 36 mV over the rows it keeps; with the second rough start it
 /// reaches 3.4 mV (the scipy reference, 30 starts on the same rows, finds
 /// 1.05 mV at the pure constant-phase limit that our R_ct‖CPE does not
-/// reach: docs/real-cells.md).
+/// reach: docs/measured-cells.md).
 #[test]
 fn lg_m50_cold_pulse_needs_the_second_start() {
     let ocv = tmp("lg-ocv.csv");
@@ -232,7 +232,7 @@ fn panasonic_pulses_after_long_rests_are_predicted_from_rest() {
 /// 600 s of rest above SOC 0.2, all but one within 10 % of the drop at
 /// 10 s (measured 0.5–2.7 %; the last, at SOC 0.21, 19.8 %: there the
 /// cell's resistance starts to climb within a level, from 35 mΩ at SOC
-/// 0.21 to 52 mΩ at 0.11, docs/bms-states.md). Before, the 1.4 A pulse sat
+/// 0.21 to 52 mΩ at 0.11, docs/state-of-power-accuracy.md). Before, the 1.4 A pulse sat
 /// in the restarted window's first 63 samples, never fitted, and the
 /// 2.9 A pulse was predicted from the previous level's fit of its 17.4 A
 /// pulse (the cell's resistance falls with the current): 7 of the 9 off
