@@ -3,7 +3,7 @@
 # Question: Do two R_ct gates, the order at its bound and the consensus of two windows, remove the wrong online R_ct?
 # Answer: only a little (chen2020-hppc 89.9 % -> 91.7 % and 91.2 %, prada2013-hppc 51.5 % -> 56.8 % and 62.3 %); wrong windows agree; not adopted.
 """Two candidate R_ct gates, emulated on the tracks of bench/prior_free.py
-(issue 35; docs/research.md, "False spike rejections and the R_ct gate").
+(issue 35; docs/research.md, "The order at its bound; consensus").
 
 The windows that identify a wrong R_ct on the DFN HPPC records are mostly
 fits whose order sits at its bound (alpha = alpha_max = 1, an integer-order

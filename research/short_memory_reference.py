@@ -3,7 +3,7 @@
 # Question: Is the online window's low R_ct caused by its 64-sample short memory?
 # Answer: no: the per-SOC levels fitted with the short memory give an R_ct 0.96-1.45x the full-memory one, higher, where the wrong windows are lower.
 """Is the window's low R_ct its short memory? (issue 35; docs/research.md,
-"The whole-record fit is no reference".)
+"The window's short memory".)
 
 Each SOC level of the DFN HPPC records' per-SOC reference (the levels
 `bench/prior_free.py` cuts, fitted by `bench/reference_map.py` with the

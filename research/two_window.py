@@ -4,8 +4,8 @@
 # Answer: not on the LFP record: prada2013-hppc 79.9 % at D = 2, worse as D grows (55.9 % at D = 4); not built.
 """Two windows (emulated): R_i from the fast window, the branch from a slow one.
 
-Go / no-go for a second, slower online window (docs/research.md, "The
-horizon, measured"): the fast window at the record's period gives R_i (the
+Go / no-go for a second, slower online window (docs/research.md, "Two
+windows, emulated"): the fast window at the record's period gives R_i (the
 ``r_i`` column of ``host-sim online battery``); a slow window of 256
 samples of the same data block-averaged by a factor D (period D h, D times
 the horizon) fits only the constant-phase branch (ln R_ct, ln Q, alpha, dU)
