@@ -451,7 +451,7 @@ fn battery_run_sized<const N: usize, const MEM: usize>(
             // it is physical) and the rough ones from the data alone. On a
             // measured pulse they can end in different basins (the LG M50
             // at 10 °C, SOC 0.2: 36 mV from the even split, 3.4 mV from the
-            // charge-transfer one; docs/real-cells.md). A start whose
+            // charge-transfer one; docs/measured-cells.md). A start whose
             // search fails is passed over; the fit fails only when all do.
             let paper = gi
                 .cell()

@@ -361,8 +361,10 @@ fn a_joint_map_with_given_flags() {
         "--map-method",
         "joint",
     ];
+    let levels = tmp("jmap-levels");
     let mut a = base.to_vec();
     a.extend(["--map-smoothing", "1e-5", "--map-vary", "r_i,du"]);
+    a.extend(["--levels-out", s(&levels)]);
     let o = run(&a);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let stdout = String::from_utf8_lossy(&o.stdout);
@@ -391,6 +393,26 @@ fn a_joint_map_with_given_flags() {
         m["single_rmse_v"].as_f64().unwrap(),
     );
     assert!(mr < sr, "map {mr} single {sr}");
+    // The joint fit's inputs for an independent fit: the knots' unknowns,
+    // the shared ones alike at every knot, and the record.
+    let inputs = read_json(&levels.join("joint.json"));
+    assert_eq!(
+        inputs["vary"],
+        serde_json::json!([true, false, false, false, true])
+    );
+    assert_eq!(inputs["smoothing"].as_f64(), Some(1e-5));
+    let fitted = inputs["fitted"].as_array().unwrap();
+    assert_eq!(fitted.len(), 5);
+    for (k, r) in fitted.iter().zip(rows) {
+        let ln_r_i = k[0].as_f64().unwrap();
+        assert!(
+            (ln_r_i - r["r_i"].as_f64().unwrap().ln()).abs() < 1e-9,
+            "{k} {r}"
+        );
+        assert_eq!(k[3], fitted[0][3]);
+    }
+    let record = std::fs::read_to_string(levels.join("joint-record.csv")).unwrap();
+    assert!(record.starts_with("time_s,current_a,voltage_v,counted,soc,ocv_v\n"));
     for (flag, value, expect) in [
         ("--map-vary", "r_i,foo", "`foo` is not one of"),
         ("--map-smoothing", "nan", "give a non-negative number"),

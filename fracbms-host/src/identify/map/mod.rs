@@ -206,6 +206,8 @@ pub struct MapFit {
     /// The joint fit's candidates, each scored by leaving levels out
     /// (empty for `--map-method levels`).
     pub joint: Vec<joint::Candidate>,
+    /// The chosen joint fit's inputs ([`write_levels`] writes them).
+    pub joint_inputs: Option<joint::JointInputs>,
 }
 
 /// Which samples of `rec` were not measured: inside one of its `gaps`
@@ -398,11 +400,13 @@ pub fn build_map(
     let mut map = ParameterMap { rows };
     map.sort();
     let unmeasured = not_measured(rec, gaps, unlogged);
-    let mut chosen = vec![];
+    let (mut chosen, mut joint_inputs) = (vec![], None);
     if o.method == crate::map::MapMethod::Joint {
-        let (m, tried) = joint_map(rec, &whole, gaps, &unmeasured, &parts, &map, record_t, o)?;
+        let (m, tried, inputs) =
+            joint_map(rec, &whole, gaps, &unmeasured, &parts, &map, record_t, o)?;
         map = m;
         chosen = tried;
+        joint_inputs = Some(inputs);
     }
     // The map model runs on the identifiable levels only: without one it
     // has no voltage (NaN), and the check against the single fit
@@ -422,6 +426,7 @@ pub fn build_map(
         temperature_c: record_t,
         warnings: vec![],
         joint: chosen,
+        joint_inputs,
     })
 }
 
@@ -441,7 +446,7 @@ fn joint_map(
     levels: &ParameterMap,
     record_t: Option<f64>,
     o: &MapOptions,
-) -> Result<(ParameterMap, Vec<joint::Candidate>)> {
+) -> Result<(ParameterMap, Vec<joint::Candidate>, joint::JointInputs)> {
     let mut knots: Vec<f64> = o
         .knots
         .clone()
@@ -543,7 +548,17 @@ fn joint_map(
             }
         })
         .collect();
-    Ok((ParameterMap { rows }, tried))
+    // The chosen candidate: the least left-out error (the first of equals).
+    let best = tried.iter().filter(|c| c.left_out_rmse_v.is_finite()).fold(
+        None::<&joint::Candidate>,
+        |b, c| match b {
+            Some(b) if c.left_out_rmse_v >= b.left_out_rmse_v => Some(b),
+            _ => Some(c),
+        },
+    );
+    let (lam, set) = best.map_or((f64::NAN, [true; 5]), |c| (c.smoothing, c.vary));
+    let inputs = joint::JointInputs::of(&d, &start, &fit, lam, set);
+    Ok((ParameterMap { rows }, tried, inputs))
 }
 
 /// Writes each level of `fit` for an independent fit into the folder
@@ -614,7 +629,8 @@ pub fn write_levels(dir: &Path, fit: &MapFit, ocv: &OcvSpec, model: &str) -> Res
         w.write_all(text.as_bytes())
             .and_then(|_| w.write_all(b"\n"))
             .map_err(|e| err!(Io, "cannot write levels.json: {e}"))
-    })
+    })?;
+    fit.joint_inputs.as_ref().map_or(Ok(()), |j| j.write(dir))
 }
 
 /// `identify battery --map-out` on the file `input`: the whole-record fit
