@@ -8,7 +8,9 @@
 # temperatures joined run at each record's own temperature (its
 # temperature column's mean: Arrhenius between 10 and 25 °C) and at the
 # nearest map temperature. Prints two Markdown tables; `--report` pages go
-# into OUT/report-*. About 40 s on one core (the joint maps 9-11 s each).
+# into OUT/report-*. The joint map of the 25 °C test is then fitted again
+# by bench/joint_reference.py (scipy, the same objective; the levels' and
+# the joint fit's inputs go into OUT/levels-*). About 70 s on one core.
 #
 #   bash bench/map_validation.sh [OUT]
 #   HOST_SIM=path/to/host-sim bash bench/map_validation.sh [OUT]   # no build
@@ -34,7 +36,7 @@ for method in levels joint; do
     start=$(date +%s.%N)
     $hs identify battery --input "${hppc[$T]}" "${ocv[@]}" --min-rest 3000 --model linear \
       --temperature-c $T --map-method $method --map-out "$out/map-$tag.csv" --json "$out/fit-$tag.json" \
-      > "$out/map-$tag.log" 2>&1
+      --levels-out "$out/levels-$tag" > "$out/map-$tag.log" 2>&1
     took=$(python3 -c "import sys;print(f'{float(sys.argv[2]) - float(sys.argv[1]):.1f}')" "$start" "$(date +%s.%N)")
     python3 - "$out/fit-$tag.json" "$T °C HPPC, $method" "$took" <<'PY'
 import json, sys
@@ -78,3 +80,6 @@ PY
   done
 done
 grep -h "activation energy" "$out"/us06-*-map-10-25.csv.log | head -1
+echo
+echo "The joint map of the 25 °C test against an independent scipy fit of the same objective:"
+python3 bench/joint_reference.py "$out/levels-joint-25" | tail -n +1 | grep -E "^\||^acceptance"

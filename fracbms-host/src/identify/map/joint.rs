@@ -95,6 +95,9 @@ pub struct JointFit {
     pub reasons: Vec<Vec<String>>,
     /// Iterations run.
     pub iterations: usize,
+    /// The cells it started from, the pull's centre ([`choose`] starts a
+    /// candidate from the last of its varying set).
+    pub start: Vec<CellParameters<f64>>,
     /// The Gauss–Newton matrix with the penalty (for leaving folds out).
     hessian: DMatrix<f64>,
     /// Per counted sample, its residual and its Jacobian's non-zero
@@ -514,6 +517,7 @@ pub fn joint_fit(
         confidence,
         reasons,
         iterations: it,
+        start: start.to_vec(),
         hessian: a,
         rows,
     })
@@ -712,15 +716,10 @@ pub struct JointInputs {
 }
 
 impl JointInputs {
-    /// The inputs of `d` started from `start`, with the chosen `fit` of
-    /// penalty `smoothing` and varying set `vary`.
-    pub fn of(
-        d: &JointData<'_>,
-        start: &[CellParameters<f64>],
-        fit: &JointFit,
-        smoothing: f64,
-        vary: [bool; 5],
-    ) -> Self {
+    /// The inputs of `d` and the chosen `fit` of penalty `smoothing` and
+    /// varying set `vary` (its start the pull's centre).
+    pub fn of(d: &JointData<'_>, fit: &JointFit, smoothing: f64, vary: [bool; 5]) -> Self {
+        let start = &fit.start;
         JointInputs {
             record: d.record.clone(),
             soc: d.soc.to_vec(),

@@ -557,7 +557,7 @@ fn joint_map(
         },
     );
     let (lam, set) = best.map_or((f64::NAN, [true; 5]), |c| (c.smoothing, c.vary));
-    let inputs = joint::JointInputs::of(&d, &start, &fit, lam, set);
+    let inputs = joint::JointInputs::of(&d, &fit, lam, set);
     Ok((ParameterMap { rows }, tried, inputs))
 }
 
