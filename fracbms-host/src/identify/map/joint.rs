@@ -288,10 +288,10 @@ pub fn joint_fit(
         let mut rows: Vec<Vec<(usize, f64)>> = if jac { vec![vec![]; n] } else { vec![] };
         type Branches = (Vec<f64>, Vec<f64>, Vec<f64>);
         let mut memo: Vec<((u64, u64, usize), std::rc::Rc<Branches>)> = vec![];
-        for j in 0..kn {
+        for (j, &own_end) in ends.iter().enumerate() {
             let p = knot(theta, &l, j);
             let (r_i, r_ct) = (p[0].exp(), p[1].exp());
-            let end = if tau_alpha_vary { ends[j] } else { shared_end };
+            let end = if tau_alpha_vary { own_end } else { shared_end };
             if end == 0 {
                 continue;
             }
