@@ -98,6 +98,10 @@ pub struct JointFit {
     /// The cells it started from, the pull's centre ([`choose`] starts a
     /// candidate from the last of its varying set).
     pub start: Vec<CellParameters<f64>>,
+    /// Its penalty λ (V²) and varying set.
+    pub smoothing: f64,
+    /// …
+    pub vary: [bool; 5],
     /// The Gauss–Newton matrix with the penalty (for leaving folds out).
     hessian: DMatrix<f64>,
     /// Per counted sample, its residual and its Jacobian's non-zero
@@ -518,6 +522,8 @@ pub fn joint_fit(
         reasons,
         iterations: it,
         start: start.to_vec(),
+        smoothing: o.smoothing,
+        vary: o.vary,
         hessian: a,
         rows,
     })
@@ -716,29 +722,23 @@ pub struct JointInputs {
 }
 
 impl JointInputs {
-    /// The inputs of `d` and the chosen `fit` of penalty `smoothing` and
-    /// varying set `vary` (its start the pull's centre).
-    pub fn of(d: &JointData<'_>, fit: &JointFit, smoothing: f64, vary: [bool; 5]) -> Self {
-        let start = &fit.start;
+    /// The inputs of `d` and the chosen `fit` (its start the pull's
+    /// centre).
+    pub fn of(d: &JointData<'_>, fit: &JointFit) -> Self {
+        let l = Layout::new(fit.vary, d.knots.len());
+        let theta = unknowns(&fit.start, &l);
         JointInputs {
             record: d.record.clone(),
             soc: d.soc.to_vec(),
             ocv_v: d.soc.iter().map(|&z| d.ocv.model.table.ocv(z)).collect(),
             counted: d.counted.to_vec(),
             knots: d.knots.to_vec(),
-            start: {
-                let l = Layout::new(vary, d.knots.len());
-                let theta = unknowns(start, &l);
-                (0..d.knots.len()).map(|j| knot(&theta, &l, j)).collect()
-            },
-            smoothing,
-            vary,
-            fitted: {
-                let l = Layout::new(vary, d.knots.len());
-                (0..d.knots.len())
-                    .map(|j| knot(&fit.theta, &l, j))
-                    .collect()
-            },
+            start: (0..d.knots.len()).map(|j| knot(&theta, &l, j)).collect(),
+            smoothing: fit.smoothing,
+            vary: fit.vary,
+            fitted: (0..d.knots.len())
+                .map(|j| knot(&fit.theta, &l, j))
+                .collect(),
             rmse_v: fit.rmse_v,
         }
     }

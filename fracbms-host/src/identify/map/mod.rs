@@ -548,16 +548,7 @@ fn joint_map(
             }
         })
         .collect();
-    // The chosen candidate: the least left-out error (the first of equals).
-    let best = tried.iter().filter(|c| c.left_out_rmse_v.is_finite()).fold(
-        None::<&joint::Candidate>,
-        |b, c| match b {
-            Some(b) if c.left_out_rmse_v >= b.left_out_rmse_v => Some(b),
-            _ => Some(c),
-        },
-    );
-    let (lam, set) = best.map_or((f64::NAN, [true; 5]), |c| (c.smoothing, c.vary));
-    let inputs = joint::JointInputs::of(&d, &fit, lam, set);
+    let inputs = joint::JointInputs::of(&d, &fit);
     Ok((ParameterMap { rows }, tried, inputs))
 }
 
