@@ -23,8 +23,13 @@
 //!   "r_ct", "q", "alpha", "u_oc", "rejected", "flagged", and the same
 //!   published, state-of-charge and state-of-power keys}, …], "samples",
 //!   "rejected", "string_sop": {the state-of-power keys of the string: the
-//!   weakest cell's currents, the sum of the cells' pulse voltages}}`. The
-//!   exit status is non-zero when the firmware failed.
+//!   weakest cell's currents, the sum of the cells' pulse voltages}}`;
+//!   `--cells N` replays a pack of N cells made from a one-cell record.
+//!   Both JSONs also carry the snapshot's keys (`restore_status`,
+//!   `snapshot_bytes` …) and the stack's: `stack_init_bytes` (start-up,
+//!   the task's initialisation included), `stack_high_water_bytes` (the
+//!   sample loop) and `task_bytes`. The exit status is non-zero when the
+//!   firmware failed.
 //! * `cargo xtask run-elf ELF` runs a built image the same way (the
 //!   target's cargo runner).
 //! * `cargo xtask bench-target [--window L] [--memory M] [--iterations K]
@@ -62,7 +67,8 @@ mod panic_sites;
 mod summary;
 
 use summary::{
-    insert_persist, insert_published, insert_soc, insert_sop, int, number, pack_json, Summary,
+    insert_persist, insert_published, insert_soc, insert_sop, insert_stack, int, number, pack_json,
+    Summary,
 };
 
 #[derive(Parser)]
@@ -183,6 +189,12 @@ struct QemuArgs {
     /// (docs/persistence.md). The JSON then has `restored_at`.
     #[arg(long, value_name = "N")]
     reset_at: Option<u32>,
+    /// Replay a pack of this many cells made from a one-cell input: the
+    /// input's voltage for every cell (cell k offset by k − 1 mV), as
+    /// `bench-target --cells` (the image is built for N cells; the output
+    /// is the pack's JSON for N > 1).
+    #[arg(long, value_name = "N")]
+    cells: Option<usize>,
     /// Build the cost-measurement image (no physical-estimate check).
     #[arg(skip)]
     bench: bool,
@@ -293,6 +305,11 @@ fn build(a: &QemuArgs) -> Result<PathBuf> {
         .input
         .canonicalize()
         .with_context(|| format!("{}: cannot open", a.input.display()))?;
+    let input = match a.cells {
+        Some(n) if !(1..=256).contains(&n) => bail!("--cells {n}: must be in 1..=256"),
+        Some(n) => pack_record(&input, n)?,
+        None => input,
+    };
     let ocv = match &a.ocv {
         Some(p) => Some(
             p.canonicalize()
@@ -538,6 +555,7 @@ fn qemu(a: &QemuArgs) -> Result<()> {
         out.insert("restored_at".into(), number(&s, "RESTORE", "resumed_at")?);
     }
     insert_persist(&s, &mut out);
+    insert_stack(&s, &mut out);
     out.insert("model".into(), a.model.clone().into());
     for key in ["bv_a_v", "bv_i0_a"] {
         let v = if s.contains_key("BV") {
@@ -557,13 +575,9 @@ fn bench_target(b: &BenchArgs) -> Result<()> {
     } else {
         root().join(&b.input)
     };
-    let input = match b.cells {
-        Some(n) if !(1..=256).contains(&n) => bail!("--cells {n}: must be in 1..=256"),
-        Some(n) => pack_record(&input, n)?,
-        None => input,
-    };
     let a = QemuArgs {
         input,
+        cells: b.cells,
         method: b.method,
         algorithm: Algorithm::Op,
         window: b.window,

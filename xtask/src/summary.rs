@@ -115,8 +115,10 @@ pub(crate) fn insert_sop(
 
 /// The JSON of a pack image's final report: `{"cells": [{"cell", "r_i",
 /// "r_ct", "q", "alpha", "u_oc", "rejected", "flagged", and what the cell
-/// publishes ([`insert_published`])}, …], "samples", "rejected"}` (a cell
-/// without an estimate has null parameters; `r_i` … are the window's fit).
+/// publishes ([`insert_published`])}, …], "samples", "rejected"}` and the
+/// snapshot's and the stack's keys ([`insert_persist`], [`insert_stack`];
+/// a cell without an estimate has null parameters; `r_i` … are the
+/// window's fit).
 pub(crate) fn pack_json(s: &Summary) -> Result<serde_json::Value> {
     let cells = int(s, "PACK", "cells")?;
     let mut list = Vec::new();
@@ -154,6 +156,7 @@ pub(crate) fn pack_json(s: &Summary) -> Result<serde_json::Value> {
     });
     if let Some(m) = out.as_object_mut() {
         insert_persist(s, m);
+        insert_stack(s, m);
     }
     Ok(out)
 }
@@ -162,6 +165,23 @@ pub(crate) fn int(s: &Summary, line: &str, key: &str) -> Result<u64> {
     number(s, line, key)?
         .as_u64()
         .with_context(|| format!("{line} {key}: not an integer"))
+}
+
+/// The stack's part of a run (its `STACK` line, when printed):
+/// `stack_init_bytes` (the deepest stack before the sample loop: the
+/// board's start-up and the task's initialisation in its static),
+/// `stack_high_water_bytes` (the deepest since, the sample loop's) and
+/// `task_bytes` (the task's static).
+pub(crate) fn insert_stack(s: &Summary, out: &mut serde_json::Map<String, serde_json::Value>) {
+    for (key, name) in [
+        ("init_bytes", "stack_init_bytes"),
+        ("high_water_bytes", "stack_high_water_bytes"),
+        ("task_bytes", "task_bytes"),
+    ] {
+        if let Ok(v) = number(s, "STACK", key) {
+            out.insert(name.into(), v);
+        }
+    }
 }
 
 /// The snapshot's part of a run (its `RESTORE` and `PERSIST` lines):
