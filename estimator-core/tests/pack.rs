@@ -2,11 +2,11 @@
 //! gets the same estimate in a pack as alone), rejection per cell, the
 //! schedule and the health flag.
 
-use estimator_core::battery::online::{CellEstimator, CellState, OnlineSettings, Status};
+use estimator_core::battery::online::{CellEstimator, CellState, Method, OnlineSettings, Status};
 use estimator_core::battery::pack::{PackEstimator, PackSettings};
 use estimator_core::battery::profile::Profile;
 use estimator_core::battery::simulate::simulate;
-use estimator_core::battery::CellParameters;
+use estimator_core::battery::{CellParameters, Prior};
 use estimator_core::frac::GlWeights;
 use estimator_core::Error;
 use rand::SeedableRng;
@@ -250,6 +250,56 @@ fn wrong_cell_counts_are_typed_errors() {
         PackEstimator::<f32, 64, 16, 4>::new(&bad, 3).err(),
         Some(Error::BadSetting)
     );
+}
+
+/// The pack built at compile time ([`PackEstimator::EMPTY`], a `static`'s
+/// value) and initialised in place is, field for field (its `Debug`), the
+/// pack `new` returns, with the paper method and with a prior that starts
+/// the refinement at once; both then follow the same stream alike, and
+/// `init` over a pack that has run starts it again as `new`. A pack of no
+/// cells takes no sample; an `init` that fails leaves no cells.
+#[test]
+fn a_pack_initialised_in_place_is_the_pack_new_returns() {
+    type Pack = PackEstimator<f64, 128, 32, 3>;
+    let base = CellParameters::<f64>::cell_18650();
+    let i = pulse(400);
+    let v = record(&base, &i, 0.001, 7);
+    let mut refined = OnlineSettings::new(1.0, 32, base);
+    refined.method = Method::Refined;
+    refined.battery.prior = Some(Prior::new(base));
+    for cell in [OnlineSettings::new(1.0, 32, base), refined] {
+        let s = PackSettings::new(cell);
+        let mut pack = Box::new(Pack::EMPTY);
+        assert_eq!(pack.cells(), 0);
+        assert!(pack.cell(0).is_none());
+        assert!(pack.push(&s, 1.0, &[]).is_err());
+        pack.init(&s, 2).unwrap();
+        let mut new = Box::new(Pack::new(&s, 2).unwrap());
+        assert_eq!(format!("{pack:?}"), format!("{new:?}"));
+        for l in 0..i.len() {
+            let volts = [v[l], v[l] + 1e-3];
+            pack.push(&s, i[l], &volts).unwrap();
+            new.push(&s, i[l], &volts).unwrap();
+        }
+        assert!(pack.cell(1).unwrap().estimate().is_some());
+        assert_eq!(format!("{pack:?}"), format!("{new:?}"));
+        pack.init(&s, 2).unwrap();
+        let again = Box::new(Pack::new(&s, 2).unwrap());
+        assert_eq!(format!("{pack:?}"), format!("{again:?}"));
+        let mut bad = s;
+        bad.updates_per_period = 0;
+        assert_eq!(pack.init(&bad, 2).err(), Some(Error::BadSetting));
+        assert_eq!(pack.cells(), 0);
+        assert!(pack.push(&s, 1.0, &[3.7, 3.7]).is_err());
+        assert_eq!(
+            pack.init(&s, 4).err(),
+            Some(Error::CellCount {
+                given: 4,
+                expected: 3
+            })
+        );
+        assert_eq!(pack.refresh_periods(&s), 0);
+    }
 }
 
 /// The short-memory bias and its correction. A full-memory, noise-free

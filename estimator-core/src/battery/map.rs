@@ -393,7 +393,7 @@ pub struct MapFollower<T> {
 
 impl<T: Real> MapFollower<T> {
     /// A follower that has taken nothing yet.
-    pub fn new() -> Self {
+    pub const fn new() -> Self {
         Self { taken_at: None }
     }
 

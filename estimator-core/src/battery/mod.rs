@@ -91,6 +91,18 @@ pub struct CellParameters<T> {
 }
 
 impl<T: Real> CellParameters<T> {
+    /// Every parameter 0: the placeholder of a blank estimator built at
+    /// compile time, never an estimate (not physical).
+    pub(crate) const ZERO: Self = Self {
+        r_i: T::ZERO,
+        r_ct: T::ZERO,
+        q: T::ZERO,
+        alpha: T::ZERO,
+        u_oc: T::ZERO,
+        bv_a: T::ZERO,
+        bv_i0: T::ZERO,
+    };
+
     /// The paper's example cell (§6.2): `R_i = 1 mΩ`, `R_ct = 2 mΩ`,
     /// `Q = 320`, `α = 0.7`, `U_oc = 4 V`.
     pub fn paper() -> Self {

@@ -137,10 +137,65 @@ impl<T: Real, const N: usize, const MEM: usize, const CELLS: usize>
     /// `updates_per_period` or a flag ratio that is not positive is
     /// [`Error::BadSetting`]).
     pub fn new<const P: usize>(s: &PackSettings<T, P>, cells: usize) -> Result<Self, Error> {
-        if s.updates_per_period == 0 || !(s.flag_ratio > T::zero() && s.flag_ratio.is_finite()) {
-            return Err(Error::BadSetting);
-        }
+        check_schedule(s)?;
         Self::with_cells(&s.cell, cells)
+    }
+
+    /// A pack of no cells, built at compile time: the value of a `static`
+    /// that [`init`](Self::init) then makes a pack of its cells in place,
+    /// so that the estimator (tens of KiB) is never built on the stack and
+    /// moved (the firmware's task). Until then it takes no sample
+    /// ([`push`](Self::push) fails with [`Error::CellCount`]) and has no
+    /// cell to report on.
+    ///
+    /// ```
+    /// use estimator_core::battery::online::OnlineSettings;
+    /// use estimator_core::battery::pack::{PackEstimator, PackSettings};
+    /// use estimator_core::battery::CellParameters;
+    ///
+    /// let s = PackSettings::new(OnlineSettings::new(1.0, 16, CellParameters::<f32>::cell_18650()));
+    /// let mut pack = PackEstimator::<f32, 64, 16, 4>::EMPTY;
+    /// assert_eq!(pack.cells(), 0);
+    /// assert!(pack.push(&s, 1.0, &[]).is_err());
+    /// pack.init(&s, 4).unwrap();
+    /// assert_eq!(pack.push(&s, 1.0, &[3.7; 4]).unwrap().rejected, 0);
+    /// ```
+    pub const EMPTY: Self = {
+        assert!(CELLS > 0, "a pack holds at least one cell");
+        Self {
+            history: CurrentHistory::new(),
+            cells: [CellState::BLANK; CELLS],
+            active: 0,
+            work: WorkingArea::BLANK,
+            tails: [PolarizationTail::BLANK; CELLS],
+            next: 0,
+        }
+    };
+
+    /// Makes this pack, whatever it held, a pack of `cells` cells with
+    /// empty windows, in place: the pack [`new`](Self::new)`(s, cells)`
+    /// returns, without a copy of it on the stack.
+    ///
+    /// # Errors
+    /// As [`new`](Self::new). On an error the pack is left with no cells
+    /// (as [`EMPTY`](Self::EMPTY)).
+    pub fn init<const P: usize>(
+        &mut self,
+        s: &PackSettings<T, P>,
+        cells: usize,
+    ) -> Result<(), Error> {
+        self.active = 0;
+        check_schedule(s)?;
+        check_cells::<T, N, CELLS, P>(&s.cell, cells)?;
+        self.work.init(&s.cell)?;
+        self.history.clear();
+        for cell in &mut self.cells {
+            cell.reset::<MEM, P>(&s.cell);
+        }
+        self.tails.fill(PolarizationTail::BLANK);
+        self.next = 0;
+        self.active = cells;
+        Ok(())
     }
 
     /// Pushes one sample period: the pack's current (A, positive when
@@ -151,7 +206,8 @@ impl<T: Real, const N: usize, const MEM: usize, const CELLS: usize>
     ///
     /// # Errors
     /// [`Error::CellCount`] when `voltages` does not have one voltage per
-    /// cell (nothing is pushed).
+    /// cell, or the pack has no cells ([`EMPTY`](Self::EMPTY) before
+    /// [`init`](Self::init)); nothing is pushed.
     pub fn push<const P: usize>(
         &mut self,
         s: &PackSettings<T, P>,
@@ -189,9 +245,10 @@ impl<T: Real, const N: usize, const MEM: usize, const CELLS: usize>
     }
 
     /// Cell `k`'s window (the pack's currents with its voltages). Cell
-    /// indices beyond the cells in use give the last cell's.
+    /// indices beyond the cells in use give the last cell's (a pack of no
+    /// cells, the first slot's).
     pub fn window(&self, k: usize) -> CellWindow<'_, T, N> {
-        let k = k.min(self.active - 1);
+        let k = k.min(self.active.saturating_sub(1));
         CellWindow::new(&self.history, &self.cells[k])
     }
 
@@ -199,7 +256,7 @@ impl<T: Real, const N: usize, const MEM: usize, const CELLS: usize>
     /// `⌈cells / updates_per_period⌉`.
     pub fn refresh_periods<const P: usize>(&self, s: &PackSettings<T, P>) -> usize {
         let u = usize::from(s.updates_per_period.max(1)).min(self.active);
-        self.active.div_ceil(u)
+        self.active.div_ceil(u.max(1))
     }
 
     /// The pack's median `R_i` and `R_ct` over the cells with an estimate
@@ -243,6 +300,33 @@ impl<T: Real, const N: usize, const MEM: usize, const CELLS: usize>
     }
 }
 
+/// A pack's schedule and health settings: at least one update a period, a
+/// positive, finite flag ratio.
+fn check_schedule<T: Real, const P: usize>(s: &PackSettings<T, P>) -> Result<(), Error> {
+    if s.updates_per_period == 0 || !(s.flag_ratio > T::zero() && s.flag_ratio.is_finite()) {
+        return Err(Error::BadSetting);
+    }
+    Ok(())
+}
+
+/// `cells` cells of a pack of capacity `CELLS` with windows of `N`
+/// samples, and the cells' settings.
+fn check_cells<T: Real, const N: usize, const CELLS: usize, const P: usize>(
+    s: &OnlineSettings<T, P>,
+    cells: usize,
+) -> Result<(), Error> {
+    if cells == 0 || cells > CELLS || cells > usize::from(u16::MAX) {
+        return Err(Error::CellCount {
+            given: cells,
+            expected: CELLS,
+        });
+    }
+    if N > usize::from(u16::MAX) {
+        return Err(Error::BadSetting);
+    }
+    check_limits(s)
+}
+
 /// The median of `x` (sorted in place; the mean of the middle two for an
 /// even count). Insertion sort: a pack has at most a few hundred cells.
 fn median<T: Real>(x: &mut [T]) -> T {
@@ -276,16 +360,7 @@ impl<T: Real, const N: usize, const MEM: usize, const CELLS: usize>
         s: &OnlineSettings<T, P>,
         cells: usize,
     ) -> Result<Self, Error> {
-        if cells == 0 || cells > CELLS || cells > usize::from(u16::MAX) {
-            return Err(Error::CellCount {
-                given: cells,
-                expected: CELLS,
-            });
-        }
-        if N > usize::from(u16::MAX) {
-            return Err(Error::BadSetting);
-        }
-        check_limits(s)?;
+        check_cells::<T, N, CELLS, P>(s, cells)?;
         let cell = CellState::new::<MEM, P>(s);
         // The working area is built in the return value: a local moved in
         // would be one more copy of its arrays on the (start-up) stack.
@@ -311,7 +386,7 @@ impl<T: Real, const N: usize, const MEM: usize, const CELLS: usize>
         mut report: impl FnMut(usize, SampleReport<T>),
     ) -> Result<(), Error> {
         let cells = self.active;
-        if voltages.len() != cells {
+        if cells == 0 || voltages.len() != cells {
             return Err(Error::CellCount {
                 given: voltages.len(),
                 expected: cells,

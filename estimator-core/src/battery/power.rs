@@ -212,16 +212,19 @@ pub struct PolarizationTail<T, const MEM: usize> {
 
 impl<T: Real, const MEM: usize> Default for PolarizationTail<T, MEM> {
     fn default() -> Self {
-        Self {
-            p: None,
-            past: [T::zero(); MEM],
-            since: 0,
-            largest: T::zero(),
-        }
+        Self::BLANK
     }
 }
 
 impl<T: Real, const MEM: usize> PolarizationTail<T, MEM> {
+    /// A tail that follows no model ([`Default`]), as a constant.
+    pub(crate) const BLANK: Self = Self {
+        p: None,
+        past: [T::ZERO; MEM],
+        since: 0,
+        largest: T::ZERO,
+    };
+
     /// The model the tail follows (`None`: it follows none).
     pub fn model(&self) -> Option<&CellParameters<T>> {
         self.p.as_ref()

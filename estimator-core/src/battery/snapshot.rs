@@ -79,16 +79,16 @@
 //!
 //! This module owns the layout, its checks and the fingerprint; it must
 //! not decide what the tracker does with a restored cell (that is
-//! [`CellState`]'s restore) nor where the bytes are stored (the firmware's
-//! storage, the C caller's flash, host-sim's file).
+//! [`CellState`](super::online::CellState)'s restore) nor where the bytes
+//! are stored (the firmware's storage, the C caller's flash, host-sim's
+//! file).
 
 use super::pack::PackEstimator;
 use super::soc::{ObserverParts, RestParts};
 use super::tracker::check_limits;
 pub use super::tracker::Restoration;
 use super::tracker::{
-    CellSnapshot, CellState, CurrentHistory, Identification, OnlineSettings, PublishedParameter,
-    PublishedParameters,
+    CellSnapshot, Identification, OnlineSettings, PublishedParameter, PublishedParameters,
 };
 use super::{CellModel, CellParameters};
 use crate::real::Real;
@@ -632,9 +632,9 @@ impl<T: Real, const N: usize, const MEM: usize, const CELLS: usize>
             buf,
             at: HEADER_BYTES,
         };
-        self.history = CurrentHistory::new();
+        self.history.clear();
         for cell in self.cells.iter_mut().take(self.active) {
-            *cell = CellState::new::<MEM, P>(s);
+            cell.reset::<MEM, P>(s);
             if let Some(snap) = CellSnapshot::read(&mut r, version) {
                 cell.restore::<MEM, P>(s, &snap, gap);
             }

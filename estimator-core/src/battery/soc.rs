@@ -295,20 +295,23 @@ pub struct SocObserver<T> {
 }
 
 impl<T: Real> SocObserver<T> {
+    /// An observer not started (`new(s, None)`, whatever `s`).
+    pub(crate) const BLANK: Self = Self {
+        x: None,
+        p: [T::ZERO; 6],
+        rest: None,
+        ocv_weight: T::ZERO,
+        observations: 0,
+        capacity_held: None,
+        set: None,
+        gap: false,
+    };
+
     /// An observer started at `soc0` with spread
     /// [`SocSettings::soc0_sigma`]; with `None`, at the first finite
     /// voltage read through the curve, with the same spread.
     pub fn new(s: &SocSettings<T>, soc0: Option<T>) -> Self {
-        let mut o = Self {
-            x: None,
-            p: [T::ZERO; 6],
-            rest: None,
-            ocv_weight: T::ZERO,
-            observations: 0,
-            capacity_held: None,
-            set: None,
-            gap: false,
-        };
+        let mut o = Self::BLANK;
         if let Some(z) = soc0.filter(|z| z.is_finite()) {
             o.start(s, z);
         }

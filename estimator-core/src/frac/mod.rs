@@ -43,6 +43,26 @@ pub struct GlWeights<T, const MEM: usize> {
 }
 
 impl<T: Real, const MEM: usize> GlWeights<T, MEM> {
+    /// The weights of `(α, h, len) = (0, 1, 1)`: `w_0 = 1`, every other
+    /// weight and derivative 0. What [`new`](Self::new) starts from, and
+    /// the value of a blank estimator built at compile time (a `static`'s)
+    /// before [`set`](Self::set) gives it its order.
+    pub(crate) const BLANK: Self = {
+        let mut w = [T::ZERO; MEM];
+        if let Some(w0) = w.first_mut() {
+            *w0 = T::ONE;
+        }
+        Self {
+            alpha: T::ZERO,
+            h: T::ONE,
+            len: 1,
+            scale: T::ONE,
+            ln_h: T::ZERO,
+            w,
+            dw: [T::ZERO; MEM],
+        }
+    };
+
     /// Weights for order `alpha`, sample period `h` (seconds, or 1 for a
     /// dimensionless sampled system) and memory length `len`.
     ///
@@ -51,22 +71,27 @@ impl<T: Real, const MEM: usize> GlWeights<T, MEM> {
     /// [`FracError::BadSamplePeriod`] unless `h` is finite and positive,
     /// [`FracError::BadMemory`] unless `1 ≤ len ≤ MEM`.
     pub fn new(alpha: T, h: T, len: usize) -> Result<Self, FracError> {
-        // The weights of (α, h, len) = (0, 1, 1), so that `set` may keep them.
-        let mut w = [T::zero(); MEM];
-        if let Some(w0) = w.first_mut() {
-            *w0 = T::one();
-        }
-        let mut me = Self {
-            alpha: T::zero(),
-            h: T::one(),
-            len: 1,
-            scale: T::one(),
-            ln_h: T::zero(),
-            w,
-            dw: [T::zero(); MEM],
-        };
+        let mut me = Self::BLANK;
         me.set(alpha, h, len)?;
         Ok(me)
+    }
+
+    /// Makes these the weights [`new`](Self::new)`(alpha, h, len)` returns,
+    /// in place (every weight beyond `len` 0 again).
+    ///
+    /// # Errors
+    /// As [`GlWeights::new`]; on error the weights are left unchanged.
+    pub(crate) fn reset(&mut self, alpha: T, h: T, len: usize) -> Result<(), FracError> {
+        // `set` computes the first `len` weights as `new` does (they are a
+        // function of the three); beyond them `new`'s are 0.
+        self.set(alpha, h, len)?;
+        for tail in [self.w.get_mut(len..), self.dw.get_mut(len..)]
+            .into_iter()
+            .flatten()
+        {
+            tail.fill(T::ZERO);
+        }
+        Ok(())
     }
 
     /// Recomputes the weights in place for a new order, period and memory.

@@ -90,6 +90,7 @@ use crate::real::Real;
 use crate::tail::{PastModes, TailKernel, MODES};
 use crate::window::Window;
 
+mod blank;
 mod information;
 mod search;
 mod sensitivities;

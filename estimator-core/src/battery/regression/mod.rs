@@ -783,6 +783,7 @@ impl<T: Real, const N: usize, const MEM: usize> PaperRegressionGi<T, N, MEM> {
     }
 }
 
+mod blank;
 mod rows;
 #[cfg(test)]
 mod tests;

@@ -19,12 +19,19 @@ pub struct CurrentHistory<T, const N: usize> {
 
 impl<T: Real, const N: usize> CurrentHistory<T, N> {
     /// An empty history.
-    pub fn new() -> Self {
+    pub const fn new() -> Self {
         Self {
             i: [T::ZERO; N],
             head: 0,
             count: 0,
         }
+    }
+
+    /// Empties the history in place (as [`new`](Self::new) makes it).
+    pub(crate) fn clear(&mut self) {
+        self.i.fill(T::ZERO);
+        self.head = 0;
+        self.count = 0;
     }
 
     /// The newest current, if any.

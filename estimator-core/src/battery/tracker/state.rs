@@ -124,6 +124,30 @@ impl<T: Real, const N: usize, const MEM: usize> WorkingArea<T, N, MEM> {
         })
     }
 
+    /// A working area built at compile time: its estimators' blank values
+    /// (every window array 0), no cell's; [`init`](Self::init) before use.
+    pub(crate) const BLANK: Self = Self {
+        gi: PaperRegressionGi::BLANK,
+        oe: OutputErrorRefinement::BLANK,
+        pw: GlWeights::BLANK,
+        owner: None,
+    };
+
+    /// Makes this area, whatever it held, the one [`new`](Self::new)
+    /// returns, in place (no copy of its arrays on the stack).
+    ///
+    /// # Errors
+    /// As [`new`](Self::new); on error the area is no cell's and must be
+    /// initialised again before use.
+    pub(crate) fn init<const P: usize>(&mut self, s: &OnlineSettings<T, P>) -> Result<(), Error> {
+        self.owner = None;
+        self.gi.init(&s.battery, s.alpha0)?;
+        self.oe.init(&s.battery, s.initial_in_window())?;
+        self.pw
+            .reset(s.initial.alpha, s.battery.h, s.battery.memory)?;
+        Ok(())
+    }
+
     /// The area is no cell's: the next iteration loads its cell's state
     /// (after the cells were replaced, by a restore).
     pub(crate) fn release(&mut self) {
@@ -152,34 +176,76 @@ impl<T: Real, const N: usize> CellState<T, N> {
     /// new working area ([`WorkingArea::new`]; test
     /// `a_new_cell_holds_a_new_working_area_state`).
     pub(crate) fn new<const MEM: usize, const P: usize>(s: &OnlineSettings<T, P>) -> Self {
-        Self {
-            u: [T::ZERO; N],
-            len: 0,
-            pushed: 0,
-            version: 0,
-            gi: PaperRegressionGi::<T, N, MEM>::initial_state(s.alpha0),
-            oe: OutputErrorRefinement::<T, N, MEM>::initial_state(s.initial_in_window()),
-            refining: s.method == Method::Refined && s.battery.prior.is_some(),
-            estimate: None,
-            soc: None,
-            ocv_now: None,
-            rest_start: None,
-            current_std: T::zero(),
-            rmse: T::infinity(),
-            spike_scale: T::nan(),
-            last_good: None,
-            status: Status::Filling,
-            counts: SampleCounts::default(),
-            spikes_in_row: 0,
-            last_rejection: None,
-            past: PastModes::new(),
-            published: PublishedParameters::NONE,
-            soc_observer: SocObserver::new(&s.soc, None),
-            step: None,
-            restoration: Restoration::Clean,
-            soc_check: false,
-            at_rest: false,
-        }
+        let mut cell = Self::BLANK;
+        cell.reset::<MEM, P>(s);
+        cell
+    }
+
+    /// A cell built at compile time: every number 0, nothing known;
+    /// [`reset`](Self::reset) before use.
+    pub(crate) const BLANK: Self = Self {
+        u: [T::ZERO; N],
+        len: 0,
+        pushed: 0,
+        version: 0,
+        gi: PaperRegressionState::BLANK,
+        oe: RefinementState::BLANK,
+        refining: false,
+        estimate: None,
+        soc: None,
+        ocv_now: None,
+        rest_start: None,
+        current_std: T::ZERO,
+        rmse: T::ZERO,
+        spike_scale: T::ZERO,
+        last_good: None,
+        status: Status::Filling,
+        counts: SampleCounts {
+            samples: 0,
+            non_finite: 0,
+            out_of_range: 0,
+            spikes: 0,
+        },
+        spikes_in_row: 0,
+        last_rejection: None,
+        past: PastModes::new(),
+        published: PublishedParameters::NONE,
+        soc_observer: SocObserver::BLANK,
+        step: None,
+        restoration: Restoration::Clean,
+        soc_check: false,
+        at_rest: false,
+    };
+
+    /// Makes this cell, whatever it held, a cell with an empty window
+    /// ([`new`](Self::new)'s), in place.
+    pub(crate) fn reset<const MEM: usize, const P: usize>(&mut self, s: &OnlineSettings<T, P>) {
+        self.u.fill(T::ZERO);
+        self.len = 0;
+        self.pushed = 0;
+        self.version = 0;
+        self.gi = PaperRegressionGi::<T, N, MEM>::initial_state(s.alpha0);
+        self.oe = OutputErrorRefinement::<T, N, MEM>::initial_state(s.initial_in_window());
+        self.refining = s.method == Method::Refined && s.battery.prior.is_some();
+        self.estimate = None;
+        self.soc = None;
+        self.ocv_now = None;
+        self.rest_start = None;
+        self.current_std = T::zero();
+        self.rmse = T::infinity();
+        self.spike_scale = T::nan();
+        self.last_good = None;
+        self.status = Status::Filling;
+        self.counts = SampleCounts::default();
+        self.spikes_in_row = 0;
+        self.last_rejection = None;
+        self.past = PastModes::new();
+        self.published = PublishedParameters::NONE;
+        self.soc_observer = SocObserver::new(&s.soc, None);
+        self.step = None;
+        self.restoration = Restoration::Clean;
+        self.soc_check = false;
+        self.at_rest = false;
     }
 
     /// With a prior the refinement starts at its centre, and from a
