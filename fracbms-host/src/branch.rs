@@ -7,7 +7,7 @@
 //! `g = 1/d` the power series of the inverse (its first `N` coefficients,
 //! by Newton's iteration `g ← g + g·(1 − d·g)` on FFTs of doubling size)
 //! and `f = drive − a·(w ∗ x_history)`. Every convolution is a real FFT of
-//! a power-of-two size at least `2N` ([`realfft`]), so none wraps: the
+//! a size at least `2N` with no prime factor above 5 ([`realfft`]), so none wraps: the
 //! values are those of the direct recursion
 //! ([`estimator_core::battery::branch::GlRecursion`]) up to rounding
 //! (test: within 1e−9 of the largest value, to 65 536 rows).
@@ -78,6 +78,10 @@ pub struct FftBranch {
     /// (with `weights.of` as its `w`).
     inverse: Spectrum,
     inverse_key: Option<(u64, usize)>,
+    /// The spectra of the last drives of
+    /// [`FftBranch::unit_branch_with_derivatives`] (a joint fit's knots
+    /// each run to their own end: one per end), most recent last.
+    drives: Vec<Spectrum>,
 }
 
 impl Clone for FftBranch {
@@ -95,10 +99,28 @@ impl fmt::Debug for FftBranch {
     }
 }
 
-/// The smallest power-of-two transform that holds the linear convolution
-/// of two sequences of `n` values.
+/// The smallest transform that holds the linear convolution of two
+/// sequences of `n` values: even, with no prime factor above 5 (a
+/// mixed-radix transform of such a size costs about what the power of two
+/// does per point, and it is up to a third shorter).
 fn transform_size(n: usize) -> usize {
-    (2 * n).next_power_of_two().max(2)
+    let want = (2 * n).max(2);
+    let mut best = want.next_power_of_two();
+    let mut p3 = 1;
+    while p3 < best {
+        let mut p35 = p3;
+        while p35 < best {
+            // The least 2^k·p35 at or above `want` (k ≥ 1).
+            let mut m = 2 * p35;
+            while m < want {
+                m *= 2;
+            }
+            best = best.min(m);
+            p35 *= 5;
+        }
+        p3 *= 3;
+    }
+    best
 }
 
 /// The transforms and their working buffers, kept between calls (a large
@@ -114,7 +136,7 @@ struct Transforms {
 }
 
 impl Transforms {
-    /// The spectrum of `x` zero-padded to `size` (a power of two), into
+    /// The spectrum of `x` zero-padded to `size` (a size of [`transform_size`]), into
     /// `out`.
     fn forward(&mut self, x: &[f64], size: usize, out: &mut Vec<Complex<f64>>) {
         let fft = self.planner.plan_fft_forward(size);
@@ -300,18 +322,28 @@ impl FftBranch {
         let size = self.prepare(&w, a, n);
         let (mut y, mut wy, mut d_tau, mut d_alpha) = (vec![], vec![], vec![], vec![]);
         let t = &mut self.t;
-        t.convolve(current, &self.inverse.hat, size, &mut self.spec, &mut y);
+        // The current's spectrum is kept (a fit drives every branch with
+        // the same current), and y's is taken once for both products.
+        let drive = kept(&mut self.drives, t, current, size);
+        let spec = &mut self.spec;
+        product(&drive.hat, &self.inverse.hat, spec);
+        t.backward(spec, size, &mut y);
         y.truncate(n);
-        t.convolve(&y, &self.weights.hat, size, &mut self.spec, &mut wy);
+        let mut y_hat = std::mem::take(&mut self.series_hat);
+        t.forward(&y, size, &mut y_hat);
+        product(&y_hat, &self.weights.hat, spec);
+        t.backward(spec, size, &mut wy);
         wy.truncate(n);
-        t.convolve(&wy, &self.inverse.hat, size, &mut self.spec, &mut d_tau);
+        t.convolve(&wy, &self.inverse.hat, size, spec, &mut d_tau);
         d_tau.truncate(n);
         d_tau.iter_mut().for_each(|x| *x *= -a);
         self.derivatives.keep(t, &dw, size);
-        t.convolve(&y, &self.derivatives.hat, size, &mut self.spec, &mut wy);
+        product(&y_hat, &self.derivatives.hat, spec);
+        t.backward(spec, size, &mut wy);
         wy.truncate(n);
-        t.convolve(&wy, &self.inverse.hat, size, &mut self.spec, &mut d_alpha);
+        t.convolve(&wy, &self.inverse.hat, size, spec, &mut d_alpha);
         d_alpha.truncate(n);
+        self.series_hat = y_hat;
         let ln_h = h.ln();
         for (x, &dt) in d_alpha.iter_mut().zip(&d_tau) {
             *x = -a * *x - ln_h * dt;
@@ -333,6 +365,36 @@ impl FftBranch {
             .map(|(&u, &i)| cell.u_oc + cell.static_voltage(i) + u)
             .collect()
     }
+}
+
+/// How many drives' spectra [`FftBranch`] keeps.
+const KEPT_DRIVES: usize = 32;
+
+/// The spectrum of `x` at `size` from `kept` (computed and kept when it is
+/// not there; the oldest is dropped beyond [`KEPT_DRIVES`]).
+fn kept<'a>(
+    kept: &'a mut Vec<Spectrum>,
+    t: &mut Transforms,
+    x: &[f64],
+    size: usize,
+) -> &'a Spectrum {
+    let at = kept.iter().position(|s| s.size == size && s.of == x);
+    let at = at.unwrap_or_else(|| {
+        if kept.len() >= KEPT_DRIVES {
+            kept.remove(0);
+        }
+        let mut s = Spectrum::default();
+        s.keep(t, x, size);
+        kept.push(s);
+        kept.len() - 1
+    });
+    &kept[at]
+}
+
+/// The product of two spectra of one size, into `out`.
+fn product(a: &[Complex<f64>], b: &[Complex<f64>], out: &mut Vec<Complex<f64>>) {
+    out.clear();
+    out.extend(a.iter().zip(b).map(|(x, y)| x * y));
 }
 
 /// True when the direct recursion is the cheaper way for `n` rows and `m`

@@ -235,3 +235,29 @@ fn the_unit_branch_derivatives_are_central_differences() {
         relative(&fd_alpha, &d_alpha)
     );
 }
+
+/// Every transform holds a linear convolution of two `n`-value sequences
+/// (at least `2n`), is even with no prime factor above 5, and is never
+/// longer than the power of two; and it is the least such size.
+#[test]
+fn transform_sizes_are_five_smooth_and_least() {
+    let smooth = |mut m: usize| {
+        for p in [2, 3, 5] {
+            while m.is_multiple_of(p) {
+                m /= p;
+            }
+        }
+        m == 1
+    };
+    for n in (1..5000).chain([24_400, 48_800, 65_536, 100_000]) {
+        let s = transform_size(n);
+        assert!(s >= 2 * n && s.is_multiple_of(2) && smooth(s), "{n}: {s}");
+        assert!(s <= (2 * n).next_power_of_two(), "{n}: {s}");
+        assert!(
+            !(2 * n..s).any(|m| m.is_multiple_of(2) && smooth(m)),
+            "{n}: {s} is not the least"
+        );
+    }
+    // The Panasonic test's 48 800 samples: 98 304 = 2^15·3, not 131 072.
+    assert_eq!(transform_size(48_800), 98_304);
+}

@@ -198,21 +198,6 @@ fn cell_of(k: [f64; 5]) -> CellParameters<f64> {
     }
 }
 
-/// The unit branch response `y` (the polarization for R_ct = 1) of time
-/// constant `e^{ln τ}` and order α over `current`.
-fn branch(b: &mut FftBranch, ln_tau: f64, alpha: f64, h: f64, current: &[f64]) -> Vec<f64> {
-    let unit = CellParameters {
-        r_i: 0.0,
-        r_ct: 1.0,
-        q: ln_tau.exp(),
-        alpha,
-        u_oc: 0.0,
-        bv_a: 0.0,
-        bv_i0: 1.0,
-    };
-    b.simulate(&unit, h, current)
-}
-
 /// The penalty's rows: per varying parameter, per interior knot, the
 /// second difference scaled (`(unknown, coefficient)` each). (The weak
 /// pull towards the start, 1 % of the weight, is [`joint_fit`]'s.)
@@ -285,11 +270,27 @@ pub fn joint_fit(
         })
         .collect();
     let shared_end = ends.iter().copied().max().unwrap_or(0);
+    // Each knot's samples and its weight at each (the ones it weighs).
+    let weighed: Vec<Vec<(usize, f64)>> = (0..kn)
+        .map(|j| {
+            (0..n)
+                .filter_map(|k| {
+                    let wk: f64 = w[k]
+                        .iter()
+                        .filter(|(i, x)| *i == j && *x > 0.0)
+                        .map(|(_, x)| x)
+                        .sum();
+                    (wk != 0.0).then_some((k, wk))
+                })
+                .collect()
+        })
+        .collect();
     let tau_alpha_vary = o.vary[2] || o.vary[3];
-    // The model at theta: the voltage, and with `jac` its Jacobian rows.
-    let mut evaluate = |theta: &[f64], jac: bool| -> (Vec<f64>, Vec<Vec<(usize, f64)>>) {
+    // The model at theta: the voltage and its Jacobian rows.
+    let mut evaluate = |theta: &[f64]| -> (Vec<f64>, Vec<Vec<(usize, f64)>>) {
         let mut v = ocv.clone();
-        let mut rows: Vec<Vec<(usize, f64)>> = if jac { vec![vec![]; n] } else { vec![] };
+        // A sample is weighed by two knots at most: ten entries a row.
+        let mut rows: Vec<Vec<(usize, f64)>> = (0..n).map(|_| Vec::with_capacity(10)).collect();
         type Branches = (Vec<f64>, Vec<f64>, Vec<f64>);
         let mut memo: Vec<((u64, u64, usize), std::rc::Rc<Branches>)> = vec![];
         for (j, &own_end) in ends.iter().enumerate() {
@@ -307,42 +308,25 @@ pub fn joint_fit(
                 None => {
                     // The branch, with its exact derivatives for the
                     // Jacobian.
-                    let (y, dy_tau, dy_alpha) = if jac {
-                        let [y, dt, da] =
-                            b.unit_branch_with_derivatives(p[2], p[3], rec.h, current);
-                        (y, dt, da)
-                    } else {
-                        (branch(&mut b, p[2], p[3], rec.h, current), vec![], vec![])
-                    };
-                    let x = std::rc::Rc::new((y, dy_tau, dy_alpha));
+                    let [y, dt, da] = b.unit_branch_with_derivatives(p[2], p[3], rec.h, current);
+                    let x = std::rc::Rc::new((y, dt, da));
                     memo.push((key, x.clone()));
                     x
                 }
             };
             let (y, dy_tau, dy_alpha) = (&ys.0, &ys.1, &ys.2);
-            for k in 0..end {
-                let wk = w[k]
-                    .iter()
-                    .filter(|(i, x)| *i == j && *x > 0.0)
-                    .map(|(_, x)| x)
-                    .sum::<f64>();
-                if wk == 0.0 {
-                    continue;
-                }
+            for &(k, wk) in &weighed[j] {
                 let i = current[k];
                 v[k] += wk * (p[4] + r_i * i + r_ct * y[k]);
-                if jac {
-                    let row = &mut rows[k];
-                    let g = [
-                        wk * r_i * i,
-                        wk * r_ct * y[k],
-                        wk * r_ct * dy_tau[k],
-                        wk * r_ct * dy_alpha[k],
-                        wk,
-                    ];
-                    for (q, gq) in g.into_iter().enumerate() {
-                        row.push((l.index(q, j), gq));
-                    }
+                let g = [
+                    wk * r_i * i,
+                    wk * r_ct * y[k],
+                    wk * r_ct * dy_tau[k],
+                    wk * r_ct * dy_alpha[k],
+                    wk,
+                ];
+                for (q, gq) in g.into_iter().enumerate() {
+                    rows[k].push((l.index(q, j), gq));
                 }
             }
         }
@@ -370,7 +354,7 @@ pub fn joint_fit(
         SCALE[p]
     };
     let mut theta = start_theta.clone();
-    let (mut v, mut jrows) = evaluate(&theta, true);
+    let (mut v, mut jrows) = evaluate(&theta);
     let mut cost = cost_of(&v, &theta);
     let mut mu = 1e-3;
     let mut it = 0;
@@ -420,13 +404,13 @@ pub fn joint_fit(
                 (theta[i] + step[i]).clamp(BOUNDS[p][0], BOUNDS[p][1])
             })
             .collect();
-        let (tv, _) = evaluate(&trial, false);
+        // The trial is taken with its Jacobian: most are accepted, and
+        // the derivatives cost less than the branch run again.
+        let (tv, trows) = evaluate(&trial);
         let tc = cost_of(&tv, &trial);
         if tc.is_finite() && tc < cost {
             let gain = (cost - tc) / cost.max(1e-300);
-            theta = trial;
-            (v, jrows) = evaluate(&theta, true);
-            cost = cost_of(&v, &theta);
+            (theta, v, jrows, cost) = (trial, tv, trows, tc);
             (a, g) = normal(&theta, &v, &jrows);
             mu = (mu / 3.0).max(1e-9);
             if gain < 1e-5 {
