@@ -6,6 +6,7 @@
 
 use crate::cycler::{CurrentSign, StepsMode};
 use crate::identify::{Algorithm, BatteryMethod, HammersteinMethod, ModelRequest};
+use crate::map::MapMethod;
 use crate::online::soc::SocMode;
 use crate::online::Precision;
 use crate::reproduce::ReproducePart;
@@ -62,6 +63,16 @@ choice!(
 );
 choice!(StepsMode: StepsMode::Auto, StepsMode::Ignore);
 choice!(ReproducePart: ReproducePart::All, ReproducePart::Example1, ReproducePart::Battery);
+
+impl Choice for MapMethod {
+    const ALL: &'static [Self] = &[MapMethod::Joint, MapMethod::Levels];
+    fn name(self) -> &'static str {
+        match self {
+            MapMethod::Joint => "joint",
+            MapMethod::Levels => "levels",
+        }
+    }
+}
 
 impl Choice for Start {
     const ALL: &'static [Self] = &[Start::FromData, Start::AtRest];

@@ -9,7 +9,7 @@ use fracbms_host::cycler::{ColumnMap, CurrentSign, RecordOptions};
 use fracbms_host::identify::many::{self, ManyOptions};
 use fracbms_host::identify::record::BatteryFitOptions;
 use fracbms_host::identify::{BatteryMethod, ModelRequest};
-use fracbms_host::map::MapOptions;
+use fracbms_host::map::{MapMethod, MapOptions};
 use fracbms_host::ocv::OcvOptions;
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
@@ -40,7 +40,7 @@ fn files(paths: &Bound<'_, PyAny>) -> PyResult<Vec<PathBuf>> {
 #[pyo3(signature = (
     paths, *, ocv = None, capacity_ah = None, soc0 = None, method = "refined", model = "auto",
     iterations = 50, memory = None, map = false, soc_bins = None, min_rest = 600.0,
-    temperature_c = None, columns = None, current_sign = "charge-positive", period_s = None,
+    map_method = "levels", temperature_c = None, columns = None, current_sign = "charge-positive", period_s = None,
     voltage_min = None, voltage_max = None, current_limit = None, jobs = None
 ))]
 #[allow(clippy::too_many_arguments)]
@@ -57,6 +57,7 @@ pub(crate) fn identify_files<'py>(
     map: bool,
     soc_bins: Option<usize>,
     min_rest: f64,
+    map_method: &str,
     temperature_c: Option<f64>,
     columns: Option<&str>,
     current_sign: &str,
@@ -92,11 +93,13 @@ pub(crate) fn identify_files<'py>(
             ..RecordOptions::default()
         },
     };
+    let map_method = choice::<MapMethod>("map_method", map_method)?;
     let m = ManyOptions {
         map: map.then(|| MapOptions {
             min_rest_s: min_rest,
             soc_bins,
             temperature_c,
+            method: map_method,
             ..MapOptions::default()
         }),
         jobs,

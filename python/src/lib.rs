@@ -196,6 +196,10 @@ fn ocv_spec(
 ///     SOC bins), each level fitted; the dict's ``map`` holds the levels
 ///     (the map CSV's columns), the levels skipped and the whole-record
 ///     RMSE of the map model beside the single fit's. Needs ``ocv``.
+/// map_method : {"joint", "levels"}
+///     How the map is fitted (``--map-method``): each level on its own
+///     stretch (the default), or every knot together over the whole
+///     record, smooth in SOC.
 /// observed : array_like of 0/1, optional
 ///     Per row, 1 where the voltage was measured and 0 where it was not (a
 ///     cycler's unlogged step start: the current known, the voltage not);
@@ -219,7 +223,7 @@ fn ocv_spec(
 #[pyo3(signature = (
     time_s, current_a, voltage_v, *, ocv = None, capacity_ah = None, soc0 = None,
     method = "refined", model = "auto", iterations = 50, memory = None,
-    map = false, soc_bins = None, min_rest = 600.0, observed = None
+    map = false, soc_bins = None, min_rest = 600.0, map_method = "levels", observed = None
 ))]
 #[allow(clippy::too_many_arguments)]
 fn identify_battery<'py>(
@@ -237,9 +241,11 @@ fn identify_battery<'py>(
     map: bool,
     soc_bins: Option<usize>,
     min_rest: f64,
+    map_method: &str,
     observed: Option<Floats<'py>>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let method: BatteryMethod = choice("method", method)?;
+    let map_method: fracbms_host::map::MapMethod = choice("map_method", map_method)?;
     // `observed`: 1 where the voltage was measured, 0 where not (a cycler's
     // unlogged step start); None: every row.
     let unobserved: Vec<bool> =
@@ -300,6 +306,7 @@ fn identify_battery<'py>(
         let o = fracbms_host::map::MapOptions {
             min_rest_s: min_rest,
             soc_bins,
+            method: map_method,
             ..fracbms_host::map::MapOptions::default()
         };
         let m = py

@@ -62,6 +62,24 @@ def test_the_map_equals_the_cli(host_sim, tmp_path):
         fracbms.identify_battery(t, i, v, map=True)
 
 
+def test_the_joint_map_equals_the_cli(host_sim, tmp_path):
+    """map_method="joint" is --map-method joint: the same map, its
+    candidates scored by leaving levels out; a bad name is refused."""
+    path = tmp_path / "hppc.csv"
+    t, i, v = hppc(path)
+    cli = cli_json(host_sim, tmp_path, "identify", "battery", "--input", path, "--ocv", OCV,
+                   "--capacity-ah", "2.5", "--soc0", "0.9", "--model", "linear",
+                   "--map-method", "joint", "--map-out", tmp_path / "map.csv")
+    py = fracbms.identify_battery(t, i, v, ocv=ocv_table(), capacity_ah=2.5, soc0=0.9,
+                                  model="linear", map=True, map_method="joint")
+    assert json.dumps(py["map"], sort_keys=True) == json.dumps(cli["map"], sort_keys=True)
+    assert py["map"]["joint"], "a joint map lists its scored candidates"
+    assert py["map"]["map_rmse_v"] <= py["map"]["single_rmse_v"]
+    with pytest.raises(ValueError, match="map_method='tabled': must be one of 'joint', 'levels'"):
+        fracbms.identify_battery(t, i, v, ocv=ocv_table(), capacity_ah=2.5, soc0=0.9,
+                                 map=True, map_method="tabled")
+
+
 def test_predict_equals_the_cli_for_a_fit_and_a_map(host_sim, tmp_path):
     path = tmp_path / "hppc.csv"
     t, i, v = hppc(path)

@@ -69,10 +69,13 @@ pub struct MapOptions {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum MapMethod {
-    /// Each level fitted on its own stretch.
+    /// Each level fitted on its own stretch (the default: as the online
+    /// prior, its levels' faster relaxations let the window publish
+    /// sooner; docs/maps.md).
     #[default]
     Levels,
-    /// Every knot fitted together over the whole record, smooth in SOC.
+    /// Every knot fitted together over the whole record, smooth in SOC (it
+    /// predicts records it was not fitted on better; docs/maps.md).
     Joint,
 }
 

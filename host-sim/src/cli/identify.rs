@@ -170,7 +170,7 @@ pub struct IdBatteryArgs {
     pub temperature_c: Option<f64>,
     /// How the map is fitted: `levels` (each level on its own stretch) or
     /// `joint` (every knot together over the whole record, smooth in SOC;
-    /// docs/maps.md).
+    /// it predicts unseen records better, docs/maps.md).
     #[arg(long, value_enum, default_value_t = MapMethodArg::Levels, requires = "map_out")]
     pub map_method: MapMethodArg,
     /// The joint map's knots: SOCs, comma-separated (default: the levels'

@@ -1,6 +1,7 @@
 use super::*;
 use crate::identify::battery::model_voltage;
 use crate::io::HostOcvTable;
+use crate::map::MapMethod;
 use crate::ocv::OcvSpec;
 use estimator_core::battery::profile::ocv_nmc;
 use estimator_core::battery::CellParameters;
@@ -139,7 +140,10 @@ fn map_recovers_each_level_and_beats_one_fit() {
         BatteryMethod::Refined,
         50,
         refine,
-        &MapOptions::default(),
+        &MapOptions {
+            method: MapMethod::Levels,
+            ..MapOptions::default()
+        },
         &[],
         None,
         &[],
@@ -432,7 +436,10 @@ fn joint_fit_recovers_the_levels() {
         BatteryMethod::Refined,
         50,
         refine,
-        &MapOptions::default(),
+        &MapOptions {
+            method: MapMethod::Levels,
+            ..MapOptions::default()
+        },
         &[],
         None,
         &[],
