@@ -13,12 +13,15 @@
 //! * [`task`]: [`task::EstimatorTask`], validation plus the core's
 //!   [`estimator_core::battery::pack::PackEstimator`] in `f32` (one cell:
 //!   the one-cell pack).
+//! * [`static_cell`]: [`static_cell::TakeOnce`], the `static` the board's
+//!   task is built in (at compile time, then initialised in place).
 //! * [`config`]: sizes and method chosen at build time (`FRACBMS_*`).
 #![cfg_attr(not(test), no_std)]
 #![deny(missing_docs)]
 
 pub mod bq769x0;
 pub mod sampler;
+pub mod static_cell;
 pub mod storage;
 pub mod task;
 

@@ -6,6 +6,7 @@ use estimator_core::battery::online::{CellState, CurrentHistory, WorkingArea};
 use estimator_core::battery::power::PolarizationTail;
 use firmware::config;
 use firmware::sampler::PackSampler;
+use firmware::static_cell::TakeOnce;
 use firmware::ConfiguredTask;
 
 /// Cost of the sample updates (timer clocks), for the performance docs.
@@ -25,13 +26,21 @@ struct Cost {
     cell_updates: u32,
 }
 
-/// Builds the task and moves it into its static. Not inlined, so that the
-/// temporaries (a task each) live in this frame, popped before the sample
-/// loop, not in `main`'s frame for ever.
+/// The task, built at compile time ([`ConfiguredTask::EMPTY`]: no cells)
+/// in its static; `make_task` initialises it there.
+static TASK: TakeOnce<ConfiguredTask> = TakeOnce::new(ConfiguredTask::EMPTY);
+
+/// Takes the task from its static and initialises it in place (no copy of
+/// it on the stack, whatever the cells). Not inlined, so that the
+/// initialisation's frames are popped before the sample loop.
 #[inline(never)]
 fn make_task(s: &firmware::task::TaskSettings) -> Option<&'static mut ConfiguredTask> {
-    match ConfiguredTask::new(s) {
-        Ok(t) => cortex_m::singleton!(: ConfiguredTask = t),
+    let Some(task) = TASK.take() else {
+        defmt::error!("the task was taken twice");
+        return None;
+    };
+    match task.init(s) {
+        Ok(()) => Some(task),
         Err(e) => {
             defmt::error!("settings rejected: {}", e);
             None
@@ -57,8 +66,8 @@ fn main() -> ! {
     let Some(task) = make_task(&s) else {
         b.finish(false)
     };
-    // The task is built on the stack and moved into its static: that peak
-    // is the start-up depth. Paint again for the depth of the sample loop.
+    // The start-up depth: the board's start and the task's initialisation
+    // in its static. Paint again for the depth of the sample loop.
     let init_stack = b.stack_high_water();
     crate::board::stack::paint();
     defmt::info!(

@@ -205,18 +205,54 @@ pub struct EstimatorTask<const N: usize, const MEM: usize, const C: usize> {
 }
 
 impl<const N: usize, const MEM: usize, const C: usize> EstimatorTask<N, MEM, C> {
+    /// The task built at compile time, with no cells: the value of the
+    /// board's `static` task, which [`init`](Self::init) then makes a task
+    /// for `C` cells in place. So the task (tens of KiB: every cell's state
+    /// and the core's working area) is never built on the stack and moved
+    /// into its static; the start-up stack stays the same whatever the
+    /// cells (docs/firmware.md, "Measured").
+    pub const EMPTY: Self = Self {
+        pack: PackEstimator::EMPTY,
+        faults: FaultCounts {
+            adc: 0,
+            saturated: 0,
+            dropped: 0,
+            stuck: 0,
+            temperature: 0,
+        },
+        runs: [None; C],
+        volts: [f32::NAN; C],
+        map_prior: None,
+        follower: MapFollower::new(),
+        power: None,
+    };
+
     /// A task for `C` cells with empty windows; fails on inconsistent
-    /// settings.
+    /// settings. Built by value: on the target, take the static
+    /// [`EMPTY`](Self::EMPTY) and [`init`](Self::init) it instead.
     pub fn new(s: &TaskSettings) -> Result<Self, Error> {
-        Ok(Self {
-            pack: PackEstimator::new(&s.pack, C)?,
-            faults: FaultCounts::default(),
-            runs: [None; C],
-            volts: [f32::NAN; C],
-            map_prior: None,
-            follower: MapFollower::new(),
-            power: None,
-        })
+        let mut task = Self::EMPTY;
+        task.init(s)?;
+        Ok(task)
+    }
+
+    /// Makes this task, whatever it held, a task for `C` cells with empty
+    /// windows (the one [`new`](Self::new) returns), in place: no copy of
+    /// the task on the stack.
+    ///
+    /// # Errors
+    /// Inconsistent settings (the core's
+    /// [`PackEstimator::init`]); the task then has no cells and takes no
+    /// sample until an `init` succeeds.
+    pub fn init(&mut self, s: &TaskSettings) -> Result<(), Error> {
+        self.pack.init(&s.pack, C)?;
+        self.faults = FaultCounts::default();
+        self.runs = [None; C];
+        self.volts = [f32::NAN; C];
+        self.map_prior = None;
+        self.follower = MapFollower::new();
+        self.power = None;
+        Ok(())
     }
 
     /// Handles this period's sample: the sampler's result and the cell

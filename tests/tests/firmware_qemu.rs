@@ -10,6 +10,8 @@ mod harness;
 mod pack_states;
 #[path = "firmware_qemu/persistence.rs"]
 mod persistence;
+#[path = "firmware_qemu/stack.rs"]
+mod stack;
 
 use harness::*;
 use std::path::Path;
