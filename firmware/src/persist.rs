@@ -1,7 +1,8 @@
 //! The snapshot on the board (docs/persistence.md): restored at boot with
 //! the core's judgement, saved by the write policy
-//! ([`firmware::storage::SavePolicy`]) and, under QEMU, saved before the
-//! reset `FRACBMS_RESET_AT` asks for.
+//! ([`firmware::storage::SavePolicy`], scaled to the board's region and
+//! this image's snapshot for [`FLASH_LIFE_YEARS`]) and, under QEMU, saved
+//! before the reset `FRACBMS_RESET_AT` asks for.
 //!
 //! It owns when to save and what to log; the bytes and their checks are
 //! the core's, the store is `firmware::storage`'s, the region the board's.
@@ -15,6 +16,8 @@ use firmware::{config, ConfiguredTask};
 const SNAPSHOT: usize = snapshot_bytes(config::CELLS);
 /// The store's scratch: the snapshot, its key, rounded up to a word.
 const SCRATCH: usize = SNAPSHOT + 16;
+/// The snapshot region's life the save policy keeps (years).
+const FLASH_LIFE_YEARS: u32 = 10;
 
 /// What the snapshot did in this run, for the final `PERSIST` line.
 pub struct Persistence<F: embedded_storage_async::nor_flash::NorFlash> {
@@ -39,7 +42,7 @@ impl<F: embedded_storage_async::nor_flash::NorFlash> Persistence<F> {
     ) -> Self {
         let mut p = Self {
             store: b.snapshot_store(),
-            policy: SavePolicy::default(),
+            policy: SavePolicy::for_region(&B::SNAPSHOT_REGION, SNAPSHOT as u32, FLASH_LIFE_YEARS),
             since_save: 0,
             rested: 0,
             saves: 0,
@@ -118,15 +121,17 @@ impl<F: embedded_storage_async::nor_flash::NorFlash> Persistence<F> {
         }
     }
 
-    /// The run's `PERSIST` line.
+    /// The run's `PERSIST` line (with the policy's shortest interval
+    /// between saves).
     pub fn report(&self) {
         defmt::println!(
-            "PERSIST bytes={=usize} saves={=u32} failed_saves={=u32} save_clocks_max={=u64} restore_clocks={=u64}",
+            "PERSIST bytes={=usize} saves={=u32} failed_saves={=u32} save_clocks_max={=u64} restore_clocks={=u64} min_interval_s={=u32}",
             SNAPSHOT,
             self.saves,
             self.failed_saves,
             self.save_clocks_max,
-            self.restore_clocks
+            self.restore_clocks,
+            self.policy.min_interval_s
         );
     }
 }

@@ -188,7 +188,8 @@ pub(crate) fn insert_stack(s: &Summary, out: &mut serde_json::Map<String, serde_
 /// `restore_status` (`restored`, `none`, `rejected`, `no_store`),
 /// `last_save_clocks`, `snapshot_bytes`, `snapshot_saves` (this boot's),
 /// `save_clocks_max` and `restore_clocks` (timer clocks; 40 instructions
-/// each under `--icount`).
+/// each under `--icount`), `save_min_interval_s` (the save policy's
+/// shortest interval, scaled to the region and the snapshot).
 pub(crate) fn insert_persist(s: &Summary, out: &mut serde_json::Map<String, serde_json::Value>) {
     if let Some(status) = s.get("RESTORE").and_then(|m| m.get("status")) {
         out.insert("restore_status".into(), status.clone().into());
@@ -205,6 +206,7 @@ pub(crate) fn insert_persist(s: &Summary, out: &mut serde_json::Map<String, serd
         ("saves", "snapshot_saves"),
         ("save_clocks_max", "save_clocks_max"),
         ("restore_clocks", "restore_clocks"),
+        ("min_interval_s", "save_min_interval_s"),
     ] {
         let v = number(s, "PERSIST", key).unwrap_or_else(|_| number_or_null(m, key));
         out.insert(name.into(), v);

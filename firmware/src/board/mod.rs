@@ -6,7 +6,7 @@
 //! reserved flash region (docs/persistence.md), a reset, and a way to stop.
 
 use firmware::sampler::PackSampler;
-use firmware::storage::SnapshotStore;
+use firmware::storage::{FlashRegion, SnapshotStore};
 
 #[cfg(feature = "board-qemu")]
 pub mod qemu;
@@ -47,6 +47,9 @@ pub trait BoardApi {
     fn finish(&mut self, ok: bool) -> !;
     /// The NOR flash the snapshot is kept in.
     type SnapshotFlash: embedded_storage_async::nor_flash::NorFlash;
+    /// The snapshot region's geometry and endurance: what the save policy
+    /// is scaled to ([`firmware::storage::SavePolicy::for_region`]).
+    const SNAPSHOT_REGION: FlashRegion;
     /// The snapshot's store over the board's reserved region (`None`: the
     /// board keeps none yet). Called once, at boot.
     fn snapshot_store(&mut self) -> Option<SnapshotStore<Self::SnapshotFlash>>;

@@ -25,13 +25,13 @@ use cortex_m_semihosting::debug;
 use defmt_semihosting as _;
 use firmware::sampler::ReplaySampler;
 use firmware::storage::ram_flash::RamFlash;
-use firmware::storage::SnapshotStore;
+use firmware::storage::{FlashRegion, SnapshotStore};
 
-/// The NOR model's geometry: the STM32L4's (8-byte words, 2 KiB pages),
-/// 8 pages.
-const WORD: usize = 8;
-const PAGE: usize = 2048;
-const PAGES: usize = 8;
+/// The NOR model's geometry: the STM32L452 region's (8-byte words, 8
+/// pages of 2 KiB).
+const WORD: usize = FlashRegion::STM32L452.word_bytes as usize;
+const PAGE: usize = FlashRegion::STM32L452.page_bytes as usize;
+const PAGES: usize = FlashRegion::STM32L452.pages as usize;
 
 /// What survives a system reset: the reset record and the NOR model.
 #[repr(C, align(8))]
@@ -175,6 +175,9 @@ impl BoardApi for Qemu {
     }
 
     type SnapshotFlash = RamFlash<'static, WORD, PAGE>;
+    /// The model wears nothing, but the policy is the one of the flash it
+    /// models.
+    const SNAPSHOT_REGION: FlashRegion = FlashRegion::STM32L452;
 
     fn snapshot_store(&mut self) -> Option<SnapshotStore<Self::SnapshotFlash>> {
         let flash = self.flash.take()?;

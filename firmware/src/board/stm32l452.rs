@@ -41,7 +41,7 @@ use embassy_stm32::time::Hertz;
 use embassy_stm32::timer::low_level::Timer;
 use embassy_stm32::Config;
 use firmware::config;
-use firmware::storage::{BlockingFlash, SnapshotStore};
+use firmware::storage::{BlockingFlash, FlashRegion, SnapshotStore};
 use panic_probe as _;
 
 #[cfg(not(feature = "stm32l452-bq769x0"))]
@@ -162,6 +162,8 @@ impl BoardApi for Stm32l452 {
     /// (8-byte words, 2 KiB pages), over the region `boards/stm32l452.x`
     /// reserves (the last 16 KiB). Not run on hardware yet: built in CI.
     type SnapshotFlash = BlockingFlash<Flash>;
+    /// `boards/stm32l452.x`'s 16 KiB: 8 pages of 2 KiB.
+    const SNAPSHOT_REGION: FlashRegion = FlashRegion::STM32L452;
 
     fn snapshot_store(&mut self) -> Option<SnapshotStore<Self::SnapshotFlash>> {
         let flash = self.flash.take()?;
