@@ -469,11 +469,12 @@ pub fn battery_file(input: &Path, out: &Path, o: &PredictOptions) -> Result<Pred
 /// `predict battery` on several records: each read and run as
 /// [`battery_file`]; with one record its CSV goes to `out`; with `report`,
 /// the validation page of [`report::write`] and each record's CSV go into
-/// that folder.
+/// that folder; with neither, only the returned predictions (the CLI's
+/// `--json`).
 ///
 /// # Errors
 /// As [`battery_file`]; [`crate::ErrorKind::Options`] for `out` with
-/// several records, or neither `out` nor `report`.
+/// several records.
 pub fn battery_files(
     inputs: &[PathBuf],
     out: Option<&Path>,
@@ -489,9 +490,6 @@ pub fn battery_files(
             "--out takes one --input; with {} give --report DIR (each record's CSV goes there)",
             inputs.len()
         );
-    }
-    if out.is_none() && report.is_none() {
-        bail!(Options, "give --out FILE or --report DIR");
     }
     let model = read_model(&o.model)?;
     let spec = OcvSpec::from_options(&o.ocv)?;

@@ -29,8 +29,8 @@ pub struct PredictBatteryArgs {
     #[command(flatten)]
     pub ocv: OcvArgs,
     /// Output: `time_s,current_a,voltage_v,model_v,observed` (one
-    /// --input).
-    #[arg(long, required_unless_present = "report")]
+    /// --input). One of --out, --report and --json is needed.
+    #[arg(long, required_unless_present_any = ["report", "json"])]
     pub out: Option<PathBuf>,
     /// The validation page: into this folder, `report.md` (per record the
     /// RMSE and largest error over the measured samples inside the OCV

@@ -116,6 +116,32 @@ fn a_pulse_fit_predicts_a_drive_cycle() {
     assert!(o.status.success());
     assert!(read_json(&json)["rmse_v"].as_f64().unwrap() > 5.0 * rmse);
 
+    // `--json` alone is an output: the same errors, no CSV needed. With no
+    // output at all the command says so and exits non-zero.
+    let only = tmp("predict-only.json");
+    let base = [
+        "predict",
+        "battery",
+        "--model",
+        s(&fit),
+        "--input",
+        s(&drive),
+        "--ocv",
+        s(&table),
+        "--capacity-ah",
+        "2.5",
+        "--soc0",
+        "0.9",
+    ];
+    let mut a = base.to_vec();
+    a.extend(["--json", s(&only)]);
+    let o = run(&a);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_eq!(read_json(&only)["rmse_v"].as_f64().unwrap(), rmse);
+    let o = run(&base);
+    assert_ne!(o.status.code(), Some(0));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("--out"));
+
     // A fit made with an OCV table needs one; a file that is no fit.
     for (model, extra, expect) in [
         (s(&fit), vec![], "give --ocv"),
