@@ -10,6 +10,7 @@ use crate::error::{IoContext, Result};
 use crate::io::{self, OCV_POINTS};
 use crate::ocv::{CellOcv, OcvOptions};
 use crate::online::power::{PowerOptions, PowerRow, ResolvedPower, MAX_HORIZONS};
+use crate::online::schema::{self, column, fields, Column, Field, Value};
 use crate::online::soc::{SocMode, SocOptions, SocRow, SOC_HEADER};
 use crate::online::state::{read_state, record_clock, saved, write_state, StateIn};
 use crate::online::TrackOptions;
@@ -307,61 +308,76 @@ pub struct PackRow {
     pub restoration: Restoration,
 }
 
-/// One value of a pack track row, in [`pack_track_header`]'s order: the
-/// CSV prints a `Number` as `{:.9e}` (empty for `None`), a `Flag` as 0/1;
-/// Python's `online_pack` makes a column of each.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum PackField {
-    /// `time_s`.
-    Time(f64),
-    /// `cell` (1-based).
-    Cell(usize),
-    /// A number, `None` when empty.
-    Number(Option<f64>),
-    /// `rejected`, `flagged`.
-    Flag(bool),
-    /// A status or a name.
-    Text(&'static str),
-}
+/// The columns of the long-format track `online pack` writes (`--out`)
+/// and Python's `online_pack` returns, one row per cell and sample.
+///
+/// As `online battery`'s track ([`crate::online::schema::TRACK_COLUMNS`]):
+/// `r_i, r_ct, q, alpha` are what the cell publishes (only what the data
+/// identify; empty otherwise), each with its `*_status`; `window_*` is the
+/// window's fit, identified or not; `rejected` and `flagged` are 0 or 1.
+/// Then the cell's state of charge as `online battery`'s (`soc`, then
+/// [`SOC_HEADER`], `capacity_status`; empty without `--ocv`), the cell's
+/// state of power (`sop_discharge_a_{H}s`, `sop_charge_a_{H}s`,
+/// `pulse_v_{H}s` for each of the run's horizons) and the string's
+/// (`pack_sop_discharge_a_{H}s`, `pack_sop_charge_a_{H}s`,
+/// `pack_pulse_v_{H}s`: the weakest cell's currents and the sum of the
+/// cells' pulse voltages, the same on every cell's row of a sample).
+pub const PACK_COLUMNS: [Column<PackRow>; 28] = {
+    use Value::{Flag, Index, Number, Power, Time, Word};
+    [
+        column("time_s", Time(|r| r.t)),
+        column("cell", Index(|r| r.cell)),
+        column("r_i", Number(|r| r.published.r_i.value)),
+        column("r_ct", Number(|r| r.published.r_ct.value)),
+        column("q", Number(|r| r.published.q.value)),
+        column("alpha", Number(|r| r.published.alpha.value)),
+        column("u_oc", Number(|r| r.estimate.map(|p| p.u_oc))),
+        column("status", Word(|r| Some(r.status))),
+        column("rejected", Flag(|r| r.rejected)),
+        column("flagged", Flag(|r| r.flagged)),
+        column(
+            "r_i_status",
+            Word(|r| Some(r.published.r_i.status.as_str())),
+        ),
+        column(
+            "r_ct_status",
+            Word(|r| Some(r.published.r_ct.status.as_str())),
+        ),
+        column("q_status", Word(|r| Some(r.published.q.status.as_str()))),
+        column(
+            "alpha_status",
+            Word(|r| Some(r.published.alpha.status.as_str())),
+        ),
+        column("window_r_i", Number(|r| r.estimate.map(|p| p.r_i))),
+        column("window_r_ct", Number(|r| r.estimate.map(|p| p.r_ct))),
+        column("window_q", Number(|r| r.estimate.map(|p| p.q))),
+        column("window_alpha", Number(|r| r.estimate.map(|p| p.alpha))),
+        column("soc", Number(|r| r.soc.published())),
+        column(SOC_HEADER[0], Number(|r| r.soc.columns()[0])),
+        column(SOC_HEADER[1], Number(|r| r.soc.columns()[1])),
+        column(SOC_HEADER[2], Number(|r| r.soc.columns()[2])),
+        column(SOC_HEADER[3], Number(|r| r.soc.columns()[3])),
+        column(SOC_HEADER[4], Number(|r| r.soc.columns()[4])),
+        column(SOC_HEADER[5], Number(|r| r.soc.columns()[5])),
+        column("capacity_status", Word(|r| Some(r.soc.capacity_status()))),
+        column("", Power(|r| &r.power)),
+        column("pack_", Power(|r| &r.string_power)),
+    ]
+};
 
-impl PackRow {
-    /// The row's values in [`pack_track_header`]'s order, for `horizons`
-    /// state-of-power horizons.
-    pub fn fields(&self, horizons: usize) -> Vec<PackField> {
-        use PackField::{Flag, Number, Text};
-        let (pb, e) = (&self.published, self.estimate);
-        let mut out = vec![
-            PackField::Time(self.t),
-            PackField::Cell(self.cell),
-            Number(pb.r_i.value),
-            Number(pb.r_ct.value),
-            Number(pb.q.value),
-            Number(pb.alpha.value),
-            Number(e.map(|p| p.u_oc)),
-            Text(self.status),
-            Flag(self.rejected),
-            Flag(self.flagged),
-        ];
-        out.extend(pb.named().map(|(_, x)| Text(x.status.as_str())));
-        out.extend([
-            Number(e.map(|p| p.r_i)),
-            Number(e.map(|p| p.r_ct)),
-            Number(e.map(|p| p.q)),
-            Number(e.map(|p| p.alpha)),
-            Number(self.soc.published()),
-        ]);
-        out.extend(self.soc.columns().map(Number));
-        out.push(Text(self.soc.capacity_status()));
-        for p in self
-            .power
-            .iter()
-            .take(horizons)
-            .chain(self.string_power.iter().take(horizons))
-        {
-            out.extend([Number(p.discharge_a), Number(p.charge_a), Number(p.pulse_v)]);
-        }
-        out
+/// The pack track's last column with `--state-in`: how the cell started
+/// (`restored`, `soc_reread` or `clean`).
+pub const PACK_RESTORATION: Column<PackRow> =
+    column("restoration", Value::Word(|r| Some(r.restoration.as_str())));
+
+/// The columns of `online pack`'s track at `horizons` (s): [`PACK_COLUMNS`],
+/// and [`PACK_RESTORATION`] when `restoration`.
+pub fn pack_fields(horizons: &[f64], restoration: bool) -> Vec<Field<PackRow>> {
+    let mut out = fields(&PACK_COLUMNS, horizons);
+    if restoration {
+        out.extend(fields(&[PACK_RESTORATION], horizons));
     }
+    out
 }
 
 /// What a pack run ended with: per cell, samples rejected.
@@ -616,29 +632,6 @@ impl Default for OnlinePack {
     }
 }
 
-/// The header of the long-format track CSV `online pack` writes.
-///
-/// As `online battery`'s track: `r_i, r_ct, q, alpha` are what the cell
-/// publishes (only what the data identify; empty otherwise), each with its
-/// `*_status`; `window_*` is the window's fit, identified or not.
-pub const PACK_TRACK_HEADER: &str = "time_s,cell,r_i,r_ct,q,alpha,u_oc,status,rejected,flagged,r_i_status,r_ct_status,q_status,alpha_status,window_r_i,window_r_ct,window_q,window_alpha";
-
-/// The whole header of `online pack`'s track: [`PACK_TRACK_HEADER`], then
-/// the cell's state of charge as `online battery`'s (`soc`, then
-/// [`SOC_HEADER`], `capacity_status`; empty without `--ocv`), the cell's
-/// state of power (`sop_discharge_a_{H}s`, `sop_charge_a_{H}s`,
-/// `pulse_v_{H}s` for each of `power`'s horizons) and the string's
-/// (`pack_sop_discharge_a_{H}s`, `pack_sop_charge_a_{H}s`,
-/// `pack_pulse_v_{H}s`: the weakest cell's currents and the sum of the
-/// cells' pulse voltages, the same on every cell's row of a sample).
-pub fn pack_track_header(power: &PowerOptions) -> String {
-    let (cell, string) = (power.header(), power.header_prefixed("pack_"));
-    format!(
-        "{PACK_TRACK_HEADER},soc,{},capacity_status{cell}{string}",
-        SOC_HEADER.join(",")
-    )
-}
-
 /// Runs the pack estimator over `rec` as `a` says (the CLI's flags), with
 /// the cells' curve and capacity `model` (the CLI reads it from `a.ocv`;
 /// Python's `online_pack` gives it as arrays); `a.ocv.soc0` sets every
@@ -702,38 +695,16 @@ pub fn run_pack_with(
 
 /// `online pack`: reads the pack record `input`, runs the pack estimator
 /// over it as `a` says and writes the long-format track to `out` (columns
-/// [`PACK_TRACK_HEADER`], one row per cell and sample). Returns the
+/// [`pack_fields`], one row per cell and sample). Returns the
 /// summary and the number of cells.
 pub fn online_file(input: &Path, out: &Path, a: &OnlinePack) -> Result<(PackSummary, usize)> {
     let rec = read_pack(input)?;
     let model = crate::ocv::model(&a.ocv)?;
-    let horizons = a.power.horizons().len();
-    let f = |x: f64| format!("{x:.9e}");
+    let fields = pack_fields(a.power.horizons(), a.state_in.is_some());
     let mut res = Ok(PackSummary::default());
-    let restoration = if a.state_in.is_some() {
-        ",restoration"
-    } else {
-        ""
-    };
     io::write_atomic(out, |w| {
-        writeln!(w, "{}{restoration}", pack_track_header(&a.power))?;
-        res = run_pack(&rec, a, model, |r| {
-            for (k, x) in r.fields(horizons).into_iter().enumerate() {
-                let sep = if k == 0 { "" } else { "," };
-                match x {
-                    PackField::Time(t) => write!(w, "{sep}{t}")?,
-                    PackField::Cell(c) => write!(w, "{sep}{c}")?,
-                    PackField::Number(v) => write!(w, "{sep}{}", v.map(f).unwrap_or_default())?,
-                    PackField::Flag(b) => write!(w, "{sep}{}", u8::from(b))?,
-                    PackField::Text(t) => write!(w, "{sep}{t}")?,
-                }
-            }
-            if a.state_in.is_some() {
-                write!(w, ",{}", r.restoration.as_str())?;
-            }
-            writeln!(w)?;
-            Ok(())
-        });
+        writeln!(w, "{}", schema::header(&fields))?;
+        res = run_pack(&rec, a, model, |r| Ok(schema::write_row(w, &fields, &r)?));
         res.clone().map(|_| ())
     })?;
     let summary = res?;

@@ -2,6 +2,7 @@
 //! (`host-sim online battery`), over `fracbms_host::online::Tracker`.
 
 use super::*;
+use fracbms_host::online::schema::{track_fields, Cell, Kind};
 use fracbms_host::online::soc::{SocMode, SocOptions};
 use fracbms_host::online::PublicationTally;
 use pyo3::types::PyBytes;
@@ -75,88 +76,22 @@ pub(crate) struct OnlineCell {
     horizons: Vec<f64>,
 }
 
-/// The state-of-power columns of a row, `(name, value)` per horizon `H`:
-/// `sop_discharge_a_{H}s`, `sop_charge_a_{H}s`, `pulse_v_{H}s`.
-fn power_columns(horizons: &[f64], r: &TrackRow) -> Vec<(String, Option<f64>)> {
-    horizons
-        .iter()
-        .zip(&r.power)
-        .flat_map(|(h, p)| {
-            [
-                (format!("sop_discharge_a_{h}s"), p.discharge_a),
-                (format!("sop_charge_a_{h}s"), p.charge_a),
-                (format!("pulse_v_{h}s"), p.pulse_v),
-            ]
-        })
-        .collect()
-}
-
-/// One numeric column of a track row.
-type Column = fn(&TrackRow) -> Option<f64>;
-
-/// The numeric columns of a track row under the names of `online battery
-/// --out` (`None`: the CSV's empty cell): `push`'s dict and `run`'s arrays.
-/// `r_i`, `r_ct`, `q`, `alpha` are the published values (the last window's
-/// that identified each); `window_*` the last good window's fit.
-const TRACK_NUMBERS: [(&str, Column); 23] = [
-    ("time_s", |r| Some(r.t)),
-    ("r_i", |r| r.published.r_i.value),
-    ("r_ct", |r| r.published.r_ct.value),
-    ("q", |r| r.published.q.value),
-    ("alpha", |r| r.published.alpha.value),
-    ("u_oc", |r| r.estimate.map(|p| p.u_oc)),
-    ("soc", |r| r.soc),
-    ("ocv_offset_v", |r| r.estimate.and(r.ocv_offset)),
-    ("bv_a_v", |r| butler_volmer(r).map(|p| p.bv_a)),
-    ("bv_i0_a", |r| butler_volmer(r).map(|p| p.bv_i0)),
-    ("predicted_v", |r| r.predicted),
-    ("step_resistance_ohm", |r| r.step_resistance),
-    ("window_r_i", |r| r.estimate.map(|p| p.r_i)),
-    ("window_r_ct", |r| r.estimate.map(|p| p.r_ct)),
-    ("window_q", |r| r.estimate.map(|p| p.q)),
-    ("window_alpha", |r| r.estimate.map(|p| p.alpha)),
-    ("soc_coulomb", |r| r.soc_detail.columns()[0]),
-    ("current_bias_a", |r| r.soc_detail.columns()[1]),
-    ("capacity_ah", |r| r.soc_detail.columns()[2]),
-    ("capacity_sigma_ah", |r| r.soc_detail.columns()[3]),
-    ("soc_sigma", |r| r.soc_detail.columns()[4]),
-    ("soc_ocv_weight", |r| r.soc_detail.columns()[5]),
-    ("soh_r", |r| r.soh_r),
-];
-
-/// One text column of a track row.
-type Text = fn(&TrackRow) -> &'static str;
-
-/// The status columns of a track row (`identified`, `held`, `step`,
-/// `prior`, `expired`, `restored` or `not_identified`), as in `online
-/// battery --out`.
-const TRACK_STATUSES: [(&str, Text); 5] = [
-    ("r_i_status", |r| r.published.r_i.status.as_str()),
-    ("r_ct_status", |r| r.published.r_ct.status.as_str()),
-    ("q_status", |r| r.published.q.status.as_str()),
-    ("alpha_status", |r| r.published.alpha.status.as_str()),
-    ("capacity_status", |r| r.soc_detail.capacity_status()),
-];
-
-/// The estimate of a row when it has the Butler–Volmer term.
-fn butler_volmer(r: &TrackRow) -> Option<CellParameters<f64>> {
-    r.estimate.filter(|p| p.is_butler_volmer())
-}
-
-/// A track row as `push` returns it.
+/// A track row as `push` returns it: the columns of `online battery --out`
+/// (`fracbms_host::online::schema::TRACK_COLUMNS`, without `restoration`)
+/// under their names, the
+/// numbers first (`None`: the CSV's empty cell), then the words.
 fn row_dict<'py>(py: Python<'py>, r: &TrackRow, horizons: &[f64]) -> PyResult<Bound<'py, PyDict>> {
     let d = PyDict::new(py);
-    for (k, f) in TRACK_NUMBERS {
-        d.set_item(k, f(r))?;
+    let fields = track_fields(horizons, false);
+    let (numbers, words): (Vec<_>, Vec<_>) = fields.iter().partition(|f| f.is_number());
+    for f in numbers.into_iter().chain(words) {
+        match f.cell(r) {
+            Cell::Index(k) => d.set_item(f.name(), k)?,
+            Cell::Flag(b) => d.set_item(f.name(), b)?,
+            Cell::Word(w) => d.set_item(f.name(), w)?,
+            c => d.set_item(f.name(), c.number())?,
+        }
     }
-    for (k, v) in power_columns(horizons, r) {
-        d.set_item(k, v)?;
-    }
-    d.set_item("status", r.status)?;
-    for (k, f) in TRACK_STATUSES {
-        d.set_item(k, f(r))?;
-    }
-    d.set_item("rejected", r.rejected)?;
     Ok(d)
 }
 
@@ -470,34 +405,45 @@ impl OnlineCell {
                 .collect()
         });
         self.pushed += rows.len() as u64;
+        // The columns of `row_dict`, each an array (NaN where the CSV is
+        // empty, `""` for an empty word); no rows, no state-of-power
+        // columns.
+        let horizons: &[f64] = if rows.is_empty() { &[] } else { &self.horizons };
+        let fields = track_fields(horizons, false);
+        let (numbers, words): (Vec<_>, Vec<_>) = fields.iter().partition(|f| f.is_number());
         let d = PyDict::new(py);
-        for (k, f) in TRACK_NUMBERS {
-            let column: Vec<f64> = rows.iter().map(|r| f(r).unwrap_or(f64::NAN)).collect();
-            d.set_item(k, PyArray1::from_vec(py, column))?;
-        }
-        for (j, (k, _)) in rows
-            .first()
-            .map(|r| power_columns(&self.horizons, r))
-            .unwrap_or_default()
-            .into_iter()
-            .enumerate()
-        {
-            let column: Vec<f64> = rows
-                .iter()
-                .map(|r| power_columns(&self.horizons, r)[j].1.unwrap_or(f64::NAN))
-                .collect();
-            d.set_item(k, PyArray1::from_vec(py, column))?;
-        }
         let np = py.import("numpy")?;
-        let strings = |f: &dyn Fn(&TrackRow) -> &'static str| -> PyResult<Bound<'py, PyAny>> {
-            let list: Vec<&str> = rows.iter().map(f).collect();
-            np.call_method1("array", (list, "U16"))
-        };
-        d.set_item("status", strings(&|r| r.status)?)?;
-        for (k, f) in TRACK_STATUSES {
-            d.set_item(k, strings(&f)?)?;
+        for f in numbers.into_iter().chain(words) {
+            let cells = rows.iter().map(|r| f.cell(r));
+            match f.kind() {
+                Kind::Time | Kind::Number => {
+                    let c: Vec<f64> = cells.map(|c| c.number().unwrap_or(f64::NAN)).collect();
+                    d.set_item(f.name(), PyArray1::from_vec(py, c))?;
+                }
+                Kind::Index => {
+                    let c: Vec<i64> = cells
+                        .map(|c| match c {
+                            Cell::Index(k) => k as i64,
+                            _ => 0,
+                        })
+                        .collect();
+                    d.set_item(f.name(), PyArray1::from_vec(py, c))?;
+                }
+                Kind::Flag => {
+                    let c: Vec<bool> = cells.map(|c| c == Cell::Flag(true)).collect();
+                    d.set_item(f.name(), PyArray1::from_vec(py, c))?;
+                }
+                Kind::Word => {
+                    let c: Vec<&str> = cells
+                        .map(|c| match c {
+                            Cell::Word(w) => w.unwrap_or(""),
+                            _ => "",
+                        })
+                        .collect();
+                    d.set_item(f.name(), np.call_method1("array", (c, "U16"))?)?;
+                }
+            }
         }
-        d.set_item("rejected", strings(&|r| r.rejected.unwrap_or(""))?)?;
         Ok(d)
     }
 

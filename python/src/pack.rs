@@ -4,11 +4,10 @@
 //! dict of columns.
 
 use fracbms_host::ocv::OcvOptions;
+use fracbms_host::online::schema::{Cell, Field, Kind};
 use fracbms_host::online::soc::SocOptions;
 use fracbms_host::online::state::StateIn;
-use fracbms_host::pack::{
-    pack_track_header, run_pack_with, OnlinePack, PackField, PackRecord, Snapshots,
-};
+use fracbms_host::pack::{pack_fields, run_pack_with, OnlinePack, PackRecord, PackRow, Snapshots};
 use fracbms_host::worker::on_worker;
 use numpy::{AllowTypeChange, PyArray1, PyArrayLike2};
 use pyo3::exceptions::PyValueError;
@@ -37,7 +36,7 @@ use crate::{choice, ocv_spec, power_options, vec, Floats};
 /// samples are at `t0 + k·h`): the snapshot's clock, as the record's
 /// `time_s` is the CLI's.
 ///
-/// Returns a dict of the track's columns ([`pack_track_header`]), one row
+/// Returns a dict of the track's columns ([`pack_fields`]), one row
 /// per sample and cell (cell 1 first): numbers as float arrays (NaN where
 /// the CSV is empty), `time_s` float, `cell` int, `rejected` and
 /// `flagged` bool arrays, statuses as lists of str. `pandas.DataFrame(d)`
@@ -139,7 +138,6 @@ pub fn online_pack<'py>(
         state_in: None,
         state_out: None,
     };
-    let n = power.horizons().len();
     let restoring = state_in.is_some();
     let snapshots = Snapshots {
         state_in: state_in.as_deref(),
@@ -150,11 +148,7 @@ pub fn online_pack<'py>(
             on_worker(|| {
                 let mut rows = Vec::with_capacity(samples * cells);
                 run_pack_with(&rec, &a, spec.map(|s| s.model), snapshots, |r| {
-                    let mut fields = r.fields(n);
-                    if restoring {
-                        fields.push(PackField::Text(r.restoration.as_str()));
-                    }
-                    rows.push(fields);
+                    rows.push(r);
                     Ok(())
                 })
                 .map(|summary| (rows, summary))
@@ -176,11 +170,7 @@ pub fn online_pack<'py>(
             "state_in: snapshot rejected: {e}"
         )));
     }
-    let mut header = pack_track_header(&power);
-    if restoring {
-        header.push_str(",restoration");
-    }
-    let track = columns(py, &header, &rows)?;
+    let track = columns(py, &pack_fields(power.horizons(), restoring), &rows)?;
     match summary.state_out.filter(|_| return_state) {
         Some(bytes) => Ok(PyTuple::new(
             py,
@@ -191,53 +181,48 @@ pub fn online_pack<'py>(
     }
 }
 
-/// The rows as a dict of columns named by `header`.
+/// The rows as a dict of `fields`' columns: an `int64` array of `cell`, a
+/// `bool` array of a flag, a list of words, else a `float64` array (NaN
+/// where the CSV is empty); without rows, every column a `float64` array.
 fn columns<'py>(
     py: Python<'py>,
-    header: &str,
-    rows: &[Vec<PackField>],
+    fields: &[Field<PackRow>],
+    rows: &[PackRow],
 ) -> PyResult<Bound<'py, PyDict>> {
     let d = PyDict::new(py);
-    for (k, name) in header.split(',').enumerate() {
-        let at = |r: &Vec<PackField>| r.get(k).copied();
-        match rows.first().and_then(at) {
-            Some(PackField::Cell(_)) => {
-                let c: Vec<i64> = rows
-                    .iter()
-                    .map(|r| match at(r) {
-                        Some(PackField::Cell(c)) => c as i64,
+    for f in fields {
+        let cells = rows.iter().map(|r| f.cell(r));
+        let kind = if rows.is_empty() {
+            Kind::Number
+        } else {
+            f.kind()
+        };
+        match kind {
+            Kind::Index => {
+                let c: Vec<i64> = cells
+                    .map(|c| match c {
+                        Cell::Index(k) => k as i64,
                         _ => 0,
                     })
                     .collect();
-                d.set_item(name, PyArray1::from_vec(py, c))?;
+                d.set_item(f.name(), PyArray1::from_vec(py, c))?;
             }
-            Some(PackField::Flag(_)) => {
-                let c: Vec<bool> = rows
-                    .iter()
-                    .map(|r| matches!(at(r), Some(PackField::Flag(true))))
-                    .collect();
-                d.set_item(name, PyArray1::from_vec(py, c))?;
+            Kind::Flag => {
+                let c: Vec<bool> = cells.map(|c| c == Cell::Flag(true)).collect();
+                d.set_item(f.name(), PyArray1::from_vec(py, c))?;
             }
-            Some(PackField::Text(_)) => {
-                let c: Vec<&str> = rows
-                    .iter()
-                    .map(|r| match at(r) {
-                        Some(PackField::Text(t)) => t,
+            Kind::Word => {
+                let c: Vec<&str> = cells
+                    .map(|c| match c {
+                        Cell::Word(w) => w.unwrap_or(""),
                         _ => "",
                     })
                     .collect();
-                d.set_item(name, PyList::new(py, c)?)?;
+                d.set_item(f.name(), PyList::new(py, c)?)?;
             }
-            _ => {
-                let c: Vec<f64> = rows
-                    .iter()
-                    .map(|r| match at(r) {
-                        Some(PackField::Time(t)) => t,
-                        Some(PackField::Number(Some(x))) => x,
-                        _ => f64::NAN,
-                    })
-                    .collect();
-                d.set_item(name, PyArray1::from_vec(py, c))?;
+            Kind::Time | Kind::Number => {
+                let c: Vec<f64> = cells.map(|c| c.number().unwrap_or(f64::NAN)).collect();
+                d.set_item(f.name(), PyArray1::from_vec(py, c))?;
             }
         }
     }

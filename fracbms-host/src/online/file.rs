@@ -1,8 +1,9 @@
 //! `online battery` over a file: the CLI's flags as options
-//! ([`OnlineBatteryOptions`]), the track CSV ([`TRACK_HEADER`]) and the run
+//! ([`OnlineBatteryOptions`]) and the run
 //! ([`battery_file`]): the record read, the prior and the OCV table
 //! resolved, a snapshot restored (`--state-in`) and saved
-//! (`--state-out`), the rows written. The estimator and its loop are the
+//! (`--state-out`), the rows written (their columns are
+//! [`super::schema::TRACK_COLUMNS`]'s). The estimator and its loop are the
 //! parent module's ([`super::Tracker`], [`super::track_with`]).
 
 use super::*;
@@ -96,32 +97,10 @@ pub struct OnlineReport {
     pub state_in: state::StateIn,
 }
 
-/// The header of the track CSV `online battery` writes. `r_i`, `r_ct`, `q`
-/// and `alpha` are the published values: each the last window's that the
-/// data identified, empty before the first; its `*_status` column says
-/// `identified`, `held` or `not_identified` (`PublishedParameters`).
-/// `step_resistance_ohm` is the last precise current step's `ΔU/ΔI`;
-/// `window_r_i`… are the last good window's fit, identified or not (what
-/// the track's `r_i`… columns held before issue 35, and what the firmware
-/// still logs). `soc` is the published SOC ([`soc::SocOptions`]);
-/// `soc_coulomb` the estimator's count, and `current_bias_a`,
-/// `capacity_ah`, `capacity_sigma_ah`, `soc_sigma`, `soc_ocv_weight` the
-/// observer's
-/// ([`soc::SOC_HEADER`]); `soh_r` the published R_i over the prior's or
-/// map's; `capacity_status` whether the data identify `capacity_ah`.
-/// The file then has the state-of-power columns
-/// ([`power::PowerOptions::header`]) and `rejected`: why the sample
-/// was rejected and substituted (`non_finite`, `out_of_range`, `spike`),
-/// empty when it was accepted. With `--state-in`, a last column
-/// `restoration`: `restored`, `soc_reread` (the stored SOC contradicted by
-/// the first rested voltage, read again through the OCV table) or `clean`
-/// (the snapshot was rejected); the published parameters' `*_status` is
-/// `restored` until a window identifies them.
-pub const TRACK_HEADER: &str = "time_s,r_i,r_ct,q,alpha,u_oc,status,soc,ocv_offset_v,bv_a_v,bv_i0_a,predicted_v,r_i_status,r_ct_status,q_status,alpha_status,step_resistance_ohm,window_r_i,window_r_ct,window_q,window_alpha,soc_coulomb,current_bias_a,capacity_ah,capacity_sigma_ah,soc_sigma,soc_ocv_weight,soh_r,capacity_status";
-
 /// `online battery`: reads the record `input`, runs the online estimator
 /// over it as `o` says and writes the track to `out` (columns
-/// [`TRACK_HEADER`]; atomically).
+/// [`schema::TRACK_COLUMNS`], and [`schema::TRACK_RESTORATION`] with
+/// `--state-in`; atomically).
 ///
 /// # Errors
 /// A file that cannot be read or written, data or options that are
@@ -170,7 +149,6 @@ pub fn battery_file(input: &Path, out: &Path, o: &OnlineBatteryOptions) -> Resul
         None => (None, None),
     };
     let memory = o.memory.unwrap_or(o.window / 4);
-    let g = |x: Option<f64>| x.map(|x| format!("{x:.9e}")).unwrap_or_default();
     let t = TrackOptions {
         window: o.window,
         memory,
@@ -192,19 +170,11 @@ pub fn battery_file(input: &Path, out: &Path, o: &OnlineBatteryOptions) -> Resul
         Some(p) => state::StateIn::of(tracker.restore_state(&state::read_state(p)?, first_t)),
         None => state::StateIn::NotGiven,
     };
-    let restoration = if o.state_in.is_some() {
-        ",restoration"
-    } else {
-        ""
-    };
+    let fields = schema::track_fields(o.power.horizons(), o.state_in.is_some());
     let summary = {
         let mut res = Ok(TrackSummary::default());
         io::write_atomic(out, |w| {
-            writeln!(
-                w,
-                "{TRACK_HEADER}{},rejected{restoration}",
-                o.power.header()
-            )?;
+            writeln!(w, "{}", schema::header(&fields))?;
             let gaps = &read.report.resampling.gaps;
             let temperature = read.temperature.as_deref();
             // A sample inside a step's unlogged start has no voltage: the
@@ -224,50 +194,7 @@ pub fn battery_file(input: &Path, out: &Path, o: &OnlineBatteryOptions) -> Resul
                     r.rejected = Some("unobserved");
                 }
                 k += 1;
-                let bv = r.estimate.filter(|p| p.is_butler_volmer());
-                let pb = &r.published;
-                let statuses = pb.named().map(|(_, x)| x.status.as_str()).join(",");
-                let pv = |x: PublishedParameter<f64>| g(x.value);
-                write!(
-                    w,
-                    "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
-                    r.t,
-                    pv(pb.r_i),
-                    pv(pb.r_ct),
-                    pv(pb.q),
-                    pv(pb.alpha),
-                    g(r.estimate.map(|p| p.u_oc)),
-                    r.status,
-                    g(r.soc),
-                    g(r.estimate.and(r.ocv_offset)),
-                    g(bv.map(|p| p.bv_a)),
-                    g(bv.map(|p| p.bv_i0)),
-                    g(r.predicted),
-                    statuses,
-                    g(r.step_resistance),
-                    g(r.estimate.map(|p| p.r_i)),
-                    g(r.estimate.map(|p| p.r_ct)),
-                    g(r.estimate.map(|p| p.q)),
-                    g(r.estimate.map(|p| p.alpha)),
-                )?;
-                for x in r.soc_detail.columns() {
-                    write!(w, ",{}", g(x))?;
-                }
-                write!(w, ",{},{}", g(r.soh_r), r.soc_detail.capacity_status())?;
-                for p in &r.power[..o.power.horizons().len()] {
-                    write!(
-                        w,
-                        ",{},{},{}",
-                        g(p.discharge_a),
-                        g(p.charge_a),
-                        g(p.pulse_v)
-                    )?;
-                }
-                write!(w, ",{}", r.rejected.unwrap_or(""))?;
-                if o.state_in.is_some() {
-                    write!(w, ",{}", r.restoration.as_str())?;
-                }
-                writeln!(w)?;
+                schema::write_row(w, &fields, &r)?;
                 Ok(())
             });
             res.clone().map(|_| ())

@@ -11,7 +11,7 @@ use crate::{io, progress};
 use estimator_core::battery::map::MapFollower;
 use estimator_core::battery::ocv::OcvModel;
 use estimator_core::battery::online::{
-    CellEstimator, Method, OnlineSettings, PublishedParameter, PublishedParameters, Rejection,
+    CellEstimator, Method, OnlineSettings, PublishedParameters, Rejection,
 };
 use estimator_core::battery::output_error::RefinementWork;
 use estimator_core::battery::snapshot::{Restoration, RestorePolicy, SnapshotError};
@@ -27,11 +27,12 @@ pub use prior::{
 mod file;
 pub mod power;
 mod prior;
+pub mod schema;
 pub mod soc;
 pub mod state;
 mod tally;
 
-pub use file::{battery_file, OnlineBatteryOptions, OnlineReport, TRACK_HEADER};
+pub use file::{battery_file, OnlineBatteryOptions, OnlineReport};
 pub use tally::PublicationTally;
 
 /// Floating-point precision of an online estimator.

@@ -113,25 +113,6 @@ impl PowerOptions {
         &self.horizons_s[..self.count]
     }
 
-    /// The columns' names, each with a leading comma (to follow
-    /// [`super::TRACK_HEADER`]).
-    pub fn header(&self) -> String {
-        self.header_prefixed("")
-    }
-
-    /// [`Self::header`] with every name prefixed (`pack_`: the string's
-    /// columns of `online pack`).
-    pub fn header_prefixed(&self, prefix: &str) -> String {
-        self.horizons()
-            .iter()
-            .map(|h| {
-                format!(
-                    ",{prefix}sop_discharge_a_{h}s,{prefix}sop_charge_a_{h}s,{prefix}pulse_v_{h}s"
-                )
-            })
-            .collect()
-    }
-
     /// The limits and the pulse for a cell with `cell`'s table and
     /// capacity; `None` where the voltage limits are neither given nor
     /// known from a table.

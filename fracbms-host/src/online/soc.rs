@@ -136,7 +136,7 @@ impl SocRow {
         self.observer.map(|e| e.soc).or(self.coulomb)
     }
 
-    /// The columns after [`super::TRACK_HEADER`]'s `soc`, in
+    /// The columns after the track's `soc` ([`super::schema::TRACK_COLUMNS`]), in
     /// [`SOC_HEADER`]'s order.
     pub fn columns(&self) -> [Option<f64>; 6] {
         let e = self.observer;
