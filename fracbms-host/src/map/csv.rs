@@ -1,53 +1,155 @@
-//! The map's CSV: [`MAP_COLUMNS`] written, and read back with the
-//! contract's eleven columns required and the rest read when present.
+//! The map's CSV: one table of its columns ([`MAP_CSV`]: each column's
+//! name and its cell of a row), written, and read back with the contract's
+//! eleven columns required and the rest read when present. A column is
+//! added here once: the header ([`MAP_COLUMNS`]) and the writer follow.
 
-use super::{MapRow, ParameterMap, MAP_COLUMNS};
+use super::{MapRow, ParameterMap};
 use crate::error::Result;
 use crate::io;
 use crate::trust::Confidence;
 use crate::{bail, err};
 use std::path::Path;
 
+/// One column of the map's CSV: its header and its cell of a row.
+#[derive(Clone, Copy, Debug)]
+pub struct MapColumn {
+    /// The header.
+    pub name: &'static str,
+    /// The row's cell (empty for unknown: a temperature, a linear level's
+    /// Butler–Volmer columns, missing intervals).
+    pub cell: fn(&MapRow) -> String,
+}
+
+/// An optional value's cell: empty for `None`.
+fn opt(x: Option<f64>) -> String {
+    x.map_or(String::new(), |x| x.to_string())
+}
+
+/// Bound `i` (0: low, 1: high) of the interval `f` picks, or empty.
+fn bound(r: &MapRow, f: fn(&Confidence) -> [f64; 2], i: usize) -> String {
+    opt(r.confidence.as_ref().map(|c| f(c)[i]))
+}
+
+/// The map's CSV, column by column, in order (the contract's eleven
+/// first).
+pub const MAP_CSV: [MapColumn; 23] = [
+    MapColumn {
+        name: "temperature_c",
+        cell: |r| opt(r.temperature_c),
+    },
+    MapColumn {
+        name: "soc",
+        cell: |r| r.soc.to_string(),
+    },
+    MapColumn {
+        name: "r_i",
+        cell: |r| r.r_i.to_string(),
+    },
+    MapColumn {
+        name: "r_ct",
+        cell: |r| r.r_ct.to_string(),
+    },
+    MapColumn {
+        name: "q",
+        cell: |r| r.q.to_string(),
+    },
+    MapColumn {
+        name: "alpha",
+        cell: |r| r.alpha.to_string(),
+    },
+    MapColumn {
+        name: "bv_a_v",
+        cell: |r| opt(r.bv_a_v),
+    },
+    MapColumn {
+        name: "bv_i0_a",
+        cell: |r| opt(r.bv_i0_a),
+    },
+    MapColumn {
+        name: "ocv_offset_v",
+        cell: |r| r.ocv_offset_v.to_string(),
+    },
+    MapColumn {
+        name: "rmse_v",
+        cell: |r| r.rmse_v.to_string(),
+    },
+    MapColumn {
+        name: "identifiable",
+        cell: |r| r.identifiable.to_string(),
+    },
+    MapColumn {
+        name: "r_i_lo",
+        cell: |r| bound(r, |c| c.r_i, 0),
+    },
+    MapColumn {
+        name: "r_i_hi",
+        cell: |r| bound(r, |c| c.r_i, 1),
+    },
+    MapColumn {
+        name: "r_ct_lo",
+        cell: |r| bound(r, |c| c.r_ct, 0),
+    },
+    MapColumn {
+        name: "r_ct_hi",
+        cell: |r| bound(r, |c| c.r_ct, 1),
+    },
+    MapColumn {
+        name: "q_lo",
+        cell: |r| bound(r, |c| c.q, 0),
+    },
+    MapColumn {
+        name: "q_hi",
+        cell: |r| bound(r, |c| c.q, 1),
+    },
+    MapColumn {
+        name: "alpha_lo",
+        cell: |r| bound(r, |c| c.alpha, 0),
+    },
+    MapColumn {
+        name: "alpha_hi",
+        cell: |r| bound(r, |c| c.alpha, 1),
+    },
+    MapColumn {
+        name: "start_s",
+        cell: |r| r.start_s.to_string(),
+    },
+    MapColumn {
+        name: "end_s",
+        cell: |r| r.end_s.to_string(),
+    },
+    MapColumn {
+        name: "samples",
+        cell: |r| r.samples.to_string(),
+    },
+    MapColumn {
+        name: "identifiable_reason",
+        cell: |r| r.identifiable_reason.clone().unwrap_or_default(),
+    },
+];
+
+/// The map's CSV headers, in order: [`MAP_CSV`]'s names.
+pub const MAP_COLUMNS: [&str; 23] = {
+    let mut out = [""; 23];
+    let mut i = 0;
+    while i < out.len() {
+        out[i] = MAP_CSV[i].name;
+        i += 1;
+    }
+    out
+};
+
 impl ParameterMap {
-    /// Writes the map as CSV ([`MAP_COLUMNS`]; empty cells for unknown
-    /// temperature, a linear level's BV columns and missing intervals).
+    /// Writes the map as CSV ([`MAP_CSV`]).
     ///
     /// # Errors
     /// [`crate::ErrorKind::Io`] when the file cannot be written.
     pub fn write_csv(&self, path: &Path) -> Result<()> {
-        let opt = |x: Option<f64>| x.map_or(String::new(), |x| x.to_string());
         io::write_csv(
             path,
             &MAP_COLUMNS,
-            self.rows.iter().map(|r| {
-                let c = r.confidence.as_ref();
-                let iv = |f: fn(&Confidence) -> [f64; 2], i: usize| opt(c.map(|c| f(c)[i]));
-                vec![
-                    opt(r.temperature_c),
-                    r.soc.to_string(),
-                    r.r_i.to_string(),
-                    r.r_ct.to_string(),
-                    r.q.to_string(),
-                    r.alpha.to_string(),
-                    opt(r.bv_a_v),
-                    opt(r.bv_i0_a),
-                    r.ocv_offset_v.to_string(),
-                    r.rmse_v.to_string(),
-                    r.identifiable.to_string(),
-                    iv(|c| c.r_i, 0),
-                    iv(|c| c.r_i, 1),
-                    iv(|c| c.r_ct, 0),
-                    iv(|c| c.r_ct, 1),
-                    iv(|c| c.q, 0),
-                    iv(|c| c.q, 1),
-                    iv(|c| c.alpha, 0),
-                    iv(|c| c.alpha, 1),
-                    r.start_s.to_string(),
-                    r.end_s.to_string(),
-                    r.samples.to_string(),
-                    r.identifiable_reason.clone().unwrap_or_default(),
-                ]
-            }),
+            self.rows
+                .iter()
+                .map(|r| MAP_CSV.iter().map(|c| (c.cell)(r)).collect::<Vec<_>>()),
         )
     }
 

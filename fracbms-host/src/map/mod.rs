@@ -20,9 +20,8 @@ use estimator_core::battery::CellParameters;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
-pub use row::{
-    JointCandidate, MapJson, MapMethod, MapOptions, MapRow, JOINT_PARAMETERS, MAP_COLUMNS,
-};
+pub use self::csv::{MapColumn, MAP_COLUMNS, MAP_CSV};
+pub use row::{JointCandidate, MapJson, MapMethod, MapOptions, MapRow, JOINT_PARAMETERS};
 
 mod csv;
 mod row;

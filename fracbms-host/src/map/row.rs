@@ -6,33 +6,6 @@ use crate::trust::Confidence;
 use estimator_core::battery::CellParameters;
 use serde::{Deserialize, Serialize};
 
-/// The map's CSV columns, in order (the contract's eleven first).
-pub const MAP_COLUMNS: [&str; 23] = [
-    "temperature_c",
-    "soc",
-    "r_i",
-    "r_ct",
-    "q",
-    "alpha",
-    "bv_a_v",
-    "bv_i0_a",
-    "ocv_offset_v",
-    "rmse_v",
-    "identifiable",
-    "r_i_lo",
-    "r_i_hi",
-    "r_ct_lo",
-    "r_ct_hi",
-    "q_lo",
-    "q_hi",
-    "alpha_lo",
-    "alpha_hi",
-    "start_s",
-    "end_s",
-    "samples",
-    "identifiable_reason",
-];
-
 /// How a record is split into SOC levels.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default)]

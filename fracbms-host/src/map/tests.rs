@@ -67,3 +67,52 @@ fn a_map_round_trips_with_its_reasons() {
     assert!(new[1].identifiable);
     assert_eq!(new[1].samples, 101);
 }
+
+/// Each column of the map's CSV holds the row's field of its name (the
+/// JSON of `identify battery` names them alike), the intervals' bounds
+/// included: the one table of columns maps each header to its field.
+#[test]
+fn each_csv_column_is_its_named_field() {
+    let row = MapRow {
+        temperature_c: Some(25.0),
+        soc: 0.5,
+        r_i: 0.021,
+        r_ct: 0.016,
+        q: 480.0,
+        alpha: 0.71,
+        bv_a_v: Some(0.012),
+        bv_i0_a: Some(1.5),
+        ocv_offset_v: -0.001,
+        rmse_v: 0.0021,
+        identifiable: false,
+        identifiable_reason: Some("R_ct, Q too wide".to_owned()),
+        confidence: Some(crate::trust::Confidence {
+            r_i: [0.020, 0.022],
+            r_ct: [0.014, 0.018],
+            q: [400.0, 560.0],
+            alpha: [0.69, 0.73],
+        }),
+        start_s: 10.0,
+        end_s: 900.0,
+        samples: 446,
+    };
+    let json = serde_json::to_value(&row).unwrap();
+    assert_eq!(MAP_COLUMNS.len(), MAP_CSV.len());
+    for (c, name) in MAP_CSV.iter().zip(MAP_COLUMNS) {
+        assert_eq!(c.name, name);
+        let cell = (c.cell)(&row);
+        let want = match name.rsplit_once('_') {
+            Some((p, end @ ("lo" | "hi"))) => {
+                json["confidence"][p][usize::from(end == "hi")].clone()
+            }
+            _ => json[name].clone(),
+        };
+        let same = match &want {
+            serde_json::Value::String(s) => cell == *s,
+            serde_json::Value::Bool(b) => cell == b.to_string(),
+            serde_json::Value::Number(n) => cell.parse::<f64>().ok() == n.as_f64(),
+            _ => false,
+        };
+        assert!(same, "column `{name}`: `{cell}` against {want}");
+    }
+}
