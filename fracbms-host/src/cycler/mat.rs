@@ -137,6 +137,29 @@ pub(super) fn read(bytes: &[u8], path: &Path, o: &RecordOptions) -> Result<Cycle
     let top: Vec<(String, &MatVariable)> = file.iter().map(|(k, v)| (k.clone(), v)).collect();
     let mut found = vec![];
     tables("", top, 0, &mut found);
+    let wanted: Vec<&str> = o
+        .table
+        .as_deref()
+        .map(|t| t.split(',').map(str::trim).collect())
+        .unwrap_or_default();
+    if wanted.len() > 1 {
+        return joined(&found, &wanted, path, o);
+    }
+    let (table, choice) = pick(&found, o.table.as_deref(), path, o)?;
+    let raw = rows_of(table, &choice, path, o)?;
+    let mut r = finish(raw, 0, &choice, path, o)?;
+    r.report.table = Some(table.path.clone());
+    Ok(r)
+}
+
+/// The table `want` names (or, without a name, the one table whose fields
+/// name a time, a current and a voltage) and its columns.
+fn pick<'t>(
+    found: &'t [Table],
+    want: Option<&str>,
+    path: &Path,
+    o: &RecordOptions,
+) -> Result<(&'t Table, ColumnChoice)> {
     let listed = |t: &[&Table]| {
         let mut s: Vec<String> = t.iter().take(6).map(|t| format!("`{}`", t.path)).collect();
         if t.len() > 6 {
@@ -144,9 +167,9 @@ pub(super) fn read(bytes: &[u8], path: &Path, o: &RecordOptions) -> Result<Cycle
         }
         s.join(", ")
     };
-    let (table, choice) = match &o.table {
+    let (table, choice) = match want {
         Some(want) => {
-            let Some(t) = found.iter().find(|t| &t.path == want) else {
+            let Some(t) = found.iter().find(|t| t.path == want) else {
                 bail!(
                     Data,
                     "{}: no table `{want}` (tables of numeric vectors: {})",
@@ -207,6 +230,16 @@ pub(super) fn read(bytes: &[u8], path: &Path, o: &RecordOptions) -> Result<Cycle
             }
         }
     };
+    Ok((table, choice))
+}
+
+/// The rows of `table`'s chosen columns, in SI units and the record's sign.
+fn rows_of(
+    table: &Table,
+    choice: &ColumnChoice,
+    path: &Path,
+    o: &RecordOptions,
+) -> Result<RawRows> {
     let col = |i: usize| &table.columns[i].1;
     let n = col(choice.time.index).len();
     for ch in [&choice.current, &choice.voltage] {
@@ -266,9 +299,94 @@ pub(super) fn read(bytes: &[u8], path: &Path, o: &RecordOptions) -> Result<Cycle
         temperature,
         rows: (1..=n).collect(),
         clock_time: false,
-        extra: extra(&choice, &col, n),
+        extra: extra(choice, &col, n),
     };
+    Ok(raw)
+}
+
+/// The least time (s) between two joined tables: beyond the default
+/// longest step that is not a gap (300 s), so the join is a gap.
+pub(super) const JOIN_GAP_S: f64 = 600.0;
+
+/// Several tables joined in the order named (`--table A,B,…`): each
+/// starts [`JOIN_GAP_S`] (or twice `--max-gap`) after the one before
+/// ended, a gap across which the SOC is read again from the rested voltage
+/// (the pulse records of one test, each at its own SOC, whose discharges
+/// between were not exported). Their columns must be the same. The
+/// export's own charge is not carried across (it counts what the gap
+/// leaves out).
+fn joined(
+    found: &[Table],
+    wanted: &[&str],
+    path: &Path,
+    o: &RecordOptions,
+) -> Result<CyclerRecord> {
+    let gap = o.max_gap.map_or(JOIN_GAP_S, |g| (2.0 * g).max(JOIN_GAP_S));
+    let mut all: Option<(RawRows, ColumnChoice)> = None;
+    for want in wanted {
+        let (table, choice) = pick(found, Some(want), path, o)?;
+        let mut raw = rows_of(table, &choice, path, o)?;
+        let Some((acc, first)) = all.as_mut() else {
+            all = Some((raw, choice));
+            continue;
+        };
+        if (
+            &choice.time.header,
+            &choice.current.header,
+            &choice.voltage.header,
+        ) != (
+            &first.time.header,
+            &first.current.header,
+            &first.voltage.header,
+        ) {
+            bail!(
+                Data,
+                "{}: table `{}`: its columns are not those of `{}`; joined tables must share them",
+                path.display(),
+                table.path,
+                wanted[0]
+            );
+        }
+        let end = acc.time.last().copied().unwrap_or(0.0);
+        let start = raw.time.first().copied().unwrap_or(0.0);
+        let n0 = acc.rows.len();
+        // A table that starts on a rested row (no current: a pulse
+        // record's last row of the rest before its pulse) has rested
+        // through the gap: its voltage is held over the last second of
+        // the gap, where the SOC is read again (the pulse follows the row
+        // within a period).
+        if raw.current.first() == Some(&0.0) {
+            acc.time.push(end + gap - 1.0);
+            acc.current.push(0.0);
+            acc.voltage.push(raw.voltage[0]);
+            if let (Some(a), Some(b)) = (acc.temperature.as_mut(), raw.temperature.as_ref()) {
+                a.push(b[0]);
+            }
+            acc.rows.push(n0 + 1);
+            acc.extra.append(raw.extra.first_row());
+        }
+        acc.time
+            .extend(raw.time.iter().map(|t| t - start + end + gap));
+        acc.current.append(&mut raw.current);
+        acc.voltage.append(&mut raw.voltage);
+        acc.temperature = match (acc.temperature.take(), raw.temperature.take()) {
+            (Some(mut a), Some(mut b)) => {
+                a.append(&mut b);
+                Some(a)
+            }
+            _ => None,
+        };
+        acc.rows.extend(raw.rows.iter().map(|r| r + n0));
+        acc.extra.append(raw.extra);
+    }
+    let Some((mut raw, mut choice)) = all else {
+        bail!(Data, "{}: --table names no table", path.display());
+    };
+    raw.extra.charge = None;
+    raw.extra.discharge_charge = None;
+    choice.charge = None;
+    choice.discharge_charge = None;
     let mut r = finish(raw, 0, &choice, path, o)?;
-    r.report.table = Some(table.path.clone());
+    r.report.table = Some(wanted.join(","));
     Ok(r)
 }

@@ -97,7 +97,10 @@ pub struct RecordOptions {
     pub max_gap: Option<f64>,
     /// In a MAT-file: the struct holding the columns, as a dot path
     /// (`T25.SoC5.Cell1.data`); default: the one struct whose fields name a
-    /// time, a current and a voltage.
+    /// time, a current and a voltage. Several, comma-separated, are joined
+    /// in that order into one record, each after a gap of at least
+    /// 600 s (the pulse records of one test, each at its own
+    /// SOC: the SOC is read again from the rested voltage after each gap).
     pub table: Option<String>,
     /// The most samples the caller takes (None: no limit). A uniform log
     /// longer than this is resampled at the period
@@ -191,6 +194,12 @@ impl RecordReport {
             _ => ", no temperature".to_string(),
         };
         let at = match &self.table {
+            Some(t) if t.contains(',') => format!(
+                "{} MAT tables joined in this order, each after a gap of at least {:.0} s (rest assumed, the SOC read again after it): `{}`",
+                t.split(',').count(),
+                mat::JOIN_GAP_S,
+                t.replace(',', "`, `")
+            ),
             Some(t) => format!("MAT table `{t}`"),
             None => format!("row {}", self.header_row + 1),
         };
@@ -202,10 +211,14 @@ impl RecordReport {
         let steps = match (st.starts_from, &st.step_time_column) {
             ("ignored", _) => "; step starts ignored (--steps ignore): each row's current held to the next".to_string(),
             (_, Some(h)) => format!(
-                "; step starts from `{h}`: {} of {} steps began before their first row ({} unobserved samples)",
+                "; step starts from `{h}`: {} of {} steps began before their first row ({} unobserved samples){}",
                 st.unlogged.len(),
                 st.changes,
-                self.unobserved_samples
+                self.unobserved_samples,
+                match st.switch_rows {
+                    0 => String::new(),
+                    n => format!(", {n} rows at step time 0 taken as the switch, not a measurement"),
+                }
             ),
             _ => "; no step-time column: each row's current held to the next".to_string(),
         };

@@ -59,6 +59,38 @@ impl Extra {
             discharge_charge: c.discharge_charge.as_ref().map(|_| vec![]),
         }
     }
+
+    /// The first row alone.
+    pub fn first_row(&self) -> Self {
+        fn first<T: Clone>(a: &Option<Vec<T>>) -> Option<Vec<T>> {
+            a.as_ref().map(|v| v.iter().take(1).cloned().collect())
+        }
+        Self {
+            step: first(&self.step),
+            step_time: first(&self.step_time),
+            state: first(&self.state),
+            charge: first(&self.charge),
+            discharge_charge: first(&self.discharge_charge),
+        }
+    }
+
+    /// `other`'s rows after these (a column either lacks is dropped).
+    pub fn append(&mut self, other: Self) {
+        fn join<T>(a: &mut Option<Vec<T>>, b: Option<Vec<T>>) {
+            *a = match (a.take(), b) {
+                (Some(mut x), Some(mut y)) => {
+                    x.append(&mut y);
+                    Some(x)
+                }
+                _ => None,
+            };
+        }
+        join(&mut self.step, other.step);
+        join(&mut self.step_time, other.step_time);
+        join(&mut self.state, other.state);
+        join(&mut self.charge, other.charge);
+        join(&mut self.discharge_charge, other.discharge_charge);
+    }
 }
 
 /// How step starts are read (`--steps`).
@@ -110,6 +142,12 @@ pub struct StepReport {
     /// The steps that began before their first row (their start placed
     /// by the step time).
     pub unlogged: Vec<Unlogged>,
+    /// Rows logged at a step time of 0 after a step change: the switch
+    /// itself, not a measurement (Digatron writes 0 A there, and the
+    /// loaded voltage where a pulse ends). The step begins at such a
+    /// row's time; its first measurement is its first row with a step
+    /// time above 0, and the stretch between is [`Unlogged`].
+    pub switch_rows: usize,
 }
 
 /// How the state column signed the current (JSON `record.state`).
@@ -238,6 +276,16 @@ pub(super) fn place_starts(
     c: &ColumnChoice,
     path: &Path,
 ) -> Result<(RawRows, StepReport)> {
+    let switch = match mode {
+        StepsMode::Auto => switch_rows(&raw, keep),
+        StepsMode::Ignore => vec![false; keep.len()],
+    };
+    let keep: Vec<usize> = keep
+        .iter()
+        .zip(&switch)
+        .filter_map(|(&i, &s)| (!s).then_some(i))
+        .collect();
+    let keep = &keep[..];
     let pick = |col: &[f64]| keep.iter().map(|&i| col[i]).collect::<Vec<f64>>();
     let step = raw.extra.step.as_deref().map(pick);
     let step_time = raw.extra.step_time.as_deref().map(pick);
@@ -249,6 +297,7 @@ pub(super) fn place_starts(
         },
         step_column: c.step.as_ref().map(|c| c.header.clone()),
         step_time_column: c.step_time.as_ref().map(|c| c.header.clone()),
+        switch_rows: switch.iter().filter(|&&s| s).count(),
         ..StepReport::default()
     };
     let mut out = RawRows {
@@ -338,6 +387,46 @@ pub(super) fn place_starts(
         }
     }
     Ok((out, report))
+}
+
+/// Which of the rows `keep` (in time order) are a step's switch: after a
+/// step change (the index changes, or without one the step time
+/// restarts), at a step time of 0 (to 1 ms), in a step that has a later
+/// row with a step time above 0. A cycler cannot have measured the new
+/// step's current and voltage at the instant it switched: Digatron's LG
+/// M50 export writes 0 A at the first row of every pulse and the pulse's
+/// loaded voltage at the first row of the rest after it.
+fn switch_rows(raw: &RawRows, keep: &[usize]) -> Vec<bool> {
+    let mut out = vec![false; keep.len()];
+    let Some(st) = raw.extra.step_time.as_deref() else {
+        return out;
+    };
+    let step = raw.extra.step.as_deref();
+    let same = |a: usize, b: usize| match step {
+        Some(s) => s[a] == s[b],
+        None => st[b] >= st[a],
+    };
+    let zero = |i: usize| st[i].abs() <= 1e-3;
+    let mut p = 1;
+    while p < keep.len() {
+        let (a, b) = (keep[p - 1], keep[p]);
+        if !same(a, b) && zero(b) {
+            // The step's rows at step time 0, and whether a measured row
+            // follows in the same step.
+            let mut q = p;
+            while q + 1 < keep.len() && same(keep[q], keep[q + 1]) && zero(keep[q + 1]) {
+                q += 1;
+            }
+            let measured = q + 1 < keep.len() && same(keep[q], keep[q + 1]);
+            if measured {
+                out[p..=q].iter_mut().for_each(|x| *x = true);
+            }
+            p = q + 1;
+        } else {
+            p += 1;
+        }
+    }
+    out
 }
 
 /// Which of the samples at `time` fall in an unlogged step start longer

@@ -274,3 +274,125 @@ fn a_mat_file_struct_reads_as_a_table() {
         .to_string();
     assert!(e.starts_with("j.mat: not a readable MAT-file"), "{e}");
 }
+
+/// A Digatron-style pulse (its LG M50 export): the pulse's first row, at
+/// step time 0, reads 0 A under the loaded voltage; the rest's first row,
+/// at step time 0, still reads the pulse's loaded voltage.
+const DIGATRON_PULSE: &str = "ProgTime,Step,StepTime,Status,Current,Voltage\n\
+    0.0,1,600.0,P,0,3.700\n\
+    0.02,2,0.0,D,0,3.470\n\
+    0.1,2,0.08,D,-7.5,3.468\n\
+    0.2,2,0.18,D,-7.5,3.466\n\
+    10.02,2,10.0,D,-7.5,3.430\n\
+    10.04,3,0.0,P,0,3.430\n\
+    11.04,3,1.0,P,0,3.672\n\
+    12.04,3,2.0,P,0,3.676\n";
+
+#[test]
+fn rows_at_step_time_zero_are_the_switch_not_a_measurement() {
+    let o = RecordOptions {
+        period: Some(0.02),
+        ..RecordOptions::default()
+    };
+    let r = read(DIGATRON_PULSE, &o).unwrap();
+    assert_eq!(r.report.steps.switch_rows, 2);
+    // The pulse ran from its switch (0.02 s) to the rest's (10.04 s):
+    // 7.5 A for 10.02 s, not from the first row that reads it (0.1 s).
+    let charge: f64 = r.record.current.iter().map(|i| i * r.record.h).sum();
+    assert!((charge + 7.5 * 10.02).abs() < 1e-6, "{charge}");
+    // The rest's first second has no measured voltage (its first row's
+    // loaded voltage is not the rest's): 50 samples of 0.02 s, and the
+    // pulse's first 0.08 s, 4.
+    assert_eq!(r.report.unobserved_samples, 54);
+    let mask = r.report.unobserved(r.record.h, &r.record.time);
+    for (k, &t) in r.record.time.iter().enumerate() {
+        let inside = (0.02..0.1 - 1e-9).contains(&t) || (10.04..11.04 - 1e-9).contains(&t);
+        assert_eq!(mask[k], inside, "t = {t}");
+    }
+    assert!(r
+        .report
+        .summary(Path::new("log.csv"))
+        .contains("2 rows at step time 0 taken as the switch, not a measurement"));
+    // Read row by row, the same export holds 0 A under the loaded voltage
+    // and the pulse's voltage 1 s into the rest.
+    let ignore = RecordOptions {
+        steps: steps::StepsMode::Ignore,
+        ..o
+    };
+    let r = read(DIGATRON_PULSE, &ignore).unwrap();
+    assert_eq!(r.report.steps.switch_rows, 0);
+    let charge: f64 = r.record.current.iter().map(|i| i * r.record.h).sum();
+    assert!((charge + 7.5 * 9.94).abs() < 1e-6, "{charge}");
+}
+
+#[test]
+fn a_first_row_at_step_time_zero_with_nothing_after_it_in_its_step_is_kept() {
+    // The record's last step has one row: it is the only reading of it.
+    let text = "ProgTime,Step,StepTime,Current,Voltage\n\
+                0,1,0,0,3.70\n1,2,0,-1,3.60\n2,2,1,-1,3.59\n3,3,0,0,3.66\n";
+    let r = read(text, &RecordOptions::default()).unwrap();
+    assert_eq!(r.report.steps.switch_rows, 1);
+    assert_eq!(r.record.time.last(), Some(&3.0));
+}
+
+#[test]
+fn mat_tables_named_together_are_joined_across_a_gap() {
+    let p = data("lg-m50/LGM50_5Ah_Pulse.mat");
+    let bytes = std::fs::read(&p).unwrap();
+    let one = |t: &str| {
+        let o = RecordOptions {
+            table: Some(t.to_string()),
+            columns: ColumnMap::parse("temperature=LogTemp001").unwrap(),
+            period: Some(0.1),
+            ..RecordOptions::default()
+        };
+        read_record_from(&bytes[..], &p, &o).unwrap()
+    };
+    let (a, b) = (
+        "LGM50_5Ah_Pulse.T25.SoC9.Cell1.data",
+        "LGM50_5Ah_Pulse.T25.SoC8.Cell1.data",
+    );
+    let (ra, rb) = (one(a), one(b));
+    let j = one(&format!("{a}, {b}"));
+    // The second starts 600 s after the first ends; its first row's
+    // rested voltage is held over the gap's last second.
+    let end = ra.record.time.last().unwrap() - ra.record.time[0];
+    let span = rb.record.time.last().unwrap() - rb.record.time[0];
+    let joined = j.record.time.last().unwrap() - j.record.time[0];
+    assert!(
+        (joined - (end + mat::JOIN_GAP_S + span)).abs() < 0.1 + 1e-9,
+        "{joined}"
+    );
+    assert_eq!(j.report.resampling.gaps.len(), 1);
+    // Each part's charge is its own; the gap carries none.
+    let q = |r: &CyclerRecord| r.record.current.iter().sum::<f64>() * r.record.h;
+    assert!(
+        (q(&j) - q(&ra) - q(&rb)).abs() < 1e-6,
+        "{} {} {}",
+        q(&j),
+        q(&ra),
+        q(&rb)
+    );
+    assert_eq!(
+        j.report.steps.switch_rows,
+        ra.report.steps.switch_rows + rb.report.steps.switch_rows
+    );
+    // The export's own count restarts per record: it is not checked.
+    assert!(j.report.charge_check.is_none());
+    assert!(j
+        .report
+        .summary(&p)
+        .contains("2 MAT tables joined in this order, each after a gap of at least 600 s"));
+    let o = RecordOptions {
+        table: Some(format!("{a},LGM50_5Ah_Pulse.T25.SoC0.Cell1.data")),
+        columns: ColumnMap::parse("temperature=LogTemp001").unwrap(),
+        ..RecordOptions::default()
+    };
+    let e = read_record_from(&bytes[..], &p, &o)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("no table `LGM50_5Ah_Pulse.T25.SoC0.Cell1.data`"),
+        "{e}"
+    );
+}

@@ -235,7 +235,10 @@ pub struct RecordArgs {
     pub max_gap: Option<f64>,
     /// In a MAT-file: the struct holding the columns, as a dot path
     /// (`T25.SoC5.Cell1.data`); default: the one struct whose fields name a
-    /// time, a current and a voltage.
+    /// time, a current and a voltage. Several, comma-separated: joined in
+    /// that order into one record, each after a gap of at least 600 s (rest
+    /// assumed; the SOC read again from the rested voltage after it): the
+    /// one-pulse records of a test, each at its own SOC, as one map's levels
     #[arg(long)]
     pub table: Option<String>,
     /// Where each step began: `auto` from the step-time column (a step
