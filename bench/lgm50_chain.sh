@@ -10,7 +10,7 @@
 #   1C record with a map as the prior.
 #
 # Writes everything into OUT (default target/real-cells/lgm50) and prints
-# the numbers the page quotes. About 3.5 minutes on one core, almost all of
+# the numbers the page quotes. About 6.5 minutes on one core, almost all of
 # it the scipy fits (host-sim itself takes a few seconds).
 #
 #   bash bench/lgm50_chain.sh [OUT]
@@ -90,7 +90,7 @@ for T in (25, 10, 45):
               f"{1e3 * float(r['ocv_offset_v']):+.1f} | {1e3 * float(r['rmse_v']):.2f} | {j['rejected']} | "
               f"{j['converged']} | {r['identifiable']} |")
 PY
-grep -h "rows rejected" "$out/T25/SoC5/log.txt" | sed 's/^.*: \([0-9]* rows rejected\)/T25 SoC5: \1/' | cut -c1-220
+{ grep -h "rows rejected" "$out/T25/SoC5/log.txt" || echo "T25 SoC5: no row rejected"; } | sed 's/^.*: \([0-9]* rows rejected\)/T25 SoC5: \1/' | cut -c1-220
 grep -h "^map:" "$out/T25/SoC5/log.txt" | sed 's/^/T25 SoC5 /'
 python3 -c "import json,sys;m=json.load(open(sys.argv[1]))['map'];r=m['map_rmse_v'];print(f\"T25 SoC5 JSON: map_rmse_v {'null (no identifiable level)' if r is None else f'{1e3*r:.2f} mV'}, single_rmse_v {1e3*m['single_rmse_v']:.2f} mV\")" "$out/T25/SoC5/fit.json"
 

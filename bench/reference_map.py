@@ -150,9 +150,10 @@ def fit_dir(folder, models="cpe"):
         rec.update({k: best.get(k) for k in PARAMS})
         rec["rmse_v"] = best["rmse_v"]
         # The same reference over the rows our fit kept (levels.json's
-        # `rejected`, the rows its rmse_v leaves out): the comparison on the
-        # same data.
-        rej = [k for k in lv.get("rejected") or [] if 0 <= k < len(t)]
+        # `rejected` and `unobserved`, the rows its rmse_v leaves out: no
+        # measured voltage, or a spike): the comparison on the same data.
+        left = set(lv.get("rejected") or []) | set(lv.get("unobserved") or [])
+        rej = sorted(k for k in left if 0 <= k < len(t))
         rec["rejected"] = rej
         if rej:
             keep = np.ones(len(t), bool)
@@ -251,7 +252,7 @@ def compare(doc, rows, folder):
     cap = float(doc["capacity_ah"])
     lines = [
         "| level | SOC | samples | ours, fitted rows (mV) | ours, every row (mV) | ref. (mV) | ours / ref., every row "
-        "| R_i ours / ref. (mOhm) | alpha ours / ref. | identifiable | rows ours rejects | ref. on our rows (mV) "
+        "| R_i ours / ref. (mOhm) | alpha ours / ref. | identifiable | rows ours leaves out | ref. on our rows (mV) "
         "| ours / ref., our rows |",
         "|---|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
