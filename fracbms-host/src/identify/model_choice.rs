@@ -107,6 +107,97 @@ pub(super) struct Fit<const N: usize> {
     pub(super) reason: Option<StopReason>,
 }
 
+/// Iterations each of several starts runs before they are compared
+/// ([`refine_raced`]): the start then ahead is refined on, the others are
+/// dropped.
+pub const RACE_ITERATIONS: u32 = 8;
+
+/// Runs `fit` on until converged or `up_to` iterations in all.
+fn advance<const N: usize>(
+    fit: &mut Fit<N>,
+    s: &BatterySettings<f64>,
+    win: &impl Window<f64>,
+    up_to: u32,
+) -> std::result::Result<(), estimator_core::Error> {
+    while fit.iterations < up_to && !fit.converged {
+        let st = fit.oe.iterate(s, win)?;
+        fit.iterations += 1;
+        fit.rmse = st.rmse;
+        if st.converged {
+            fit.converged = true;
+            fit.stop = FitStop::Converged;
+            fit.reason = st.stop;
+        }
+    }
+    fit.cell = fit.oe.cell();
+    Ok(())
+}
+
+/// Refines several starts over the window and keeps the best: each runs
+/// [`RACE_ITERATIONS`] (or to convergence), then the one with the least
+/// RMSE (an earlier start wins a tie) runs on until converged or
+/// [`MAX_REFINE_ITERATIONS`]; where it fails, the next best. The basins
+/// of a measured record part within those first iterations (the LG M50
+/// at 10 °C, SOC 0.2: one start heads for 36 mV, the other for 1.4 mV),
+/// and the whole command pays for one start's convergence, not three.
+/// Returns the fit (None when every start failed, with the last error)
+/// and the iterations run over all starts.
+pub(super) fn refine_raced<const N: usize>(
+    s: &BatterySettings<f64>,
+    starts: &[CellParameters<f64>],
+    win: &impl Window<f64>,
+) -> (
+    std::result::Result<Fit<N>, Option<estimator_core::Error>>,
+    u32,
+) {
+    let mut runs: Vec<Fit<N>> = Vec::with_capacity(starts.len());
+    let mut failed = None;
+    let mut total = 0;
+    for &start in starts {
+        let mut fit = match Refinement::<N>::new(s, start) {
+            Ok(oe) => Fit {
+                oe: Box::new(oe),
+                cell: start,
+                rmse: f64::NAN,
+                iterations: 0,
+                converged: false,
+                stop: FitStop::IterationLimit,
+                reason: None,
+            },
+            Err(e) => {
+                failed = Some(e);
+                continue;
+            }
+        };
+        let r = advance(&mut fit, s, win, RACE_ITERATIONS);
+        total += fit.iterations;
+        match r {
+            Ok(()) => runs.push(fit),
+            Err(e) => failed = Some(e),
+        }
+    }
+    while !runs.is_empty() {
+        // Strictly better by more than rounding: an earlier start wins a
+        // tie.
+        let mut best = 0;
+        for (k, f) in runs.iter().enumerate().skip(1) {
+            let b = runs[best].rmse;
+            if f.rmse < b * (1.0 - 1e-9) || (b.is_nan() && !f.rmse.is_nan()) {
+                best = k;
+            }
+        }
+        let mut fit = runs.remove(best);
+        let before = fit.iterations;
+        let r = advance(&mut fit, s, win, MAX_REFINE_ITERATIONS as u32);
+        total += fit.iterations - before;
+        match r {
+            Ok(()) => return (Ok(fit), total),
+            Err(e) => failed = Some(e),
+        }
+    }
+    (Err(failed), total)
+}
+
 /// Refines `start` over the window until converged or
 /// [`MAX_REFINE_ITERATIONS`] have run.
 pub(super) fn refine_fit<const N: usize>(
@@ -411,6 +502,100 @@ mod tests {
         simulate(p, &mut w, current, |_| p.u_oc, &mut up, &mut m).unwrap();
         let s: f64 = m.iter().zip(v).map(|(a, b)| (a - b) * (a - b)).sum();
         (s / N as f64).sqrt()
+    }
+
+    /// The race keeps what running every start to the end keeps: on a
+    /// pulse record, three starts (one far off in α and the split of R)
+    /// end at the minimum the best of the three full runs ends at (RMSE to
+    /// 1e-9, parameters to 1e-5), in fewer iterations; and a start that
+    /// cannot be built is passed over.
+    #[test]
+    fn the_race_ends_where_the_best_full_run_ends() {
+        let truth = CellParameters {
+            r_i: 0.02,
+            r_ct: 0.015,
+            q: 500.0,
+            alpha: 0.75,
+            u_oc: 0.0,
+            bv_a: 0.0,
+            bv_i0: 1.0,
+        };
+        let current: Vec<f64> = (0..N)
+            .map(|k| match (k / 50) % 4 {
+                0 | 2 => 0.0,
+                1 => -3.0,
+                _ => 2.0,
+            })
+            .collect();
+        let mut w = Box::new(GlWeights::<f64, N>::new(truth.alpha, 1.0, N).unwrap());
+        let (mut up, mut v) = (vec![0.0; N], vec![0.0; N]);
+        simulate(&truth, &mut w, &current, |_| 0.0, &mut up, &mut v).unwrap();
+        for (k, x) in v.iter_mut().enumerate() {
+            *x += 3e-4 * (k as f64 * 0.9).sin();
+        }
+        let mut win = Box::new(SampleWindow::<f64, N>::new());
+        for (&i, &x) in current.iter().zip(&v) {
+            win.push(i, x).unwrap();
+        }
+        let s = BatterySettings::new(1.0, N);
+        let starts = [
+            CellParameters {
+                r_i: 0.003,
+                r_ct: 0.05,
+                q: 30.0,
+                alpha: 0.3,
+                ..truth
+            },
+            CellParameters {
+                r_i: 0.0175,
+                r_ct: 0.0175,
+                q: 300.0,
+                alpha: 0.7,
+                ..truth
+            },
+            CellParameters {
+                r_i: 0.005,
+                r_ct: 0.03,
+                q: 100.0,
+                alpha: 0.9,
+                ..truth
+            },
+        ];
+        let full: Vec<Fit<N>> = starts
+            .iter()
+            .map(|&st| refine_fit::<N>(&s, st, &*win).unwrap())
+            .collect();
+        let mut best = 0;
+        for (k, f) in full.iter().enumerate().skip(1) {
+            if f.rmse < full[best].rmse * (1.0 - 1e-9) {
+                best = k;
+            }
+        }
+        let (raced, total) = refine_raced::<N>(&s, &starts, &*win);
+        let raced = raced.map_err(|_| "no fit").unwrap();
+        let b = &full[best];
+        assert!(
+            raced.rmse <= b.rmse * (1.0 + 1e-9),
+            "{} {}",
+            raced.rmse,
+            b.rmse
+        );
+        let near = |x: f64, y: f64| (x - y).abs() <= 1e-5 * y.abs();
+        let (c, d) = (raced.cell, b.cell);
+        assert!(
+            near(c.r_i, d.r_i) && near(c.r_ct, d.r_ct) && near(c.q, d.q) && near(c.alpha, d.alpha),
+            "{c:?} {d:?}"
+        );
+        let all: u32 = full.iter().map(|f| f.iterations).sum();
+        assert!(total < all, "{total} against {all}");
+        assert!(raced.converged && (raced.cell.r_i - truth.r_i).abs() < 1e-3);
+        // A start that is not physical is passed over.
+        let bad = CellParameters {
+            r_i: -1.0,
+            ..starts[1]
+        };
+        let (again, _) = refine_raced::<N>(&s, &[bad, starts[best]], &*win);
+        assert_eq!(again.map_err(|_| "no fit").unwrap().cell, b.cell);
     }
 
     /// A record whose voltage lags its current by one sample (as a
