@@ -77,8 +77,8 @@ PY
     (cat "$o/map-$method-10.csv"; tail -n +2 "$o/map-$method-45.csv") > "$o/map-$method-10-45.csv"
   done
   echo
-  echo "| record | levels map | joint map | single fit | joint map / single fit | joint, 10+25+45 °C | joint, 10+45 °C |"
-  echo "|---|---|---|---|---|---|---|"
+  echo "| record | levels map | joint map | single fit | joint map / single fit | joint, 10+25+45 °C | joint, 10+45 °C | the discharge alone: joint / single |"
+  echo "|---|---|---|---|---|---|---|---|"
   for T in 25 10 45; do
     rates="0p5C 1C 2C"; [ $T = 45 ] && rates="0p5C 1C 1p5C"
     for r in $rates; do
@@ -87,11 +87,26 @@ PY
         j="$o/rate-$T-$r-$m.json"
         $hs predict battery --model "$o/$m" --input $rate --table LGM50_5Ah_RateTest.T$T.cRate_$r \
           --columns $rcols --ocv "$out/ocv-$ocv.csv" --capacity-ah 5 --soc0 1 --json "$j" \
-          > "$o/rate-$T-$r-$m.log" 2>&1 || { row+=("refused"); continue; }
+          --out "${j%.json}.csv" > "$o/rate-$T-$r-$m.log" 2>&1 || { row+=("refused"); continue; }
         row+=("$(python3 -c "import json,sys;print(f\"{1e3*json.load(open(sys.argv[1]))['in_table']['rmse_v']:.1f}\")" "$j")")
       done
       ratio=$(python3 -c "import sys;print(f'{float(sys.argv[1]) / float(sys.argv[2]):.3f}')" "${row[1]}" "${row[2]}")
-      echo "| $T °C ${r/p/.} | ${row[0]} | ${row[1]} | ${row[2]} | $ratio | ${row[3]} | ${row[4]} |"
+      # The constant-current discharge alone (the measured samples under a
+      # discharge current), as a BMS most needs it predicted.
+      dis=$(python3 - "$o/rate-$T-$r-map-joint-$T.csv.csv" "$o/rate-$T-$r-fit-joint-$T.json.csv" <<'PY'
+import csv, sys
+import numpy as np
+out = []
+for f in sys.argv[1:]:
+    r = list(csv.DictReader(open(f)))
+    i = np.array([float(x["current_a"]) for x in r])
+    e = np.array([float(x["model_v"]) - float(x["voltage_v"]) for x in r])
+    keep = (i < -0.05) & np.array([x["observed"] == "1" for x in r])
+    out.append(1e3 * np.sqrt(np.mean(e[keep] ** 2)))
+print(f"{out[0]:.1f} / {out[1]:.1f}")
+PY
+)
+      echo "| $T °C ${r/p/.} | ${row[0]} | ${row[1]} | ${row[2]} | $ratio | ${row[3]} | ${row[4]} | $dis |"
     done
   done
   # The middle temperature's pulse record from the outer two's joint map.
