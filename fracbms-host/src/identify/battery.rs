@@ -5,7 +5,7 @@
 //! `estimator-core`'s; this module drives them in `f64` and reports.
 
 use super::model_choice::{
-    choose_model, refine_raced, stop_reason_name, LoggedWindow, ModelChoice, Refinement,
+    choose_model, refine_fit, stop_reason_name, Fit, LoggedWindow, ModelChoice, Refinement,
 };
 use super::{table_row, BatteryMethod, HistoryEntry, ModelRequest, BAT_MEM, MAX_BATTERY_ROWS};
 use crate::branch::FftBranch;
@@ -463,12 +463,30 @@ fn battery_run_sized<const N: usize, const MEM: usize>(
                     .chain(rough_starts(&rec.current, &measured))
                     .collect(),
             };
-            let (lin, raced) = refine_raced::<N>(&so, &starts, &logged);
-            iters += raced;
-            let mut lin = match lin {
-                Ok(l) => l,
-                Err(Some(e)) => return Err(ctx(e)),
-                Err(None) => bail!(Data, "{}: no start to refine from", path.display()),
+            let mut lin: Option<Fit<N>> = None;
+            let mut failed = None;
+            for start in starts {
+                let fit = match refine_fit::<N>(&so, start, &logged) {
+                    Ok(f) => f,
+                    Err(e) => {
+                        failed = Some(e);
+                        continue;
+                    }
+                };
+                iters += fit.iterations;
+                // Strictly better by more than rounding: an earlier start
+                // wins a tie.
+                if lin
+                    .as_ref()
+                    .is_none_or(|best| fit.rmse < best.rmse * (1.0 - 1e-9))
+                {
+                    lin = Some(fit);
+                }
+            }
+            let mut lin = match (lin, failed) {
+                (Some(l), _) => l,
+                (None, Some(e)) => return Err(ctx(e)),
+                (None, None) => unreachable!("at least the rough starts are tried"),
             };
             let bounds = [so.alpha_min, so.alpha_max];
             if refine.model == ModelRequest::Linear {
