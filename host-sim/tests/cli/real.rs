@@ -97,15 +97,11 @@ fn panasonic_hppc_rests_give_the_ocv_within_2_mv() {
     );
 }
 
-/// The LG M50 at 10 °C, SOC 0.2 (data/lg-m50, one 7.5 A pulse as the
-/// Digatron logged it): the refinement, with its second rough start (most
-/// of R into R_ct, α 0.9), fits it within 5 mV (1.4 mV today), and no row
-/// is a spike now that the rows at step time 0 are read as the switch
-/// (before, the row after each edge, 0 A under the loaded voltage, was).
-#[test]
-fn lg_m50_cold_pulse_needs_the_second_start() {
-    let ocv = tmp("lg-ocv.csv");
-    let o = run(&[
+/// The LG M50's OCV table from its 25 °C C/10 discharge (`ocv --from
+/// low-rate`), written to `name` in the test folder.
+fn lg_m50_ocv(name: &str) -> PathBuf {
+    let ocv = tmp(name);
+    succeeds(&[
         "ocv",
         "--input",
         s(&data("lg-m50/LGM50_5Ah_RateTest.mat")),
@@ -120,7 +116,17 @@ fn lg_m50_cold_pulse_needs_the_second_start() {
         "--out",
         s(&ocv),
     ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    ocv
+}
+
+/// The LG M50 at 10 °C, SOC 0.2 (data/lg-m50, one 7.5 A pulse as the
+/// Digatron logged it): the refinement, with its second rough start (most
+/// of R into R_ct, α 0.9), fits it within 5 mV (1.4 mV today), and no row
+/// is a spike now that the rows at step time 0 are read as the switch
+/// (before, the row after each edge, 0 A under the loaded voltage, was).
+#[test]
+fn lg_m50_cold_pulse_needs_the_second_start() {
+    let ocv = lg_m50_ocv("lg-ocv.csv");
     let json = tmp("lg-t10-soc2.json");
     let o = run(&[
         "identify",
@@ -380,24 +386,9 @@ fn pulses_from_rest(
 /// discharge).
 #[test]
 fn lg_m50_pulse_records_joined_give_a_map_that_predicts_the_rate_test() {
-    let ocv = tmp("lg-joint-ocv.csv");
+    let ocv = lg_m50_ocv("lg-joint-ocv.csv");
     let pulse = data("lg-m50/LGM50_5Ah_Pulse.mat");
     let rate = data("lg-m50/LGM50_5Ah_RateTest.mat");
-    succeeds(&[
-        "ocv",
-        "--input",
-        s(&rate),
-        "--table",
-        "LGM50_5Ah_RateTest.T25.cRate_0p1C",
-        "--columns",
-        "time=timeVec,current=currVec,voltage=volVec",
-        "--from",
-        "low-rate",
-        "--capacity-ah",
-        "5",
-        "--out",
-        s(&ocv),
-    ]);
     let tables: Vec<String> = (1..=9)
         .rev()
         .map(|k| format!("LGM50_5Ah_Pulse.T25.SoC{k}.Cell1.data"))
