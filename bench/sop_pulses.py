@@ -28,6 +28,8 @@ least 0.2 (below it the cell's resistance climbs within a level).
     python3 bench/sop_pulses.py [--host-sim target/release/host-sim] [--out target/sop] \
         [--prior target/real-cells/panasonic/map.csv] [--butler-volmer]
     python3 bench/sop_pulses.py --resistances    # each pulse's measured resistance only
+    python3 bench/sop_pulses.py --acceptance     # every HPPC record, second pulse group on,
+                                                 # beside the last pulse's drop and a 1 RC fit
 """
 
 import argparse
@@ -103,9 +105,9 @@ def predict_1rc(model, soc_now, ocv, current, h):
     return ocv(soc_now + current * h / (3600 * CAPACITY_AH)) + du + r0 * current + up_h
 
 
-def pulses():
+def pulses(path=PANASONIC):
     """(start time, current, length s) of every discharge pulse from rest."""
-    m = sio.loadmat(PANASONIC)["meas"][0, 0]
+    m = sio.loadmat(path)["meas"][0, 0]
     t, i, v = (m[k].ravel() for k in ("Time", "Current", "Voltage"))
     edge = (np.diff(i) < -1.0) & (np.abs(i[:-1]) < 0.05) & (np.diff(t) < 0.2)
     out = []
@@ -127,6 +129,113 @@ def stats(pred, meas, drop):
             f"{100 * np.percentile(rel, 90):.1f} %, max {100 * rel.max():.1f} %")
 
 
+PAN10 = "data/panasonic-18650pf/03-27-17_09.06 10degC_5Pulse_HPPC_Pan18650PF.mat"
+# The HPPC records of data/ (Panasonic 18650PF at 25 and 10 degC), each
+# with the C/20 OCV table (25 degC: the only one the data set has).
+RECORDS = {"Panasonic 25 degC HPPC": PANASONIC, "Panasonic 10 degC HPPC": PAN10}
+GROUP_GAP_S = 1500.0
+
+
+def groups(ps):
+    """Each pulse's group number: a new group after a gap between pulse
+    starts longer than GROUP_GAP_S (the test's discharge to the next level)."""
+    g, out = 0, []
+    for k, (start, _, _) in enumerate(ps):
+        if k and start - ps[k - 1][0] > GROUP_GAP_S:
+            g += 1
+        out.append(g)
+    return out
+
+
+def record_map(host_sim, path, out, method):
+    """The record's own parameter map (bench/panasonic_chain.sh's settings,
+    `--map-method method`; joint by default: its state of power is the
+    closer of the two methods here, docs/bms-states.md)."""
+    m = f"{out}/map.csv"
+    subprocess.run([host_sim, "identify", "battery", "--input", path, "--ocv", PAN_OCV,
+                    "--capacity-ah", str(CAPACITY_AH), "--min-rest", "3000", "--model", "linear",
+                    "--map-method", method, "--map-out", m], check=True,
+                   stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    return m
+
+
+def pct(x):
+    return f"{100 * x:.1f}"
+
+
+def acceptance(host_sim, out, map_method):
+    """Every pulse from each record's second pulse group on, with and
+    without the record's own map as the prior, beside two baselines
+    measured on the same pulses: the last pulse's drop at that duration
+    again (scaled by the currents' ratio, the Panasonic test changes the
+    current from pulse to pulse) and a 1 RC model fitted to the 1800 s
+    before the pulse (the last pulse and its rest)."""
+    ocv = ocv_table()
+    print("| record | horizon | prior | pulses | with a value | basis (window/map/held/stale) "
+          "| ours: median / worst % of the drop | last drop again | 1 RC on the last pulse |")
+    print("|---|---|---|---|---|---|---|---|---|")
+    for name, path in RECORDS.items():
+        ps, (t, v) = pulses(path)
+        i_raw = sio.loadmat(path)["meas"][0, 0]["Current"].ravel()
+        g = groups(ps)
+        rec_out = f"{out}/{os.path.basename(path)[:14].replace(' ', '_')}"
+        os.makedirs(rec_out, exist_ok=True)
+        mp = record_map(host_sim, path, rec_out, map_method)
+        currents = sorted({round(c, 1) for _, c, _ in ps})
+        # Baselines: per pulse and horizon, keyed by the pulse's index.
+        naive, rc = {}, {}
+        prev = None
+        for j, (start, cur, length) in enumerate(ps):
+            before = np.interp(start, t, v)
+            drops = {h: before - np.interp(start + h, t, v) for h in HORIZONS if length >= h}
+            if prev is not None:
+                pd, pc = prev
+                for h in drops:
+                    if h in pd:
+                        naive[(j, h)] = before - pd[h] * cur / pc
+            prev = (drops, cur)
+        for variant, extra in (("none", []), ("own map", ["--prior", mp])):
+            tracks = {}
+            for c in currents:
+                track = f"{rec_out}/pulse{c}-{'map' if extra else 'none'}.csv"
+                subprocess.run([host_sim, "online", "battery", "--input", path, "--ocv", PAN_OCV,
+                                "--capacity-ah", str(CAPACITY_AH), "--pulse-current-a", str(c),
+                                "--horizons", ",".join(map(str, HORIZONS)), "--window", "256",
+                                "--out", track] + extra,
+                               check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+                tracks[c] = list(csv.DictReader(open(track)))
+            for h in HORIZONS:
+                ours, base, one_rc, basis, n = [], [], [], {}, 0
+                for j, (start, cur, length) in enumerate(ps):
+                    if g[j] == 0 or length < h:
+                        continue
+                    n += 1
+                    tr = tracks[round(cur, 1)]
+                    tt = np.array([float(r["time_s"]) for r in tr])
+                    k = np.searchsorted(tt, start - (tt[1] - tt[0]), side="right") - 1
+                    before = np.interp(start, t, v)
+                    measured = np.interp(start + h, t, v)
+                    drop = abs(before - measured)
+                    p = tr[k][f"pulse_v_{h}s"]
+                    b = tr[k].get("sop_basis", "")
+                    if p:
+                        ours.append(abs(float(p) - measured) / drop)
+                        basis[b] = basis.get(b, 0) + 1
+                    if (j, h) in naive:
+                        base.append(abs(naive[(j, h)] - measured) / drop)
+                    if (j, h) not in rc:
+                        span = (t > start - SPAN_S) & (t <= start)
+                        soc = np.interp(t[span], tt, [float(r["soc_coulomb"]) for r in tr])
+                        model = fit_1rc(t[span], i_raw[span], v[span], ocv(soc))
+                        rc[(j, h)] = predict_1rc(model, soc[-1], ocv, cur, h) if model else np.nan
+                    if np.isfinite(rc[(j, h)]):
+                        one_rc.append(abs(rc[(j, h)] - measured) / drop)
+                mw = lambda x: f"{pct(np.median(x))} / {pct(np.max(x))}" if x else "none"
+                bs = "/".join(str(basis.get(x, 0)) for x in ("window", "map", "held", "stale"))
+                print(f"| {name} | {h} s | {variant} | {n} | {len(ours)} | {bs} | {mw(ours)} "
+                      f"| {mw(base)} | {mw(one_rc)} |")
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--host-sim", default="target/release/host-sim")
@@ -138,8 +247,17 @@ def main():
     ap.add_argument("--resistances", action="store_true",
                     help="only print each pulse's measured 2 s and 10 s resistance "
                     "(the drop over the current), a level's pulses on one line")
+    ap.add_argument("--acceptance", action="store_true",
+                    help="only the table of every HPPC record of data/ from the second pulse "
+                    "group on, with and without the record's own map as the prior, beside the "
+                    "two baselines (issue 72)")
+    ap.add_argument("--map-method", default="joint", choices=("joint", "levels"),
+                    help="with --acceptance: how the record's own map is made (default joint)")
     a = ap.parse_args()
     os.makedirs(a.out, exist_ok=True)
+    if a.acceptance:
+        acceptance(a.host_sim, a.out, a.map_method)
+        return
     ps, (t, v) = pulses()
     if a.resistances:
         # The test's levels: five pulses each, -1.4 to -17.4 A.

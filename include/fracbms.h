@@ -722,9 +722,9 @@ typedef struct FracbmsHorizonPower {
 } FracbmsHorizonPower;
 
 /**
- * A state of power: `published` false (and the horizons zero) where the
- * model is not published (a parameter not identified) or has no present
- * polarization yet.
+ * A state of power: `published` false (and the horizons zero) before
+ * every parameter has been published once, or where the cell has no
+ * present polarization (carried from a fit, or at rest) yet.
  */
 typedef struct FracbmsPower {
   /**
@@ -739,6 +739,14 @@ typedef struct FracbmsPower {
    * Each horizon's, in the request's order.
    */
   struct FracbmsHorizonPower horizons[FRACBMS_HORIZONS_MAX];
+  /**
+   * Where the parameters it was predicted with came from, as `host-sim
+   * online battery`'s `sop_basis`: 0 `window` (identified by the last
+   * window), 1 `map` (the prior), 2 `held` (an earlier window within
+   * the hold span, or a snapshot), 3 `stale` (the last value, identified
+   * further away). 0 where nothing is published.
+   */
+  uint32_t basis;
 } FracbmsPower;
 
 /**

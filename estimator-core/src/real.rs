@@ -17,6 +17,8 @@ pub trait Real: Float + Debug + Default + Send + Sync + 'static + sealed::Sealed
     const ZERO: Self;
     /// One, usable in `const` contexts.
     const ONE: Self;
+    /// Not a number, usable in `const` contexts (an unset value).
+    const NAN: Self;
     /// Converts an `f64` constant into this type (rounding for `f32`).
     fn lit(x: f64) -> Self;
     /// Widens to `f64` (exact for both implementations).
@@ -190,6 +192,7 @@ macro_rules! solve_spd_impl {
 impl Real for f32 {
     const ZERO: Self = 0.0;
     const ONE: Self = 1.0;
+    const NAN: Self = f32::NAN;
     #[inline]
     fn lit(x: f64) -> Self {
         x as f32
@@ -216,6 +219,7 @@ impl Real for f32 {
 impl Real for f64 {
     const ZERO: Self = 0.0;
     const ONE: Self = 1.0;
+    const NAN: Self = f64::NAN;
     #[inline]
     fn lit(x: f64) -> Self {
         x

@@ -9,7 +9,7 @@ use common::nmc_table;
 use estimator_core::battery::ocv::OcvModel;
 use estimator_core::battery::online::{CellEstimator, OnlineSettings, Status};
 use estimator_core::battery::pack::{PackEstimator, PackSettings};
-use estimator_core::battery::power::{PowerLimits, PowerSettings};
+use estimator_core::battery::power::{PowerLimits, PowerSettings, SopBasis};
 use estimator_core::battery::profile::{ocv_nmc, Profile};
 use estimator_core::battery::simulate::simulate;
 use estimator_core::battery::{CellModel, CellParameters, Prior, Start};
@@ -448,4 +448,80 @@ fn at_power_up_from_rest_a_first_pulse_is_fitted() {
     );
     assert!(tracking > 100, "{tracking}");
     assert!((r_i / truth.r_i - 1.0).abs() < 0.05, "{r_i}");
+}
+
+/// A state of power at every sample once every parameter has been
+/// published, with its basis: across a gap that resumes at rest (the
+/// window restarts, so no fit's polarization is carried; the rested
+/// voltages are only 5 s long, far from the SOC observer's 600 s) the
+/// pulse is predicted from the relaxed cell with the estimate held from
+/// before the gap (`held`), or with the prior's parameters where one is
+/// set (`map`). Before, the state of power was empty from the gap until
+/// the next fit: on the Panasonic HPPC test, the first pulse of every
+/// level (docs/bms-states.md).
+#[test]
+fn after_a_gap_at_rest_the_state_of_power_comes_from_what_is_held() {
+    let truth = CellParameters::<f64>::cell_18650();
+    let (at, gap, rested, k) = (1100, 1500, 5, 10);
+    let resume = at + gap;
+    let (mut i, _) = record(at, 0.0, resume + rested + k - at);
+    for x in i.iter_mut().skip(resume + rested) {
+        *x = -5.0;
+    }
+    let v = noisy(truth_voltage(&truth, &i), resume + rested);
+    let limits = PowerLimits {
+        voltage_min: 2.5,
+        voltage_max: 4.2,
+        current_limit: 50.0,
+    };
+    let power = PowerSettings::new(limits, &[k as u32], Some(-5.0)).unwrap();
+    let plain = OnlineSettings::new(1.0, 64, truth).with_ocv(nmc());
+    let mut with_prior = plain;
+    with_prior.battery.prior = Some(Prior::new(CellParameters {
+        r_i: 1.2 * truth.r_i,
+        ..truth
+    }));
+    for (s, want_basis) in [(&plain, SopBasis::Held), (&with_prior, SopBasis::Map)] {
+        let mut est = Box::new(CellEstimator::<f64, 256, 64>::new(s).unwrap());
+        let mut first = None;
+        let mut bases = Vec::new();
+        for l in 0..at {
+            est.push(s, i[l], v[l]);
+            match est.state_of_power(s, &power) {
+                Some(r) => {
+                    first.get_or_insert(l);
+                    bases.push(r.basis());
+                }
+                None => assert!(first.is_none(), "no state of power at {l} after {first:?}"),
+            }
+        }
+        assert!(first.is_some());
+        assert!(bases.contains(&SopBasis::Window), "{bases:?}");
+        est.resume_after_gap(true);
+        for l in resume..resume + rested {
+            est.push(s, i[l], v[l]);
+        }
+        let r = est
+            .state_of_power(s, &power)
+            .expect("a state of power after the gap");
+        assert_eq!(r.basis(), want_basis);
+        let got = r.horizons()[0].pulse_v.unwrap();
+        let want = v[resume + rested + k - 1];
+        let drop = v[resume + rested - 1] - want;
+        let rel = (got - want).abs() / drop;
+        println!(
+            "{want_basis:?}: first state of power at sample {first:?}; after the gap \
+             {got:.5} V against {want:.5} V, {:.2} % of the drop",
+            100.0 * rel
+        );
+        if want_basis == SopBasis::Held {
+            // The cell itself (the estimate of a noisy window).
+            assert!(rel <= 0.05, "{rel}");
+        } else {
+            // The prior's: `R_i` 20 % high, so the pulse ends
+            // `0.2·R_i·5 A` = 20 mV low, give or take the estimate's `ΔU`.
+            let short = want - got;
+            assert!((short - 0.2 * truth.r_i * 5.0).abs() < 0.003, "{short}");
+        }
+    }
 }

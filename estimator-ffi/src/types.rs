@@ -526,9 +526,9 @@ pub struct FracbmsHorizonPower {
     pub pulse_v: f32,
 }
 
-/// A state of power: `published` false (and the horizons zero) where the
-/// model is not published (a parameter not identified) or has no present
-/// polarization yet.
+/// A state of power: `published` false (and the horizons zero) before
+/// every parameter has been published once, or where the cell has no
+/// present polarization (carried from a fit, or at rest) yet.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct FracbmsPower {
@@ -538,6 +538,12 @@ pub struct FracbmsPower {
     pub horizon_count: u32,
     /// Each horizon's, in the request's order.
     pub horizons: [FracbmsHorizonPower; FRACBMS_HORIZONS_MAX],
+    /// Where the parameters it was predicted with came from, as `host-sim
+    /// online battery`'s `sop_basis`: 0 `window` (identified by the last
+    /// window), 1 `map` (the prior), 2 `held` (an earlier window within
+    /// the hold span, or a snapshot), 3 `stale` (the last value, identified
+    /// further away). 0 where nothing is published.
+    pub basis: u32,
 }
 
 impl FracbmsPowerRequest {
@@ -577,6 +583,7 @@ impl FracbmsPowerRequest {
         if let Some(r) = report {
             out.published = true;
             out.horizon_count = r.horizons().len() as u32;
+            out.basis = u32::from(r.basis().code());
             for ((o, h), &hz) in out
                 .horizons
                 .iter_mut()

@@ -37,6 +37,7 @@ fn core_power(r: Option<PowerReport<f32>>) -> FracbmsPower {
     if let Some(r) = r {
         out.published = true;
         out.horizon_count = r.horizons().len() as u32;
+        out.basis = u32::from(r.basis().code());
         for (o, (h, hz)) in out
             .horizons
             .iter_mut()

@@ -318,7 +318,9 @@ fn soc_line<const N: usize>(s: &firmware::task::TaskSettings, cell: usize, c: &C
 /// `host-sim online battery`'s `sop_discharge_a_{H}s`, `sop_charge_a_{H}s`
 /// and `pulse_v_{H}s` at the horizons of
 /// [`firmware::task::POWER_HORIZONS_S`] (NaN, `published=false` where the
-/// model is not published); nothing without an OCV table.
+/// model is not published) and `sop_basis` (where its parameters came
+/// from: `window`, `map`, `held`, `stale`; empty without one); nothing
+/// without an OCV table.
 fn power_line(s: &firmware::task::TaskSettings, task: &ConfiguredTask, k: Option<usize>) {
     if s.power.is_none() {
         return;
@@ -338,8 +340,9 @@ fn power_line(s: &firmware::task::TaskSettings, task: &ConfiguredTask, k: Option
             })
     };
     let ((d10, c10, v10), (d30, c30, v30)) = (h(0), h(1));
+    let basis = r.map_or("", |r| r.basis().as_str());
     defmt::println!(
-        "SOP cell={=usize} published={=bool} sop_discharge_a_10s={=f32} sop_charge_a_10s={=f32} pulse_v_10s={=f32} sop_discharge_a_30s={=f32} sop_charge_a_30s={=f32} pulse_v_30s={=f32}",
+        "SOP cell={=usize} published={=bool} sop_discharge_a_10s={=f32} sop_charge_a_10s={=f32} pulse_v_10s={=f32} sop_discharge_a_30s={=f32} sop_charge_a_30s={=f32} pulse_v_30s={=f32} sop_basis={=str}",
         k.map_or(0, |k| k + 1),
         r.is_some(),
         d10,
@@ -347,7 +350,8 @@ fn power_line(s: &firmware::task::TaskSettings, task: &ConfiguredTask, k: Option
         v10,
         d30,
         c30,
-        v30
+        v30,
+        basis
     );
 }
 

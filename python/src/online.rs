@@ -458,6 +458,17 @@ impl OnlineCell {
         self.tracker.resume_after_gap(rested);
     }
 
+    /// The record resumes after a gap whose charge is known: ``charge_ah``
+    /// (A·h, positive when charging) moved through it beyond what the
+    /// samples across it counted (a cycler's own charge count over the
+    /// gap, less the current held across it). As ``resume_after_gap``,
+    /// but the state of charge is counted through the gap, not read again,
+    /// so the capacity is learned across it. The CLI does this at every gap
+    /// of a file whose export counts its charge (docs/cycler.md).
+    fn bridge_gap(&mut self, charge_ah: f64, rested: bool) {
+        self.tracker.bridge_gap(charge_ah, rested);
+    }
+
     /// The snapshot of what the cell has learned, as bytes
     /// (docs/persistence.md): the bytes of ``host-sim online battery
     /// --state-out`` and of the C ABI's ``fracbms_cell_snapshot_save``.

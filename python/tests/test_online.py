@@ -13,6 +13,9 @@ COLUMNS = ["time_s", "r_i", "r_ct", "q", "alpha", "u_oc", "soc", "ocv_offset_v",
            "sop_discharge_a_10s", "sop_charge_a_10s", "pulse_v_10s",
            "sop_discharge_a_30s", "sop_charge_a_30s", "pulse_v_30s"]
 STATUSES = ["r_i_status", "r_ct_status", "q_status", "alpha_status", "capacity_status"]
+# The words beside the statuses: where the state of power's parameters came
+# from (window, map, held, stale; empty without one).
+WORDS = STATUSES + ["sop_basis"]
 
 
 def cli_track(host_sim, record, tmp_path, *args):
@@ -23,7 +26,7 @@ def cli_track(host_sim, record, tmp_path, *args):
 
 def assert_same_track(py, cli):
     assert list(py["status"]) == list(cli["status"])
-    for k in STATUSES + ["rejected"]:
+    for k in WORDS + ["rejected"]:
         # A column empty on every row reads as NaN from the CSV.
         want = ["" if isinstance(x, float) and np.isnan(x) else x for x in cli[k]]
         assert list(py[k]) == want, k
@@ -38,7 +41,11 @@ def test_run_equals_the_cli_and_tracks_the_cell(host_sim, cell_record, tmp_path,
     c = read_csv(cell_record)
     cell = fracbms.OnlineCell(tail=tail)
     py = cell.run(c["current_a"], c["voltage_v"])
-    assert set(py) == set(COLUMNS) | set(STATUSES) | {"status", "rejected"}
+    assert set(py) == set(COLUMNS) | set(WORDS) | {"status", "rejected"}
+    # A state of power always says its basis, and only then.
+    has = np.isfinite(py["sop_discharge_a_10s"])
+    assert all(b in ("window", "map", "held", "stale") for b in py["sop_basis"][has])
+    assert all(b == "" for b in py["sop_basis"][~has])
     assert all(isinstance(py[k], np.ndarray) for k in py)
     assert_same_track(py, cli)
     assert cell.samples == 1500 and cell.rejected == 0

@@ -219,6 +219,17 @@ impl<T: Real, const N: usize, const MEM: usize> CellEstimator<T, N, MEM> {
         self.pack.cells[0].resume_after_gap(rested);
     }
 
+    /// The record resumes after a gap whose charge is known
+    /// ([`CellState::bridge_gap`]).
+    pub fn bridge_gap<const P: usize>(
+        &mut self,
+        s: &OnlineSettings<T, P>,
+        charge_ah: T,
+        rested: bool,
+    ) {
+        self.pack.cells[0].bridge_gap(s, charge_ah, rested);
+    }
+
     /// Health after the last sample.
     pub fn status(&self) -> Status {
         self.state().status()

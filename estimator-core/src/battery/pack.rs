@@ -522,20 +522,27 @@ impl<T: Real, const N: usize, const MEM: usize, const CELLS: usize>
         k: usize,
         s: &'a OnlineSettings<T, P>,
     ) -> Option<PulsePredictor<'a, T, MEM, P>> {
-        self.predictor_within(k, s, None)
+        self.predictor_within(k, s, None, None)
     }
 
     /// [`pulse_predictor`](Self::pulse_predictor) carried at most `carry`
-    /// samples from its fit (`None`: as far as the window reaches).
+    /// samples from its fit (`None`: as far as the window reaches), with
+    /// `model`'s parameters in place of the estimate's (`None`: the
+    /// estimate's): the polarization the estimate's fit left, continued by
+    /// `model`.
     fn predictor_within<'a, const P: usize>(
         &self,
         k: usize,
         s: &'a OnlineSettings<T, P>,
         carry: Option<u32>,
+        model: Option<&CellParameters<T>>,
     ) -> Option<PulsePredictor<'a, T, MEM, P>> {
         let c = self.cell(k)?;
         let tail = &self.tails[k];
-        let p = c.window_estimate()?;
+        // Without an estimate (none yet, or none plausible), only a model
+        // given (the map's) from a relaxed cell.
+        let p = c.window_estimate();
+        let q = model.or(p)?;
         let ocv = match (&s.ocv, c.state_of_charge()) {
             (Some(m), Some(z)) => Some((m, z)),
             (Some(_), None) => return None,
@@ -552,14 +559,14 @@ impl<T: Real, const N: usize, const MEM: usize, const CELLS: usize>
         // largest current of the window the estimate was fitted on (the
         // term's state of power is capped there; a long rest has emptied
         // the window itself).
-        let known =
-            p.bv_a == T::zero() || (tail.model() == Some(p) && tail.largest_current() > T::zero());
-        let rested = known.then(|| c.rested_voltage(s).zip(ocv)).flatten();
+        let known = q.bv_a == T::zero()
+            || (p.is_some() && tail.model() == p && tail.largest_current() > T::zero());
+        let rested = known.then(|| c.relaxed_voltage(s).zip(ocv)).flatten();
         if let Some((v, (m, z))) = rested {
-            let w = self.weights_at(p, s)?;
+            let w = self.weights_at(q, s)?;
             let from_rest = CellParameters {
                 u_oc: v - m.table.ocv(z),
-                ..*p
+                ..*q
             };
             return PulsePredictor::new(&from_rest, &w, &[], ocv);
         }
@@ -569,7 +576,7 @@ impl<T: Real, const N: usize, const MEM: usize, const CELLS: usize>
         // than the window were predicted 22–41 % of their drop off
         // (docs/bms-states.md, bench/sop_pulses.py).
         let reach = carry.map_or_else(|| CellWindow::new(&self.history, c).len(), |n| n as usize);
-        if tail.model() != Some(p) || tail.since_fit() as usize > reach {
+        if p.is_none() || tail.model() != p || tail.since_fit() as usize > reach {
             return None;
         }
         // The working area's weights when they are at this order (the
@@ -578,13 +585,13 @@ impl<T: Real, const N: usize, const MEM: usize, const CELLS: usize>
         // update on the Cortex-M4F).
         let held = self.work.weights();
         let w =
-            if held.alpha() == p.alpha && held.h() == s.battery.h && held.len() == s.battery.memory
+            if held.alpha() == q.alpha && held.h() == s.battery.h && held.len() == s.battery.memory
             {
                 held.clone()
             } else {
-                GlWeights::new(p.alpha, s.battery.h, s.battery.memory).ok()?
+                GlWeights::new(q.alpha, s.battery.h, s.battery.memory).ok()?
             };
-        PulsePredictor::from_tail(tail, w, ocv)
+        PulsePredictor::from_tail_with(tail, *q, w, ocv)
     }
 
     /// The weights at `p`'s order: the working area's when they are (the
@@ -602,14 +609,17 @@ impl<T: Real, const N: usize, const MEM: usize, const CELLS: usize>
         }
     }
 
-    /// Cell `k`'s state of power now for `power`'s horizons: `None` unless
-    /// every parameter of its model is published
-    /// ([`CellState::model_published`]: identified, from the step, or
-    /// held) and its [`pulse_predictor`](Self::pulse_predictor) exists
-    /// (carried from the fit at most [`PowerSettings::carry`] samples). A
-    /// model the data do not identify gives no state of power. With the
-    /// Butler–Volmer term, the currents are capped at the largest the
-    /// cell's window holds: the term is not extrapolated.
+    /// Cell `k`'s state of power now for `power`'s horizons, predicted
+    /// with the best parameter set the cell holds
+    /// ([`CellState::sop_parameters`]: the window's, the map prior's, or
+    /// the last good estimate, held or stale; the report's
+    /// [`PowerReport::basis`] says which) from the polarization its
+    /// [`pulse_predictor`](Self::pulse_predictor) carries (at most
+    /// [`PowerSettings::carry`] samples from the fit, or from a relaxed
+    /// cell). `None` before every parameter has been published once, or
+    /// without a predictor. With the Butler–Volmer term, the currents are
+    /// capped at the largest the cell's window holds: the term is not
+    /// extrapolated.
     pub fn state_of_power<const P: usize>(
         &self,
         k: usize,
@@ -617,10 +627,8 @@ impl<T: Real, const N: usize, const MEM: usize, const CELLS: usize>
         power: &PowerSettings<T>,
     ) -> Option<PowerReport<T>> {
         let c = self.cell(k)?;
-        if !c.model_published() {
-            return None;
-        }
-        let predictor = self.predictor_within(k, s, power.carry)?;
+        let (q, basis) = c.sop_parameters(s)?;
+        let predictor = self.predictor_within(k, s, power.carry, Some(&q))?;
         // A Butler–Volmer term's curvature is known only over the currents
         // its window saw: beyond the largest of them its overpotential
         // grows as `asinh`, far slower than a cell's at high rate. Its
@@ -641,7 +649,7 @@ impl<T: Real, const N: usize, const MEM: usize, const CELLS: usize>
             let cap = &mut power.limits.current_limit;
             *cap = cap.min(seen);
         }
-        Some(predictor.power(&power))
+        Some(predictor.power(&power).with_basis(basis))
     }
 
     /// The string's state of power: at each horizon the weakest cell's

@@ -137,19 +137,78 @@ pub struct HorizonPower<T> {
     pub pulse_v: Option<T>,
 }
 
+/// Where a state of power's parameters (`R_i`, `R_ct`, `Q`, α, as one
+/// set) come from, best first: the order a cell's estimator takes them in
+/// ([`crate::battery::online::CellState::sop_parameters`]).
+///
+/// ```
+/// use estimator_core::battery::power::SopBasis;
+/// assert!(SopBasis::Window < SopBasis::Stale);
+/// assert_eq!(SopBasis::Map.max(SopBasis::Held).as_str(), "held");
+/// ```
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum SopBasis {
+    /// Every parameter identified by the last update's window: its
+    /// estimate.
+    Window,
+    /// The map prior's parameters at the present state of charge and
+    /// temperature.
+    Map,
+    /// The last good estimate, while every parameter has a value
+    /// identified within
+    /// [`OnlineSettings::hold_soc_span`](super::online::OnlineSettings::hold_soc_span)
+    /// of the present state of charge, or restored from a snapshot.
+    Held,
+    /// The last good estimate, a parameter of it identified further away
+    /// than that.
+    Stale,
+}
+
+impl SopBasis {
+    /// A short lower-case name (the track's `sop_basis` column).
+    pub fn as_str(&self) -> &'static str {
+        match self {
+            SopBasis::Window => "window",
+            SopBasis::Map => "map",
+            SopBasis::Held => "held",
+            SopBasis::Stale => "stale",
+        }
+    }
+
+    /// A small number for binary faces (C, the firmware's line): 0
+    /// window, 1 map, 2 held, 3 stale.
+    pub fn code(&self) -> u8 {
+        *self as u8
+    }
+}
+
 /// The answer to a [`PowerSettings`]: one [`HorizonPower`] per horizon, in
-/// its order.
+/// its order, and where its parameters came from ([`SopBasis`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct PowerReport<T> {
     horizons: [HorizonPower<T>; MAX_HORIZONS],
     count: usize,
+    basis: SopBasis,
 }
 
 impl<T: Real> PowerReport<T> {
     /// Each horizon's answer, in the settings' order.
     pub fn horizons(&self) -> &[HorizonPower<T>] {
         &self.horizons[..self.count.min(MAX_HORIZONS)]
+    }
+
+    /// Where the parameters it was predicted with came from
+    /// ([`SopBasis::Window`] for a predictor's own report).
+    pub fn basis(&self) -> SopBasis {
+        self.basis
+    }
+
+    /// The same report, its parameters from `basis`.
+    pub fn with_basis(mut self, basis: SopBasis) -> Self {
+        self.basis = basis;
+        self
     }
 
     /// The weaker of two cells' reports for the same settings, as a series
@@ -169,6 +228,7 @@ impl<T: Real> PowerReport<T> {
             a.sop.charge_a = a.sop.charge_a.min(b.sop.charge_a);
             a.pulse_v = a.pulse_v.zip(b.pulse_v).map(|(x, y)| x + y);
         }
+        out.basis = self.basis.max(other.basis);
         out
     }
 
@@ -382,7 +442,18 @@ impl<'a, T: Real, const MEM: usize, const P: usize> PulsePredictor<'a, T, MEM, P
         w: GlWeights<T, MEM>,
         ocv: Option<(&'a OcvModel<T, P>, T)>,
     ) -> Option<Self> {
-        let p = tail.p?;
+        Self::from_tail_with(tail, tail.p?, w, ocv)
+    }
+
+    /// [`from_tail`](Self::from_tail) with the model `p` in place of the
+    /// tail's own: the polarization the tail carries, continued by `p`
+    /// (weights `w` at `p`'s order). `None` as [`new`](Self::new).
+    pub fn from_tail_with(
+        tail: &PolarizationTail<T, MEM>,
+        p: CellParameters<T>,
+        w: GlWeights<T, MEM>,
+        ocv: Option<(&'a OcvModel<T, P>, T)>,
+    ) -> Option<Self> {
         if !(p.is_physical() && same_order(&w, &p) && tail.past.iter().all(|x| x.is_finite())) {
             return None;
         }
@@ -599,6 +670,7 @@ impl<'a, T: Real, const MEM: usize, const P: usize> PulsePredictor<'a, T, MEM, P
         let mut out = PowerReport {
             horizons: [empty; MAX_HORIZONS],
             count: horizons.len().min(MAX_HORIZONS),
+            basis: SopBasis::Window,
         };
         for (o, &k) in out.horizons.iter_mut().zip(horizons) {
             o.sop.steps = k as usize;

@@ -426,6 +426,42 @@ impl<T: Real> SocObserver<T> {
         self.rest = None;
     }
 
+    /// A gap whose charge is known (A·h, + charging, beyond what the
+    /// samples across it counted): counted as one step of that charge,
+    /// the SOC moving by it over the capacity and its spread with the
+    /// capacity's, so the charge between the rests on either side still
+    /// tells the capacity. Any rest restarts. A charge that is not finite
+    /// is a gap of unknown charge ([`resume_after_gap`](Self::resume_after_gap)).
+    ///
+    /// ```
+    /// use estimator_core::battery::soc::{SocObserver, SocSettings};
+    /// let s = SocSettings::new(5.0, 1.0);
+    /// let mut soc = SocObserver::new(&s, Some(0.8));
+    /// soc.bridge_gap(&s, -1.0);
+    /// // The next sample takes it: 1 A·h of 5 out.
+    /// let table = estimator_core::battery::ocv::OcvTable::<f64, 2>::new(&[0.0, 1.0], &[3.0, 4.2]).unwrap();
+    /// let e = soc.push(&s, &table, 0.0, f64::NAN).unwrap();
+    /// assert!((e.soc - 0.6).abs() < 1e-12);
+    /// ```
+    pub fn bridge_gap(&mut self, s: &SocSettings<T>, charge_ah: T) {
+        if !charge_ah.is_finite() {
+            self.resume_after_gap();
+            return;
+        }
+        self.rest = None;
+        let Some(x) = &mut self.x else { return };
+        let fg = charge_ah / s.capacity_ah;
+        let counted = x[0] + x[2] * fg;
+        if counted.is_finite() {
+            x[0] = counted;
+        }
+        // F = [[1, 0, fg], [0, 1, 0], [0, 0, 1]]
+        let [p00, p01, p02, p11, p12, p22] = self.p;
+        let r0 = [p00 + fg * p02, p01 + fg * p12, p02 + fg * p22];
+        self.p = [r0[0] + fg * r0[2], r0[1], r0[2], p11, p12, p22];
+        self.condition(s);
+    }
+
     /// Sets the SOC (a value the caller knows better): from the next
     /// sample on, with spread [`SocSettings::soc0_sigma`] (the estimate
     /// shows it at once). A non-finite value is ignored.

@@ -647,6 +647,11 @@ fn finish(
         };
         steps::charge_check(&raw, &name, r.gap_threshold_s)
     });
+    let resets = charge_check.as_ref().map_or(usize::MAX, |k| k.resets);
+    let charges = steps::gap_charges(&raw, &r.gaps, resets);
+    for (g, q) in r.gaps.iter_mut().zip(charges) {
+        g.charge_ah = q;
+    }
     let charge_warning = charge_check.as_ref().and_then(|k| {
         let (limit, of) = match o.capacity_ah {
             Some(q) => (0.005 * q, format!("0.5 % of the capacity {q} A·h")),

@@ -14,6 +14,10 @@ pub struct Gap {
     pub start_s: f64,
     /// Length of the gap (s).
     pub length_s: f64,
+    /// The charge the gap moved beyond what the current held across it
+    /// counts (A·h, + charging), from the export's own charge count
+    /// (docs/cycler.md); `None`: unknown.
+    pub charge_ah: Option<f64>,
 }
 
 /// What cleaning and resampling did to a log.
@@ -138,6 +142,7 @@ pub fn to_uniform(
             r.gaps.push(Gap {
                 start_s: t(j - 1),
                 length_s: d,
+                charge_ah: None,
             });
         }
     }
@@ -312,7 +317,8 @@ mod tests {
             r.gaps,
             vec![Gap {
                 start_s: 250.0,
-                length_s: 240.0
+                length_s: 240.0,
+                charge_ah: None,
             }]
         );
     }

@@ -452,16 +452,18 @@ pub fn unobserved(unlogged: &[Unlogged], h: f64, time: &[f64]) -> Vec<bool> {
     out
 }
 
-/// The export's charge against ours over the rows `r` (after the step
-/// starts), leaving out the steps longer than `gap_s`.
-pub(super) fn charge_check(r: &RawRows, column: &str, gap_s: f64) -> Option<ChargeCheck> {
+/// The export's charge count at each row of `r` (A·h; NaN where it has
+/// none), our count (each row's current held to the next) and whether the
+/// export counts magnitudes (it rises, between resets, where we
+/// discharge); `None` without a charge column or with fewer than two
+/// rows that have a count.
+fn counts(r: &RawRows) -> Option<(Vec<f64>, Vec<f64>, bool)> {
     let c = r.extra.charge.as_deref()?;
     let theirs: Vec<f64> = match r.extra.discharge_charge.as_deref() {
         Some(d) => c.iter().zip(d).map(|(a, b)| a - b).collect(),
         None => c.to_vec(),
     };
     let n = r.time.len();
-    // Our count at each row (A·h), each row's current held to the next.
     let mut q = vec![0.0; n];
     for k in 1..n {
         let i = r.current[k - 1];
@@ -472,7 +474,6 @@ pub(super) fn charge_check(r: &RawRows, column: &str, gap_s: f64) -> Option<Char
     if real.len() < 2 {
         return None;
     }
-    // A count of magnitudes: it rises (between resets) where we discharge.
     let (mut up, mut down) = (0usize, 0usize);
     for w in real.windows(2) {
         let (a, b) = (w[0], w[1]);
@@ -486,7 +487,41 @@ pub(super) fn charge_check(r: &RawRows, column: &str, gap_s: f64) -> Option<Char
             }
         }
     }
-    let magnitude = up > 0 && up > 9 * down;
+    Some((theirs, q, up > 0 && up > 9 * down))
+}
+
+/// The charge each gap of `gaps` moved beyond what the current held across
+/// it counts (A·h, + charging), from the export's own charge count: the
+/// count's step over the gap less the held current's. `None` for a gap
+/// whose count is not known on both sides, and for every gap of an export
+/// that counts magnitudes or whose count restarts anywhere (`resets`, as
+/// [`charge_check`] found them): across a gap neither can be told from a
+/// charge.
+pub(super) fn gap_charges(r: &RawRows, gaps: &[super::Gap], resets: usize) -> Vec<Option<f64>> {
+    let known = counts(r).filter(|(_, _, magnitude)| !magnitude && resets == 0);
+    gaps.iter()
+        .map(|g| {
+            let (theirs, q, _) = known.as_ref()?;
+            let a = r.time.partition_point(|&t| t < g.start_s);
+            let b = a + 1;
+            let ta = *r.time.get(a)?;
+            if (ta - g.start_s).abs() > 1e-9 * ta.abs().max(1.0) {
+                return None;
+            }
+            let d = theirs.get(b)? - theirs.get(a)?;
+            let held = q.get(b)? - q.get(a)?;
+            (d - held).is_finite().then_some(d - held)
+        })
+        .collect()
+}
+
+/// The export's charge against ours over the rows `r` (after the step
+/// starts), leaving out the steps longer than `gap_s`.
+pub(super) fn charge_check(r: &RawRows, column: &str, gap_s: f64) -> Option<ChargeCheck> {
+    let (theirs, q, magnitude) = counts(r)?;
+    let real: Vec<usize> = (0..r.time.len())
+        .filter(|&k| theirs[k].is_finite())
+        .collect();
     let tol = 1e-6;
     let (mut ours, mut them, mut gap, mut resets) = (0.0f64, 0.0f64, 0.0f64, 0usize);
     for w in real.windows(2) {

@@ -187,7 +187,8 @@ fn clock_times_and_gaps_are_reported() {
         r.report.resampling.gaps,
         vec![Gap {
             start_s: 2.0,
-            length_s: 3600.0
+            length_s: 3600.0,
+            charge_ah: None,
         }]
     );
     let j = serde_json::to_value(&r.report).unwrap();

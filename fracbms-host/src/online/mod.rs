@@ -230,9 +230,10 @@ fn cast_prior<T: Real>(p: &Prior<f64>) -> Prior<T> {
 /// Runs the online estimator over a record as `o` says, calling `sink`
 /// after every sample. With `o.prior_map`, `temperature` (°C, one per
 /// sample) picks the map's temperature. At the first sample after each of
-/// the log's `gaps` (their charge is unknown) the estimator resumes
-/// ([`Tracker::resume_after_gap`]; rested when the current there is at
-/// most C/100).
+/// the log's `gaps` the estimator resumes: counting the gap's charge where
+/// the export's own count gives it ([`Tracker::bridge_gap`]), else with
+/// the charge unknown ([`Tracker::resume_after_gap`]); rested when the
+/// current there is at most C/100.
 pub fn track(
     rec: &io::BatteryRecord,
     o: &TrackOptions,
@@ -255,7 +256,10 @@ pub fn track_with(
     mut sink: impl FnMut(TrackRow) -> Result<()>,
 ) -> Result<TrackSummary> {
     let rest = o.cell.map_or(0.0, |c| c.model.capacity_ah / 100.0);
-    let mut ends = gaps.iter().map(|g| g.start_s + g.length_s).peekable();
+    let mut ends = gaps
+        .iter()
+        .map(|g| (g.start_s + g.length_s, g.charge_ah))
+        .peekable();
     let pb = progress::bar(rec.current.len() as u64, "tracking");
     for (k, ((&t, &i), &v)) in rec
         .time
@@ -267,9 +271,17 @@ pub fn track_with(
         if let Some(t) = temperature.and_then(|x| x.get(k)) {
             cell.set_temperature(*t);
         }
-        if ends.next_if(|&end| end <= t).is_some() {
-            while ends.next_if(|&end| end <= t).is_some() {}
-            cell.resume_after_gap(i.abs() <= rest);
+        if let Some((_, charge)) = ends.next_if(|&(end, _)| end <= t) {
+            // Gaps that end before this sample, their charges summed (one
+            // unknown: unknown).
+            let mut charge = charge;
+            while let Some((_, c)) = ends.next_if(|&(end, _)| end <= t) {
+                charge = charge.zip(c).map(|(a, b)| a + b);
+            }
+            match charge {
+                Some(q) => cell.bridge_gap(q, i.abs() <= rest),
+                None => cell.resume_after_gap(i.abs() <= rest),
+            }
         }
         sink(cell.push(t, i, v))?;
         if k % 256 == 0 {
@@ -313,6 +325,7 @@ trait Step: Send + Sync {
     fn summary(&self) -> TrackSummary;
     fn set_state_of_charge(&mut self, soc: f64);
     fn resume_after_gap(&mut self, rested: bool);
+    fn bridge_gap(&mut self, charge_ah: f64, rested: bool);
     /// The SOC `mode` publishes now.
     fn published_soc(&self, mode: soc::SocMode) -> Option<f64>;
     fn set_prior(&mut self, p: &Prior<f64>);
@@ -411,6 +424,10 @@ impl<T: Real + Send + Sync, const N: usize> Step for Sized<T, N> {
         self.est.resume_after_gap(rested);
     }
 
+    fn bridge_gap(&mut self, charge_ah: f64, rested: bool) {
+        self.est.bridge_gap(&self.s, T::lit(charge_ah), rested);
+    }
+
     fn published_soc(&self, mode: soc::SocMode) -> Option<f64> {
         match mode {
             soc::SocMode::Observer => self.est.published_state_of_charge(&self.s),
@@ -489,6 +506,15 @@ impl Tracker {
     /// ([`estimator_core::battery::online::CellEstimator::resume_after_gap`]).
     pub fn resume_after_gap(&mut self, rested: bool) {
         self.cell.resume_after_gap(rested);
+    }
+
+    /// The record resumes after a gap whose charge is known (`charge_ah`,
+    /// A·h, + charging, beyond what the samples across it counted): as
+    /// [`resume_after_gap`](Self::resume_after_gap), but the state of
+    /// charge is counted through it, not read again
+    /// ([`estimator_core::battery::online::CellEstimator::bridge_gap`]).
+    pub fn bridge_gap(&mut self, charge_ah: f64, rested: bool) {
+        self.cell.bridge_gap(charge_ah, rested);
     }
 
     /// The cell's temperature now (°C): the map's temperature the prior is

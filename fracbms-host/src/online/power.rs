@@ -142,6 +142,10 @@ pub struct PowerRow {
     pub charge_a: Option<f64>,
     /// `pulse_v_{H}s` (V).
     pub pulse_v: Option<f64>,
+    /// `sop_basis`: where the parameters came from
+    /// ([`estimator_core::battery::power::SopBasis::as_str`]; the same at
+    /// every horizon).
+    pub basis: Option<&'static str>,
 }
 
 /// [`PowerOptions`] with the limits resolved for one cell.
@@ -231,6 +235,7 @@ impl ResolvedPower {
                 discharge_a: Some(h.sop.discharge_a.to_f64()),
                 charge_a: Some(h.sop.charge_a.to_f64()),
                 pulse_v: h.pulse_v.map(|v| v.to_f64()),
+                basis: Some(report.basis().as_str()),
             };
         }
         out

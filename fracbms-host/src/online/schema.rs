@@ -27,7 +27,9 @@ pub enum Value<R> {
     /// The state of power at each horizon `H` of the run: three columns
     /// per horizon, `{name}sop_discharge_a_{H}s`, `{name}sop_charge_a_{H}s`
     /// and `{name}pulse_v_{H}s` (the column's name is their prefix), each
-    /// a [`Value::Number`].
+    /// a [`Value::Number`], then `{name}sop_basis`, a [`Value::Word`]
+    /// (`window`, `map`, `held`, `stale`:
+    /// [`estimator_core::battery::power::SopBasis`]).
     Power(fn(&R) -> &[PowerRow; MAX_HORIZONS]),
 }
 
@@ -122,6 +124,8 @@ enum Get<R> {
     Plain(Value<R>),
     /// Horizon `j`'s value of the state of power.
     Power(fn(&R) -> &[PowerRow; MAX_HORIZONS], usize, PowerPart),
+    /// Where the state of power's parameters came from.
+    Basis(fn(&R) -> &[PowerRow; MAX_HORIZONS]),
 }
 
 /// One column of an output with the run's horizons: a table's column, or
@@ -143,7 +147,7 @@ impl<R> Field<R> {
             Get::Plain(Value::Time(_)) => Kind::Time,
             Get::Plain(Value::Index(_)) => Kind::Index,
             Get::Plain(Value::Flag(_)) => Kind::Flag,
-            Get::Plain(Value::Word(_)) => Kind::Word,
+            Get::Plain(Value::Word(_)) | Get::Basis(_) => Kind::Word,
             Get::Plain(Value::Number(_) | Value::Power(_)) | Get::Power(..) => Kind::Number,
         }
     }
@@ -163,6 +167,7 @@ impl<R> Field<R> {
             Get::Plain(Value::Word(f)) => Cell::Word(f(r)),
             Get::Plain(Value::Power(_)) => Cell::Number(None),
             Get::Power(rows, j, f) => Cell::Number(f(&rows(r)[j])),
+            Get::Basis(rows) => Cell::Word(rows(r)[0].basis),
         }
     }
 }
@@ -185,6 +190,10 @@ pub fn fields<R>(table: &[Column<R>], horizons: &[f64]) -> Vec<Field<R>> {
                         get: Get::Power(rows, j, f),
                     }));
                 }
+                out.push(Field {
+                    name: format!("{}sop_basis", c.name),
+                    get: Get::Basis(rows),
+                });
             }
             v => out.push(Field {
                 name: c.name.to_string(),
@@ -325,9 +334,10 @@ mod tests {
         let h = header(&track_fields(&[10.0, 30.0], false));
         assert_eq!(
             h,
-            "time_s,r_i,r_ct,q,alpha,u_oc,status,soc,ocv_offset_v,bv_a_v,bv_i0_a,predicted_v,r_i_status,r_ct_status,q_status,alpha_status,step_resistance_ohm,window_r_i,window_r_ct,window_q,window_alpha,soc_coulomb,current_bias_a,capacity_ah,capacity_sigma_ah,soc_sigma,soc_ocv_weight,soh_r,capacity_status,sop_discharge_a_10s,sop_charge_a_10s,pulse_v_10s,sop_discharge_a_30s,sop_charge_a_30s,pulse_v_30s,rejected"
+            "time_s,r_i,r_ct,q,alpha,u_oc,status,soc,ocv_offset_v,bv_a_v,bv_i0_a,predicted_v,r_i_status,r_ct_status,q_status,alpha_status,step_resistance_ohm,window_r_i,window_r_ct,window_q,window_alpha,soc_coulomb,current_bias_a,capacity_ah,capacity_sigma_ah,soc_sigma,soc_ocv_weight,soh_r,capacity_status,sop_discharge_a_10s,sop_charge_a_10s,pulse_v_10s,sop_discharge_a_30s,sop_charge_a_30s,pulse_v_30s,sop_basis,rejected"
         );
-        assert!(header(&track_fields(&[0.5], true)).ends_with(",pulse_v_0.5s,rejected,restoration"));
+        assert!(header(&track_fields(&[0.5], true))
+            .ends_with(",pulse_v_0.5s,sop_basis,rejected,restoration"));
     }
 
     #[test]

@@ -32,7 +32,7 @@ fn online_writes_a_track() {
     // The contract's columns first (issues 3 and 16), then ours.
     assert_eq!(
         lines.next(),
-        Some("time_s,r_i,r_ct,q,alpha,u_oc,status,soc,ocv_offset_v,bv_a_v,bv_i0_a,predicted_v,r_i_status,r_ct_status,q_status,alpha_status,step_resistance_ohm,window_r_i,window_r_ct,window_q,window_alpha,soc_coulomb,current_bias_a,capacity_ah,capacity_sigma_ah,soc_sigma,soc_ocv_weight,soh_r,capacity_status,sop_discharge_a_10s,sop_charge_a_10s,pulse_v_10s,sop_discharge_a_30s,sop_charge_a_30s,pulse_v_30s,rejected")
+        Some("time_s,r_i,r_ct,q,alpha,u_oc,status,soc,ocv_offset_v,bv_a_v,bv_i0_a,predicted_v,r_i_status,r_ct_status,q_status,alpha_status,step_resistance_ohm,window_r_i,window_r_ct,window_q,window_alpha,soc_coulomb,current_bias_a,capacity_ah,capacity_sigma_ah,soc_sigma,soc_ocv_weight,soh_r,capacity_status,sop_discharge_a_10s,sop_charge_a_10s,pulse_v_10s,sop_discharge_a_30s,sop_charge_a_30s,pulse_v_30s,sop_basis,rejected")
     );
     let rows: Vec<&str> = lines.collect();
     assert_eq!(rows.len(), 600);

@@ -29,6 +29,7 @@
 
 use super::*;
 use crate::battery::output_error::{FitInformation, COLUMNS};
+use crate::battery::power::SopBasis;
 use crate::battery::CellParameters;
 use crate::real::Real;
 
@@ -434,5 +435,74 @@ impl<T: Real, const N: usize> CellState<T, N> {
         pb.q.update(q.map(|_| p.q), q.unwrap_or(id), soc);
         pb.alpha
             .update(alpha.map(|_| p.alpha), alpha.unwrap_or(id), soc);
+    }
+}
+
+impl<T: Real, const N: usize> CellState<T, N> {
+    /// The parameters a state of power is predicted with, and where they
+    /// come from ([`SopBasis`]), as one set (a constant-phase branch's
+    /// `R_ct`, `Q` and α trade along a relaxation: values of different
+    /// windows do not make one branch):
+    ///
+    /// - [`SopBasis::Window`]: the last update's window identified every
+    ///   parameter ([`Identification::Identified`] or
+    ///   [`Identification::Step`]): its estimate;
+    /// - [`SopBasis::Map`]: else, with a prior (the map at the present
+    ///   state of charge and temperature), the prior's `R_i`, `R_ct`, `Q`
+    ///   and α;
+    /// - [`SopBasis::Held`]: else, while every parameter has a published
+    ///   value (identified by an earlier window within
+    ///   [`OnlineSettings::hold_soc_span`], or restored), the last good
+    ///   estimate;
+    /// - [`SopBasis::Stale`]: else, once every parameter has been
+    ///   published at least once, the last good estimate.
+    ///
+    /// The rest of the model (`ΔU`, the Butler–Volmer term) is the last
+    /// estimate's, in the window's coordinates (with a prior and no
+    /// estimate yet, none: a pulse is then predicted only from a relaxed
+    /// cell, its `ΔU` read from the rested voltage). `None` without a
+    /// prior before the first estimate, or while a parameter has never
+    /// been published.
+    pub fn sop_parameters<const P: usize>(
+        &self,
+        s: &OnlineSettings<T, P>,
+    ) -> Option<(CellParameters<T>, SopBasis)> {
+        let prior = s.battery.prior.as_ref().map(|pr| pr.center);
+        let Some(p) = self.estimate else {
+            let c = prior?;
+            // (A Butler–Volmer map's term is not predicted from: its
+            // currents are capped at what a fitted window saw.)
+            let q = CellParameters {
+                u_oc: T::zero(),
+                ..c
+            };
+            return Some((q, SopBasis::Map));
+        };
+        let named = self.published.named();
+        let window = named.iter().all(|(_, x)| {
+            x.value.is_some()
+                && matches!(x.status, Identification::Identified | Identification::Step)
+        });
+        if window {
+            return Some((p, SopBasis::Window));
+        }
+        if let Some(c) = prior {
+            let q = CellParameters {
+                r_i: c.r_i,
+                r_ct: c.r_ct,
+                q: c.q,
+                alpha: c.alpha,
+                ..p
+            };
+            return Some((q, SopBasis::Map));
+        }
+        if named.iter().all(|(_, x)| x.value.is_some()) {
+            return Some((p, SopBasis::Held));
+        }
+        let ever = named
+            .iter()
+            .zip(self.stale)
+            .all(|((_, x), st)| x.value.is_some() || !st.is_nan());
+        ever.then_some((p, SopBasis::Stale))
     }
 }

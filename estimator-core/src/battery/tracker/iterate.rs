@@ -47,7 +47,18 @@ impl<T: Real, const N: usize> CellState<T, N> {
         let evidence = self.r_i_evidence(s);
         // No new evidence unless a window's fit says otherwise below.
         self.published.hold();
+        let before = self.published.named();
         self.published.expire(self.soc, s.hold_soc_span);
+        for ((slot, (_, was)), (_, now)) in self
+            .stale
+            .iter_mut()
+            .zip(before)
+            .zip(self.published.named())
+        {
+            if let (None, Some(v)) = (now.value, was.value) {
+                *slot = v;
+            }
+        }
         // Saturating: `push` may be given other settings than the
         // constructor's (memory 0 or `usize::MAX` then means "never enough").
         // A window begun at a rested cell (after a gap, or at power-up with

@@ -67,6 +67,10 @@ pub struct CellState<T, const N: usize> {
     /// What is published of each parameter, and whether the data
     /// identify it ([`super::identified`]).
     pub(super) published: PublishedParameters<T>,
+    /// Each parameter's last published value once it has expired
+    /// (`[R_i, R_ct, Q, α]`, NaN: none): what a state of power falls back
+    /// on ([`crate::battery::power::SopBasis::Stale`]).
+    pub(super) stale: [T; 4],
     /// The last precise current step's resistance.
     pub(super) step: Option<StepResistance<T>>,
     /// The SOC observer beside the count (with a curve).
@@ -210,6 +214,7 @@ impl<T: Real, const N: usize> CellState<T, N> {
         last_rejection: None,
         past: PastModes::new(),
         published: PublishedParameters::NONE,
+        stale: [T::NAN; 4],
         soc_observer: SocObserver::BLANK,
         step: None,
         restoration: Restoration::Clean,
@@ -241,6 +246,7 @@ impl<T: Real, const N: usize> CellState<T, N> {
         self.last_rejection = None;
         self.past = PastModes::new();
         self.published = PublishedParameters::NONE;
+        self.stale = [T::NAN; 4];
         self.soc_observer = SocObserver::new(&s.soc, None);
         self.step = None;
         self.restoration = Restoration::Clean;
@@ -352,6 +358,23 @@ impl<T: Real, const N: usize> CellState<T, N> {
         (len >= s.soc.rest_s && v.is_finite()).then_some(v)
     }
 
+    /// The voltage of a cell known to be relaxed now: the
+    /// [`rested_voltage`](Self::rested_voltage), or, in a window begun at
+    /// a rested cell after a gap ([`Self::resume_after_gap`]) that has
+    /// rested ever since, that rest's voltage. The record resumed at rest
+    /// is read as relaxed: its start SOC is read from it too.
+    pub(crate) fn relaxed_voltage<const P: usize>(&self, s: &OnlineSettings<T, P>) -> Option<T> {
+        if let Some(v) = self.rested_voltage(s) {
+            return Some(v);
+        }
+        s.ocv.as_ref()?;
+        let (len, v) = self.soc_observer.rest()?;
+        // Every sample of the window in the rest (half a period's slack).
+        let window = T::lit(f64::from(self.len)) * s.battery.h;
+        let whole = len + T::lit(0.5) * s.battery.h >= window;
+        (self.at_rest && self.len > 0 && whole && v.is_finite()).then_some(v)
+    }
+
     /// Health after the last update.
     pub fn status(&self) -> Status {
         self.status
@@ -430,6 +453,36 @@ impl<T: Real, const N: usize> CellState<T, N> {
             self.soc = None;
             self.rest_start = None;
         }
+    }
+
+    /// The record resumes after a gap whose charge is known: `charge_ah`
+    /// (A·h, + charging) moved through it beyond what the samples across
+    /// it counted (a cycler export's own charge count over the gap, less
+    /// the current held across it). As
+    /// [`resume_after_gap`](Self::resume_after_gap) the window restarts
+    /// and, when `rested`, is fitted from rest until it slides; but the
+    /// state of charge is counted through the gap, not read again, and
+    /// the SOC observer counts it too ([`crate::battery::soc::SocObserver::bridge_gap`]):
+    /// a capacity is then learned across gaps. A charge that is not
+    /// finite is a gap of unknown charge.
+    pub fn bridge_gap<const P: usize>(
+        &mut self,
+        s: &OnlineSettings<T, P>,
+        charge_ah: T,
+        rested: bool,
+    ) {
+        if !charge_ah.is_finite() {
+            self.resume_after_gap(rested);
+            return;
+        }
+        self.clear_window();
+        self.at_rest = rested;
+        self.rmse = T::infinity();
+        self.spike_scale = T::nan();
+        if let (Some(z), Some(m)) = (self.soc, s.ocv.as_ref()) {
+            self.soc = Some(z + charge_ah / m.capacity_ah);
+        }
+        self.soc_observer.bridge_gap(&s.soc, charge_ah);
     }
 
     /// Restarts the window (the pack's ring keeps the currents); its past
