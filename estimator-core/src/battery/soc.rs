@@ -449,17 +449,7 @@ impl<T: Real> SocObserver<T> {
             return;
         }
         self.rest = None;
-        let Some(x) = &mut self.x else { return };
-        let fg = charge_ah / s.capacity_ah;
-        let counted = x[0] + x[2] * fg;
-        if counted.is_finite() {
-            x[0] = counted;
-        }
-        // F = [[1, 0, fg], [0, 1, 0], [0, 0, 1]]
-        let [p00, p01, p02, p11, p12, p22] = self.p;
-        let r0 = [p00 + fg * p02, p01 + fg * p12, p02 + fg * p22];
-        self.p = [r0[0] + fg * r0[2], r0[1], r0[2], p11, p12, p22];
-        self.condition(s);
+        self.count(s, T::ZERO, charge_ah / s.capacity_ah, T::ZERO);
     }
 
     /// Sets the SOC (a value the caller knows better): from the next
@@ -609,18 +599,24 @@ impl<T: Real> SocObserver<T> {
 
     /// The count of one sample: the state and its covariance forward.
     fn predict(&mut self, s: &SocSettings<T>, current: T) {
-        let Some(x) = &mut self.x else { return };
+        let Some([_, b, g]) = self.x else { return };
         let k = s.h / (T::lit(3600.0) * s.capacity_ah);
-        let [z, b, g] = *x;
+        let walk = s.bias_walk_a * s.bias_walk_a * s.h / T::lit(3600.0);
+        self.count(s, -g * k, (current - b) * k, walk);
+    }
+
+    /// One step of the count, `F = [[1, fb, fg], [0, 1, 0], [0, 0, 1]]`:
+    /// the SOC moves by `g·fg` (a charge over the nominal capacity) and
+    /// the covariance with it, the bias's variance grows by `walk`.
+    fn count(&mut self, s: &SocSettings<T>, fb: T, fg: T, walk: T) {
+        let Some(x) = &mut self.x else { return };
         // A count that would leave the finite numbers (a current far
         // beyond the capacity's scale, sample after sample) stops where
         // it is: the estimate stays the last finite one.
-        let counted = z + g * (current - b) * k;
+        let counted = x[0] + x[2] * fg;
         if counted.is_finite() {
             x[0] = counted;
         }
-        // F = [[1, −g·k, (I − b)·k], [0, 1, 0], [0, 0, 1]]
-        let (fb, fg) = (-g * k, (current - b) * k);
         let [p00, p01, p02, p11, p12, p22] = self.p;
         // Row 0 of F·P.
         let r0 = [
@@ -628,7 +624,6 @@ impl<T: Real> SocObserver<T> {
             p01 + fb * p11 + fg * p12,
             p02 + fb * p12 + fg * p22,
         ];
-        let walk = s.bias_walk_a * s.bias_walk_a * s.h / T::lit(3600.0);
         self.p = [
             r0[0] + fb * r0[1] + fg * r0[2],
             r0[1],

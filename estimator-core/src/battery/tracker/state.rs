@@ -314,7 +314,7 @@ impl<T: Real, const N: usize> CellState<T, N> {
     }
 
     /// Every parameter of the model has a published value (identified,
-    /// from the step, or held): what the state of power needs.
+    /// from the step, held, restored or the prior's).
     pub fn model_published(&self) -> bool {
         self.published
             .named()
@@ -444,10 +444,7 @@ impl<T: Real, const N: usize> CellState<T, N> {
     /// docs/bms-states.md). What is published stays, held (and expires by
     /// state of charge, [`super::OnlineSettings::hold_soc_span`]).
     pub fn resume_after_gap(&mut self, rested: bool) {
-        self.clear_window();
-        self.at_rest = rested;
-        self.rmse = T::infinity();
-        self.spike_scale = T::nan();
+        self.restart_after_gap(rested);
         self.soc_observer.resume_after_gap();
         if rested {
             self.soc = None;
@@ -475,14 +472,21 @@ impl<T: Real, const N: usize> CellState<T, N> {
             self.resume_after_gap(rested);
             return;
         }
-        self.clear_window();
-        self.at_rest = rested;
-        self.rmse = T::infinity();
-        self.spike_scale = T::nan();
+        self.restart_after_gap(rested);
         if let (Some(z), Some(m)) = (self.soc, s.ocv.as_ref()) {
             self.soc = Some(z + charge_ah / m.capacity_ah);
         }
         self.soc_observer.bridge_gap(&s.soc, charge_ah);
+    }
+
+    /// What every gap does to the window: it restarts (no model runs
+    /// across a gap), begun at rest when `rested`, with no fit's RMSE or
+    /// innovation scale to judge spikes by yet.
+    fn restart_after_gap(&mut self, rested: bool) {
+        self.clear_window();
+        self.at_rest = rested;
+        self.rmse = T::infinity();
+        self.spike_scale = T::nan();
     }
 
     /// Restarts the window (the pack's ring keeps the currents); its past
