@@ -134,6 +134,8 @@ PAN10 = "data/panasonic-18650pf/03-27-17_09.06 10degC_5Pulse_HPPC_Pan18650PF.mat
 # with the C/20 OCV table (25 degC: the only one the data set has).
 RECORDS = {"Panasonic 25 degC HPPC": PANASONIC, "Panasonic 10 degC HPPC": PAN10}
 GROUP_GAP_S = 1500.0
+# The state of power's default derating (`--sop-confidence`).
+CONFIDENCE = 2.0
 
 
 def groups(ps):
@@ -172,8 +174,9 @@ def acceptance(host_sim, out, map_method):
     before the pulse (the last pulse and its rest)."""
     ocv = ocv_table()
     print("| record | horizon | prior | pulses | with a value | basis (window/map/held/stale) "
-          "| ours: median / worst % of the drop | last drop again | 1 RC on the last pulse |")
-    print("|---|---|---|---|---|---|---|---|---|")
+          "| ours: median / worst % of the drop | measured above pulse_v - 2 sigma "
+          "| median sigma, % of the drop | last drop again | 1 RC on the last pulse |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
     for name, path in RECORDS.items():
         ps, (t, v) = pulses(path)
         i_raw = sio.loadmat(path)["meas"][0, 0]["Current"].ravel()
@@ -206,6 +209,7 @@ def acceptance(host_sim, out, map_method):
                 tracks[c] = list(csv.DictReader(open(track)))
             for h in HORIZONS:
                 ours, base, one_rc, basis, n = [], [], [], {}, 0
+                covered, sigmas = [], []
                 for j, (start, cur, length) in enumerate(ps):
                     if g[j] == 0 or length < h:
                         continue
@@ -221,6 +225,12 @@ def acceptance(host_sim, out, map_method):
                     if p:
                         ours.append(abs(float(p) - measured) / drop)
                         basis[b] = basis.get(b, 0) + 1
+                        # The derated limit's check: a discharge pulse
+                        # ends no lower than its prediction less 2 sigma.
+                        sd = tr[k].get(f"sop_uncertainty_v_{h}s", "")
+                        if sd:
+                            covered.append(measured >= float(p) - CONFIDENCE * float(sd))
+                            sigmas.append(float(sd) / drop)
                     if (j, h) in naive:
                         base.append(abs(naive[(j, h)] - measured) / drop)
                     if (j, h) not in rc:
@@ -232,8 +242,10 @@ def acceptance(host_sim, out, map_method):
                         one_rc.append(abs(rc[(j, h)] - measured) / drop)
                 mw = lambda x: f"{pct(np.median(x))} / {pct(np.max(x))}" if x else "none"
                 bs = "/".join(str(basis.get(x, 0)) for x in ("window", "map", "held", "stale"))
+                cov = f"{sum(covered)} of {len(covered)} ({pct(np.mean(covered))} %)" if covered else "none"
+                sg = pct(np.median(sigmas)) if sigmas else "none"
                 print(f"| {name} | {h} s | {variant} | {n} | {len(ours)} | {bs} | {mw(ours)} "
-                      f"| {mw(base)} | {mw(one_rc)} |")
+                      f"| {cov} | {sg} | {mw(base)} | {mw(one_rc)} |")
 
 
 def main():

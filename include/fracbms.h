@@ -694,11 +694,19 @@ typedef struct FracbmsPowerRequest {
    * pulse is predicted from rest whatever this says.
    */
   float carry_s;
+  /**
+   * How many standard deviations of the pulse voltage
+   * (`FracbmsHorizonPower::uncertainty_v`) the limit currents keep
+   * inside the voltage limits at each horizon's end
+   * (`--sop-confidence`); NaN: the default, 2. 0 derates nothing.
+   */
+  float confidence;
 } FracbmsPowerRequest;
 
 /**
  * One horizon's state of power, as `host-sim online battery`'s
- * `sop_discharge_a_{H}s`, `sop_charge_a_{H}s` and `pulse_v_{H}s`.
+ * `sop_discharge_a_{H}s`, `sop_charge_a_{H}s`, `pulse_v_{H}s` and
+ * `sop_uncertainty_v_{H}s`.
  */
 typedef struct FracbmsHorizonPower {
   /**
@@ -719,6 +727,12 @@ typedef struct FracbmsHorizonPower {
    * without one); for a pack's string, the sum of its cells'.
    */
   float pulse_v;
+  /**
+   * The pulse voltage's standard deviation (V) from the spread of the
+   * parameters it was predicted with and the fit's RMSE, as `host-sim
+   * online battery`'s `sop_uncertainty_v_{H}s` (NaN without a pulse).
+   */
+  float uncertainty_v;
 } FracbmsHorizonPower;
 
 /**

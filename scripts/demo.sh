@@ -148,7 +148,8 @@ if ri:
 if sop:
     s = sop[-1]
     rows.append((f"state of power, last published ({s['time_s']} s, SOC {float(s['soc']):.2f})",
-                 f"10 s: discharge {float(s['sop_discharge_a_10s']):.1f} A, charge {float(s['sop_charge_a_10s']):.1f} A",
+                 f"10 s: discharge {float(s['sop_discharge_a_10s']):.1f} A, charge {float(s['sop_charge_a_10s']):.1f} A "
+                 f"(2 σ inside the limits; σ {1e3 * float(s['sop_uncertainty_v_10s']):.0f} mV at 1C)",
                  f"30 s: {float(s['sop_discharge_a_30s']):.1f} A, {float(s['sop_charge_a_30s']):.1f} A; "
                  f"published on {100 * len(sop) / len(track):.0f} % of the samples"))
 else:

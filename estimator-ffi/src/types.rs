@@ -507,10 +507,16 @@ pub struct FracbmsPowerRequest {
     /// reaches. After a rest the SOC observer reads (its `rest_s`), the
     /// pulse is predicted from rest whatever this says.
     pub carry_s: f32,
+    /// How many standard deviations of the pulse voltage
+    /// (`FracbmsHorizonPower::uncertainty_v`) the limit currents keep
+    /// inside the voltage limits at each horizon's end
+    /// (`--sop-confidence`); NaN: the default, 2. 0 derates nothing.
+    pub confidence: f32,
 }
 
 /// One horizon's state of power, as `host-sim online battery`'s
-/// `sop_discharge_a_{H}s`, `sop_charge_a_{H}s` and `pulse_v_{H}s`.
+/// `sop_discharge_a_{H}s`, `sop_charge_a_{H}s`, `pulse_v_{H}s` and
+/// `sop_uncertainty_v_{H}s`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct FracbmsHorizonPower {
@@ -524,6 +530,10 @@ pub struct FracbmsHorizonPower {
     /// The predicted voltage (V) at the end of the request's pulse (NaN
     /// without one); for a pack's string, the sum of its cells'.
     pub pulse_v: f32,
+    /// The pulse voltage's standard deviation (V) from the spread of the
+    /// parameters it was predicted with and the fit's RMSE, as `host-sim
+    /// online battery`'s `sop_uncertainty_v_{H}s` (NaN without a pulse).
+    pub uncertainty_v: f32,
 }
 
 /// A state of power: `published` false (and the horizons zero) before
@@ -574,6 +584,12 @@ impl FracbmsPowerRequest {
             }
             p.carry = Some((self.carry_s / h + 0.5) as u32);
         }
+        if !self.confidence.is_nan() {
+            if !(self.confidence.is_finite() && self.confidence >= 0.0) {
+                return None;
+            }
+            p.confidence = self.confidence;
+        }
         Some(p)
     }
 
@@ -595,6 +611,7 @@ impl FracbmsPowerRequest {
                     discharge_a: h.sop.discharge_a,
                     charge_a: h.sop.charge_a,
                     pulse_v: h.pulse_v.unwrap_or(f32::NAN),
+                    uncertainty_v: h.uncertainty_v.unwrap_or(f32::NAN),
                 };
             }
         }

@@ -28,6 +28,7 @@ fn power_request() -> FracbmsPowerRequest {
         horizon_count: 3,
         pulse_current: -2.0,
         carry_s: f32::NAN,
+        confidence: f32::NAN,
     }
 }
 
@@ -48,6 +49,7 @@ fn core_power(r: Option<PowerReport<f32>>) -> FracbmsPower {
                 discharge_a: h.sop.discharge_a,
                 charge_a: h.sop.charge_a,
                 pulse_v: h.pulse_v.unwrap(),
+                uncertainty_v: h.uncertainty_v.unwrap(),
             };
         }
     }

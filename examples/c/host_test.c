@@ -179,6 +179,7 @@ static int replay(const char *path)
     req.horizon_count = 2;
     req.pulse_current = -2.0f;
     req.carry_s = NAN;
+    req.confidence = NAN;
     FracbmsPower pw;
     CHECK_CODE(fracbms_cell_state_of_power(cell, &req, &pw), FRACBMS_OK);
     if (pw.published) {

@@ -340,6 +340,7 @@ static int online(const Table *rec, const Options *o)
         req.horizons_s[k] = HORIZON_S[k];
     req.horizon_count = HORIZONS;
     req.carry_s = NAN;
+    req.confidence = NAN;
     unsigned by_reason[4] = {0, 0, 0, 0};
     FracbmsEstimate e;
     for (size_t k = 0; k < rec->rows; k++) {
@@ -413,6 +414,8 @@ static int online(const Table *rec, const Options *o)
                 f32v(key, pw.published ? pw.horizons[j].charge_a : NAN);
                 snprintf(key, sizeof key, "pulse_v_%ds", hs);
                 f32v(key, pw.published ? pw.horizons[j].pulse_v : NAN);
+                snprintf(key, sizeof key, "sop_uncertainty_v_%ds", hs);
+                f32v(key, pw.published ? pw.horizons[j].uncertainty_v : NAN);
             }
         }
         printf("\"iterations\": %u}\n", (unsigned)e.iterations);

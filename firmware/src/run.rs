@@ -319,8 +319,9 @@ fn soc_line<const N: usize>(s: &firmware::task::TaskSettings, cell: usize, c: &C
 /// and `pulse_v_{H}s` at the horizons of
 /// [`firmware::task::POWER_HORIZONS_S`] (NaN, `published=false` where the
 /// model is not published) and `sop_basis` (where its parameters came
-/// from: `window`, `map`, `held`, `stale`; empty without one); nothing
-/// without an OCV table.
+/// from: `window`, `map`, `held`, `stale`; empty without one) and
+/// `sop_uncertainty_v` (the 30 s pulse voltage's standard deviation);
+/// nothing without an OCV table.
 fn power_line(s: &firmware::task::TaskSettings, task: &ConfiguredTask, k: Option<usize>) {
     if s.power.is_none() {
         return;
@@ -341,8 +342,11 @@ fn power_line(s: &firmware::task::TaskSettings, task: &ConfiguredTask, k: Option
     };
     let ((d10, c10, v10), (d30, c30, v30)) = (h(0), h(1));
     let basis = r.map_or("", |r| r.basis().as_str());
+    let sigma = r
+        .and_then(|r| r.horizons().get(1).and_then(|h| h.uncertainty_v))
+        .unwrap_or(f32::NAN);
     defmt::println!(
-        "SOP cell={=usize} published={=bool} sop_discharge_a_10s={=f32} sop_charge_a_10s={=f32} pulse_v_10s={=f32} sop_discharge_a_30s={=f32} sop_charge_a_30s={=f32} pulse_v_30s={=f32} sop_basis={=str}",
+        "SOP cell={=usize} published={=bool} sop_discharge_a_10s={=f32} sop_charge_a_10s={=f32} pulse_v_10s={=f32} sop_discharge_a_30s={=f32} sop_charge_a_30s={=f32} pulse_v_30s={=f32} sop_basis={=str} sop_uncertainty_v={=f32}",
         k.map_or(0, |k| k + 1),
         r.is_some(),
         d10,
@@ -351,7 +355,8 @@ fn power_line(s: &firmware::task::TaskSettings, task: &ConfiguredTask, k: Option
         d30,
         c30,
         v30,
-        basis
+        basis,
+        sigma
     );
 }
 

@@ -318,7 +318,8 @@ pub struct PackRow {
 /// Then the cell's state of charge as `online battery`'s (`soc`, then
 /// [`SOC_HEADER`], `capacity_status`; empty without `--ocv`), the cell's
 /// state of power (`sop_discharge_a_{H}s`, `sop_charge_a_{H}s`,
-/// `pulse_v_{H}s` for each of the run's horizons, then `sop_basis`) and
+/// `pulse_v_{H}s` for each of the run's horizons, then `sop_basis`,
+/// `sop_uncertainty_v` and `sop_uncertainty_v_{H}s`) and
 /// the string's (`pack_sop_discharge_a_{H}s`, `pack_sop_charge_a_{H}s`,
 /// `pack_pulse_v_{H}s`: the weakest cell's currents and the sum of the
 /// cells' pulse voltages, the same on every cell's row of a sample; then

@@ -126,6 +126,7 @@ def online_pack(
     current_limit: Optional[float] = None,
     pulse_current_a: Optional[float] = None,
     sop_carry_s: Optional[float] = None,
+    sop_confidence: Optional[float] = None,
     soc: Literal["observer", "coulomb"] = "observer",
     soc_rest_s: Optional[float] = None,
     soc_bias_sigma_a: Optional[float] = None,
@@ -184,13 +185,17 @@ class OnlineCell:
         soc_rest_load_sigma_a: Optional[float] = None,
         soc_voltage_sigma_v: Optional[float] = None,
         sop_carry_s: Optional[float] = None,
+        sop_confidence: Optional[float] = None,
     ) -> None:
         """``horizons`` (s), ``voltage_min``/``voltage_max`` (V; default the OCV
         table's range), ``current_limit`` (A) and ``pulse_current_a`` (A, +
         charging; default a 1C discharge) give the state-of-power columns
         (``sop_carry_s``: how long, s, they may be carried from the last fit
-        through a rest; default as far as the window reaches)
-        ``sop_discharge_a_{H}s``, ``sop_charge_a_{H}s``, ``pulse_v_{H}s``, as
+        through a rest; default as far as the window reaches; ``sop_confidence``:
+        how many standard deviations of the pulse voltage the currents keep
+        inside the limits, default 2)
+        ``sop_discharge_a_{H}s``, ``sop_charge_a_{H}s``, ``pulse_v_{H}s``,
+        ``sop_basis``, ``sop_uncertainty_v`` and ``sop_uncertainty_v_{H}s``, as
         ``host-sim online battery``'s flags. With an OCV table, ``soc`` is
         the observer's (``soc="observer"``: the count corrected at each rest
         of ``soc_rest_s``, default 600 s, with ``current_bias_a`` (its prior

@@ -105,7 +105,7 @@ fn warn(py: Python<'_>, message: &str) -> PyResult<()> {
 }
 
 /// The state-of-power keywords (`horizons=`, `voltage_min=`, …,
-/// `sop_carry_s=`) as the CLI's flags, checked as the CLI checks them.
+/// `sop_carry_s=`, `sop_confidence=`) as the CLI's flags, checked as the CLI checks them.
 fn power_options(
     horizons: &[f64],
     voltage_min: Option<f64>,
@@ -113,6 +113,7 @@ fn power_options(
     current_limit: Option<f64>,
     pulse_current_a: Option<f64>,
     carry_s: Option<f64>,
+    confidence: Option<f64>,
 ) -> PyResult<fracbms_host::online::power::PowerOptions> {
     let mut p = fracbms_host::online::power::PowerOptions::default()
         .with_horizons(horizons)
@@ -122,6 +123,7 @@ fn power_options(
     p.current_limit = current_limit;
     p.pulse_current_a = pulse_current_a;
     p.carry_s = carry_s;
+    p.confidence = confidence;
     Ok(p)
 }
 

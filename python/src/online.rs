@@ -175,7 +175,7 @@ impl OnlineCell {
         prior_alpha_sigma = 0.1, prior_noise_mv = 100.0, horizons = vec![10.0, 30.0],
         voltage_min = None, voltage_max = None, current_limit = None, pulse_current_a = None,
         soc = "observer", soc_rest_s = None, soc_bias_sigma_a = None, soc_rest_load_sigma_a = None,
-        soc_voltage_sigma_v = None, sop_carry_s = None
+        soc_voltage_sigma_v = None, sop_carry_s = None, sop_confidence = None
     ))]
     #[allow(clippy::too_many_arguments)]
     fn new(
@@ -208,6 +208,7 @@ impl OnlineCell {
         soc_rest_load_sigma_a: Option<f64>,
         soc_voltage_sigma_v: Option<f64>,
         sop_carry_s: Option<f64>,
+        sop_confidence: Option<f64>,
     ) -> PyResult<Self> {
         if !(h.is_finite() && h > 0.0) {
             return Err(PyValueError::new_err(format!(
@@ -267,6 +268,7 @@ impl OnlineCell {
                 current_limit,
                 pulse_current_a,
                 sop_carry_s,
+                sop_confidence,
             )?,
             soc: SocOptions {
                 mode: soc,

@@ -11,7 +11,8 @@ COLUMNS = ["time_s", "r_i", "r_ct", "q", "alpha", "u_oc", "soc", "ocv_offset_v",
            "window_r_ct", "window_q", "window_alpha", "soc_coulomb", "current_bias_a",
            "capacity_ah", "capacity_sigma_ah", "soc_sigma", "soc_ocv_weight", "soh_r",
            "sop_discharge_a_10s", "sop_charge_a_10s", "pulse_v_10s",
-           "sop_discharge_a_30s", "sop_charge_a_30s", "pulse_v_30s"]
+           "sop_discharge_a_30s", "sop_charge_a_30s", "pulse_v_30s",
+           "sop_uncertainty_v", "sop_uncertainty_v_10s", "sop_uncertainty_v_30s"]
 STATUSES = ["r_i_status", "r_ct_status", "q_status", "alpha_status", "capacity_status"]
 # The words beside the statuses: where the state of power's parameters came
 # from (window, map, held, stale; empty without one).
@@ -128,6 +129,32 @@ def test_the_state_of_power_carry_equals_the_cli(host_sim, tmp_path):
     with pytest.raises(ValueError):
         fracbms.OnlineCell(ocv=(o["soc"], o["ocv_v"]), capacity_ah=cap, sop_carry_s=-1.0).run(
             c["current_a"][:10], c["voltage_v"][:10])
+
+
+def test_the_state_of_power_confidence_equals_the_cli(host_sim, tmp_path):
+    ocv_file = REPO / "data" / "pybamm" / "chen2020-ocv.csv"
+    rec = REPO / "data" / "pybamm" / "chen2020-hppc.csv"
+    cap = 5.153198325955154
+    c, o = read_csv(rec), read_csv(ocv_file)
+    runs = {}
+    for conf in (0.0, 3.0):
+        cli = cli_track(host_sim, rec, tmp_path, "--ocv", ocv_file, "--capacity-ah", str(cap),
+                        "--sop-confidence", str(conf))
+        cell = fracbms.OnlineCell(ocv=(o["soc"], o["ocv_v"]), capacity_ah=cap,
+                                  sop_confidence=conf)
+        py = cell.run(c["current_a"], c["voltage_v"])
+        assert_same_track(py, cli)
+        runs[conf] = py
+    has = np.isfinite(runs[0.0]["sop_discharge_a_10s"])
+    assert has.any()
+    # The spread is the same; 3 sigma lowers the discharge current.
+    np.testing.assert_array_equal(runs[0.0]["sop_uncertainty_v_10s"],
+                                  runs[3.0]["sop_uncertainty_v_10s"])
+    assert np.all(runs[3.0]["sop_discharge_a_10s"][has] <= runs[0.0]["sop_discharge_a_10s"][has])
+    assert np.all(runs[3.0]["sop_uncertainty_v_10s"][has] > 0)
+    with pytest.raises(ValueError):
+        fracbms.OnlineCell(ocv=(o["soc"], o["ocv_v"]), capacity_ah=cap,
+                           sop_confidence=-1.0).run(c["current_a"][:10], c["voltage_v"][:10])
 
 
 def test_a_bad_sample_is_rejected_not_raised(cell_record):

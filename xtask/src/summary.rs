@@ -84,13 +84,14 @@ pub(crate) fn insert_soc(
 
 /// The keys of a `SOP` line (the track's state-of-power columns at the
 /// firmware's horizons).
-pub(crate) const SOP_KEYS: [&str; 6] = [
+pub(crate) const SOP_KEYS: [&str; 7] = [
     "sop_discharge_a_10s",
     "sop_charge_a_10s",
     "pulse_v_10s",
     "sop_discharge_a_30s",
     "sop_charge_a_30s",
     "pulse_v_30s",
+    "sop_uncertainty_v",
 ];
 
 /// What cell `k` (1-based; 0 the string) says of its state of power (its

@@ -619,7 +619,9 @@ impl<T: Real, const N: usize, const MEM: usize, const CELLS: usize>
     /// cell). `None` before every parameter has been published once, or
     /// without a predictor. With the Butler–Volmer term, the currents are
     /// capped at the largest the cell's window holds: the term is not
-    /// extrapolated.
+    /// extrapolated. Each pulse voltage carries its standard deviation
+    /// from the set's spread ([`CellState::sop_spread`]), and the currents
+    /// keep [`PowerSettings::confidence`] of it inside the limits.
     pub fn state_of_power<const P: usize>(
         &self,
         k: usize,
@@ -649,7 +651,12 @@ impl<T: Real, const N: usize, const MEM: usize, const CELLS: usize>
             let cap = &mut power.limits.current_limit;
             *cap = cap.min(seen);
         }
-        Some(predictor.power(&power).with_basis(basis))
+        let spread = c.sop_spread(s, basis);
+        Some(
+            predictor
+                .power_with_spread(&power, &spread)
+                .with_basis(basis),
+        )
     }
 
     /// The string's state of power: at each horizon the weakest cell's

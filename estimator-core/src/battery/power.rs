@@ -31,9 +31,12 @@ use crate::frac::{GlWeights, ROW_BLOCK};
 use crate::real::Real;
 
 mod report;
+mod spread;
 pub use report::{
-    HorizonPower, PowerLimits, PowerReport, PowerSettings, SopBasis, StateOfPower, MAX_HORIZONS,
+    HorizonPower, PowerLimits, PowerReport, PowerSettings, SopBasis, StateOfPower,
+    DEFAULT_CONFIDENCE, MAX_HORIZONS,
 };
+pub use spread::ParameterSpread;
 
 /// What a cell carries between samples to predict pulses from at any
 /// time: the model it follows (window coordinates, as the estimator's
@@ -422,7 +425,7 @@ impl<'a, T: Real, const MEM: usize, const P: usize> PulsePredictor<'a, T, MEM, P
     /// `steps` samples ([`power`](Self::power) for one horizon).
     pub fn state_of_power(&self, limits: &PowerLimits<T>, steps: usize) -> StateOfPower<T> {
         let h = [u32::try_from(steps).unwrap_or(u32::MAX)];
-        let r = self.run(limits, &h, None);
+        let r = self.run(limits, &h, None, None);
         r.horizons[0].sop
     }
 
@@ -438,10 +441,16 @@ impl<'a, T: Real, const MEM: usize, const P: usize> PulsePredictor<'a, T, MEM, P
     /// bracketed regula falsi (Illinois), to `10⁻⁹ V` or `2⁻⁴⁰` of the
     /// current limit, whichever comes first, always on the safe side.
     pub fn power(&self, s: &PowerSettings<T>) -> PowerReport<T> {
-        self.run(&s.limits, s.horizons(), s.pulse_current)
+        self.run(&s.limits, s.horizons(), s.pulse_current, None)
     }
 
-    fn run(&self, limits: &PowerLimits<T>, horizons: &[u32], pulse: Option<T>) -> PowerReport<T> {
+    fn run(
+        &self,
+        limits: &PowerLimits<T>,
+        horizons: &[u32],
+        pulse: Option<T>,
+        spread: Option<(&ParameterSpread<T>, T)>,
+    ) -> PowerReport<T> {
         let cap = limits.current_limit;
         let empty = HorizonPower {
             sop: StateOfPower {
@@ -450,6 +459,7 @@ impl<'a, T: Real, const MEM: usize, const P: usize> PulsePredictor<'a, T, MEM, P
                 charge_a: cap,
             },
             pulse_v: None,
+            uncertainty_v: None,
         };
         let mut out = PowerReport {
             horizons: [empty; MAX_HORIZONS],
@@ -460,19 +470,11 @@ impl<'a, T: Real, const MEM: usize, const P: usize> PulsePredictor<'a, T, MEM, P
             o.sop.steps = k as usize;
         }
         let longest = horizons.iter().copied().max().unwrap_or(0) as usize;
-        let sure = T::lit(SURE_V);
-        let (mut d, mut c) = (cap, cap);
-        // The OCV table's segment of the last lookup: the next starts there.
-        let segment = Cell::new(0);
-        let voltage = |i: T, k: usize, f: T, g: T| self.voltage(i, k, f, g, &segment);
-        let discharge = |x: T, k: usize, f: T, g: T| voltage(-x, k, f, g) - limits.voltage_min;
-        let charge = |x: T, k: usize, f: T, g: T| limits.voltage_max - voltage(x, k, f, g);
-        if longest <= MEM {
-            // Every response kept: each horizon's end solved once, the
-            // samples before it only checked (and solved where one
-            // fails), in order of the horizons' lengths. The same bounds
-            // as sample by sample (below), with fewer roots.
-            let (mut fs, mut gs) = ([T::zero(); MEM], [T::zero(); MEM]);
+        // Every response kept up to `MEM` samples (the horizons' ends
+        // solved from them below).
+        let short = longest <= MEM;
+        let (mut fs, mut gs) = ([T::zero(); MEM], [T::zero(); MEM]);
+        if short {
             // (k runs 1..=longest ≤ MEM.)
             self.responses(longest, |k, f, g| {
                 let at = k.wrapping_sub(1);
@@ -480,11 +482,49 @@ impl<'a, T: Real, const MEM: usize, const P: usize> PulsePredictor<'a, T, MEM, P
                     (*x, *y) = (f, g);
                 }
             });
+        }
+        // Each horizon's voltage spread at a current, and the margin the
+        // limit currents keep for it at the horizon's end.
+        let shifts = spread.and_then(|(sp, _)| {
+            let base = if short {
+                let mut b = [T::nan(); MAX_HORIZONS];
+                for (x, &h) in b.iter_mut().zip(horizons) {
+                    *x = gs
+                        .get((h as usize).wrapping_sub(1))
+                        .copied()
+                        .unwrap_or(T::nan());
+                }
+                b
+            } else {
+                self.step_ends(horizons, longest)
+            };
+            Some((self.shifts(horizons, longest, sp, &base)?, sp))
+        });
+        let conf = spread.map_or(T::zero(), |(_, c)| c);
+        let sigma = |j: usize, i: T| {
+            let (sh, sp) = shifts.as_ref()?;
+            Some(spread::sigma_at(*sh.get(j)?, sp.noise_v, i))
+        };
+        let margin = |j: usize, i: T| sigma(j, i).map_or(T::zero(), |s| conf * s);
+        let sure = T::lit(SURE_V);
+        let (mut d, mut c) = (cap, cap);
+        // The OCV table's segment of the last lookup: the next starts there.
+        let segment = Cell::new(0);
+        let voltage = |i: T, k: usize, f: T, g: T| self.voltage(i, k, f, g, &segment);
+        let discharge = |x: T, k: usize, f: T, g: T| voltage(-x, k, f, g) - limits.voltage_min;
+        let charge = |x: T, k: usize, f: T, g: T| limits.voltage_max - voltage(x, k, f, g);
+        if short {
+            // Every response kept: each horizon's end solved once, the
+            // samples before it only checked (and solved where one
+            // fails), in order of the horizons' lengths. The same bounds
+            // as sample by sample (below), with fewer roots.
             let mut order = [0usize; MAX_HORIZONS];
             for (j, o) in order.iter_mut().enumerate().take(out.count) {
                 *o = j;
             }
-            let order = &mut order[..out.count];
+            let order = order
+                .get_mut(..out.count.min(MAX_HORIZONS))
+                .unwrap_or_default();
             sort_by_steps(order, &out.horizons);
             let mut checked = 0;
             for &j in order.iter() {
@@ -502,8 +542,12 @@ impl<'a, T: Real, const MEM: usize, const P: usize> PulsePredictor<'a, T, MEM, P
                         .map_or((T::nan(), T::nan()), |(&f, &g)| (f, g))
                 };
                 let (fe, ge) = at(end);
-                d = largest(d, limits.voltage_min, |x| discharge(x, end, fe, ge));
-                c = largest(c, limits.voltage_max, |x| charge(x, end, fe, ge));
+                d = largest(d, limits.voltage_min, |x| {
+                    discharge(x, end, fe, ge) - margin(j, -x)
+                });
+                c = largest(c, limits.voltage_max, |x| {
+                    charge(x, end, fe, ge) - margin(j, x)
+                });
                 // The checks at the bounds found so far: their static
                 // voltages once for every sample they pass. A sample passes
                 // without its voltage when its polarization at the bound
@@ -541,6 +585,7 @@ impl<'a, T: Real, const MEM: usize, const P: usize> PulsePredictor<'a, T, MEM, P
                     o.sop.discharge_a = d;
                     o.sop.charge_a = c;
                     o.pulse_v = pulse.map(|i| voltage(i, end, fe, ge));
+                    o.uncertainty_v = pulse.and_then(|i| sigma(j, i));
                 }
             }
             return out;
@@ -548,11 +593,16 @@ impl<'a, T: Real, const MEM: usize, const P: usize> PulsePredictor<'a, T, MEM, P
         self.responses(longest, |k, f, g| {
             d = largest(d, limits.voltage_min, |x| discharge(x, k, f, g));
             c = largest(c, limits.voltage_max, |x| charge(x, k, f, g));
-            for o in out.horizons.iter_mut().take(out.count) {
+            for (j, o) in out.horizons.iter_mut().enumerate().take(out.count) {
                 if o.sop.steps == k {
+                    d = largest(d, limits.voltage_min, |x| {
+                        discharge(x, k, f, g) - margin(j, -x)
+                    });
+                    c = largest(c, limits.voltage_max, |x| charge(x, k, f, g) - margin(j, x));
                     o.sop.discharge_a = d;
                     o.sop.charge_a = c;
                     o.pulse_v = pulse.map(|i| voltage(i, k, f, g));
+                    o.uncertainty_v = pulse.and_then(|i| sigma(j, i));
                 }
             }
         });

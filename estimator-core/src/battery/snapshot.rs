@@ -509,7 +509,12 @@ impl<T: Real> CellSnapshot<T> {
                 .get(k)
                 .copied()
                 .unwrap_or(Identification::NotIdentified);
-            PublishedParameter { value, status, soc }
+            PublishedParameter {
+                value,
+                status,
+                soc,
+                sigma: None,
+            }
         };
         let snap = Self {
             estimate,

@@ -1,6 +1,10 @@
 //! The state-of-power columns of a track (issue 36): for each horizon `H`,
-//! `sop_discharge_a_{H}s`, `sop_charge_a_{H}s` and `pulse_v_{H}s`, from the
-//! core's [`PulsePredictor`](estimator_core::battery::power::PulsePredictor) on the cell's estimate after each sample.
+//! `sop_discharge_a_{H}s`, `sop_charge_a_{H}s` and `pulse_v_{H}s`, then
+//! `sop_basis` and the pulse voltage's standard deviation
+//! (`sop_uncertainty_v`, the longest horizon's, and
+//! `sop_uncertainty_v_{H}s`), from the core's
+//! [`PulsePredictor`](estimator_core::battery::power::PulsePredictor) on
+//! the cell's best parameter set after each sample.
 //!
 //! Owns the horizons, the limits' defaults and the columns; the prediction
 //! is the core's. Published only when every parameter of the model is
@@ -42,6 +46,10 @@ pub struct PowerOptions {
     /// without a new one (default: as far as the window reaches;
     /// [`PowerSettings::carry`]).
     pub carry_s: Option<f64>,
+    /// How many standard deviations of the pulse voltage the limit
+    /// currents keep inside the voltage limits (default 2:
+    /// [`PowerSettings::confidence`]; 0 derates nothing).
+    pub confidence: Option<f64>,
 }
 
 impl Default for PowerOptions {
@@ -56,6 +64,7 @@ impl Default for PowerOptions {
             current_limit: None,
             pulse_current_a: None,
             carry_s: None,
+            confidence: None,
         }
     }
 }
@@ -87,11 +96,12 @@ impl PowerOptions {
         Ok(o)
     }
 
-    /// The flags that need no table: the pulse's current and the carry.
+    /// The flags that need no table: the pulse's current, the carry and
+    /// the confidence.
     ///
     /// # Errors
-    /// A pulse current that is not finite, a carry that is negative or not
-    /// finite.
+    /// A pulse current that is not finite, a carry or a confidence that is
+    /// negative or not finite.
     pub fn check(&self) -> Result<()> {
         if self.pulse_current_a.is_some_and(|i| !i.is_finite()) {
             bail!(
@@ -103,6 +113,12 @@ impl PowerOptions {
             bail!(
                 Options,
                 "--sop-carry-s {c}: must be a number of seconds, 0 or more"
+            );
+        }
+        if let Some(c) = self.confidence.filter(|c| !(c.is_finite() && *c >= 0.0)) {
+            bail!(
+                Options,
+                "--sop-confidence {c}: must be a number of standard deviations, 0 or more"
             );
         }
         Ok(())
@@ -146,6 +162,9 @@ pub struct PowerRow {
     /// ([`estimator_core::battery::power::SopBasis::as_str`]; the same at
     /// every horizon).
     pub basis: Option<&'static str>,
+    /// `sop_uncertainty_v_{H}s`: the pulse voltage's standard deviation
+    /// (V) from the parameters' spread.
+    pub uncertainty_v: Option<f64>,
 }
 
 /// [`PowerOptions`] with the limits resolved for one cell.
@@ -236,6 +255,7 @@ impl ResolvedPower {
                 charge_a: Some(h.sop.charge_a.to_f64()),
                 pulse_v: h.pulse_v.map(|v| v.to_f64()),
                 basis: Some(report.basis().as_str()),
+                uncertainty_v: h.uncertainty_v.map(|v| v.to_f64()),
             };
         }
         out
@@ -260,6 +280,9 @@ impl ResolvedPower {
             self.pulse_current_a.map(T::lit),
         )?;
         p.carry = self.options.carry_s.map(|c| (c / h).round() as u32);
+        if let Some(c) = self.options.confidence {
+            p.confidence = T::lit(c);
+        }
         Some(p)
     }
 }

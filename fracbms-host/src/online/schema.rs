@@ -29,7 +29,9 @@ pub enum Value<R> {
     /// and `{name}pulse_v_{H}s` (the column's name is their prefix), each
     /// a [`Value::Number`], then `{name}sop_basis`, a [`Value::Word`]
     /// (`window`, `map`, `held`, `stale`:
-    /// [`estimator_core::battery::power::SopBasis`]).
+    /// [`estimator_core::battery::power::SopBasis`]), then
+    /// `{name}sop_uncertainty_v` (the longest horizon's pulse voltage's
+    /// standard deviation) and `{name}sop_uncertainty_v_{H}s` per horizon.
     Power(fn(&R) -> &[PowerRow; MAX_HORIZONS]),
 }
 
@@ -194,6 +196,22 @@ pub fn fields<R>(table: &[Column<R>], horizons: &[f64]) -> Vec<Field<R>> {
                     name: format!("{}sop_basis", c.name),
                     get: Get::Basis(rows),
                 });
+                // The pulse voltage's spread: the longest horizon's, then
+                // each horizon's.
+                let uncertainty: PowerPart = |p| p.uncertainty_v;
+                let longest = (0..horizons.len().min(MAX_HORIZONS))
+                    .max_by(|&a, &b| horizons[a].total_cmp(&horizons[b]))
+                    .unwrap_or(0);
+                out.push(Field {
+                    name: format!("{}sop_uncertainty_v", c.name),
+                    get: Get::Power(rows, longest, uncertainty),
+                });
+                for (j, h) in horizons.iter().enumerate().take(MAX_HORIZONS) {
+                    out.push(Field {
+                        name: format!("{}sop_uncertainty_v_{h}s", c.name),
+                        get: Get::Power(rows, j, uncertainty),
+                    });
+                }
             }
             v => out.push(Field {
                 name: c.name.to_string(),
@@ -334,10 +352,11 @@ mod tests {
         let h = header(&track_fields(&[10.0, 30.0], false));
         assert_eq!(
             h,
-            "time_s,r_i,r_ct,q,alpha,u_oc,status,soc,ocv_offset_v,bv_a_v,bv_i0_a,predicted_v,r_i_status,r_ct_status,q_status,alpha_status,step_resistance_ohm,window_r_i,window_r_ct,window_q,window_alpha,soc_coulomb,current_bias_a,capacity_ah,capacity_sigma_ah,soc_sigma,soc_ocv_weight,soh_r,capacity_status,sop_discharge_a_10s,sop_charge_a_10s,pulse_v_10s,sop_discharge_a_30s,sop_charge_a_30s,pulse_v_30s,sop_basis,rejected"
+            "time_s,r_i,r_ct,q,alpha,u_oc,status,soc,ocv_offset_v,bv_a_v,bv_i0_a,predicted_v,r_i_status,r_ct_status,q_status,alpha_status,step_resistance_ohm,window_r_i,window_r_ct,window_q,window_alpha,soc_coulomb,current_bias_a,capacity_ah,capacity_sigma_ah,soc_sigma,soc_ocv_weight,soh_r,capacity_status,sop_discharge_a_10s,sop_charge_a_10s,pulse_v_10s,sop_discharge_a_30s,sop_charge_a_30s,pulse_v_30s,sop_basis,sop_uncertainty_v,sop_uncertainty_v_10s,sop_uncertainty_v_30s,rejected"
         );
-        assert!(header(&track_fields(&[0.5], true))
-            .ends_with(",pulse_v_0.5s,sop_basis,rejected,restoration"));
+        assert!(header(&track_fields(&[0.5], true)).ends_with(
+            ",pulse_v_0.5s,sop_basis,sop_uncertainty_v,sop_uncertainty_v_0.5s,rejected,restoration"
+        ));
     }
 
     #[test]

@@ -156,6 +156,7 @@ mod tests {
             value: status.is_published().then_some(0.01),
             status,
             soc: None,
+            sigma: None,
         }
     }
 

@@ -137,6 +137,15 @@ pub struct StateArgs {
     /// the cell relaxed, at the rested voltage.
     #[arg(long)]
     pub sop_carry_s: Option<f64>,
+    /// How many standard deviations of the predicted pulse voltage the
+    /// state-of-power currents keep inside --voltage-min and --voltage-max
+    /// at each horizon's end (default 2: the limit at 97.7 % one-sided; 0
+    /// derates nothing). The standard deviation, from the spread of the
+    /// parameters predicted with and the fit's RMSE, is the column
+    /// `sop_uncertainty_v` (the longest horizon's) and
+    /// `sop_uncertainty_v_{H}s` (docs/state-of-power.md).
+    #[arg(long)]
+    pub sop_confidence: Option<f64>,
     /// The `soc` column (with --ocv): `observer` (the default; coulomb
     /// counting corrected at each rest of --soc-rest-s by the OCV table,
     /// with the current sensor's bias and the capacity estimated, columns
@@ -174,6 +183,7 @@ impl StateArgs {
         p.current_limit = self.current_limit;
         p.pulse_current_a = self.pulse_current_a;
         p.carry_s = self.sop_carry_s;
+        p.confidence = self.sop_confidence;
         Ok(p)
     }
 

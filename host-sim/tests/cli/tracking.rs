@@ -32,7 +32,7 @@ fn online_writes_a_track() {
     // The contract's columns first (issues 3 and 16), then ours.
     assert_eq!(
         lines.next(),
-        Some("time_s,r_i,r_ct,q,alpha,u_oc,status,soc,ocv_offset_v,bv_a_v,bv_i0_a,predicted_v,r_i_status,r_ct_status,q_status,alpha_status,step_resistance_ohm,window_r_i,window_r_ct,window_q,window_alpha,soc_coulomb,current_bias_a,capacity_ah,capacity_sigma_ah,soc_sigma,soc_ocv_weight,soh_r,capacity_status,sop_discharge_a_10s,sop_charge_a_10s,pulse_v_10s,sop_discharge_a_30s,sop_charge_a_30s,pulse_v_30s,sop_basis,rejected")
+        Some("time_s,r_i,r_ct,q,alpha,u_oc,status,soc,ocv_offset_v,bv_a_v,bv_i0_a,predicted_v,r_i_status,r_ct_status,q_status,alpha_status,step_resistance_ohm,window_r_i,window_r_ct,window_q,window_alpha,soc_coulomb,current_bias_a,capacity_ah,capacity_sigma_ah,soc_sigma,soc_ocv_weight,soh_r,capacity_status,sop_discharge_a_10s,sop_charge_a_10s,pulse_v_10s,sop_discharge_a_30s,sop_charge_a_30s,pulse_v_30s,sop_basis,sop_uncertainty_v,sop_uncertainty_v_10s,sop_uncertainty_v_30s,rejected")
     );
     let rows: Vec<&str> = lines.collect();
     assert_eq!(rows.len(), 600);
@@ -418,6 +418,8 @@ fn the_track_carries_the_state_of_power() {
             "--sop-carry-s",
             "-1",
         ],
+        &["--sop-confidence", "-1"],
+        &["--sop-confidence", "nan"],
     ] {
         let mut args = vec!["online", "battery", "--input", s(&own), "--out", s(&out)];
         args.extend_from_slice(bad);
@@ -479,6 +481,71 @@ fn the_state_of_power_is_carried_no_farther_than_asked() {
     );
     println!("published: carry 0 {none}, the window {window}, 100000 s {long}");
     assert!(none < window && window < long, "{none} {window} {long}");
+}
+
+/// `--sop-confidence` derates the state of power by that many standard
+/// deviations of the pulse voltage (`sop_uncertainty_v_{H}s`, the same
+/// whatever the confidence): 0 gives the plain limits, the default 2
+/// lower discharge currents wherever the spread is positive, never
+/// higher.
+#[test]
+fn the_state_of_power_is_derated_by_its_confidence() {
+    let rec = data("pybamm/chen2020-hppc.csv");
+    let ocv = data("pybamm/chen2020-ocv.csv");
+    let columns = |conf: Option<&str>| {
+        let out = tmp(&format!("sop-confidence-{}.csv", conf.unwrap_or("default")));
+        let mut args = vec![
+            "online",
+            "battery",
+            "--input",
+            s(&rec),
+            "--ocv",
+            s(&ocv),
+            "--capacity-ah",
+            "5.153198",
+            "--out",
+            s(&out),
+        ];
+        if let Some(c) = conf {
+            args.extend_from_slice(&["--sop-confidence", c]);
+        }
+        let o = run(&args);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let t = std::fs::read_to_string(&out).unwrap();
+        let mut lines = t.lines();
+        let head: Vec<&str> = lines.next().unwrap().split(',').collect();
+        let col = |name: &str| head.iter().position(|h| *h == name).unwrap();
+        let (d, u) = (col("sop_discharge_a_10s"), col("sop_uncertainty_v_10s"));
+        let last = col("sop_uncertainty_v");
+        assert_eq!(
+            last,
+            col("sop_uncertainty_v_30s") - 2,
+            "the longest's, then each"
+        );
+        lines
+            .map(|l| {
+                let f: Vec<&str> = l.split(',').collect();
+                (f[d].parse::<f64>().ok(), f[u].parse::<f64>().ok())
+            })
+            .collect::<Vec<_>>()
+    };
+    let (plain, derated) = (columns(Some("0")), columns(None));
+    let (mut lower, mut published) = (0, 0);
+    for ((dp, up), (dd, ud)) in plain.iter().zip(&derated) {
+        assert_eq!(dp.is_some(), dd.is_some());
+        assert_eq!(up, ud);
+        if let (Some(dp), Some(dd), Some(u)) = (dp, dd, ud) {
+            published += 1;
+            assert!(*u > 0.0);
+            assert!(dd <= dp, "{dd} > {dp}");
+            lower += usize::from(dd < dp);
+        }
+    }
+    println!("derated below the plain limit at {lower} of {published} samples");
+    assert!(
+        published > 0 && lower * 10 >= published * 9,
+        "{lower} of {published}"
+    );
 }
 
 /// `online pack` with the cells' OCV table (issue 36): every cell's SOC and

@@ -34,6 +34,9 @@ pub struct StateOfPower<T> {
     pub charge_a: T,
 }
 
+/// [`PowerSettings::confidence`] by default: 2 σ.
+pub const DEFAULT_CONFIDENCE: f64 = 2.0;
+
 /// The most horizons one [`PowerSettings`] asks for.
 pub const MAX_HORIZONS: usize = 8;
 
@@ -62,6 +65,12 @@ pub struct PowerSettings<T> {
     /// last fit without a new one (through a rest) and still be predicted
     /// from (`None`: as far as the cell's window reaches back).
     pub carry: Option<u32>,
+    /// How many standard deviations of the predicted voltage
+    /// ([`HorizonPower::uncertainty_v`]) the limit currents keep inside
+    /// the voltage limits at each horizon's end, when the parameters'
+    /// spread is given ([`ParameterSpread`](super::ParameterSpread)): 2 (the default) leaves the
+    /// limit voltage at 97.7 % one-sided; 0 derates nothing.
+    pub confidence: T,
 }
 
 impl<T: Real> PowerSettings<T> {
@@ -89,6 +98,7 @@ impl<T: Real> PowerSettings<T> {
             count: horizons.len(),
             pulse_current,
             carry: None,
+            confidence: T::lit(DEFAULT_CONFIDENCE),
         })
     }
 
@@ -113,6 +123,9 @@ pub struct HorizonPower<T> {
     /// The predicted terminal voltage (V) at the end of
     /// [`PowerSettings::pulse_current`] held for the horizon.
     pub pulse_v: Option<T>,
+    /// The pulse voltage's standard deviation (V) from the parameters'
+    /// spread ([`ParameterSpread`](super::ParameterSpread)): `None` without a pulse or a spread.
+    pub uncertainty_v: Option<T>,
 }
 
 /// Where a state of power's parameters (`R_i`, `R_ct`, `Q`, α, as one
@@ -193,7 +206,7 @@ impl<T: Real> PowerReport<T> {
     /// string has it: at each horizon the smaller discharge and charge
     /// currents (the string's current is every cell's), the pulse voltage
     /// the sum of the cells' (the string's terminal voltage; `None` where
-    /// either has none).
+    /// either has none), its uncertainty their root sum of squares.
     pub fn series(&self, other: &Self) -> Self {
         let mut out = *self;
         for (a, b) in out
@@ -205,6 +218,11 @@ impl<T: Real> PowerReport<T> {
             a.sop.discharge_a = a.sop.discharge_a.min(b.sop.discharge_a);
             a.sop.charge_a = a.sop.charge_a.min(b.sop.charge_a);
             a.pulse_v = a.pulse_v.zip(b.pulse_v).map(|(x, y)| x + y);
+            // The cells' errors are taken as independent.
+            a.uncertainty_v = a
+                .uncertainty_v
+                .zip(b.uncertainty_v)
+                .map(|(x, y)| (x * x + y * y).sqrt());
         }
         out.basis = self.basis.max(other.basis);
         out

@@ -306,3 +306,112 @@ fn the_responses_do_not_depend_on_the_length_asked() {
         }
     }
 }
+
+/// A pulse voltage's standard deviation is each parameter's shift of the
+/// pulse's own response (the model with that parameter moved by its
+/// spread; the polarization already carried is not moved), added in
+/// quadrature with the scatter; the derated currents keep the voltage
+/// `confidence` standard deviations inside the limits at the horizon's
+/// end, and 0 derates nothing. Short (block) and long (chunked)
+/// horizons alike.
+#[test]
+fn the_derated_limits_keep_the_pulse_voltages_spread_inside() {
+    let m = table();
+    let (p, w) = cell(false);
+    let (_, up) = truth(&p, 150, 0.0, 1, true);
+    let p = CellParameters { u_oc: 0.0, ..p };
+    let limits = PowerLimits {
+        voltage_min: 3.4,
+        voltage_max: 4.1,
+        current_limit: 200.0,
+    };
+    let spread = ParameterSpread::<f64> {
+        r_i: 0.1,
+        r_ct: 0.2,
+        q: 0.15,
+        alpha: 0.03,
+        noise_v: 2e-3,
+    };
+    for horizon in [10u32, 100] {
+        let base =
+            PulsePredictor::<f64, 64, 101>::new(&p, &w, &up[..150], Some((&m, 0.7))).unwrap();
+        let pulse = -5.0;
+        let mut s = PowerSettings::new(limits, &[horizon], Some(pulse)).unwrap();
+        let k = horizon as usize;
+        // Each parameter moved alone, as the predictor moves it.
+        let moved = [
+            CellParameters {
+                r_i: p.r_i * spread.r_i.exp(),
+                ..p
+            },
+            CellParameters {
+                r_ct: p.r_ct * spread.r_ct.exp(),
+                ..p
+            },
+            CellParameters {
+                q: p.q * spread.q.exp(),
+                ..p
+            },
+            CellParameters {
+                alpha: p.alpha + spread.alpha,
+                ..p
+            },
+        ];
+        // The pulse's own response (the voltage at `i` less at rest),
+        // moved: the polarization already carried is not.
+        let own = |c: &PulsePredictor<f64, 64, 101>, i: f64| {
+            c.pulse_voltage(i, k) - c.pulse_voltage(0.0, k)
+        };
+        let sigma_at = |i: f64| {
+            let v0 = own(&base, i);
+            let mut var = spread.noise_v * spread.noise_v;
+            for q in &moved {
+                let wq = GlWeights::<f64, 64>::new(q.alpha, 1.0, 64).unwrap();
+                let other =
+                    PulsePredictor::<f64, 64, 101>::new(q, &wq, &up[..150], Some((&m, 0.7)))
+                        .unwrap();
+                var += (own(&other, i) - v0).powi(2);
+            }
+            var.sqrt()
+        };
+        let plain = base.power(&s).horizons()[0];
+        let r = base.power_with_spread(&s, &spread).horizons()[0];
+        let sd = r.uncertainty_v.unwrap();
+        assert!(
+            (sd - sigma_at(pulse)).abs() < 1e-9,
+            "{sd} {}",
+            sigma_at(pulse)
+        );
+        assert!(sd > spread.noise_v);
+        // At 2 σ (the default): the discharge current ends on the
+        // limit less two of its own standard deviations.
+        let d = r.sop.discharge_a;
+        assert!(d < plain.sop.discharge_a, "{d} {}", plain.sop.discharge_a);
+        let end = base.pulse_voltage(-d, k) - 2.0 * sigma_at(-d);
+        assert!(
+            end >= limits.voltage_min - 1e-9 && end < limits.voltage_min + 1e-6,
+            "{end}"
+        );
+        let c = r.sop.charge_a;
+        let top = base.pulse_voltage(c, k) + 2.0 * sigma_at(c);
+        assert!(c < plain.sop.charge_a, "{c} {} {top}", plain.sop.charge_a);
+        assert!(
+            top <= limits.voltage_max + 1e-9 && top > limits.voltage_max - 1e-6,
+            "{top}"
+        );
+        // Zero confidence: the plain limits, the spread still reported.
+        s.confidence = 0.0;
+        let z = base.power_with_spread(&s, &spread).horizons()[0];
+        assert_eq!(z.sop, plain.sop);
+        assert_eq!(z.uncertainty_v, r.uncertainty_v);
+        // A spread that is not valid is not used.
+        let bad = ParameterSpread {
+            r_i: f64::NAN,
+            ..spread
+        };
+        assert_eq!(
+            base.power_with_spread(&s, &bad).horizons()[0].uncertainty_v,
+            None
+        );
+    }
+}

@@ -29,7 +29,7 @@
 
 use super::*;
 use crate::battery::output_error::{FitInformation, COLUMNS};
-use crate::battery::power::SopBasis;
+use crate::battery::power::{ParameterSpread, SopBasis};
 use crate::battery::CellParameters;
 use crate::real::Real;
 
@@ -106,6 +106,10 @@ pub struct PublishedParameter<T> {
     pub status: Identification,
     /// The state of charge when it was identified (with an OCV curve).
     pub soc: Option<T>,
+    /// One standard deviation of the value (of `ln R_i`, `ln R_ct`,
+    /// `ln Q`; of α itself) from the information of the window that
+    /// identified it (`None`: not known, as for a restored value).
+    pub sigma: Option<T>,
 }
 
 impl<T: Copy> PublishedParameter<T> {
@@ -113,6 +117,7 @@ impl<T: Copy> PublishedParameter<T> {
         value: None,
         status: Identification::NotIdentified,
         soc: None,
+        sigma: None,
     };
 
     /// The same with the value and state of charge mapped by `f` (for
@@ -122,17 +127,24 @@ impl<T: Copy> PublishedParameter<T> {
             value: self.value.map(&f),
             status: self.status,
             soc: self.soc.map(&f),
+            sigma: self.sigma.map(&f),
         }
     }
 
-    /// The last window identified it (`Some(x)`, with `status`) or not
-    /// (`None`) at state of charge `soc`.
-    fn update(&mut self, identified: Option<T>, status: Identification, soc: Option<T>) {
+    /// The last window identified it (`Some((x, σ))`, with `status`) or
+    /// not (`None`) at state of charge `soc`.
+    fn update(
+        &mut self,
+        identified: Option<(T, Option<T>)>,
+        status: Identification,
+        soc: Option<T>,
+    ) {
         match identified {
-            Some(x) => {
+            Some((x, sigma)) => {
                 self.value = Some(x);
                 self.status = status;
                 self.soc = soc;
+                self.sigma = sigma;
             }
             None => self.hold(),
         }
@@ -428,13 +440,27 @@ impl<T: Real, const N: usize> CellState<T, N> {
         } else {
             Some(id)
         };
+        // Each value's spread: the data's where they identify it, with the
+        // prior's where only that passes, and a step's precision for
+        // `R_i` from a step.
+        let spread = |k: usize, st: Identification| match st {
+            Identification::Prior => with_prior[k],
+            Identification::Step => Some(T::lit(STEP_PRECISION / Z95)),
+            _ => data[k],
+        };
+        let value = |x: T, k: usize, st: Option<Identification>| st.map(|st| (x, spread(k, st)));
+        let alpha_v = if info.fitted[3] {
+            value(p.alpha, 3, alpha)
+        } else {
+            // A fixed order is known exactly.
+            alpha.map(|_| (p.alpha, Some(T::zero())))
+        };
         let pb = &mut self.published;
-        pb.r_i.update(r_i.map(|_| p.r_i), r_i.unwrap_or(id), soc);
+        pb.r_i.update(value(p.r_i, 0, r_i), r_i.unwrap_or(id), soc);
         pb.r_ct
-            .update(r_ct.map(|_| p.r_ct), r_ct.unwrap_or(id), soc);
-        pb.q.update(q.map(|_| p.q), q.unwrap_or(id), soc);
-        pb.alpha
-            .update(alpha.map(|_| p.alpha), alpha.unwrap_or(id), soc);
+            .update(value(p.r_ct, 1, r_ct), r_ct.unwrap_or(id), soc);
+        pb.q.update(value(p.q, 2, q), q.unwrap_or(id), soc);
+        pb.alpha.update(alpha_v, alpha.unwrap_or(id), soc);
     }
 }
 
@@ -504,5 +530,84 @@ impl<T: Real, const N: usize> CellState<T, N> {
             .zip(self.stale)
             .all(|((_, x), st)| x.value.is_some() || !st.is_nan());
         ever.then_some((p, SopBasis::Stale))
+    }
+
+    /// How far the set [`sop_parameters`](Self::sop_parameters) gives for
+    /// `basis` may be from the cell's ([`ParameterSpread`]). The widest
+    /// spread a published value can have is its identification's bound,
+    /// `ln(`[`OnlineSettings::identify_factor`]`)/1.96`
+    /// ([`OnlineSettings::identify_alpha`]`/1.96` for α):
+    ///
+    /// - [`SopBasis::Window`]: each value's own spread from the window
+    ///   that identified it ([`PublishedParameter::sigma`]);
+    /// - [`SopBasis::Held`]: the same, widened in quadrature by the bound
+    ///   times the state of charge moved since it was identified over
+    ///   [`OnlineSettings::hold_soc_span`] (the whole bound at the span's
+    ///   edge); the bound where it is not known (a restored value);
+    /// - [`SopBasis::Map`]: the bound (a map row is an identified value,
+    ///   but of another record of the cell);
+    /// - [`SopBasis::Stale`]: twice the bound (a value identified further
+    ///   away than the state of charge it is held over).
+    ///
+    /// The voltage's scatter is the window's RMSE (before a fit,
+    /// [`STEP_NOISE_FLOOR_V`]).
+    pub fn sop_spread<const P: usize>(
+        &self,
+        s: &OnlineSettings<T, P>,
+        basis: SopBasis,
+    ) -> ParameterSpread<T> {
+        let z = T::lit(Z95);
+        let bound = [
+            s.identify_factor.ln() / z,
+            s.identify_factor.ln() / z,
+            s.identify_factor.ln() / z,
+            s.identify_alpha / z,
+        ];
+        let named = self.published.named();
+        let mut sd = bound;
+        match basis {
+            SopBasis::Window => {
+                for (x, (_, p)) in sd.iter_mut().zip(named) {
+                    if let Some(e) = p.sigma.filter(|e| e.is_finite()) {
+                        *x = e;
+                    }
+                }
+            }
+            SopBasis::Held => {
+                // Widened with the state of charge moved since: to the
+                // bound at the hold span's edge.
+                let span = s.hold_soc_span;
+                for ((x, (_, p)), b) in sd.iter_mut().zip(named).zip(bound) {
+                    let moved = match (self.soc, p.soc) {
+                        (Some(now), Some(then)) if span > T::zero() => {
+                            ((now - then).abs() / span).min(T::one())
+                        }
+                        _ => T::zero(),
+                    };
+                    if let Some(e) = p.sigma.filter(|e| e.is_finite()) {
+                        let far = moved * b;
+                        *x = (e * e + far * far).sqrt();
+                    }
+                }
+            }
+            SopBasis::Map => {}
+            SopBasis::Stale => {
+                for x in sd.iter_mut() {
+                    *x = T::lit(2.0) * *x;
+                }
+            }
+        }
+        let noise_v = if self.rmse.is_finite() {
+            self.rmse
+        } else {
+            T::lit(STEP_NOISE_FLOOR_V)
+        };
+        ParameterSpread {
+            r_i: sd[0],
+            r_ct: sd[1],
+            q: sd[2],
+            alpha: sd[3],
+            noise_v,
+        }
     }
 }
