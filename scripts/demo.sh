@@ -46,7 +46,8 @@ done_
 
 step 2 "parameter map of the 25 °C HPPC test (identify battery --map-out)"
 run "$out/logs/2-map.log" $hs identify battery --input "$hppc" "${cell[@]}" --min-rest 3000 \
-  --model linear --temperature-c 25 --map-out "$out/panasonic-map.csv" \
+  --model linear --temperature-c 25 --map-method "${FRACBMS_DEMO_MAP_METHOD:-levels}" \
+  --map-out "$out/panasonic-map.csv" \
   --map-plot "$out/panasonic-map.svg" --json "$out/panasonic-hppc-fit.json"
 done_
 
