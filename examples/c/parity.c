@@ -405,6 +405,10 @@ static int online(const Table *rec, const Options *o)
                 return 1;
             }
             printf("\"sop_published\": %s, ", pw.published ? "true" : "false");
+            /* The basis as the track's `sop_basis` (empty without one). */
+            static const char *const BASIS[] = {"window", "map", "held", "stale"};
+            printf("\"sop_basis\": \"%s\", ",
+                   pw.published && pw.basis < 4 ? BASIS[pw.basis] : "");
             for (int j = 0; j < HORIZONS; j++) {
                 char key[64];
                 int hs = (int)HORIZON_S[j];

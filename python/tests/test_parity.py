@@ -30,9 +30,9 @@ Which operation runs on which faces, and why:
   ``fracbms_cell_init_with_soc``), which must
   change the run where the record rests.
 - ``sop`` (CLI, C, Python): the same run's state of power at 10 and 30 s
-  (the CLI's ``sop_*``/``pulse_v_*`` columns, Python's, and C's
-  ``fracbms_cell_state_of_power`` after each push), for the limits of the
-  record's row in RECORDS.
+  (the CLI's ``sop_*``/``pulse_v_*``/``sop_uncertainty_v_*`` columns and
+  ``sop_basis``, Python's, and C's ``fracbms_cell_state_of_power`` after
+  each push), for the limits of the record's row in RECORDS.
 - ``map`` (CLI, Python) and ``map_c`` (CLI, C, Python; records with an OCV
   table): the online run with a parameter map as the prior (``--prior
   MAP.csv``, ``OnlineCell(map=...)``, ``fracbms_cell_follow_map`` before
@@ -301,7 +301,7 @@ def cli_track(cli, record, out, *args):
         counts["map_levels"], counts["map_left_out"] = map(int, m.groups())
     track = read_csv(out)
     # A text column empty on every row reads as NaN.
-    for k in ONLINE_NAMES + ["capacity_status"]:
+    for k in ONLINE_NAMES + ["capacity_status", "sop_basis"]:
         track[k] = np.array(["" if isinstance(x, float) else x for x in track[k]])
     return track, counts
 
@@ -545,4 +545,4 @@ def test_the_faces_agree(runs, name, op):
     elif op == "sop":
         # Published on some rows (else the comparison is of NaNs only).
         assert np.isfinite(tracks["python"]["sop_discharge_a_10s"]).any()
-        same_tracks(tracks, SOP_NUMBERS)
+        same_tracks(tracks, SOP_NUMBERS, ["sop_basis"])
