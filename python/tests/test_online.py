@@ -109,11 +109,16 @@ def test_with_an_ocv_curve_equals_the_cli(host_sim, tmp_path):
     assert np.all(py["soc_ocv_weight"] == 0)
 
 
-def test_the_state_of_power_carry_equals_the_cli(host_sim, tmp_path):
+def chen_hppc():
+    """The chen2020 DFN HPPC record, its OCV table's file, its capacity, and
+    both read."""
     ocv_file = REPO / "data" / "pybamm" / "chen2020-ocv.csv"
     rec = REPO / "data" / "pybamm" / "chen2020-hppc.csv"
-    cap = 5.153198325955154
-    c, o = read_csv(rec), read_csv(ocv_file)
+    return rec, ocv_file, 5.153198325955154, read_csv(rec), read_csv(ocv_file)
+
+
+def test_the_state_of_power_carry_equals_the_cli(host_sim, tmp_path):
+    rec, ocv_file, cap, c, o = chen_hppc()
     published = {}
     for carry in (0.0, None):
         args = ["--ocv", ocv_file, "--capacity-ah", str(cap)]
@@ -132,10 +137,7 @@ def test_the_state_of_power_carry_equals_the_cli(host_sim, tmp_path):
 
 
 def test_the_state_of_power_confidence_equals_the_cli(host_sim, tmp_path):
-    ocv_file = REPO / "data" / "pybamm" / "chen2020-ocv.csv"
-    rec = REPO / "data" / "pybamm" / "chen2020-hppc.csv"
-    cap = 5.153198325955154
-    c, o = read_csv(rec), read_csv(ocv_file)
+    rec, ocv_file, cap, c, o = chen_hppc()
     runs = {}
     for conf in (0.0, 3.0):
         cli = cli_track(host_sim, rec, tmp_path, "--ocv", ocv_file, "--capacity-ah", str(cap),

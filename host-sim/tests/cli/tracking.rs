@@ -292,33 +292,8 @@ fn pack_round_trip_tracks_every_cell_and_flags_the_aged_one() {
 #[test]
 fn the_track_carries_the_state_of_power() {
     let out = tmp("sop-track.csv");
-    let rec = data("pybamm/chen2020-hppc.csv");
-    let ocv = data("pybamm/chen2020-ocv.csv");
-    let o = run(&[
-        "online",
-        "battery",
-        "--input",
-        s(&rec),
-        "--ocv",
-        s(&ocv),
-        "--capacity-ah",
-        "5.153198",
-        "--horizons",
-        "2,10,30",
-        "--out",
-        s(&out),
-    ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let t = std::fs::read_to_string(&out).unwrap();
-    let mut lines = t.lines();
-    let head: Vec<&str> = lines.next().unwrap().split(',').collect();
-    let at = |k: &str| {
-        head.iter()
-            .position(|h| *h == k)
-            .unwrap_or_else(|| panic!("{k}"))
-    };
-    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
-    let num = |r: &[&str], k: &str| r[at(k)].parse::<f64>().ok();
+    let (head, rows) = chen_hppc_track("sop-track", &["--horizons", "2,10,30"]);
+    let num = |r: &[String], k: &str| r[col(&head, k)].parse::<f64>().ok();
     let mut with = 0;
     for r in &rows {
         let published = ["r_i", "r_ct", "q", "alpha"]
@@ -440,39 +415,15 @@ fn the_track_carries_the_state_of_power() {
 /// reaches 128 s further.
 #[test]
 fn the_state_of_power_is_carried_no_farther_than_asked() {
-    let rec = data("pybamm/chen2020-hppc.csv");
-    let ocv = data("pybamm/chen2020-ocv.csv");
     let published = |carry: Option<&str>| {
-        let out = tmp(&format!("sop-carry-{}.csv", carry.unwrap_or("default")));
-        let mut args = vec![
-            "online",
-            "battery",
-            "--input",
-            s(&rec),
-            "--ocv",
-            s(&ocv),
-            "--capacity-ah",
-            "5.153198",
-            "--window",
-            "128",
-            "--out",
-            s(&out),
-        ];
+        let mut extra = vec!["--window", "128"];
         if let Some(c) = carry {
-            args.extend_from_slice(&["--sop-carry-s", c]);
+            extra.extend_from_slice(&["--sop-carry-s", c]);
         }
-        let o = run(&args);
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-        let t = std::fs::read_to_string(&out).unwrap();
-        let mut lines = t.lines();
-        let head: Vec<&str> = lines.next().unwrap().split(',').collect();
-        let k = head
-            .iter()
-            .position(|h| *h == "sop_discharge_a_10s")
-            .unwrap();
-        lines
-            .filter(|l| !l.split(',').nth(k).unwrap().is_empty())
-            .count()
+        let tag = format!("sop-carry-{}", carry.unwrap_or("default"));
+        let (head, rows) = chen_hppc_track(&tag, &extra);
+        let k = col(&head, "sop_discharge_a_10s");
+        rows.iter().filter(|r| !r[k].is_empty()).count()
     };
     let (none, window, long) = (
         published(Some("0")),
@@ -483,6 +434,42 @@ fn the_state_of_power_is_carried_no_farther_than_asked() {
     assert!(none < window && window < long, "{none} {window} {long}");
 }
 
+/// `online battery` on the chen2020 DFN HPPC record with its OCV table and
+/// capacity, and `extra` flags: the track's header and rows (cells as
+/// written), its file named by `tag`.
+fn chen_hppc_track(tag: &str, extra: &[&str]) -> (Vec<String>, Vec<Vec<String>>) {
+    let rec = data("pybamm/chen2020-hppc.csv");
+    let ocv = data("pybamm/chen2020-ocv.csv");
+    let out = tmp(&format!("{tag}.csv"));
+    let mut args = vec![
+        "online",
+        "battery",
+        "--input",
+        s(&rec),
+        "--ocv",
+        s(&ocv),
+        "--capacity-ah",
+        "5.153198",
+        "--out",
+        s(&out),
+    ];
+    args.extend_from_slice(extra);
+    let o = run(&args);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let t = std::fs::read_to_string(&out).unwrap();
+    let mut lines = t.lines();
+    let split = |l: &str| l.split(',').map(str::to_owned).collect::<Vec<_>>();
+    let head = split(lines.next().unwrap());
+    (head, lines.map(split).collect())
+}
+
+/// The index of column `name` in `head`.
+fn col(head: &[String], name: &str) -> usize {
+    head.iter()
+        .position(|h| h == name)
+        .unwrap_or_else(|| panic!("{name}"))
+}
+
 /// `--sop-confidence` derates the state of power by that many standard
 /// deviations of the pulse voltage (`sop_uncertainty_v_{H}s`, the same
 /// whatever the confidence): 0 gives the plain limits, the default 2
@@ -490,43 +477,22 @@ fn the_state_of_power_is_carried_no_farther_than_asked() {
 /// higher.
 #[test]
 fn the_state_of_power_is_derated_by_its_confidence() {
-    let rec = data("pybamm/chen2020-hppc.csv");
-    let ocv = data("pybamm/chen2020-ocv.csv");
     let columns = |conf: Option<&str>| {
-        let out = tmp(&format!("sop-confidence-{}.csv", conf.unwrap_or("default")));
-        let mut args = vec![
-            "online",
-            "battery",
-            "--input",
-            s(&rec),
-            "--ocv",
-            s(&ocv),
-            "--capacity-ah",
-            "5.153198",
-            "--out",
-            s(&out),
-        ];
-        if let Some(c) = conf {
-            args.extend_from_slice(&["--sop-confidence", c]);
-        }
-        let o = run(&args);
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-        let t = std::fs::read_to_string(&out).unwrap();
-        let mut lines = t.lines();
-        let head: Vec<&str> = lines.next().unwrap().split(',').collect();
-        let col = |name: &str| head.iter().position(|h| *h == name).unwrap();
-        let (d, u) = (col("sop_discharge_a_10s"), col("sop_uncertainty_v_10s"));
-        let last = col("sop_uncertainty_v");
+        let extra = conf.map_or(vec![], |c| vec!["--sop-confidence", c]);
+        let tag = format!("sop-confidence-{}", conf.unwrap_or("default"));
+        let (head, rows) = chen_hppc_track(&tag, &extra);
+        let (d, u) = (
+            col(&head, "sop_discharge_a_10s"),
+            col(&head, "sop_uncertainty_v_10s"),
+        );
+        let last = col(&head, "sop_uncertainty_v");
         assert_eq!(
             last,
-            col("sop_uncertainty_v_30s") - 2,
+            col(&head, "sop_uncertainty_v_30s") - 2,
             "the longest's, then each"
         );
-        lines
-            .map(|l| {
-                let f: Vec<&str> = l.split(',').collect();
-                (f[d].parse::<f64>().ok(), f[u].parse::<f64>().ok())
-            })
+        rows.iter()
+            .map(|f| (f[d].parse::<f64>().ok(), f[u].parse::<f64>().ok()))
             .collect::<Vec<_>>()
     };
     let (plain, derated) = (columns(Some("0")), columns(None));
