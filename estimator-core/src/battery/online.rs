@@ -41,7 +41,8 @@
 //!    user-set upper bound below 1; α = 1 is a plain RC branch), `R_ct`
 //!    not at its bound 0 (a branch swing `R_ct·σ_I` above the fit's RMSE), a
 //!    relaxation time `τ^(1/α)` within [`OnlineSettings::max_relaxation_windows`]
-//!    fitted windows, and an open-circuit voltage inside the plausible
+//!    fitted windows (or within the prior's own relaxation,
+//!    [`OnlineSettings::prior_relaxation`]), and an open-circuit voltage inside the plausible
 //!    voltage range (with a curve: an offset `|ΔU|` at most
 //!    [`OnlineSettings::max_ocv_offset`]). Otherwise the last good estimate
 //!    is held with a status that says why ([`Status::Unphysical`],

@@ -62,7 +62,8 @@ pub struct OnlineSettings<T, const P: usize = 0> {
     /// With a curve, the largest plausible OCV offset `|ΔU|` (V).
     pub max_ocv_offset: T,
     /// The longest relaxation time `τ^(1/α)` a published estimate may have,
-    /// in fitted windows (`(L − M + 1)·h`).
+    /// in fitted windows (`(L − M + 1)·h`); with a prior, at least the
+    /// prior's own ([`OnlineSettings::prior_relaxation`]).
     pub max_relaxation_windows: T,
     /// `R_i`, `R_ct` and `Q` are published when their 95 % interval from
     /// the window's information is within this factor either way, `R_i`
@@ -219,10 +220,35 @@ impl<T: Real, const P: usize> OnlineSettings<T, P> {
         }
         let relax = p.tau().powf(T::one() / p.alpha);
         let longest = self.max_relaxation_windows * T::lit(rows as f64) * b.h;
-        if relax.is_nan() || relax > longest {
+        if relax.is_nan() || relax > longest.max(self.prior_relaxation()) {
             return Some(Status::SlowRelaxation);
         }
         None
+    }
+}
+
+impl<T: Real, const P: usize> OnlineSettings<T, P> {
+    /// The longest relaxation a window's estimate may have because the
+    /// prior has it (s): the prior's own `τ^(1/α)` with `τ` widened by
+    /// [`identify_factor`](Self::identify_factor)² (its `R_ct` and `Q`
+    /// each by the factor); 0 without a prior. A window of a drive cycle
+    /// does not see a relaxation of many minutes, but when the prior (a
+    /// map fitted over the whole test, rests included) carries one, the
+    /// window's fit keeps it from the prior: that branch is the prior's,
+    /// not a drift the window imitates, and the window's `R_i` is still
+    /// judged on its own (docs/maps.md).
+    pub fn prior_relaxation(&self) -> T {
+        let Some(pr) = &self.battery.prior else {
+            return T::zero();
+        };
+        let c = &pr.center;
+        let f = self.identify_factor;
+        let relax = (c.tau() * f * f).powf(T::one() / c.alpha);
+        if relax.is_finite() && relax > T::zero() {
+            relax
+        } else {
+            T::zero()
+        }
     }
 }
 

@@ -26,7 +26,9 @@ pub enum Status {
     /// good estimate is held.
     AtBound,
     /// The window's estimate relaxes slower than the window can see
-    /// (`τ^(1/α)` beyond [`OnlineSettings::max_relaxation_windows`](super::OnlineSettings::max_relaxation_windows)): the
+    /// (`τ^(1/α)` beyond [`OnlineSettings::max_relaxation_windows`](super::OnlineSettings::max_relaxation_windows),
+    /// and beyond the prior's own relaxation
+    /// ([`OnlineSettings::prior_relaxation`](super::OnlineSettings::prior_relaxation))): the
     /// branch would be imitating a drift; the last good estimate is held.
     SlowRelaxation,
     /// The window's open-circuit voltage is outside the plausible voltage
