@@ -304,3 +304,88 @@ fn the_information_without_the_prior_is_the_datas() {
     s.prior = None;
     assert_eq!(info.without_prior(&s), info);
 }
+
+#[test]
+fn a_slow_relaxation_the_prior_carries_is_the_priors() {
+    // A branch relaxing over about 1 500 s (`τ^(1/α)`, τ = 240 s^α),
+    // seen through windows of 193 fitted seconds. Without a prior the
+    // window's fit relaxes slower than the window can see and is held as
+    // `slow_relaxation`; with a prior that carries the same branch it is
+    // the prior's, and the window's own `R_i` is published, identified by
+    // the data (docs/maps.md: a map fitted over a whole test, rests
+    // included, as the prior on a drive cycle).
+    use estimator_core::battery::online::Status;
+    let truth = CellParameters {
+        q: 240.0 / 0.015,
+        ..CellParameters::<f64>::cell_18650()
+    };
+    let i: Vec<f64> = (0..1200)
+        .map(|l| Profile::Pulse.current(l as f64, 6.0))
+        .collect();
+    let v = record(&truth, &i, 0.001, 3);
+    let run = |prior: Option<Prior<f64>>| {
+        let mut s = OnlineSettings::new(1.0, 64, CellParameters::cell_18650());
+        s.battery.prior = prior;
+        let mut est = Box::new(CellEstimator::<f64, 256, 64>::new(&s).unwrap());
+        let (mut slow, mut r_i) = (0usize, 0usize);
+        for l in 0..1200 {
+            est.push(&s, i[l], v[l]);
+            slow += usize::from(est.status() == Status::SlowRelaxation);
+            let p = est.published().r_i;
+            if p.status == Identification::Identified {
+                r_i += 1;
+                let x = p.value.unwrap();
+                assert!((x / truth.r_i - 1.0).abs() < 0.05, "R_i {x} at {l}");
+            }
+        }
+        (s.prior_relaxation(), slow, r_i)
+    };
+    let (none, slow_alone, r_i_alone) = run(None);
+    let (relax, slow, r_i) = run(Some(Prior::new(truth)));
+    assert_eq!(none, 0.0);
+    // (240·2²)^(1/0.75) s.
+    assert!(
+        (relax / 960f64.powf(1.0 / 0.75) - 1.0).abs() < 1e-12,
+        "{relax}"
+    );
+    assert!(
+        slow_alone > 300,
+        "without a prior: {slow_alone} held, R_i on {r_i_alone}"
+    );
+    assert_eq!(slow, 0, "with the prior: R_i on {r_i}");
+    assert!(
+        r_i > 900 && r_i > 2 * r_i_alone,
+        "{r_i} against {r_i_alone}"
+    );
+}
+
+#[test]
+fn the_state_of_powers_r_i_spread_carries_what_the_model_misses_at_a_step() {
+    // The last clean step's resistance against the set's: agreeing, the
+    // spread of `ln R_i` is the window's own; 1.5 times it, widened in
+    // quadrature by ln 1.5. The other spreads do not move.
+    let (truth, i, v) = pulse_record();
+    let s = OnlineSettings::new(1.0, 64, truth);
+    let mut est = Box::new(CellEstimator::<f64, 256, 64>::new(&s).unwrap());
+    for l in 0..1200 {
+        est.push(&s, i[l], v[l]);
+    }
+    let cell = est.cell_state();
+    let st = cell.step_resistance().expect("the pulses' edges");
+    let (p, basis) = cell.sop_parameters(&s).expect("published");
+    let own = est.published().r_i.sigma.expect("identified by the window");
+    let agreeing = CellParameters { r_i: st.ohm, ..p };
+    let missing = CellParameters {
+        r_i: st.ohm / 1.5,
+        ..p
+    };
+    let a = cell.sop_spread(&s, basis, &agreeing);
+    let b = cell.sop_spread(&s, basis, &missing);
+    assert!((a.r_i - own).abs() < 1e-12, "{a:?} against {own}");
+    let want = (own * own + 1.5f64.ln().powi(2)).sqrt();
+    assert!((b.r_i - want).abs() < 1e-12, "{b:?} against {want}");
+    assert_eq!(
+        (a.r_ct, a.q, a.alpha, a.noise_v),
+        (b.r_ct, b.q, b.alpha, b.noise_v)
+    );
+}

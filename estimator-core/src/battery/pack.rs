@@ -651,7 +651,7 @@ impl<T: Real, const N: usize, const MEM: usize, const CELLS: usize>
             let cap = &mut power.limits.current_limit;
             *cap = cap.min(seen);
         }
-        let spread = c.sop_spread(s, basis);
+        let spread = c.sop_spread(s, basis, &q);
         Some(
             predictor
                 .power_with_spread(&power, &spread)

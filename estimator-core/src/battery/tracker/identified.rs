@@ -549,12 +549,24 @@ impl<T: Real, const N: usize> CellState<T, N> {
     /// - [`SopBasis::Stale`]: twice the bound (a value identified further
     ///   away than the state of charge it is held over).
     ///
+    /// Whatever the basis, `R_i`'s is widened in quadrature by what the
+    /// model misses at a current step, seen without it: `|ln(R_step /
+    /// R_model)|` of the last clean step ([`StepResistance::ohm`] against
+    /// [`StepResistance::model_ohm`] of `p`, the set predicted with). A
+    /// parameter's interval is what its window knows of it; a pulse's
+    /// first seconds also carry what the model cannot follow (a
+    /// resistance that falls with the current, a relaxation faster than a
+    /// sample). On the measured Panasonic HPPC pulses without a prior it
+    /// took the 2 s pulses covered by `pulse_v − 2σ` from 50.0 % to
+    /// 93.3 % (docs/bms-states.md).
+    ///
     /// The voltage's scatter is the window's RMSE (before a fit,
     /// [`STEP_NOISE_FLOOR_V`]).
     pub fn sop_spread<const P: usize>(
         &self,
         s: &OnlineSettings<T, P>,
         basis: SopBasis,
+        p: &CellParameters<T>,
     ) -> ParameterSpread<T> {
         let z = T::lit(Z95);
         let bound = [
@@ -595,6 +607,12 @@ impl<T: Real, const N: usize> CellState<T, N> {
                 for x in sd.iter_mut() {
                     *x = T::lit(2.0) * *x;
                 }
+            }
+        }
+        if let Some(st) = self.step {
+            let miss = (st.ohm / st.model_ohm(p)).ln().abs();
+            if miss.is_finite() {
+                sd[0] = (sd[0] * sd[0] + miss * miss).sqrt();
             }
         }
         let noise_v = if self.rmse.is_finite() {
