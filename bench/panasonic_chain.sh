@@ -2,8 +2,9 @@
 # The whole chain of docs/measured-cells.md on a measured cell, the Panasonic
 # NCR18650PF at 25 °C (data/panasonic-18650pf, the exports as they come):
 #
-#   raw C/20 export -> OCV table -> HPPC export -> parameter map (+ each
-#   level's record) -> scipy reference per level -> validation of both maps
+#   raw C/20 export -> OCV table -> HPPC export -> per-level parameter map
+#   (`--map-method levels`, + each level's record: what the scipy reference
+#   fits again level by level; the joint map is bench/map_validation.sh's) -> scipy reference per level -> validation of both maps
 #   on the US06 drive cycle -> online with the map as the prior.
 #
 # Writes everything into OUT (default target/real-cells/panasonic) and prints
@@ -28,7 +29,7 @@ $hs ocv --input "$c20" --from low-rate --out "$out/ocv.csv" --plot "$out/ocv.svg
 echo "== map of the HPPC test"
 rm -rf "$out/levels"
 /usr/bin/time -f "map: %e s wall, %U s user" $hs identify battery --input "$hppc" \
-  --ocv "$out/ocv.csv" --capacity-ah $cap --min-rest 3000 --model linear \
+  --ocv "$out/ocv.csv" --capacity-ah $cap --min-rest 3000 --model linear --map-method levels \
   --map-out "$out/map.csv" --map-plot "$out/map.svg" --levels-out "$out/levels" \
   --json "$out/fit.json" --fit-out "$out/fit.csv" 2>&1 | grep -E "^(map|refined|wrote [0-9]+ levels)" || true
 echo "== scipy reference per level"

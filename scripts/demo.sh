@@ -8,7 +8,7 @@
 # simulated data (2S-OP-GI on the §6.2 cell, our refinement, KT-2S-GI on
 # eq. 4), a pack of 8 cells with one aged, and the same estimator linked
 # into a C firmware under QEMU. One progress line per step, the tools'
-# output in demo-output/logs/, a summary table at the end. About 10 s after
+# output in demo-output/logs/, a summary table at the end. About 15 s after
 # the build on 2 cores (and the C library's build, when it is stale).
 #
 #   bash scripts/demo.sh
@@ -46,7 +46,7 @@ done_
 
 step 2 "parameter map of the 25 °C HPPC test (identify battery --map-out)"
 run "$out/logs/2-map.log" $hs identify battery --input "$hppc" "${cell[@]}" --min-rest 3000 \
-  --model linear --temperature-c 25 --map-method "${FRACBMS_DEMO_MAP_METHOD:-levels}" \
+  --model linear --temperature-c 25 --map-method "${FRACBMS_DEMO_MAP_METHOD:-joint}" \
   --map-out "$out/panasonic-map.csv" \
   --map-plot "$out/panasonic-map.svg" --json "$out/panasonic-hppc-fit.json"
 done_

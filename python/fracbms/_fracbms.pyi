@@ -37,7 +37,7 @@ def identify_files(
     map: bool = False,
     soc_bins: Optional[int] = None,
     min_rest: float = 600.0,
-    map_method: Literal["levels", "joint"] = "levels",
+    map_method: Literal["levels", "joint"] = "joint",
     temperature_c: Optional[float] = None,
     columns: Optional[str] = None,
     current_sign: Literal["charge-positive", "discharge-positive"] = "charge-positive",
@@ -74,7 +74,7 @@ def identify_battery(
     map: bool = False,
     soc_bins: Optional[int] = None,
     min_rest: float = 600.0,
-    map_method: Literal["levels", "joint"] = "levels",
+    map_method: Literal["levels", "joint"] = "joint",
     observed: Optional[ArrayLike] = None,
 ) -> dict[str, Any]:
     """Identify a battery cell from a whole record: the keys of

@@ -40,7 +40,7 @@ fn files(paths: &Bound<'_, PyAny>) -> PyResult<Vec<PathBuf>> {
 #[pyo3(signature = (
     paths, *, ocv = None, capacity_ah = None, soc0 = None, method = "refined", model = "auto",
     iterations = 50, memory = None, map = false, soc_bins = None, min_rest = 600.0,
-    map_method = "levels", temperature_c = None, columns = None, current_sign = "charge-positive", period_s = None,
+    map_method = "joint", temperature_c = None, columns = None, current_sign = "charge-positive", period_s = None,
     voltage_min = None, voltage_max = None, current_limit = None, jobs = None
 ))]
 #[allow(clippy::too_many_arguments)]

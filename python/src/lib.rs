@@ -199,9 +199,9 @@ fn ocv_spec(
 ///     (the map CSV's columns), the levels skipped and the whole-record
 ///     RMSE of the map model beside the single fit's. Needs ``ocv``.
 /// map_method : {"joint", "levels"}
-///     How the map is fitted (``--map-method``): each level on its own
-///     stretch (the default), or every knot together over the whole
-///     record, smooth in SOC.
+///     How the map is fitted (``--map-method``): every knot together over
+///     the whole record, smooth in SOC (the default), or each level on its
+///     own stretch.
 /// observed : array_like of 0/1, optional
 ///     Per row, 1 where the voltage was measured and 0 where it was not (a
 ///     cycler's unlogged step start: the current known, the voltage not);
@@ -225,7 +225,7 @@ fn ocv_spec(
 #[pyo3(signature = (
     time_s, current_a, voltage_v, *, ocv = None, capacity_ah = None, soc0 = None,
     method = "refined", model = "auto", iterations = 50, memory = None,
-    map = false, soc_bins = None, min_rest = 600.0, map_method = "levels", observed = None
+    map = false, soc_bins = None, min_rest = 600.0, map_method = "joint", observed = None
 ))]
 #[allow(clippy::too_many_arguments)]
 fn identify_battery<'py>(

@@ -41,13 +41,14 @@ def hppc(path):
 
 
 def test_the_map_equals_the_cli(host_sim, tmp_path):
+    """The per-level map (map_method="levels", --map-method levels)."""
     path = tmp_path / "hppc.csv"
     t, i, v = hppc(path)
     cli = cli_json(host_sim, tmp_path, "identify", "battery", "--input", path, "--ocv", OCV,
                    "--capacity-ah", "2.5", "--soc0", "0.9", "--model", "linear",
-                   "--map-out", tmp_path / "map.csv")
+                   "--map-method", "levels", "--map-out", tmp_path / "map.csv")
     py = fracbms.identify_battery(t, i, v, ocv=ocv_table(), capacity_ah=2.5, soc0=0.9,
-                                  model="linear", map=True)
+                                  model="linear", map=True, map_method="levels")
     py.pop("model_v")
     assert json.dumps(py["map"], sort_keys=True) == json.dumps(cli["map"], sort_keys=True)
     levels = py["map"]["levels"]
@@ -63,16 +64,20 @@ def test_the_map_equals_the_cli(host_sim, tmp_path):
 
 
 def test_the_joint_map_equals_the_cli(host_sim, tmp_path):
-    """map_method="joint" is --map-method joint: the same map, its
-    candidates scored by leaving levels out; a bad name is refused."""
+    """The joint map is the default on both faces (and map_method="joint"
+    is --map-method joint): the same map, its candidates scored by leaving
+    levels out; a bad name is refused."""
     path = tmp_path / "hppc.csv"
     t, i, v = hppc(path)
     cli = cli_json(host_sim, tmp_path, "identify", "battery", "--input", path, "--ocv", OCV,
                    "--capacity-ah", "2.5", "--soc0", "0.9", "--model", "linear",
-                   "--map-method", "joint", "--map-out", tmp_path / "map.csv")
+                   "--map-out", tmp_path / "map.csv")
     py = fracbms.identify_battery(t, i, v, ocv=ocv_table(), capacity_ah=2.5, soc0=0.9,
-                                  model="linear", map=True, map_method="joint")
+                                  model="linear", map=True)
+    explicit = fracbms.identify_battery(t, i, v, ocv=ocv_table(), capacity_ah=2.5, soc0=0.9,
+                                        model="linear", map=True, map_method="joint")
     assert json.dumps(py["map"], sort_keys=True) == json.dumps(cli["map"], sort_keys=True)
+    assert json.dumps(explicit["map"], sort_keys=True) == json.dumps(py["map"], sort_keys=True)
     assert py["map"]["joint"], "a joint map lists its scored candidates"
     assert py["map"]["map_rmse_v"] <= py["map"]["single_rmse_v"]
     with pytest.raises(ValueError, match="map_method='tabled': must be one of 'joint', 'levels'"):

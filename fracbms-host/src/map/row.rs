@@ -42,13 +42,12 @@ pub struct MapOptions {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum MapMethod {
-    /// Each level fitted on its own stretch (the default: as the online
-    /// prior, its levels' faster relaxations let the window publish
-    /// sooner; docs/maps.md).
-    #[default]
+    /// Each level fitted on its own stretch.
     Levels,
-    /// Every knot fitted together over the whole record, smooth in SOC (it
-    /// predicts records it was not fitted on better; docs/maps.md).
+    /// The default: every knot fitted together over the whole record,
+    /// smooth in SOC (it predicts records it was not fitted on better,
+    /// and serves as the online prior as well; docs/maps.md).
+    #[default]
     Joint,
 }
 
@@ -60,7 +59,7 @@ impl Default for MapOptions {
             temperature_c: None,
             lead_s: 60.0,
             level_samples: 8192,
-            method: MapMethod::Levels,
+            method: MapMethod::Joint,
             knots: None,
             smoothing: None,
             vary: None,

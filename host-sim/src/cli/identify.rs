@@ -168,10 +168,10 @@ pub struct IdBatteryArgs {
     /// or empty).
     #[arg(long)]
     pub temperature_c: Option<f64>,
-    /// How the map is fitted: `levels` (each level on its own stretch) or
-    /// `joint` (every knot together over the whole record, smooth in SOC;
-    /// it predicts unseen records better, docs/maps.md).
-    #[arg(long, value_enum, default_value_t = MapMethodArg::Levels, requires = "map_out")]
+    /// How the map is fitted: `joint` (every knot together over the whole
+    /// record, smooth in SOC; it predicts unseen records better,
+    /// docs/maps.md) or `levels` (each level on its own stretch).
+    #[arg(long, value_enum, default_value_t = MapMethodArg::Joint, requires = "map_out")]
     pub map_method: MapMethodArg,
     /// The joint map's knots: SOCs, comma-separated (default: the levels'
     /// SOCs).
