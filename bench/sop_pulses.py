@@ -29,11 +29,15 @@ least 0.2 (below it the cell's resistance climbs within a level).
         [--prior target/real-cells/panasonic/map.csv] [--butler-volmer]
     python3 bench/sop_pulses.py --resistances    # each pulse's measured resistance only
     python3 bench/sop_pulses.py --acceptance     # every HPPC record, second pulse group on,
-                                                 # beside the last pulse's drop and a 1 RC fit
+                                                 # beside the last pulse's drop and a 1 RC fit:
+                                                 # the Panasonic tests at 25 and 10 degC (2 s,
+                                                 # 10 s) and the DFN HPPC records of
+                                                 # data/pybamm (10 s, 30 s)
 """
 
 import argparse
 import csv
+import json
 import os
 import subprocess
 
@@ -48,8 +52,8 @@ SPAN_S = 1800.0
 CAPACITY_AH = 2.9
 
 
-def ocv_table():
-    z, u = np.loadtxt(PAN_OCV, delimiter=",", skiprows=1, unpack=True)
+def ocv_table(path=PAN_OCV):
+    z, u = np.loadtxt(path, delimiter=",", skiprows=1, unpack=True)
     return lambda soc: np.interp(soc, z, u)
 
 
@@ -98,18 +102,28 @@ def fit_1rc(t, i, v, ocv_now):
     return r0, r1, tau, du, now
 
 
-def predict_1rc(model, soc_now, ocv, current, h):
+def predict_1rc(model, soc_now, ocv, current, h, capacity_ah=CAPACITY_AH):
     r0, r1, tau, du, up = model
     a = np.exp(-h / tau)
     up_h = up * a + r1 * current * (1 - a)
-    return ocv(soc_now + current * h / (3600 * CAPACITY_AH)) + du + r0 * current + up_h
+    return ocv(soc_now + current * h / (3600 * capacity_ah)) + du + r0 * current + up_h
+
+
+def read(path):
+    """(time, current, voltage) of a Panasonic MAT export or of a PyBaMM
+    record's CSV (`time_s,current_a,voltage_v,…`)."""
+    if path.endswith(".csv"):
+        d = np.genfromtxt(path, delimiter=",", names=True)
+        return d["time_s"], d["current_a"], d["voltage_v"]
+    m = sio.loadmat(path)["meas"][0, 0]
+    return tuple(m[k].ravel() for k in ("Time", "Current", "Voltage"))
 
 
 def pulses(path=PANASONIC):
     """(start time, current, length s) of every discharge pulse from rest."""
-    m = sio.loadmat(path)["meas"][0, 0]
-    t, i, v = (m[k].ravel() for k in ("Time", "Current", "Voltage"))
-    edge = (np.diff(i) < -1.0) & (np.abs(i[:-1]) < 0.05) & (np.diff(t) < 0.2)
+    t, i, v = read(path)
+    # An edge within one sample: the Panasonic logs' 0.1 s, the DFN's 1 s.
+    edge = (np.diff(i) < -1.0) & (np.abs(i[:-1]) < 0.05) & (np.diff(t) < (1.01 if path.endswith(".csv") else 0.2))
     out = []
     for j in np.where(edge)[0]:
         e = j + 1
@@ -132,30 +146,45 @@ def stats(pred, meas, drop):
 PAN10 = "data/panasonic-18650pf/03-27-17_09.06 10degC_5Pulse_HPPC_Pan18650PF.mat"
 # The HPPC records of data/ (Panasonic 18650PF at 25 and 10 degC), each
 # with the C/20 OCV table (25 degC: the only one the data set has).
-RECORDS = {"Panasonic 25 degC HPPC": PANASONIC, "Panasonic 10 degC HPPC": PAN10}
+# The HPPC records of the acceptance: the measured ones above, and the
+# PyBaMM DFN HPPC records of data/pybamm (each group a 2C 10 s and a 1C
+# 180 s discharge, 580 s apart; against the DFN's own pulse): path, OCV
+# table, capacity (A h), the gap between pulse starts that opens a new
+# group (s), the horizons (s), and `identify battery`'s `--min-rest` for
+# the record's own map.
+PYBAMM_CAP = {k: v["capacity_ah"] for k, v in json.load(open("data/pybamm/meta.json"))["records"].items()}
+RECORD_SPECS = {
+    "Panasonic 25 degC HPPC": (PANASONIC, PAN_OCV, CAPACITY_AH, 1500.0, (2, 10), 3000),
+    "Panasonic 10 degC HPPC": (PAN10, PAN_OCV, CAPACITY_AH, 1500.0, (2, 10), 3000),
+    "DFN Chen2020 HPPC": ("data/pybamm/chen2020-hppc.csv", "data/pybamm/chen2020-ocv.csv",
+                          PYBAMM_CAP["chen2020-hppc"], 300.0, (10, 30), 250),
+    "DFN Prada2013 HPPC": ("data/pybamm/prada2013-hppc.csv", "data/pybamm/prada2013-ocv.csv",
+                           PYBAMM_CAP["prada2013-hppc"], 300.0, (10, 30), 250),
+}
+RECORDS = {k: v[0] for k, v in RECORD_SPECS.items() if k.startswith("Panasonic")}
 GROUP_GAP_S = 1500.0
 # The state of power's default derating (`--sop-confidence`).
 CONFIDENCE = 2.0
 
 
-def groups(ps):
+def groups(ps, gap_s=GROUP_GAP_S):
     """Each pulse's group number: a new group after a gap between pulse
-    starts longer than GROUP_GAP_S (the test's discharge to the next level)."""
+    starts longer than gap_s (the test's discharge to the next level)."""
     g, out = 0, []
     for k, (start, _, _) in enumerate(ps):
-        if k and start - ps[k - 1][0] > GROUP_GAP_S:
+        if k and start - ps[k - 1][0] > gap_s:
             g += 1
         out.append(g)
     return out
 
 
-def record_map(host_sim, path, out, method):
+def record_map(host_sim, path, out, method, ocv=PAN_OCV, capacity_ah=CAPACITY_AH, min_rest=3000):
     """The record's own parameter map (bench/panasonic_chain.sh's settings,
     `--map-method method`; joint by default: its state of power is the
     closer of the two methods here, docs/bms-states.md)."""
     m = f"{out}/map.csv"
-    subprocess.run([host_sim, "identify", "battery", "--input", path, "--ocv", PAN_OCV,
-                    "--capacity-ah", str(CAPACITY_AH), "--min-rest", "3000", "--model", "linear",
+    subprocess.run([host_sim, "identify", "battery", "--input", path, "--ocv", ocv,
+                    "--capacity-ah", str(capacity_ah), "--min-rest", str(min_rest), "--model", "linear",
                     "--map-method", method, "--map-out", m], check=True,
                    stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     return m
@@ -172,42 +201,44 @@ def acceptance(host_sim, out, map_method):
     again (scaled by the currents' ratio, the Panasonic test changes the
     current from pulse to pulse) and a 1 RC model fitted to the 1800 s
     before the pulse (the last pulse and its rest)."""
-    ocv = ocv_table()
     print("| record | horizon | prior | pulses | with a value | basis (window/map/held/stale) "
           "| ours: median / worst % of the drop | measured above pulse_v - 2 sigma "
           "| median sigma, % of the drop | last drop again | 1 RC on the last pulse |")
     print("|---|---|---|---|---|---|---|---|---|---|---|")
-    for name, path in RECORDS.items():
+    for name, (path, ocv_path, cap, gap_s, horizons, min_rest) in RECORD_SPECS.items():
+        ocv = ocv_table(ocv_path)
         ps, (t, v) = pulses(path)
-        i_raw = sio.loadmat(path)["meas"][0, 0]["Current"].ravel()
-        g = groups(ps)
-        rec_out = f"{out}/{os.path.basename(path)[:14].replace(' ', '_')}"
+        i_raw = read(path)[1]
+        g = groups(ps, gap_s)
+        rec_out = f"{out}/{os.path.splitext(os.path.basename(path))[0][:14].replace(' ', '_')}"
         os.makedirs(rec_out, exist_ok=True)
-        mp = record_map(host_sim, path, rec_out, map_method)
+        mp = record_map(host_sim, path, rec_out, map_method, ocv_path, cap, min_rest)
         currents = sorted({round(c, 1) for _, c, _ in ps})
         # Baselines: per pulse and horizon, keyed by the pulse's index.
         naive, rc = {}, {}
-        prev = None
+        prev = {}
         for j, (start, cur, length) in enumerate(ps):
             before = np.interp(start, t, v)
-            drops = {h: before - np.interp(start + h, t, v) for h in HORIZONS if length >= h}
-            if prev is not None:
-                pd, pc = prev
-                for h in drops:
-                    if h in pd:
-                        naive[(j, h)] = before - pd[h] * cur / pc
-            prev = (drops, cur)
+            drops = {h: before - np.interp(start + h, t, v) for h in horizons if length >= h}
+            # The last pulse that lasted h (on the Panasonic tests every
+            # pulse lasts 10 s: the pulse before; on the DFN's, at 30 s
+            # the last 1C discharge).
+            for h in drops:
+                if h in prev:
+                    pd, pc = prev[h]
+                    naive[(j, h)] = before - pd * cur / pc
+                prev[h] = (drops[h], cur)
         for variant, extra in (("none", []), ("own map", ["--prior", mp])):
             tracks = {}
             for c in currents:
                 track = f"{rec_out}/pulse{c}-{'map' if extra else 'none'}.csv"
-                subprocess.run([host_sim, "online", "battery", "--input", path, "--ocv", PAN_OCV,
-                                "--capacity-ah", str(CAPACITY_AH), "--pulse-current-a", str(c),
-                                "--horizons", ",".join(map(str, HORIZONS)), "--window", "256",
+                subprocess.run([host_sim, "online", "battery", "--input", path, "--ocv", ocv_path,
+                                "--capacity-ah", str(cap), "--pulse-current-a", str(c),
+                                "--horizons", ",".join(map(str, horizons)), "--window", "256",
                                 "--out", track] + extra,
                                check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
                 tracks[c] = list(csv.DictReader(open(track)))
-            for h in HORIZONS:
+            for h in horizons:
                 ours, base, one_rc, basis, n = [], [], [], {}, 0
                 covered, sigmas = [], []
                 for j, (start, cur, length) in enumerate(ps):
@@ -237,7 +268,7 @@ def acceptance(host_sim, out, map_method):
                         span = (t > start - SPAN_S) & (t <= start)
                         soc = np.interp(t[span], tt, [float(r["soc_coulomb"]) for r in tr])
                         model = fit_1rc(t[span], i_raw[span], v[span], ocv(soc))
-                        rc[(j, h)] = predict_1rc(model, soc[-1], ocv, cur, h) if model else np.nan
+                        rc[(j, h)] = predict_1rc(model, soc[-1], ocv, cur, h, cap) if model else np.nan
                     if np.isfinite(rc[(j, h)]):
                         one_rc.append(abs(rc[(j, h)] - measured) / drop)
                 mw = lambda x: f"{pct(np.median(x))} / {pct(np.max(x))}" if x else "none"
@@ -260,7 +291,7 @@ def main():
                     help="only print each pulse's measured 2 s and 10 s resistance "
                     "(the drop over the current), a level's pulses on one line")
     ap.add_argument("--acceptance", action="store_true",
-                    help="only the table of every HPPC record of data/ from the second pulse "
+                    help="only the table of every HPPC record of data/ (measured and DFN) from the second pulse "
                     "group on, with and without the record's own map as the prior, beside the "
                     "two baselines (issue 72)")
     ap.add_argument("--map-method", default="joint", choices=("joint", "levels"),

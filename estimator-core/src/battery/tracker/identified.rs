@@ -556,9 +556,9 @@ impl<T: Real, const N: usize> CellState<T, N> {
     /// parameter's interval is what its window knows of it; a pulse's
     /// first seconds also carry what the model cannot follow (a
     /// resistance that falls with the current, a relaxation faster than a
-    /// sample). On the measured Panasonic HPPC pulses without a prior it
-    /// took the 2 s pulses covered by `pulse_v − 2σ` from 50.0 % to
-    /// 93.3 % (docs/bms-states.md).
+    /// sample): with it, the measured Panasonic HPPC pulses end above
+    /// `pulse_v − 2σ` at 92.5–95.0 % of the pulses without a prior
+    /// (docs/bms-states.md).
     ///
     /// The voltage's scatter is the window's RMSE (before a fit,
     /// [`STEP_NOISE_FLOOR_V`]).
