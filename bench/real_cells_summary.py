@@ -34,6 +34,12 @@ print("\n## Sliding window 256 / memory 64: published R_ct / whole-record R_ct a
 print("| record | variant | R_ct min | R_ct max | R_i min..max (mΩ) | alpha min..max | statuses after the first window |")
 print("|---|---|---|---|---|---|---|")
 tracks = {}
+
+
+def span(x, f):
+    return f"{min(x):{f}}..{max(x):{f}}" if x else "none published"
+
+
 for r in records:
     whole = fits[r]["r_ct"]
     for v in ["table", "none", "table-prior", "none-prior"]:
@@ -41,13 +47,18 @@ for r in records:
         tracks[(r, v)] = rows
         pub = [x for x in rows[512:] if x["r_ct"]]
         rct = [float(x["r_ct"]) / whole for x in pub]
-        ri = [1e3 * float(x["r_i"]) for x in pub]
-        al = [float(x["alpha"]) for x in pub]
+        ri = [1e3 * float(x["r_i"]) for x in pub if x["r_i"]]
+        al = [float(x["alpha"]) for x in pub if x["alpha"]]
         st = collections.Counter(x["status"] for x in rows[256:])
         sts = ", ".join(f"{k} {n}" for k, n in st.most_common())
+        if not pub:
+            # Without a prior the tracker publishes only what the window
+            # identifies (docs/online-publication.md): maybe nothing.
+            print(f"| {r} | {v} | none published | | | | {sts} |")
+            continue
         print(
-            f"| {r} | {v} | {min(rct):.2f} | {max(rct):.2f} | {min(ri):.1f}..{max(ri):.1f} | "
-            f"{min(al):.2f}..{max(al):.2f} | {sts} |"
+            f"| {r} | {v} | {min(rct):.2f} | {max(rct):.2f} | {span(ri, '.1f')} | "
+            f"{span(al, '.2f')} | {sts} |"
         )
 
 try:
