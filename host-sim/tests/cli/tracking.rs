@@ -291,7 +291,6 @@ fn pack_round_trip_tracks_every_cell_and_flags_the_aged_one() {
 /// current; no columns' values without limits; a bad horizon is one line.
 #[test]
 fn the_track_carries_the_state_of_power() {
-    let out = tmp("sop-track.csv");
     let (head, rows) = chen_hppc_track("sop-track", &["--horizons", "2,10,30"]);
     let num = |r: &[String], k: &str| r[col(&head, k)].parse::<f64>().ok();
     let mut with = 0;
@@ -331,6 +330,7 @@ fn the_track_carries_the_state_of_power() {
     ])
     .status
     .success());
+    let out = tmp("sop-track.csv");
     let o = run(&["online", "battery", "--input", s(&own), "--out", s(&out)]);
     assert!(o.status.success());
     let t = std::fs::read_to_string(&out).unwrap();

@@ -220,14 +220,14 @@ impl<T: Real, const P: usize> OnlineSettings<T, P> {
         }
         let relax = p.tau().powf(T::one() / p.alpha);
         let longest = self.max_relaxation_windows * T::lit(rows as f64) * b.h;
-        if relax.is_nan() || relax > longest.max(self.prior_relaxation()) {
+        // (The prior's relaxation, a power, only when the window's is
+        // beyond the window.)
+        if relax.is_nan() || (relax > longest && relax > self.prior_relaxation()) {
             return Some(Status::SlowRelaxation);
         }
         None
     }
-}
 
-impl<T: Real, const P: usize> OnlineSettings<T, P> {
     /// The longest relaxation a window's estimate may have because the
     /// prior has it (s): the prior's own `τ^(1/α)` with `τ` widened by
     /// [`identify_factor`](Self::identify_factor)² (its `R_ct` and `Q`
