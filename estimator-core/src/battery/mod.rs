@@ -250,6 +250,11 @@ pub struct BatterySettings<T> {
     /// Stopping tolerance: converged when the relative parameter change of
     /// an iteration is at most ε.
     pub epsilon: T,
+    /// Stopping tolerance on the cost: the output-error refinement's next
+    /// step is negligible (a minimum, `negligible_step`) when the decrease
+    /// it predicts is below `cost_tolerance` times the cost (scipy's
+    /// `ftol`). 0 (the default): below what the cost resolves in `T`.
+    pub cost_tolerance: T,
     /// Largest number of halvings of the paper method's order step.
     pub max_halvings: u8,
     /// Trust radius of the paper method's order step.
@@ -451,6 +456,7 @@ impl<T: Real> BatterySettings<T> {
             alpha_min: T::lit(0.05),
             alpha_max: T::lit(1.0),
             epsilon: T::lit(1e-7),
+            cost_tolerance: T::zero(),
             max_halvings: 12,
             max_order_step: T::lit(0.05),
             estimate_order: true,
@@ -468,7 +474,8 @@ impl<T: Real> BatterySettings<T> {
     /// # Errors
     /// [`crate::Error::Frac`] for a bad period or memory,
     /// [`crate::Error::BadSetting`] for order bounds outside `(0, 2)`, a
-    /// negative or non-finite ε, trust radius or excitation threshold.
+    /// negative or non-finite ε, cost tolerance, trust radius or excitation
+    /// threshold.
     pub fn check<const MEM: usize>(&self) -> Result<(), crate::Error> {
         crate::gi::check_search::<T, MEM>(
             self.h,
@@ -478,6 +485,9 @@ impl<T: Real> BatterySettings<T> {
             self.max_order_step,
         )?;
         if self.prior.is_some_and(|p| !p.is_valid()) {
+            return Err(crate::Error::BadSetting);
+        }
+        if !(self.cost_tolerance.is_finite() && self.cost_tolerance >= T::zero()) {
             return Err(crate::Error::BadSetting);
         }
         if self.min_current_std.is_finite() && self.min_current_std >= T::zero() {
@@ -511,6 +521,7 @@ impl<T: Real> BatterySettings<T> {
             self.alpha_min,
             self.alpha_max,
             self.epsilon,
+            self.cost_tolerance,
             self.max_order_step,
             self.min_current_std,
         ] {

@@ -5,7 +5,7 @@
 //! `estimator-core`'s; this module drives them in `f64` and reports.
 
 use super::model_choice::{
-    choose_model, refine_fit, stop_reason_name, Fit, LoggedWindow, ModelChoice, Refinement,
+    choose_model, refine_best, stop_reason_name, LoggedWindow, ModelChoice, Refinement,
 };
 use super::{table_row, BatteryMethod, HistoryEntry, ModelRequest, BAT_MEM, MAX_BATTERY_ROWS};
 use crate::branch::FftBranch;
@@ -167,6 +167,9 @@ pub struct BatteryResult {
     pub information: Option<FitInformation<f64>>,
     /// The order bounds of the fit.
     pub alpha_bounds: [f64; 2],
+    /// With an OCV table: the OCV the fit took from the voltage at each
+    /// sample (the SOC counted, read again after each gap); `None` without.
+    pub ocv_v: Option<Vec<f64>>,
 }
 
 /// Simulates `cell` over a current record from rest, with the full memory
@@ -204,7 +207,7 @@ fn rmse(a: &[f64], b: &[f64]) -> f64 {
 /// line between its measured neighbours (held at the record's ends): the
 /// paper's regression and the rough starts need a voltage at every
 /// sample; the refinement leaves these out.
-fn filled(v: &[f64]) -> Vec<f64> {
+pub fn filled(v: &[f64]) -> Vec<f64> {
     let mut out = v.to_vec();
     let mut last: Option<usize> = None;
     let mut l = 0;
@@ -447,6 +450,7 @@ fn battery_run_sized<const N: usize, const MEM: usize>(
             }
             let mut so = BatterySettings::new(rec.h, rm);
             so.ocv_slope = refine.ocv_slope;
+            so.cost_tolerance = super::model_choice::WHOLE_RECORD_COST_TOLERANCE;
             // Several starts, the best fit kept: the paper's estimate (when
             // it is physical) and the rough ones from the data alone. On a
             // measured pulse they can end in different basins (the LG M50
@@ -463,31 +467,8 @@ fn battery_run_sized<const N: usize, const MEM: usize>(
                     .chain(rough_starts(&rec.current, &measured))
                     .collect(),
             };
-            let mut lin: Option<Fit<N>> = None;
-            let mut failed = None;
-            for start in starts {
-                let fit = match refine_fit::<N>(&so, start, &logged) {
-                    Ok(f) => f,
-                    Err(e) => {
-                        failed = Some(e);
-                        continue;
-                    }
-                };
-                iters += fit.iterations;
-                // Strictly better by more than rounding: an earlier start
-                // wins a tie.
-                if lin
-                    .as_ref()
-                    .is_none_or(|best| fit.rmse < best.rmse * (1.0 - 1e-9))
-                {
-                    lin = Some(fit);
-                }
-            }
-            let mut lin = match (lin, failed) {
-                (Some(l), _) => l,
-                (None, Some(e)) => return Err(ctx(e)),
-                (None, None) => unreachable!("at least the rough starts are tried"),
-            };
+            let (mut lin, run) = refine_best::<N>(&so, &starts, &logged).map_err(ctx)?;
+            iters += run;
             let bounds = [so.alpha_min, so.alpha_max];
             if refine.model == ModelRequest::Linear {
                 converged = lin.converged;
@@ -564,6 +545,7 @@ fn battery_run_sized<const N: usize, const MEM: usize>(
         cell,
         paper_track: track,
         model_voltage: model,
+        ocv_v: None,
         information,
         alpha_bounds,
     })
@@ -746,5 +728,6 @@ fn battery_identify_unassessed(
     r.json.ocv_offset_v = Some(offset);
     r.json.soc0 = Some(c.soc0);
     r.json.soc_end = Some(soc_end);
+    r.ocv_v = Some(ocv);
     Ok(r)
 }

@@ -185,7 +185,7 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
             let adx = (0..COLUMNS).fold(T::zero(), |acc, q| acc + a[k][q] * dx[q]);
             pred = pred + dx[k] * (b[k] - adx / T::lit(2.0));
         }
-        let resolution = T::lit(COST_RESOLUTION) * T::epsilon();
+        let resolution = (T::lit(COST_RESOLUTION) * T::epsilon()).max(s.cost_tolerance);
         if change > s.epsilon && pred > resolution * cost0 {
             Proposal::Step {
                 p: trial,
