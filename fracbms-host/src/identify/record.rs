@@ -236,16 +236,37 @@ pub fn battery_file(input: &Path, o: &BatteryFitOptions, print_table: bool) -> R
     })
 }
 
-/// Writes `time_s,voltage_v,model_v` (the `--fit-out` file): the
-/// identified model's free-run voltage beside the record's.
-pub fn write_fit_csv(path: &Path, rec: &io::BatteryRecord, model_v: &[f64]) -> Result<()> {
+/// Writes the `--fit-out` file: `time_s,voltage_v,model_v` (the identified
+/// model's free-run voltage beside the record's), then `current_a`,
+/// `fitted` (1 where the fit counted the sample's voltage: measured, not
+/// rejected) and, with an OCV table, `ocv_v` (the OCV the fit took away at
+/// each sample: `voltage_v − ocv_v` is the overpotential it fitted).
+pub fn write_fit_csv(
+    path: &Path,
+    rec: &io::BatteryRecord,
+    model_v: &[f64],
+    counted: impl Fn(usize) -> bool,
+    ocv_v: Option<&[f64]>,
+) -> Result<()> {
+    let mut head = vec!["time_s", "voltage_v", "model_v", "current_a", "fitted"];
+    if ocv_v.is_some() {
+        head.push("ocv_v");
+    }
     io::write_csv(
         path,
-        &["time_s", "voltage_v", "model_v"],
-        rec.time
-            .iter()
-            .zip(&rec.voltage)
-            .zip(model_v)
-            .map(|((t, v), m)| [format!("{t}"), format!("{v:.9}"), format!("{m:.9}")]),
+        &head,
+        (0..rec.time.len()).map(|k| {
+            let mut row = vec![
+                format!("{}", rec.time[k]),
+                format!("{:.9}", rec.voltage[k]),
+                format!("{:.9}", model_v[k]),
+                format!("{}", rec.current[k]),
+                u8::from(counted(k)).to_string(),
+            ];
+            if let Some(o) = ocv_v {
+                row.push(format!("{:.9}", o[k]));
+            }
+            row
+        }),
     )
 }

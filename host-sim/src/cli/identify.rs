@@ -133,8 +133,10 @@ pub struct IdBatteryArgs {
     /// Write the estimates as JSON.
     #[arg(long)]
     pub json: Option<PathBuf>,
-    /// Write `time_s,voltage_v,model_v`: the identified model's free-run
-    /// simulation from the current alone (OCV, ΔU and all) beside the data.
+    /// Write `time_s,voltage_v,model_v,current_a,fitted[,ocv_v]`: the
+    /// identified model's free-run simulation from the current alone (OCV,
+    /// ΔU and all) beside the data; `fitted` is 1 where the fit counted the
+    /// sample's voltage, and with `--ocv` `ocv_v` is the OCV it took away.
     #[arg(long)]
     pub fit_out: Option<PathBuf>,
     /// Write Figures 8–11 for this file (SVG) into this directory.
@@ -454,7 +456,7 @@ pub(super) fn battery(a: IdBatteryArgs) -> Result<()> {
     if let Some(p) = &a.fit_out {
         // With a map, the map model's free run.
         let model_v = map.as_ref().map_or(&r.model_voltage, |m| &m.model_v);
-        battery_fit::write_fit_csv(p, rec, model_v)?;
+        battery_fit::write_fit_csv(p, rec, model_v, |k| sc.counted(k), r.ocv_v.as_deref())?;
         eprintln!("wrote {}", p.display());
     }
     if let Some(p) = &a.json {

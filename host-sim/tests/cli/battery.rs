@@ -158,13 +158,25 @@ fn ocv_curve_and_state_of_charge() {
     // The model's free run beside the data: the noise level.
     let f = std::fs::read_to_string(&fit).unwrap();
     let mut lines = f.lines();
-    assert_eq!(lines.next(), Some("time_s,voltage_v,model_v"));
+    assert_eq!(
+        lines.next(),
+        Some("time_s,voltage_v,model_v,current_a,fitted,ocv_v")
+    );
     let (mut sq, mut n) = (0.0, 0.0);
+    let mut ocv_last = f64::INFINITY;
     for l in lines {
         let x: Vec<f64> = l.split(',').map(|x| x.parse().unwrap()).collect();
         sq += (x[1] - x[2]).powi(2);
         n += 1.0;
+        // Every sample fitted; the OCV taken away is inside the table's
+        // range, what is left is an overpotential, and by the end the drive
+        // cycle has discharged the cell below 4 V.
+        assert_eq!(x[4], 1.0, "{l}");
+        assert!((3.0..4.3).contains(&x[5]), "{l}");
+        assert!((x[1] - x[5]).abs() < 0.3, "{l}");
+        ocv_last = x[5];
     }
+    assert!(ocv_last < 4.0, "{ocv_last}");
     assert_eq!(n, 2500.0);
     assert!((sq / n).sqrt() < 1.2e-3);
     // Without the curve the keys are null.
@@ -279,7 +291,9 @@ fn ocv_curve_and_state_of_charge() {
 fn fit_out_rmse(path: &Path) -> f64 {
     let text = std::fs::read_to_string(path).unwrap();
     let mut lines = text.lines();
-    assert_eq!(lines.next(), Some("time_s,voltage_v,model_v"));
+    assert!(lines
+        .next()
+        .is_some_and(|h| h.starts_with("time_s,voltage_v,model_v,current_a,fitted")));
     let (mut sum, mut n) = (0.0, 0.0);
     for line in lines {
         let c: Vec<f64> = line.split(',').map(|x| x.parse().unwrap()).collect();
