@@ -3,7 +3,8 @@
 //!
 //!     cargo run --release -p fracbms-host --example refine_once -- RECORD.csv linear|butler-volmer
 //!
-//! The record is `time_s,current_a,voltage_v` on a uniform period. The
+//! The record is `time_s,current_a,voltage_v` on a uniform period (a `nan`
+//! voltage: a sample not observed, left out of the fit). The
 //! start is the first of `identify battery`'s rough starts
 //! ([`rough_starts`]), the one `bench/scaling.py` gives its scipy
 //! reference: R from the slope of V on I split evenly, α 0.7, τ^α = 5 s^α,
@@ -11,7 +12,7 @@
 //! and a = i₀·R_i/2 (R_i halved). Prints one JSON line: seconds, RMSE,
 //! iterations, α.
 
-use fracbms_host::identify::battery::rough_starts;
+use fracbms_host::identify::battery::{filled, rough_starts};
 use fracbms_host::identify::model_choice::refine_from_start;
 use std::time::Instant;
 
@@ -23,7 +24,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     };
     let rec = fracbms_host::io::read_battery(std::path::Path::new(&path), None)?;
     let (h, i, v) = (rec.h, rec.current, rec.voltage);
-    let mut start = rough_starts(&i, &v)[0];
+    // Unobserved samples (NaN voltage) are filled for the start only, as
+    // `identify battery` fills them; the refinement leaves them out.
+    let mut start = rough_starts(&i, &filled(&v))[0];
     if model == "butler-volmer" {
         start = start.with_butler_volmer(0.3 * i.iter().fold(0.0f64, |m, x| m.max(x.abs())));
     }
