@@ -73,12 +73,16 @@ for r in records:
             ss = [
                 (float(x["r_i"]) + (float(x["bv_a_v"]) / float(x["bv_i0_a"]) if x["bv_a_v"] else 0.0)) / lin_ri
                 for x in pub
+                if x["r_i"]
             ]
             a = [1e3 * float(x["bv_a_v"]) for x in pub if x["bv_a_v"]]
             st = collections.Counter(x["status"] for x in rows[256:])
             sts = ", ".join(f"{k} {n}" for k, n in st.most_common())
             arange = f"{min(a):.0f}..{max(a):.0f}" if a else "-"
+            # Online publishes R_ct only where the data identify it: a run
+            # may publish none.
+            span = (lambda x: f"{min(x):.2f}..{max(x):.2f}" if x else "none published")
             print(
                 f"| {r} | {m} | {'other record' if v == 'prior' else 'none'} | {pe:.2f} | "
-                f"{min(rct):.2f}..{max(rct):.2f} | {min(ss):.2f}..{max(ss):.2f} | {arange} | {sts} |"
+                f"{span(rct)} | {span(ss)} | {arange} | {sts} |"
             )
