@@ -231,6 +231,48 @@ pub fn filled(v: &[f64]) -> Vec<f64> {
     out
 }
 
+/// The most rows the paper's regression is run on when it starts the
+/// output-error refinement: a longer record's regression runs on its most
+/// excited stretch of this length ([`most_excited`]). The regression costs
+/// the rows times its memory in each of its iterations: on a 50 000-row
+/// record it was two thirds of `identify battery` (docs/performance.md).
+pub const START_REGRESSION_ROWS: usize = 8192;
+
+/// The stretch of `len` consecutive samples (the whole record when it is
+/// shorter) whose current varies the most (its sum of squared deviations
+/// from the stretch's mean), among those with at most a tenth of their
+/// voltages unobserved (NaN) when there are any such; the first of equals.
+pub fn most_excited(current: &[f64], voltage: &[f64], len: usize) -> core::ops::Range<usize> {
+    let n = current.len().min(voltage.len());
+    if len == 0 || n <= len {
+        return 0..n;
+    }
+    let finite = |x: f64| if x.is_finite() { x } else { 0.0 };
+    // Running sums over the stretch [a, a + len).
+    let (mut s1, mut s2, mut gaps) = (0.0, 0.0, 0usize);
+    for k in 0..len {
+        let i = finite(current[k]);
+        s1 += i;
+        s2 += i * i;
+        gaps += usize::from(voltage[k].is_nan());
+    }
+    let spread = |s1: f64, s2: f64| s2 - s1 * s1 / len as f64;
+    let observed = |gaps: usize| gaps * 10 <= len;
+    let mut best = (observed(gaps), spread(s1, s2), 0);
+    for a in 1..=n - len {
+        let (out, inn) = (finite(current[a - 1]), finite(current[a + len - 1]));
+        s1 += inn - out;
+        s2 += inn * inn - out * out;
+        gaps = gaps + usize::from(voltage[a + len - 1].is_nan())
+            - usize::from(voltage[a - 1].is_nan());
+        let here = (observed(gaps), spread(s1, s2));
+        if (here.0, here.1) > (best.0, best.1) {
+            best = (here.0, here.1, a);
+        }
+    }
+    best.2..best.2 + len
+}
+
 /// Rough physical starts from the data alone: least squares of U on
 /// [1, I] gives U_oc and R = R_i + R_ct, split evenly with α = 0.7 and
 /// τ^α = 5 s^α, and mostly into R_ct (90 %) with α = 0.9 and
@@ -365,7 +407,14 @@ fn battery_run_sized<const N: usize, const MEM: usize>(
     // leaves the unobserved ones (NaN) out.
     let measured = filled(&rec.voltage);
     let mut win = Box::new(SampleWindow::<f64, N>::new());
-    for (&i, &v) in rec.current.iter().zip(&measured) {
+    // As the refinement's start, the regression runs on the record's most
+    // excited stretch (its cost grows with the rows times the memory);
+    // as the paper's method, on the whole record.
+    let rows = match method {
+        BatteryMethod::Paper => 0..n,
+        BatteryMethod::Refined => most_excited(&rec.current, &rec.voltage, START_REGRESSION_ROWS),
+    };
+    for (&i, &v) in rec.current[rows.clone()].iter().zip(&measured[rows]) {
         win.push(i, v).map_err(ctx)?;
     }
     let logged = LoggedWindow {
