@@ -393,7 +393,6 @@ impl<T: Real, const N: usize> CellState<T, N> {
     ) {
         let Some(info) = info else {
             self.published.hold();
-            self.window_sigma = [T::nan(); 4];
             return;
         };
         // Identified: by the window's data alone. With a prior whose
@@ -405,14 +404,6 @@ impl<T: Real, const N: usize> CellState<T, N> {
         } else {
             with_prior
         };
-        for (k, x) in self.window_sigma.iter_mut().enumerate() {
-            *x = if k == 3 && !info.fitted[3] {
-                // A fixed order is known exactly.
-                T::zero()
-            } else {
-                data[k].unwrap_or(T::nan())
-            };
-        }
         let z = T::lit(Z95);
         let log_within = |se: &[Option<T>; COLUMNS], k: usize| {
             se[k].is_some_and(|e| z * e <= s.identify_factor.ln())
@@ -489,12 +480,8 @@ impl<T: Real, const N: usize> CellState<T, N> {
     ///   value (identified by an earlier window within
     ///   [`OnlineSettings::hold_soc_span`], or restored), the last good
     ///   estimate;
-    /// - [`SopBasis::Stale`]: else, once `R_i` has been published at least
-    ///   once, and each of `R_ct`, `Q` and α has been or the last window
-    ///   gave it an interval ([`Self::sop_spread`] widens a parameter never
-    ///   published to that interval), the last good estimate. Without it an
-    ///   LFP cell whose windows never pinned α alone had no state of power
-    ///   before 18 of its 20 DFN HPPC pulses (docs/bms-states.md).
+    /// - [`SopBasis::Stale`]: else, once every parameter has been
+    ///   published at least once, the last good estimate.
     ///
     /// The rest of the model (`ΔU`, the Butler–Volmer term) is the last
     /// estimate's, in the window's coordinates (with a prior and no
@@ -541,11 +528,7 @@ impl<T: Real, const N: usize> CellState<T, N> {
         let ever = named
             .iter()
             .zip(self.stale)
-            .zip(self.window_sigma)
-            .enumerate()
-            .all(|(k, (((_, x), st), ws))| {
-                x.value.is_some() || !st.is_nan() || (k > 0 && ws.is_finite())
-            });
+            .all(|((_, x), st)| x.value.is_some() || !st.is_nan());
         ever.then_some((p, SopBasis::Stale))
     }
 
@@ -564,9 +547,7 @@ impl<T: Real, const N: usize> CellState<T, N> {
     /// - [`SopBasis::Map`]: the bound (a map row is an identified value,
     ///   but of another record of the cell);
     /// - [`SopBasis::Stale`]: twice the bound (a value identified further
-    ///   away than the state of charge it is held over); a parameter never
-    ///   published, the last window's own spread of it where that is
-    ///   wider.
+    ///   away than the state of charge it is held over).
     ///
     /// Whatever the basis, `R_i`'s is widened in quadrature by what the
     /// model misses at a current step, seen without it: `|ln(R_step /
@@ -623,12 +604,8 @@ impl<T: Real, const N: usize> CellState<T, N> {
             }
             SopBasis::Map => {}
             SopBasis::Stale => {
-                for (k, (x, (_, p))) in sd.iter_mut().zip(named).enumerate() {
+                for x in sd.iter_mut() {
                     *x = T::lit(2.0) * *x;
-                    let never = p.value.is_none() && self.stale[k].is_nan();
-                    if never && self.window_sigma[k] > *x {
-                        *x = self.window_sigma[k];
-                    }
                 }
             }
         }

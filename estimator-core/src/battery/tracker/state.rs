@@ -71,11 +71,6 @@ pub struct CellState<T, const N: usize> {
     /// (`[R_i, R_ct, Q, α]`, NaN: none): what a state of power falls back
     /// on ([`crate::battery::power::SopBasis::Stale`]).
     pub(super) stale: [T; 4],
-    /// The last judged window's own standard deviation of each parameter
-    /// (`[ln R_i, ln R_ct, ln Q, α]`; NaN: none, or a window without
-    /// information): how far a state of power takes a slow parameter the
-    /// data have not identified yet ([`crate::battery::power::SopBasis::Stale`]).
-    pub(super) window_sigma: [T; 4],
     /// The last precise current step's resistance.
     pub(super) step: Option<StepResistance<T>>,
     /// The SOC observer beside the count (with a curve).
@@ -220,7 +215,6 @@ impl<T: Real, const N: usize> CellState<T, N> {
         past: PastModes::new(),
         published: PublishedParameters::NONE,
         stale: [T::NAN; 4],
-        window_sigma: [T::NAN; 4],
         soc_observer: SocObserver::BLANK,
         step: None,
         restoration: Restoration::Clean,
@@ -253,7 +247,6 @@ impl<T: Real, const N: usize> CellState<T, N> {
         self.past = PastModes::new();
         self.published = PublishedParameters::NONE;
         self.stale = [T::NAN; 4];
-        self.window_sigma = [T::NAN; 4];
         self.soc_observer = SocObserver::new(&s.soc, None);
         self.step = None;
         self.restoration = Restoration::Clean;
