@@ -90,6 +90,8 @@ impl Role {
                 "curr",
                 "cellcurrent",
                 "batterycurrent",
+                // NASA PCoE: the cell's (beside the load's `Current_load`).
+                "currentmeasured",
             ]],
             Role::Voltage => &[&[
                 "voltage",
@@ -102,6 +104,8 @@ impl Role {
                 "cellvoltage",
                 "batteryvoltage",
                 "terminalvoltage",
+                // NASA PCoE: the cell's (beside the load's `Voltage_load`).
+                "voltagemeasured",
             ]],
             Role::Temperature => &[
                 &[
@@ -350,6 +354,21 @@ pub struct ColumnChoice {
     pub charge: Option<Chosen>,
     /// Arbin's discharge capacity, subtracted from [`ColumnChoice::charge`].
     pub discharge_charge: Option<Chosen>,
+    /// Headers of columns that measure the load or the charger, not the
+    /// cell (NASA PCoE's `Current_load`, `Voltage_load`, `Current_charge`,
+    /// `Voltage_charge`): never read, said on the `read` line
+    /// ([`other_side`]).
+    pub not_the_cell: Vec<String>,
+}
+
+/// Whether `header` names a load's or a charger's current or voltage
+/// (NASA PCoE's `Current_load`, `Voltage_charge`): the other side of the
+/// cycler's wiring, not the cell.
+pub fn other_side(header: &str) -> bool {
+    matches!(
+        normalise(header).as_str(),
+        "currentload" | "voltageload" | "currentcharge" | "voltagecharge"
+    )
 }
 
 /// A `--columns` map: `time=COL,current=COL,voltage=COL[,temperature=COL]`
@@ -570,6 +589,11 @@ pub fn choose(
         state: pick(Role::State)?,
         charge,
         discharge_charge,
+        not_the_cell: headers
+            .iter()
+            .filter(|h| other_side(h))
+            .map(|h| h.trim().to_string())
+            .collect(),
     })
 }
 

@@ -198,3 +198,24 @@ fn clock_times_read_as_seconds() {
     assert_eq!(parse_time("1:2", Unit::Clock), None);
     assert_eq!(parse_time("x", Unit::Second), None);
 }
+
+/// NASA PCoE's logs name the cell's columns `_measured` beside the load's
+/// (discharge) or the charger's (charge) own, which are never the cell's.
+#[test]
+fn nasa_pcoe_logs_give_the_cells_columns_and_name_the_others() {
+    let c = pick(&[
+        "Voltage_measured",
+        "Current_measured",
+        "Temperature_measured",
+        "Current_charge",
+        "Voltage_charge",
+        "Time",
+    ]);
+    assert_eq!((c.voltage.index, c.current.index, c.time.index), (0, 1, 5));
+    assert_eq!(c.temperature.unwrap().index, 2);
+    assert_eq!(c.not_the_cell, ["Current_charge", "Voltage_charge"]);
+    // A record without them names none.
+    assert!(pick(&["Time [s]", "Current [A]", "Voltage [V]"])
+        .not_the_cell
+        .is_empty());
+}

@@ -183,6 +183,10 @@ pub struct RecordReport {
     /// A warning when the two counts part by more than 0.5 % of the
     /// capacity (0.02 A·h without one).
     pub charge_warning: Option<String>,
+    /// Headers of the load's or the charger's columns, not read (NASA
+    /// PCoE's `Current_load`, `Voltage_load`).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub not_the_cell: Vec<String>,
 }
 
 impl RecordReport {
@@ -222,8 +226,27 @@ impl RecordReport {
             ),
             _ => "; no step-time column: each row's current held to the next".to_string(),
         };
+        let others = match self.not_the_cell.as_slice() {
+            [] => String::new(),
+            h => {
+                let whose = if h.iter().all(|h| h.to_lowercase().contains("load")) {
+                    "the load's"
+                } else if h.iter().all(|h| h.to_lowercase().contains("charge")) {
+                    "the charger's"
+                } else {
+                    "the load's and the charger's"
+                };
+                format!(
+                    "; {}: {whose}, not the cell's (not read)",
+                    h.iter()
+                        .map(|h| format!("`{h}`"))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                )
+            }
+        };
         format!(
-            "read {}: {} rows from {at}: time {}, current {} {sign}, voltage {}{temp}{steps}",
+            "read {}: {} rows from {at}: time {}, current {} {sign}, voltage {}{temp}{steps}{others}",
             path.display(),
             self.rows_read,
             col(&self.columns.time, self.units.time),
@@ -469,6 +492,7 @@ pub fn record_from_arrays(
         state: None,
         charge: None,
         discharge_charge: None,
+        not_the_cell: vec![],
     };
     finish(raw, 1, &choice, path, o)
 }
@@ -704,6 +728,7 @@ fn finish(
         state_warning,
         charge_check,
         charge_warning,
+        not_the_cell: c.not_the_cell.clone(),
     };
     let pick = |col: &[f64]| keep.iter().map(|&i| col[i]).collect::<Vec<f64>>();
     let rows = BatteryRecord {

@@ -397,3 +397,44 @@ fn mat_tables_named_together_are_joined_across_a_gap() {
         "{e}"
     );
 }
+
+/// A NASA PCoE discharge log reads as it comes: the cell's measured
+/// current and voltage, not the load's, said once on the `read` line;
+/// its counted charge is NASA's measured capacity of that discharge.
+#[test]
+fn a_nasa_pcoe_discharge_reads_the_cells_columns_not_the_loads() {
+    let p = data("nasa-pcoe-b0005/discharge/05122.csv");
+    let r = read_record(&p, &RecordOptions::default()).unwrap();
+    let rep = &r.report;
+    assert_eq!(
+        (
+            rep.columns.time.as_str(),
+            rep.columns.current.as_str(),
+            rep.columns.voltage.as_str()
+        ),
+        ("Time", "Current_measured", "Voltage_measured")
+    );
+    assert_eq!(
+        rep.columns.temperature.as_deref(),
+        Some("Temperature_measured")
+    );
+    assert_eq!(rep.not_the_cell, ["Current_load", "Voltage_load"]);
+    let line = rep.summary(&p);
+    assert!(
+        line.ends_with("; `Current_load`, `Voltage_load`: the load's, not the cell's (not read)"),
+        "{line}"
+    );
+    assert_eq!(line.matches("Current_load").count(), 1, "{line}");
+    // Discharge negative, as the data say: no sign warning.
+    assert!(rep.sign_warning.is_none(), "{:?}", rep.sign_warning);
+    // The charge counted over the record (each sample's current held for
+    // its period) against NASA's `Capacity` of this discharge
+    // (metadata.csv): 1.856 A·h.
+    let rec = &r.record;
+    let ah = -rec.current.iter().sum::<f64>() * rec.h / 3600.0;
+    assert!(
+        (ah / 1.856_487 - 1.0).abs() < 0.01,
+        "counted {ah} A·h, period {} s",
+        rec.h
+    );
+}
