@@ -52,6 +52,13 @@ pub struct OnlineBatteryOptions {
     pub state_in: Option<PathBuf>,
     /// Where to save the snapshot after the last sample (`--state-out`).
     pub state_out: Option<PathBuf>,
+    /// The record's time 0 as seconds since 1970-01-01 UTC (`--start-time`;
+    /// [`super::life::parse_start_time`]): the snapshot's clock is then
+    /// this plus the record's time, so that a snapshot carried from one
+    /// log to the next is aged by the time between them (a log whose own
+    /// time restarts at 0 would otherwise read as older than the
+    /// snapshot, and it would be rejected). `None`: the record's own time.
+    pub start_time_s: Option<f64>,
 }
 
 impl Default for OnlineBatteryOptions {
@@ -75,6 +82,7 @@ impl Default for OnlineBatteryOptions {
             soc: soc::SocOptions::default(),
             state_in: None,
             state_out: None,
+            start_time_s: None,
         }
     }
 }
@@ -95,6 +103,8 @@ pub struct OnlineReport {
     pub prior_map: Option<(String, Vec<String>)>,
     /// How the `--state-in` snapshot was taken.
     pub state_in: state::StateIn,
+    /// What the track published, for a life's row ([`super::life`]).
+    pub life: super::life::FileTally,
 }
 
 /// `online battery`: reads the record `input`, runs the online estimator
@@ -106,6 +116,29 @@ pub struct OnlineReport {
 /// A file that cannot be read or written, data or options that are
 /// refused.
 pub fn battery_file(input: &Path, out: &Path, o: &OnlineBatteryOptions) -> Result<OnlineReport> {
+    let state_in = match &o.state_in {
+        Some(p) => Some(state::read_state(p)?),
+        None => None,
+    };
+    let (report, saved) = battery_run(input, out, o, state_in.as_deref())?;
+    if let Some(p) = &o.state_out {
+        state::write_state(p, &saved)?;
+    }
+    Ok(report)
+}
+
+/// [`battery_file`] with the snapshot given and returned as bytes (`o`'s
+/// `state_in` and `state_out` are not read): what a life carries from
+/// one log to the next ([`super::life`]), the same bytes as the files.
+///
+/// # Errors
+/// As [`battery_file`].
+pub(crate) fn battery_run(
+    input: &Path,
+    out: &Path,
+    o: &OnlineBatteryOptions,
+    snapshot: Option<&[u8]>,
+) -> Result<(OnlineReport, Vec<u8>)> {
     let t0 = std::time::Instant::now();
     let record = crate::cycler::RecordOptions {
         capacity_ah: o.record.capacity_ah.or(o.ocv.capacity_ah),
@@ -113,7 +146,7 @@ pub fn battery_file(input: &Path, out: &Path, o: &OnlineBatteryOptions) -> Resul
     };
     let read = crate::cycler::read_record(input, &record)?;
     let rec = read.record;
-    let cell = match (&o.state_in, o.ocv.soc0) {
+    let cell = match (snapshot, o.ocv.soc0) {
         // From a snapshot the start SOC is the snapshot's: the record need
         // not start at rest (the core reads the SOC from the first sample
         // if the snapshot is rejected).
@@ -165,12 +198,14 @@ pub fn battery_file(input: &Path, out: &Path, o: &OnlineBatteryOptions) -> Resul
         soc: o.soc,
     };
     let mut tracker = Tracker::new(&t, rec.h, t.cell.map(|c| c.soc0))?;
+    let clock = o.start_time_s.unwrap_or(0.0);
     let first_t = rec.time.first().copied().unwrap_or(f64::NAN);
-    let state_in = match &o.state_in {
-        Some(p) => state::StateIn::of(tracker.restore_state(&state::read_state(p)?, first_t)),
+    let state_in = match snapshot {
+        Some(bytes) => state::StateIn::of(tracker.restore_state(bytes, first_t + clock)),
         None => state::StateIn::NotGiven,
     };
-    let fields = schema::track_fields(o.power.horizons(), o.state_in.is_some());
+    let fields = schema::track_fields(o.power.horizons(), snapshot.is_some());
+    let mut life = super::life::FileTally::of_record(&rec);
     let summary = {
         let mut res = Ok(TrackSummary::default());
         io::write_atomic(out, |w| {
@@ -194,6 +229,7 @@ pub fn battery_file(input: &Path, out: &Path, o: &OnlineBatteryOptions) -> Resul
                     r.rejected = Some("unobserved");
                 }
                 k += 1;
+                life.push(&r);
                 schema::write_row(w, &fields, &r)?;
                 Ok(())
             });
@@ -201,16 +237,16 @@ pub fn battery_file(input: &Path, out: &Path, o: &OnlineBatteryOptions) -> Resul
         })?;
         res?
     };
-    if let Some(p) = &o.state_out {
-        let last_t = rec.time.last().copied().unwrap_or(f64::NAN);
-        state::write_state(p, &tracker.save_state(last_t))?;
-    }
-    Ok(OnlineReport {
+    let last_t = rec.time.last().copied().unwrap_or(f64::NAN);
+    let saved = tracker.save_state(last_t + clock);
+    let report = OnlineReport {
         summary,
         seconds: t0.elapsed().as_secs_f64(),
         model: t.cell_model(),
         record: read.report,
         prior_map: prior_map.map(|m| (m.describe(), m.left_out.clone())),
         state_in,
-    })
+        life,
+    };
+    Ok((report, saved))
 }

@@ -25,6 +25,7 @@ pub use prior::{
 };
 
 mod file;
+pub mod life;
 pub mod power;
 mod prior;
 pub mod schema;

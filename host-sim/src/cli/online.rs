@@ -3,7 +3,7 @@
 use super::identify::OcvArgs;
 use super::{BatteryMethodArg, ModelArg, PrecisionArg, RecordArgs, SocArg, StartArg};
 use anyhow::Result;
-use fracbms_host::online::{self as online_track, OnlineBatteryOptions};
+use fracbms_host::online::{self as online_track, life, OnlineBatteryOptions};
 use fracbms_host::pack::{self, OnlinePack};
 use std::path::PathBuf;
 
@@ -11,7 +11,13 @@ use std::path::PathBuf;
 #[derive(clap::Args, Debug)]
 pub struct OnlineBatteryArgs {
     /// Input: a record `time_s,current_a,voltage_v`, or a cycler export
-    /// (columns recognised or named with --columns).
+    /// (columns recognised or named with --columns). Or a cell's life: a
+    /// directory (its .csv/.txt/.tsv/.mat files) or a quoted pattern
+    /// (`'logs/*.csv'`): every log run through one estimator in the order
+    /// they were taken (--start-times, else by name), its state carried
+    /// from each to the next as --state-out/--state-in would carry it;
+    /// --out is then a directory of tracks (`NAME-track.csv`), and
+    /// --life-out writes one row per log (docs/life.md).
     #[arg(long)]
     pub input: PathBuf,
     #[command(flatten)]
@@ -77,6 +83,27 @@ pub struct OnlineBatteryArgs {
     pub states: StateArgs,
     #[command(flatten)]
     pub snapshot: SnapshotArgs,
+    /// The record's time 0 (ISO 8601, `2008-04-02T15:25:41`, UTC unless a
+    /// zone is given): the snapshot's clock is this plus the record's time,
+    /// so a snapshot carried from one log to the next (--state-out,
+    /// --state-in) is aged by the time between them. With a life
+    /// (--input DIR): each log's comes from --start-times.
+    #[arg(long, value_name = "ISO8601")]
+    pub start_time: Option<String>,
+    /// A life's start times: a CSV with columns `file,start_time` (the
+    /// log's name or its path as listed; ISO 8601). The logs run in this
+    /// order, each aged from the one before by the time between them.
+    #[arg(long, value_name = "FILE.csv")]
+    pub start_times: Option<PathBuf>,
+    /// A life's rows (--input DIR|PATTERN): `file,start_time,samples,
+    /// discharged_ah,charged_ah,r_i,r_i_status,r_ct,alpha,capacity_ah,
+    /// capacity_status,soh_c,soh_r,error`, one per log: its counted
+    /// charges; the median R_i, R_ct and α its windows identified (empty
+    /// where none was, the status then its last); the capacity at its end
+    /// (with --ocv); soh_c and soh_r over the first log's; error: why a
+    /// log could not be run (the life goes on across it).
+    #[arg(long, value_name = "FILE.csv")]
+    pub life_out: Option<PathBuf>,
     /// Output CSV `time_s,r_i,r_ct,q,alpha,u_oc,status,soc,ocv_offset_v,
     /// bv_a_v,bv_i0_a,predicted_v,r_i_status,r_ct_status,q_status,
     /// alpha_status,step_resistance_ohm,window_r_i,window_r_ct,window_q,
@@ -302,7 +329,27 @@ pub(super) fn battery(a: OnlineBatteryArgs) -> Result<()> {
         soc: a.states.soc(),
         state_in: a.snapshot.state_in.clone(),
         state_out: a.snapshot.state_out.clone(),
+        start_time_s: match &a.start_time {
+            Some(t) => Some(life::parse_start_time(t).ok_or_else(|| {
+                anyhow::anyhow!("--start-time {t}: not an ISO 8601 time (YYYY-MM-DDTHH:MM:SS)")
+            })?),
+            None => None,
+        },
     };
+    if fracbms_host::identify::many::names_many(&a.input) {
+        return battery_life(&a, &o);
+    }
+    for (flag, given) in [
+        ("--life-out", a.life_out.is_some()),
+        ("--start-times", a.start_times.is_some()),
+    ] {
+        if given {
+            anyhow::bail!(
+                "{flag}: a life needs --input DIR or a pattern, not one file ({})",
+                a.input.display()
+            );
+        }
+    }
     let r = online_track::battery_file(&a.input, &a.out, &o)?;
     super::print_record(&a.input, &r.record);
     if let Some(line) = a
@@ -343,6 +390,44 @@ pub(super) fn battery(a: OnlineBatteryArgs) -> Result<()> {
             work.iterations, work.simulations, work.trials, work.linearizations
         );
     }
+    Ok(())
+}
+
+/// `online battery --input DIR|PATTERN`: a cell's life.
+fn battery_life(a: &OnlineBatteryArgs, o: &OnlineBatteryOptions) -> Result<()> {
+    if a.start_time.is_some() {
+        anyhow::bail!("--start-time: a life takes each log's from --start-times");
+    }
+    let t0 = std::time::Instant::now();
+    let snapshot = match &a.snapshot.state_in {
+        Some(p) => Some(online_track::state::read_state(p)?),
+        None => None,
+    };
+    let l = life::life(
+        &a.input,
+        &a.out,
+        o,
+        a.start_times.as_deref(),
+        snapshot,
+        |line| eprintln!("{line}"),
+    )?;
+    if let (Some(p), Some(bytes)) = (&a.snapshot.state_out, &l.snapshot) {
+        online_track::state::write_state(p, bytes)?;
+    }
+    if let Some(p) = &a.life_out {
+        life::write_life_csv(p, &l.rows)?;
+    }
+    let failed = l.rows.iter().filter(|r| r.error.is_some()).count();
+    let with_r_i = l.rows.iter().filter(|r| r.r_i.is_some()).count();
+    eprintln!(
+        "life: {} logs ({failed} could not be run), tracks in {}{}; R_i identified in {with_r_i} of them; {:.1} s",
+        l.rows.len(),
+        a.out.display(),
+        a.life_out
+            .as_ref()
+            .map_or(String::new(), |p| format!(", rows in {}", p.display())),
+        t0.elapsed().as_secs_f64()
+    );
     Ok(())
 }
 

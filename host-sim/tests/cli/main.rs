@@ -8,6 +8,7 @@ mod bad_data;
 mod battery;
 mod cycler;
 mod hammerstein;
+mod life;
 mod many;
 mod map;
 mod ocv;

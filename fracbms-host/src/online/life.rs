@@ -1,0 +1,484 @@
+//! A cell's life: many logs of one cell through one online estimator, in
+//! the order they were taken, its state carried from each to the next
+//! exactly as `--state-out` and `--state-in` carry it ([`life`]), and one
+//! row per log of what it published ([`LifeRow`], `--life-out`).
+//!
+//! The order is the logs' start times (`--start-times FILE.csv`, columns
+//! `file,start_time`, ISO 8601), else the files' names. The time between
+//! two logs is a gap the cell rested through: the snapshot is aged by it
+//! (the core's [`estimator_core::battery::snapshot::RestorePolicy`]), so
+//! after more than a minute the state of charge is read again from the
+//! next rested voltage (with an OCV table). Without start times each log
+//! is taken to start an hour after the one before ended.
+//!
+//! It owns the order, the carrying and the rows; it must not change how
+//! one log is run ([`super::battery_file`]'s options apply to each).
+
+use super::file::battery_run;
+use super::*;
+use crate::identify::many::{expand_inputs, outputs_in};
+use estimator_core::battery::online::Identification;
+
+/// The time assumed between two logs without start times (s).
+pub const UNKNOWN_GAP_S: f64 = 3600.0;
+
+/// `YYYY-MM-DD[THH:MM[:SS[.f]]][Z|±HH:MM]` (a blank for the `T` too) as
+/// seconds since 1970-01-01 00:00 UTC; a time without a zone is taken as
+/// UTC. `None` for anything else.
+///
+/// ```
+/// use fracbms_host::online::life::parse_start_time;
+/// assert_eq!(parse_start_time("1970-01-02"), Some(86_400.0));
+/// assert_eq!(parse_start_time("2008-04-02T15:25:41Z"), Some(1_207_149_941.0));
+/// assert_eq!(parse_start_time("2008-04-02 17:25:41+02:00"), Some(1_207_149_941.0));
+/// assert_eq!(parse_start_time("02/04/2008"), None);
+/// ```
+pub fn parse_start_time(s: &str) -> Option<f64> {
+    let s = s.trim();
+    let (date, rest) = match s.find(['T', ' ']) {
+        Some(i) => (&s[..i], Some(&s[i + 1..])),
+        None => (s, None),
+    };
+    let d: Vec<&str> = date.split('-').collect();
+    let [y, m, day] = d.as_slice() else {
+        return None;
+    };
+    if y.len() != 4 || m.len() != 2 || day.len() != 2 {
+        return None;
+    }
+    let (y, m, day): (i64, u32, u32) = (y.parse().ok()?, m.parse().ok()?, day.parse().ok()?);
+    if !(1..=12).contains(&m) || !(1..=31).contains(&day) {
+        return None;
+    }
+    let mut secs = days_from_civil(y, m, day) as f64 * 86_400.0;
+    if let Some(rest) = rest {
+        // The zone: `Z`, or `±HH:MM` after the clock.
+        let (clock, offset) = if let Some(c) = rest.strip_suffix(['Z', 'z']) {
+            (c, 0.0)
+        } else if let Some(i) = rest.rfind(['+', '-']) {
+            let z: Vec<&str> = rest[i + 1..].split(':').collect();
+            let [zh, zm] = z.as_slice() else {
+                return None;
+            };
+            let sign = if rest[i..].starts_with('-') {
+                -1.0
+            } else {
+                1.0
+            };
+            let (zh, zm): (f64, f64) = (zh.parse().ok()?, zm.parse().ok()?);
+            (&rest[..i], sign * (zh * 3600.0 + zm * 60.0))
+        } else {
+            (rest, 0.0)
+        };
+        let c: Vec<&str> = clock.split(':').collect();
+        let (h, mi, sec) = match c.as_slice() {
+            [h, mi] => (h.parse::<f64>().ok()?, mi.parse::<f64>().ok()?, 0.0),
+            [h, mi, sec] => (
+                h.parse::<f64>().ok()?,
+                mi.parse::<f64>().ok()?,
+                sec.parse::<f64>().ok()?,
+            ),
+            _ => return None,
+        };
+        if !(0.0..24.0).contains(&h) || !(0.0..60.0).contains(&mi) || !(0.0..61.0).contains(&sec) {
+            return None;
+        }
+        secs += h * 3600.0 + mi * 60.0 + sec - offset;
+    }
+    secs.is_finite().then_some(secs)
+}
+
+/// Days from 1970-01-01 to the proleptic Gregorian date (H. Hinnant's
+/// `days_from_civil`).
+fn days_from_civil(y: i64, m: u32, d: u32) -> i64 {
+    let y = if m <= 2 { y - 1 } else { y };
+    let era = y.div_euclid(400);
+    let yoe = y - era * 400;
+    let mp = i64::from((m + 9) % 12);
+    let doy = (153 * mp + 2) / 5 + i64::from(d) - 1;
+    let doe = yoe * 365 + yoe / 4 - yoe / 100 + doy;
+    era * 146_097 + doe - 719_468
+}
+
+/// What one log's track published, gathered as it is written: a life's
+/// row ([`LifeRow`]).
+#[derive(Clone, Debug, Default)]
+pub struct FileTally {
+    /// Samples run.
+    pub samples: usize,
+    /// The charge the record discharged and charged (A·h, magnitudes).
+    pub discharged_ah: f64,
+    /// See [`FileTally::discharged_ah`].
+    pub charged_ah: f64,
+    /// The values of R_i, R_ct and α this log's own windows identified
+    /// (status `identified`, or `step` for R_i).
+    identified: [Vec<f64>; 3],
+    /// Each one's status at the last sample.
+    last_status: [Option<Identification>; 3],
+    /// The capacity published at the last sample and its status.
+    capacity: Option<(f64, &'static str)>,
+}
+
+impl FileTally {
+    /// A tally of `rec`'s counted charge (each sample's current held for
+    /// its period; a current that is not finite counts nothing).
+    pub fn of_record(rec: &io::BatteryRecord) -> Self {
+        let (mut dis, mut ch) = (0.0, 0.0);
+        for &i in rec.current.iter().filter(|i| i.is_finite()) {
+            if i < 0.0 {
+                dis -= i * rec.h / 3600.0;
+            } else {
+                ch += i * rec.h / 3600.0;
+            }
+        }
+        Self {
+            discharged_ah: dis,
+            charged_ah: ch,
+            ..Self::default()
+        }
+    }
+
+    /// One row of the track.
+    pub fn push(&mut self, r: &TrackRow) {
+        self.samples += 1;
+        let p = &r.published;
+        for (k, x) in [p.r_i, p.r_ct, p.alpha].iter().enumerate() {
+            if let (Some(v), Identification::Identified | Identification::Step) =
+                (x.value, x.status)
+            {
+                self.identified[k].push(v);
+            }
+            self.last_status[k] = Some(x.status);
+        }
+        self.capacity = r.soc_detail.columns()[2].map(|c| (c, r.soc_detail.capacity_status()));
+    }
+
+    /// The median of the values identified in the log, and `identified`;
+    /// else nothing, and the status at its end.
+    fn median(&self, k: usize) -> (Option<f64>, &'static str) {
+        let mut v = self.identified[k].clone();
+        if v.is_empty() {
+            return (
+                None,
+                self.last_status[k].map_or("not_identified", |s| s.as_str()),
+            );
+        }
+        v.sort_by(f64::total_cmp);
+        let n = v.len();
+        let m = if n % 2 == 1 {
+            v[n / 2]
+        } else {
+            0.5 * (v[n / 2 - 1] + v[n / 2])
+        };
+        (Some(m), "identified")
+    }
+}
+
+/// One log of a life (a row of `--life-out`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct LifeRow {
+    /// The log's path, as listed.
+    pub file: PathBuf,
+    /// Its start time as the `--start-times` table gave it.
+    pub start_time: Option<String>,
+    /// Samples run.
+    pub samples: usize,
+    /// The log's counted discharge and charge (A·h).
+    pub discharged_ah: Option<f64>,
+    /// See [`LifeRow::discharged_ah`].
+    pub charged_ah: Option<f64>,
+    /// The median R_i its windows identified (Ω), and the status
+    /// (`identified`; else the status at its end; `error`).
+    pub r_i: Option<f64>,
+    /// See [`LifeRow::r_i`].
+    pub r_i_status: &'static str,
+    /// The median R_ct identified (Ω).
+    pub r_ct: Option<f64>,
+    /// The median α identified.
+    pub alpha: Option<f64>,
+    /// The capacity published at the log's end (A·h; with an OCV table).
+    pub capacity_ah: Option<f64>,
+    /// Its status (`identified`, `not_identified`; empty without a table;
+    /// `error`).
+    pub capacity_status: &'static str,
+    /// `capacity_ah` over the first log's that has one.
+    pub soh_c: Option<f64>,
+    /// `r_i` over the first log's that has one.
+    pub soh_r: Option<f64>,
+    /// Why the log could not be run (its row is otherwise empty).
+    pub error: Option<String>,
+}
+
+/// The columns of `--life-out`.
+pub const LIFE_HEADER: &str = "file,start_time,samples,discharged_ah,charged_ah,r_i,r_i_status,r_ct,alpha,capacity_ah,capacity_status,soh_c,soh_r,error";
+
+impl LifeRow {
+    fn csv(&self) -> String {
+        let n = |x: Option<f64>| x.map_or(String::new(), |x| format!("{x:.9e}"));
+        let quoted = |s: &str| {
+            if s.contains([',', '"', '\n']) {
+                format!("\"{}\"", s.replace('"', "\"\""))
+            } else {
+                s.to_string()
+            }
+        };
+        [
+            quoted(&self.file.display().to_string()),
+            quoted(self.start_time.as_deref().unwrap_or("")),
+            self.samples.to_string(),
+            n(self.discharged_ah),
+            n(self.charged_ah),
+            n(self.r_i),
+            self.r_i_status.to_string(),
+            n(self.r_ct),
+            n(self.alpha),
+            n(self.capacity_ah),
+            self.capacity_status.to_string(),
+            n(self.soh_c),
+            n(self.soh_r),
+            quoted(self.error.as_deref().unwrap_or("")),
+        ]
+        .join(",")
+    }
+}
+
+/// Writes the rows of a life (`--life-out`, columns [`LIFE_HEADER`]).
+///
+/// # Errors
+/// A file that cannot be written.
+pub fn write_life_csv(path: &Path, rows: &[LifeRow]) -> Result<()> {
+    io::write_atomic(path, |w| {
+        writeln!(w, "{LIFE_HEADER}")?;
+        for r in rows {
+            writeln!(w, "{}", r.csv())?;
+        }
+        Ok(())
+    })
+}
+
+/// The start times of a `--start-times` table (`file,start_time`, ISO
+/// 8601; more columns are ignored), by file name as the table spells it.
+///
+/// # Errors
+/// A table that cannot be read, has no such columns, or a time that does
+/// not parse: one line naming the row.
+pub fn read_start_times(path: &Path) -> Result<Vec<(String, String, f64)>> {
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| err!(Io, "--start-times {}: {e}", path.display()))?;
+    let mut lines = text.lines().enumerate();
+    let header: Vec<String> = lines
+        .next()
+        .map(|(_, h)| h.split(',').map(|c| c.trim().to_lowercase()).collect())
+        .unwrap_or_default();
+    let col = |name: &str| header.iter().position(|h| h == name);
+    let (Some(fc), Some(tc)) = (col("file"), col("start_time")) else {
+        bail!(
+            Data,
+            "--start-times {}: no `file` and `start_time` columns in its header",
+            path.display()
+        );
+    };
+    let mut out = vec![];
+    for (k, line) in lines.filter(|(_, l)| !l.trim().is_empty()) {
+        let cells: Vec<&str> = line.split(',').map(str::trim).collect();
+        let (Some(f), Some(t)) = (cells.get(fc), cells.get(tc)) else {
+            bail!(
+                Data,
+                "--start-times {}: row {}: fewer cells than the header",
+                path.display(),
+                k + 1
+            );
+        };
+        let Some(s) = parse_start_time(t) else {
+            bail!(
+                Data,
+                "--start-times {}: row {}: `{t}` is not an ISO 8601 time (YYYY-MM-DDTHH:MM:SS)",
+                path.display(),
+                k + 1
+            );
+        };
+        out.push((f.to_string(), t.to_string(), s));
+    }
+    Ok(out)
+}
+
+/// A log and its start time: as the table wrote it, and in seconds since
+/// 1970 (`None` without a table).
+pub type TimedLog = (PathBuf, Option<(String, f64)>);
+
+/// The logs of `input` (a directory or a pattern,
+/// [`crate::identify::many::expand_inputs`]) in the order they were taken,
+/// each with its start time: by the `start_times` table (a file matches a
+/// row by its path as listed or by its name), else by name (`note` says
+/// so).
+///
+/// # Errors
+/// No files, or a file the table has no time for.
+pub fn ordered_logs(
+    input: &Path,
+    start_times: Option<&Path>,
+    mut note: impl FnMut(String),
+) -> Result<Vec<TimedLog>> {
+    let files = expand_inputs(input)?;
+    let Some(table) = start_times else {
+        note(format!(
+            "{}: {} logs in file name order (no --start-times): each taken to start {:.0} s after the one before ended",
+            input.display(),
+            files.len(),
+            UNKNOWN_GAP_S
+        ));
+        return Ok(files.into_iter().map(|f| (f, None)).collect());
+    };
+    let times = read_start_times(table)?;
+    let mut out = vec![];
+    for f in files {
+        let name = f.file_name().map(|n| n.to_string_lossy().into_owned());
+        let hit = times
+            .iter()
+            .find(|(t, _, _)| Path::new(t) == f.as_path() || name.as_deref() == Some(t.as_str()));
+        let Some((_, iso, s)) = hit else {
+            bail!(
+                Data,
+                "--start-times {}: no start time for {}",
+                table.display(),
+                f.display()
+            );
+        };
+        out.push((f, Some((iso.clone(), *s))));
+    }
+    out.sort_by(|a, b| {
+        let ta = a.1.as_ref().map_or(f64::NAN, |t| t.1);
+        let tb = b.1.as_ref().map_or(f64::NAN, |t| t.1);
+        ta.total_cmp(&tb).then_with(|| a.0.cmp(&b.0))
+    });
+    note(format!(
+        "{}: {} logs in the order of their start times ({})",
+        input.display(),
+        out.len(),
+        table.display()
+    ));
+    Ok(out)
+}
+
+/// What a life did: its rows and the snapshot after the last log.
+#[derive(Clone, Debug)]
+pub struct Life {
+    /// One per log, in the order run.
+    pub rows: Vec<LifeRow>,
+    /// The snapshot after the last log that ran (`--state-out`).
+    pub snapshot: Option<Vec<u8>>,
+}
+
+/// Runs the logs of `input` ([`ordered_logs`]) through one estimator as
+/// `o` says, each log's track written into `out_dir` (its name without the
+/// extension, then `-track.csv`), the state carried from each log to the
+/// next as `--state-out`/`--state-in` carry it (`snapshot`: one to start
+/// from). A log that cannot be run (unreadable, no current) is one
+/// warning through `note` and a row with its `error`; the state goes on
+/// from the log before, across it, as a gap.
+///
+/// # Errors
+/// No logs, a start-time table that does not cover them, or an output
+/// directory that cannot be made.
+pub fn life(
+    input: &Path,
+    out_dir: &Path,
+    o: &OnlineBatteryOptions,
+    start_times: Option<&Path>,
+    snapshot: Option<Vec<u8>>,
+    mut note: impl FnMut(String),
+) -> Result<Life> {
+    let logs = ordered_logs(input, start_times, &mut note)?;
+    let files: Vec<PathBuf> = logs.iter().map(|(f, _)| f.clone()).collect();
+    let outs = outputs_in(out_dir, &files, "-track.csv")?;
+    std::fs::create_dir_all(out_dir)
+        .map_err(|e| err!(Io, "--out {}: cannot make it: {e}", out_dir.display()))?;
+    let mut carried = snapshot;
+    // Without start times: the clock of the one before's end, plus the gap.
+    let mut next_clock = 0.0;
+    let mut rows: Vec<LifeRow> = Vec::with_capacity(logs.len());
+    for ((file, start), out) in logs.iter().zip(&outs) {
+        let clock = start.as_ref().map_or(next_clock, |s| s.1);
+        let run = OnlineBatteryOptions {
+            start_time_s: Some(clock),
+            state_in: None,
+            state_out: None,
+            ..o.clone()
+        };
+        let row = match battery_run(file, out, &run, carried.as_deref()) {
+            Ok((rep, saved)) => {
+                carried = Some(saved);
+                let t = &rep.life;
+                let last = rep.record.samples.saturating_sub(1) as f64 * rep.record.period_s;
+                next_clock = clock + last + UNKNOWN_GAP_S;
+                let (r_i, r_i_status) = t.median(0);
+                LifeRow {
+                    file: file.clone(),
+                    start_time: start.as_ref().map(|s| s.0.clone()),
+                    samples: t.samples,
+                    discharged_ah: Some(t.discharged_ah),
+                    charged_ah: Some(t.charged_ah),
+                    r_i,
+                    r_i_status,
+                    r_ct: t.median(1).0,
+                    alpha: t.median(2).0,
+                    capacity_ah: t.capacity.map(|c| c.0),
+                    capacity_status: t.capacity.map_or("", |c| c.1),
+                    soh_c: None,
+                    soh_r: None,
+                    error: None,
+                }
+            }
+            Err(e) => {
+                note(format!(
+                    "warning: {}: {e}; the life goes on across it as a gap",
+                    file.display()
+                ));
+                LifeRow {
+                    file: file.clone(),
+                    start_time: start.as_ref().map(|s| s.0.clone()),
+                    samples: 0,
+                    discharged_ah: None,
+                    charged_ah: None,
+                    r_i: None,
+                    r_i_status: "error",
+                    r_ct: None,
+                    alpha: None,
+                    capacity_ah: None,
+                    capacity_status: "error",
+                    soh_c: None,
+                    soh_r: None,
+                    error: Some(e.to_string()),
+                }
+            }
+        };
+        rows.push(row);
+    }
+    let r0 = rows.iter().find_map(|r| r.r_i);
+    let c0 = rows.iter().find_map(|r| r.capacity_ah);
+    for r in &mut rows {
+        r.soh_r = r.r_i.zip(r0).map(|(x, x0)| x / x0);
+        r.soh_c = r.capacity_ah.zip(c0).map(|(x, x0)| x / x0);
+    }
+    Ok(Life {
+        rows,
+        snapshot: carried,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn start_times_parse_as_utc_seconds_or_not_at_all() {
+        assert_eq!(parse_start_time("1970-01-01T00:00:00Z"), Some(0.0));
+        assert_eq!(parse_start_time("2000-03-01"), Some(951_868_800.0));
+        assert_eq!(parse_start_time("2024-02-29T12:00"), Some(1_709_208_000.0));
+        assert_eq!(parse_start_time("1969-12-31T23:59:59"), Some(-1.0));
+        assert_eq!(parse_start_time("2008-13-01"), None);
+        assert_eq!(parse_start_time("2008-04-02T25:00:00"), None);
+        assert_eq!(parse_start_time("2008-4-2"), None);
+        assert_eq!(parse_start_time(""), None);
+    }
+}
