@@ -61,8 +61,10 @@ from ._fracbms import (
     predict_battery,
     simulate_battery,
 )
+from .life import LIFE_COLUMNS, life
 
 __all__ = [
+    "LIFE_COLUMNS",
     "MAX_BATTERY_ROWS",
     "MAX_ROWS",
     "SUMMARY_COLUMNS",
@@ -71,6 +73,7 @@ __all__ = [
     "identify_battery",
     "identify_files",
     "identify_hammerstein",
+    "life",
     "online_pack",
     "predict_battery",
     "simulate_battery",

@@ -54,6 +54,31 @@ def identify_files(
     sequence of files. A file that fails gives ``status="error"`` and its
     message; options are checked first (ValueError)."""
 
+LIFE_COLUMNS: list[str]
+"""The keys of life_rows' rows, in the order of the CLI's --life-out
+columns (file, start_time, samples, discharged_ah, charged_ah, r_i,
+r_i_status, r_ct, alpha, capacity_ah, capacity_status, soh_c, soh_r,
+error)."""
+
+def life_rows(
+    paths: Union[PathLike, Sequence[PathLike]],
+    *,
+    out_dir: PathLike,
+    start_times: Optional[PathLike] = None,
+    ocv: Optional[PathLike] = None,
+    capacity_ah: Optional[float] = None,
+    soc0: Optional[float] = None,
+    window: int = 256,
+    columns: Optional[str] = None,
+    current_sign: str = "charge-positive",
+    period_s: Optional[float] = None,
+) -> list[dict[str, Any]]:
+    """A cell's life as `online battery --input DIR --life-out` runs it:
+    one dict per log (keys LIFE_COLUMNS), each log's track written into
+    out_dir. A log that cannot be run is a warning and a row whose error
+    says why; no files, a start-time table that does not cover them or an
+    option refused raise ValueError."""
+
 def expand_inputs(path: PathLike) -> list[str]:
     """The files a path names as the CLI's --input does: a file, a
     directory's .csv/.txt/.tsv/.mat files, or a glob pattern's matches,

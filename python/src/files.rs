@@ -18,7 +18,7 @@ use std::path::PathBuf;
 
 /// The files of `paths`: one path (a file, a directory, a glob pattern) is
 /// expanded as the CLI's `--input`; a sequence is taken as it is.
-fn files(paths: &Bound<'_, PyAny>) -> PyResult<Vec<PathBuf>> {
+pub(crate) fn files(paths: &Bound<'_, PyAny>) -> PyResult<Vec<PathBuf>> {
     if let Ok(one) = paths.extract::<PathBuf>() {
         return many::expand_inputs(&one).map_err(value_error);
     }

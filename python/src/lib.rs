@@ -56,6 +56,7 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
 mod files;
+mod life;
 mod online;
 mod pack;
 use online::OnlineCell;
@@ -633,6 +634,13 @@ fn _fracbms(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(identify_hammerstein, m)?)?;
     m.add_function(wrap_pyfunction!(files::identify_files, m)?)?;
     m.add_function(wrap_pyfunction!(files::expand_inputs, m)?)?;
+    m.add_function(wrap_pyfunction!(life::life_rows, m)?)?;
+    m.add(
+        "LIFE_COLUMNS",
+        fracbms_host::online::life::LIFE_HEADER
+            .split(',')
+            .collect::<Vec<_>>(),
+    )?;
     m.add_function(wrap_pyfunction!(pack::online_pack, m)?)?;
     m.add_class::<OnlineCell>()?;
     m.add(

@@ -256,6 +256,62 @@ pub fn write_life_csv(path: &Path, rows: &[LifeRow]) -> Result<()> {
     })
 }
 
+/// Draws a life (`--life-plot`): the counted discharge and the capacity
+/// published, and R_i, against the log's place in the life (1, 2, …).
+///
+/// # Errors
+/// A file that cannot be written.
+pub fn plot_life(path: &Path, rows: &[LifeRow]) -> Result<()> {
+    use crate::plot::{panels, Panel, Series};
+    let at = |f: fn(&LifeRow) -> Option<f64>| {
+        rows.iter()
+            .enumerate()
+            .filter_map(|(k, r)| f(r).map(|y| ((k + 1) as f64, y)))
+            .collect::<Vec<_>>()
+    };
+    panels(
+        path,
+        &[
+            Panel {
+                title: "capacity over life",
+                x: "log",
+                y: "A·h",
+                series: vec![
+                    Series {
+                        label: "discharged_ah (counted)",
+                        points: at(|r| r.discharged_ah),
+                        color: 0,
+                    },
+                    Series {
+                        label: "capacity_ah (published at the log's end)",
+                        points: at(|r| r.capacity_ah),
+                        color: 1,
+                    },
+                ],
+                log_y: false,
+            },
+            Panel {
+                title: "resistance over life",
+                x: "log",
+                y: "Ω",
+                series: vec![
+                    Series {
+                        label: "r_i (median identified in the log)",
+                        points: at(|r| r.r_i),
+                        color: 2,
+                    },
+                    Series {
+                        label: "r_ct (median identified in the log)",
+                        points: at(|r| r.r_ct),
+                        color: 3,
+                    },
+                ],
+                log_y: false,
+            },
+        ],
+    )
+}
+
 /// The start times of a `--start-times` table (`file,start_time`, ISO
 /// 8601; more columns are ignored), by file name as the table spells it.
 ///
@@ -317,9 +373,21 @@ pub type TimedLog = (PathBuf, Option<(String, f64)>);
 pub fn ordered_logs(
     input: &Path,
     start_times: Option<&Path>,
+    note: impl FnMut(String),
+) -> Result<Vec<TimedLog>> {
+    order_logs(expand_inputs(input)?, input, start_times, note)
+}
+
+/// [`ordered_logs`] of the files listed (`input` names them in `note`).
+///
+/// # Errors
+/// A file the table has no time for, a table that cannot be read.
+pub fn order_logs(
+    files: Vec<PathBuf>,
+    input: &Path,
+    start_times: Option<&Path>,
     mut note: impl FnMut(String),
 ) -> Result<Vec<TimedLog>> {
-    let files = expand_inputs(input)?;
     let Some(table) = start_times else {
         note(format!(
             "{}: {} logs in file name order (no --start-times): each taken to start {:.0} s after the one before ended",
@@ -389,6 +457,20 @@ pub fn life(
     mut note: impl FnMut(String),
 ) -> Result<Life> {
     let logs = ordered_logs(input, start_times, &mut note)?;
+    run_life(&logs, out_dir, o, snapshot, note)
+}
+
+/// [`life`] over logs already in order ([`order_logs`]).
+///
+/// # Errors
+/// Two logs of one name, or an output directory that cannot be made.
+pub fn run_life(
+    logs: &[TimedLog],
+    out_dir: &Path,
+    o: &OnlineBatteryOptions,
+    snapshot: Option<Vec<u8>>,
+    mut note: impl FnMut(String),
+) -> Result<Life> {
     let files: Vec<PathBuf> = logs.iter().map(|(f, _)| f.clone()).collect();
     let outs = outputs_in(out_dir, &files, "-track.csv")?;
     std::fs::create_dir_all(out_dir)

@@ -104,6 +104,10 @@ pub struct OnlineBatteryArgs {
     /// log could not be run (the life goes on across it).
     #[arg(long, value_name = "FILE.csv")]
     pub life_out: Option<PathBuf>,
+    /// A life's figure (SVG): the counted discharge and the capacity, and
+    /// R_i and R_ct, against the log's place in the life.
+    #[arg(long, value_name = "FILE.svg")]
+    pub life_plot: Option<PathBuf>,
     /// Output CSV `time_s,r_i,r_ct,q,alpha,u_oc,status,soc,ocv_offset_v,
     /// bv_a_v,bv_i0_a,predicted_v,r_i_status,r_ct_status,q_status,
     /// alpha_status,step_resistance_ohm,window_r_i,window_r_ct,window_q,
@@ -342,6 +346,7 @@ pub(super) fn battery(a: OnlineBatteryArgs) -> Result<()> {
     for (flag, given) in [
         ("--life-out", a.life_out.is_some()),
         ("--start-times", a.start_times.is_some()),
+        ("--life-plot", a.life_plot.is_some()),
     ] {
         if given {
             anyhow::bail!(
@@ -416,6 +421,9 @@ fn battery_life(a: &OnlineBatteryArgs, o: &OnlineBatteryOptions) -> Result<()> {
     }
     if let Some(p) = &a.life_out {
         life::write_life_csv(p, &l.rows)?;
+    }
+    if let Some(p) = &a.life_plot {
+        life::plot_life(p, &l.rows)?;
     }
     let failed = l.rows.iter().filter(|r| r.error.is_some()).count();
     let with_r_i = l.rows.iter().filter(|r| r.r_i.is_some()).count();

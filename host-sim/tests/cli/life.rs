@@ -47,6 +47,7 @@ fn a_life_in_one_command_is_its_logs_run_one_by_one_with_the_state_carried() {
     let out = tmp("life-same-tracks");
     let rows = tmp("life-same.csv");
     let last = tmp("life-same-last.bin");
+    let svg = tmp("life-same.svg");
     let o = run(&[
         "online",
         "battery",
@@ -62,9 +63,13 @@ fn a_life_in_one_command_is_its_logs_run_one_by_one_with_the_state_carried() {
         s(&rows),
         "--state-out",
         s(&last),
+        "--life-plot",
+        s(&svg),
     ]);
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(o.status.success(), "{err}");
+    let figure = std::fs::read_to_string(&svg).unwrap();
+    assert!(figure.contains("<svg") && figure.contains("capacity over life"));
     assert!(
         err.contains("4 logs in the order of their start times"),
         "{err}"

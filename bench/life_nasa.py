@@ -1,0 +1,143 @@
+#!/usr/bin/env python3
+"""A cell's life (issue 70, docs/life.md): NASA PCoE cell B0005's 168
+discharges through one `online battery` estimator, in the order of their
+start times, the state carried from each to the next; against NASA's own
+measurements of the same aging.
+
+* `discharged_ah` of each log against NASA's measured capacity of that
+  discharge (metadata.csv `Capacity`): the share within 2 %.
+* `r_i` (the median R_i each log's windows identified): the share of logs
+  with one; its Spearman rank correlation over life with the EIS `Re` and
+  `Re + Rct` (metadata.csv, the impedance tests, linear in time at each
+  log's start); beside a crude baseline measured here on the same logs,
+  the voltage step over the current step at each discharge's first loaded
+  row.
+* growth over life (the mean of the last ten logs over the first ten's)
+  of each.
+* the whole life's wall time, one command, pinned to one core
+  (`taskset -c 0` where there is one), median of three.
+
+    cargo build --release -p host-sim
+    python3 bench/life_nasa.py [--host-sim target/release/host-sim] [--window 256] [--out target/life]
+"""
+
+import argparse
+import csv
+import os
+import shutil
+import statistics
+import subprocess
+import time
+
+import numpy as np
+from scipy.stats import spearmanr
+
+DATA = "data/nasa-pcoe-b0005"
+
+
+def matlab_seconds(vector):
+    import datetime as dt
+
+    y, m, d, h, mi, s = (float(x) for x in vector.strip("[]").split())
+    t = dt.datetime(int(y), int(m), int(d), int(h), int(mi)) + dt.timedelta(seconds=s)
+    return t.replace(tzinfo=dt.timezone.utc).timestamp()
+
+
+def metadata():
+    rows = list(csv.DictReader(open(f"{DATA}/metadata.csv")))
+    for r in rows:
+        r["t"] = matlab_seconds(r["start_time"])
+    return rows
+
+
+def first_step(path):
+    """The voltage step over the current step at the first loaded row
+    (|I| > 1 A) against the row before it (Ω)."""
+    d = np.genfromtxt(path, delimiter=",", names=True)
+    i, v = d["Current_measured"], d["Voltage_measured"]
+    k = int(np.argmax(np.abs(i) > 1.0))
+    return (v[k] - v[k - 1]) / (i[k] - i[k - 1])
+
+
+def after_load(path):
+    """The charge counted after the last loaded row (|I| > 1 A), the load
+    switching off (A h), each row's current held to the next."""
+    d = np.genfromtxt(path, delimiter=",", names=True)
+    t, i = d["Time"], d["Current_measured"]
+    last = np.nonzero(np.abs(i) > 1.0)[0][-1]
+    return -np.sum(i[last:-1] * np.diff(t)[last:]) / 3600
+
+
+def growth(x):
+    x = np.asarray(x, float)
+    x = x[np.isfinite(x)]
+    return x[-10:].mean() / x[:10].mean()
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--host-sim", default="target/release/host-sim")
+    ap.add_argument("--out", default="target/life")
+    ap.add_argument("--window", default="256")
+    ap.add_argument("--runs", type=int, default=3)
+    a = ap.parse_args()
+    os.makedirs(a.out, exist_ok=True)
+    times = os.path.join(a.out, "start_times.csv")
+    with open(times, "w") as f:
+        subprocess.run(["python3", "bench/nasa_start_times.py", DATA], stdout=f, check=True)
+    life = os.path.join(a.out, "life.csv")
+    cmd = [a.host_sim, "online", "battery", "--input", f"{DATA}/discharge",
+           "--start-times", times, "--window", a.window,
+           "--out", os.path.join(a.out, "tracks"), "--life-out", life]
+    pin = ["taskset", "-c", "0"] if shutil.which("taskset") else []
+    secs = []
+    for _ in range(a.runs):
+        t0 = time.perf_counter()
+        subprocess.run(pin + cmd, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        secs.append(time.perf_counter() - t0)
+    rows = list(csv.DictReader(open(life)))
+    meta = metadata()
+    by_file = {r["filename"]: r for r in meta if r["type"] == "discharge"}
+    imp = sorted((r for r in meta if r["type"] == "impedance" and r["Re"]), key=lambda r: r["t"])
+    ti = np.array([r["t"] for r in imp])
+    re = np.array([float(r["Re"]) for r in imp])
+    rct = np.array([float(r["Rct"]) for r in imp])
+
+    names = [os.path.basename(r["file"]) for r in rows]
+    t = np.array([by_file[n]["t"] for n in names])
+    nasa = np.array([float(by_file[n]["Capacity"]) for n in names])
+    dis = np.array([float(r["discharged_ah"]) if r["discharged_ah"] else np.nan for r in rows])
+    r_i = np.array([float(r["r_i"]) if r["r_i"] else np.nan for r in rows])
+    re_t = np.interp(t, ti, re)
+    rerct_t = np.interp(t, ti, re + rct)
+    base = np.array([first_step(f"{DATA}/discharge/{n}") for n in names])
+    ok = np.isfinite(r_i)
+
+    within = np.abs(dis / nasa - 1) <= 0.02
+    print(f"B0005: {len(rows)} discharges, {len(imp)} impedance tests; life in one command "
+          f"(window {a.window}): {statistics.median(secs):.2f} s median of {a.runs} on one core")
+    print(f"discharged_ah within 2 % of NASA's capacity: {within.sum()} of {len(rows)} "
+          f"({within.mean():.1%}); ratio median {np.median(dis / nasa):.4f}, "
+          f"range {np.min(dis / nasa):.4f}-{np.max(dis / nasa):.4f}")
+    tail = np.array([after_load(f"{DATA}/discharge/{n}") for n in names])
+    print(f"counted after the last loaded row (the load switching off): median {np.median(tail):.4f} A h, "
+          f"at most {tail.max():.4f} A h; the baseline at the first log {base[0]:.4f} ohm, "
+          f"EIS Re then {re_t[0]:.4f} ohm")
+    print()
+    print("| resistance | logs with a value | Spearman with Re | with Re + Rct | growth over life (last 10 / first 10) |")
+    print("|---|---|---|---|---|")
+    print(f"| EIS Re (interpolated at each log's start) | {len(rows)} | 1 | "
+          f"{spearmanr(re_t, rerct_t)[0]:.3f} | {growth(re_t):.3f} |")
+    print(f"| EIS Re + Rct | {len(rows)} | {spearmanr(rerct_t, re_t)[0]:.3f} | 1 | {growth(rerct_t):.3f} |")
+    if ok.sum() >= 3:
+        print(f"| `r_i` (online, median per log) | {ok.sum()} ({ok.mean():.1%}) | "
+              f"{spearmanr(r_i[ok], re_t[ok])[0]:.3f} | {spearmanr(r_i[ok], rerct_t[ok])[0]:.3f} | "
+              f"{growth(r_i):.3f} |")
+    else:
+        print(f"| `r_i` (online, median per log) | {ok.sum()} ({ok.mean():.1%}) | — | — | — |")
+    print(f"| crude baseline: ΔV/ΔI at the first loaded row | {len(rows)} | "
+          f"{spearmanr(base, re_t)[0]:.3f} | {spearmanr(base, rerct_t)[0]:.3f} | {growth(base):.3f} |")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,53 @@
+"""A cell's life: fracbms.life against the CLI's --life-out on the same
+NASA PCoE logs."""
+
+import csv
+import shutil
+
+import pytest
+
+import fracbms
+from conftest import REPO
+
+NASA = REPO / "data" / "nasa-pcoe-b0005" / "discharge"
+TIMES = [("05122.csv", "2008-04-02T15:25:41.593"), ("05124.csv", "2008-04-02T19:43:48.406"),
+         ("05126.csv", "2008-04-03T00:01:06.687")]
+
+
+@pytest.fixture(scope="module")
+def logs(tmp_path_factory):
+    """Three of B0005's discharges, a file that is not a log, and their
+    start times listed out of order."""
+    d = tmp_path_factory.mktemp("life")
+    for f, _ in TIMES:
+        shutil.copy(NASA / f, d / f)
+    (d / "05123.csv").write_text("a,b\n1,2\n")
+    table = tmp_path_factory.mktemp("life-times") / "start_times.csv"
+    rows = TIMES[::-1] + [("05123.csv", "2008-04-02T17:00:00")]
+    table.write_text("file,start_time\n" + "".join(f"{f},{t}\n" for f, t in rows))
+    return d, table
+
+
+def test_life_gives_the_rows_of_the_cli_life_out(host_sim, logs, tmp_path):
+    d, table = logs
+    out = tmp_path / "life.csv"
+    r = host_sim("online", "battery", "--input", d, "--start-times", table, "--window", "64",
+                 "--out", tmp_path / "tracks", "--life-out", out)
+    assert r.returncode == 0, r.stderr
+    with open(out, newline="") as f:
+        cli = list(csv.DictReader(f))
+    assert list(cli[0].keys()) == list(fracbms.LIFE_COLUMNS)
+    with pytest.warns(UserWarning, match="05123.csv"):
+        df = fracbms.life(d, start_times=table, window=64)
+    assert list(df.columns) == list(fracbms.LIFE_COLUMNS)
+    assert [p.rsplit("/", 1)[-1] for p in df["file"]] == [
+        "05122.csv", "05123.csv", "05124.csv", "05126.csv"]
+    assert df["r_i_status"][1] == "error" and "no time column" in df["error"][1]
+    for k, row in enumerate(cli):
+        for key in ("discharged_ah", "charged_ah", "r_i", "r_ct", "alpha"):
+            ours = df[key][k]
+            if row[key] == "":
+                assert ours is None or ours != ours, (k, key)
+            else:
+                assert abs(float(row[key]) - ours) <= 1e-8 * abs(ours), (k, key)
+        assert row["r_i_status"] == df["r_i_status"][k]
