@@ -88,6 +88,7 @@ def main():
     life = os.path.join(a.out, "life.csv")
     cmd = [a.host_sim, "online", "battery", "--input", f"{DATA}/discharge",
            "--start-times", times, "--window", a.window,
+           "--voltage-min", "2.7", "--voltage-max", "4.2",
            "--out", os.path.join(a.out, "tracks"), "--life-out", life]
     pin = ["taskset", "-c", "0"] if shutil.which("taskset") else []
     secs = []
@@ -119,6 +120,14 @@ def main():
     print(f"discharged_ah within 2 % of NASA's capacity: {within.sum()} of {len(rows)} "
           f"({within.mean():.1%}); ratio median {np.median(dis / nasa):.4f}, "
           f"range {np.min(dis / nasa):.4f}-{np.max(dis / nasa):.4f}")
+    cap = np.array([float(r["capacity_ah"]) if r["capacity_ah"] else np.nan for r in rows])
+    checks = np.array([r["capacity_source"] == "full_discharge" for r in rows])
+    soh_c = np.array([float(r["soh_c"]) if r["soh_c"] else np.nan for r in rows])
+    nasa_soh = nasa / nasa[0]
+    print(f"capacity checks recognised (rest at 4.2 V to 2.7 V, capacity_source=full_discharge): "
+          f"{checks.sum()} of {len(rows)}; soh_c against NASA's capacity over its first: "
+          f"largest difference {np.nanmax(np.abs(soh_c - nasa_soh)):.4f}, "
+          f"at the end {soh_c[-1]:.4f} vs {nasa_soh[-1]:.4f}")
     tail = np.array([after_load(f"{DATA}/discharge/{n}") for n in names])
     print(f"counted after the last loaded row (the load switching off): median {np.median(tail):.4f} A h, "
           f"at most {tail.max():.4f} A h; the baseline at the first log {base[0]:.4f} ohm, "

@@ -58,7 +58,7 @@ LIFE_COLUMNS: list[str]
 """The keys of life_rows' rows, in the order of the CLI's --life-out
 columns (file, start_time, samples, discharged_ah, charged_ah, r_i,
 r_i_status, r_ct, alpha, capacity_ah, capacity_status, soh_c, soh_r,
-error)."""
+error, capacity_source)."""
 
 def life_rows(
     paths: Union[PathLike, Sequence[PathLike]],
@@ -72,6 +72,8 @@ def life_rows(
     columns: Optional[str] = None,
     current_sign: str = "charge-positive",
     period_s: Optional[float] = None,
+    voltage_min: Optional[float] = None,
+    voltage_max: Optional[float] = None,
 ) -> list[dict[str, Any]]:
     """A cell's life as `online battery --input DIR --life-out` runs it:
     one dict per log (keys LIFE_COLUMNS), each log's track written into

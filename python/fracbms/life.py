@@ -45,8 +45,9 @@ def life(
     taken to start an hour after the one before ended. ``out_dir``: where
     each log's track is written (``NAME-track.csv``; default a temporary
     directory, removed after). ``options``: ``ocv``, ``capacity_ah``,
-    ``soc0``, ``window``, ``columns``, ``current_sign``, ``period_s``, as
-    the CLI's flags.
+    ``soc0``, ``window``, ``columns``, ``current_sign``, ``period_s``,
+    ``voltage_min``, ``voltage_max`` (the limits a capacity check runs
+    between), as the CLI's flags.
 
     Raises ValueError for no files, a start-time table that does not cover
     them, or an option refused; ImportError without pandas."""

@@ -21,7 +21,8 @@ use std::path::PathBuf;
 #[pyfunction]
 #[pyo3(signature = (
     paths, *, out_dir, start_times = None, ocv = None, capacity_ah = None, soc0 = None,
-    window = 256, columns = None, current_sign = "charge-positive", period_s = None
+    window = 256, columns = None, current_sign = "charge-positive", period_s = None,
+    voltage_min = None, voltage_max = None
 ))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn life_rows<'py>(
@@ -36,8 +37,14 @@ pub(crate) fn life_rows<'py>(
     columns: Option<&str>,
     current_sign: &str,
     period_s: Option<f64>,
+    voltage_min: Option<f64>,
+    voltage_max: Option<f64>,
 ) -> PyResult<Bound<'py, PyList>> {
+    let mut power = fracbms_host::online::power::PowerOptions::default();
+    power.voltage_min = voltage_min;
+    power.voltage_max = voltage_max;
     let o = OnlineBatteryOptions {
+        power,
         window,
         ocv: OcvOptions {
             ocv,
@@ -87,6 +94,7 @@ pub(crate) fn life_rows<'py>(
         d.set_item(keys[11], r.soh_c)?;
         d.set_item(keys[12], r.soh_r)?;
         d.set_item(keys[13], r.error.clone())?;
+        d.set_item(keys[14], r.capacity_source)?;
         out.append(d)?;
     }
     Ok(out)

@@ -205,7 +205,19 @@ pub(crate) fn battery_run(
         None => state::StateIn::NotGiven,
     };
     let fields = schema::track_fields(o.power.horizons(), snapshot.is_some());
-    let mut life = super::life::FileTally::of_record(&rec);
+    let limits = {
+        let table = cell.as_ref().map(|c| c.model.table.ocv_points());
+        let lo = o
+            .power
+            .voltage_min
+            .or(table.and_then(|v| v.first().copied()));
+        let hi = o
+            .power
+            .voltage_max
+            .or(table.and_then(|v| v.last().copied()));
+        lo.zip(hi)
+    };
+    let mut life = super::life::FileTally::of_record(&rec, limits);
     let summary = {
         let mut res = Ok(TrackSummary::default());
         io::write_atomic(out, |w| {

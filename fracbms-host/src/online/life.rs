@@ -22,6 +22,12 @@ use estimator_core::battery::online::Identification;
 /// The time assumed between two logs without start times (s).
 pub const UNKNOWN_GAP_S: f64 = 3600.0;
 
+/// How close to the voltage limits a capacity check must start and end
+/// (V): a log that starts at rest within this of the upper limit and
+/// whose load takes the cell within this of the lower limit
+/// ([`FileTally::full_discharge`]).
+pub const FULL_DISCHARGE_MARGIN_V: f64 = 0.05;
+
 /// `YYYY-MM-DD[THH:MM[:SS[.f]]][Z|±HH:MM]` (a blank for the `T` too) as
 /// seconds since 1970-01-01 00:00 UTC; a time without a zone is taken as
 /// UTC. `None` for anything else.
@@ -117,12 +123,22 @@ pub struct FileTally {
     last_status: [Option<Identification>; 3],
     /// The capacity published at the last sample and its status.
     capacity: Option<(f64, &'static str)>,
+    /// Whether the log is a capacity check: it starts at rest (its first
+    /// current at most 1 % of its largest) within
+    /// [`FULL_DISCHARGE_MARGIN_V`] of the upper voltage limit, only
+    /// discharges (its charge in at most 1 % of its charge out), and its
+    /// load takes the cell within that margin of the lower limit. Its
+    /// counted discharge is then the capacity at that current, as a
+    /// cycler's capacity test measures it.
+    pub full_discharge: bool,
 }
 
 impl FileTally {
     /// A tally of `rec`'s counted charge (each sample's current held for
-    /// its period; a current that is not finite counts nothing).
-    pub fn of_record(rec: &io::BatteryRecord) -> Self {
+    /// its period; a current that is not finite counts nothing), and
+    /// whether it is a capacity check between the voltage limits
+    /// `limits` (`(lowest, highest)`; `None`: none known, no check).
+    pub fn of_record(rec: &io::BatteryRecord, limits: Option<(f64, f64)>) -> Self {
         let (mut dis, mut ch) = (0.0, 0.0);
         for &i in rec.current.iter().filter(|i| i.is_finite()) {
             if i < 0.0 {
@@ -131,9 +147,35 @@ impl FileTally {
                 ch += i * rec.h / 3600.0;
             }
         }
+        let full_discharge = limits.is_some_and(|(lo, hi)| {
+            let peak = rec
+                .current
+                .iter()
+                .filter(|i| i.is_finite())
+                .fold(0.0_f64, |m, i| m.max(i.abs()));
+            let rest = 0.01 * peak;
+            let first = rec
+                .current
+                .iter()
+                .zip(&rec.voltage)
+                .find(|(i, v)| i.is_finite() && v.is_finite());
+            let starts_full =
+                first.is_some_and(|(i, v)| i.abs() <= rest && *v >= hi - FULL_DISCHARGE_MARGIN_V);
+            let lowest_loaded = rec
+                .current
+                .iter()
+                .zip(&rec.voltage)
+                .filter(|(i, v)| i.abs() > rest && v.is_finite())
+                .fold(f64::INFINITY, |m, (_, v)| m.min(*v));
+            peak > 0.0
+                && starts_full
+                && ch <= 0.01 * dis
+                && lowest_loaded <= lo + FULL_DISCHARGE_MARGIN_V
+        });
         Self {
             discharged_ah: dis,
             charged_ah: ch,
+            full_discharge,
             ..Self::default()
         }
     }
@@ -201,6 +243,10 @@ pub struct LifeRow {
     /// Its status (`identified`, `not_identified`; empty without a table;
     /// `error`).
     pub capacity_status: &'static str,
+    /// Where `capacity_ah` comes from: `full_discharge` (the log is a
+    /// capacity check, [`FileTally::full_discharge`]: its counted
+    /// discharge), `observer` (the SOC observer's), empty (none).
+    pub capacity_source: &'static str,
     /// `capacity_ah` over the first log's that has one.
     pub soh_c: Option<f64>,
     /// `r_i` over the first log's that has one.
@@ -210,7 +256,7 @@ pub struct LifeRow {
 }
 
 /// The columns of `--life-out`.
-pub const LIFE_HEADER: &str = "file,start_time,samples,discharged_ah,charged_ah,r_i,r_i_status,r_ct,alpha,capacity_ah,capacity_status,soh_c,soh_r,error";
+pub const LIFE_HEADER: &str = "file,start_time,samples,discharged_ah,charged_ah,r_i,r_i_status,r_ct,alpha,capacity_ah,capacity_status,soh_c,soh_r,error,capacity_source";
 
 impl LifeRow {
     fn csv(&self) -> String {
@@ -237,6 +283,7 @@ impl LifeRow {
             n(self.soh_c),
             n(self.soh_r),
             quoted(self.error.as_deref().unwrap_or("")),
+            self.capacity_source.to_string(),
         ]
         .join(",")
     }
@@ -504,8 +551,23 @@ pub fn run_life(
                     r_i_status,
                     r_ct: t.median(1).0,
                     alpha: t.median(2).0,
-                    capacity_ah: t.capacity.map(|c| c.0),
-                    capacity_status: t.capacity.map_or("", |c| c.1),
+                    capacity_ah: if t.full_discharge {
+                        Some(t.discharged_ah)
+                    } else {
+                        t.capacity.map(|c| c.0)
+                    },
+                    capacity_status: if t.full_discharge {
+                        "identified"
+                    } else {
+                        t.capacity.map_or("", |c| c.1)
+                    },
+                    capacity_source: if t.full_discharge {
+                        "full_discharge"
+                    } else if t.capacity.is_some() {
+                        "observer"
+                    } else {
+                        ""
+                    },
                     soh_c: None,
                     soh_r: None,
                     error: None,
@@ -528,6 +590,7 @@ pub fn run_life(
                     alpha: None,
                     capacity_ah: None,
                     capacity_status: "error",
+                    capacity_source: "",
                     soh_c: None,
                     soh_r: None,
                     error: Some(e.to_string()),

@@ -97,11 +97,15 @@ pub struct OnlineBatteryArgs {
     pub start_times: Option<PathBuf>,
     /// A life's rows (--input DIR|PATTERN): `file,start_time,samples,
     /// discharged_ah,charged_ah,r_i,r_i_status,r_ct,alpha,capacity_ah,
-    /// capacity_status,soh_c,soh_r,error`, one per log: its counted
-    /// charges; the median R_i, R_ct and α its windows identified (empty
-    /// where none was, the status then its last); the capacity at its end
-    /// (with --ocv); soh_c and soh_r over the first log's; error: why a
-    /// log could not be run (the life goes on across it).
+    /// capacity_status,soh_c,soh_r,error,capacity_source`, one per log:
+    /// its counted charges; the median R_i, R_ct and α its windows
+    /// identified (empty where none was, the status then its last); the
+    /// capacity: the counted discharge of a capacity check
+    /// (capacity_source `full_discharge`: from rest within 0.05 V of
+    /// --voltage-max, or the table's highest, to within 0.05 V of
+    /// --voltage-min, or its lowest), else the SOC observer's at the log's
+    /// end (`observer`, with --ocv); soh_c and soh_r over the first log's;
+    /// error: why a log could not be run (the life goes on across it).
     #[arg(long, value_name = "FILE.csv")]
     pub life_out: Option<PathBuf>,
     /// A life's figure (SVG): the counted discharge and the capacity, and

@@ -34,7 +34,7 @@ fn life_rows(p: &Path) -> Vec<Vec<String>> {
     let mut lines = text.lines();
     assert_eq!(
         lines.next().unwrap(),
-        "file,start_time,samples,discharged_ah,charged_ah,r_i,r_i_status,r_ct,alpha,capacity_ah,capacity_status,soh_c,soh_r,error"
+        "file,start_time,samples,discharged_ah,charged_ah,r_i,r_i_status,r_ct,alpha,capacity_ah,capacity_status,soh_c,soh_r,error,capacity_source"
     );
     lines
         .map(|l| l.split(',').map(str::to_string).collect())
@@ -82,6 +82,8 @@ fn a_life_in_one_command_is_its_logs_run_one_by_one_with_the_state_carried() {
     for (x, c) in r.iter().zip([1.856_487, 1.846_327, 1.835_349, 1.835_263]) {
         let ah: f64 = x[3].parse().unwrap();
         assert!((ah / c - 1.0).abs() < 0.01, "{x:?}");
+        // No voltage limits, no table: no capacity.
+        assert_eq!((x[9].as_str(), x[14].as_str()), ("", ""), "{x:?}");
     }
     // The same logs one by one, each from the snapshot the one before
     // saved, at its start time: the same tracks, bit for bit.
@@ -256,4 +258,51 @@ fn life_flags_on_one_file_and_bad_start_times_are_one_line() {
     assert!(!o.status.success());
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(err.contains("no start time for"), "{err}");
+}
+
+/// A discharge from rest at the upper limit to the lower one is a capacity
+/// check: its counted discharge is the capacity, and `soh_c` follows it.
+#[test]
+fn discharges_between_the_voltage_limits_are_capacity_checks() {
+    let (dir, table) = logs("life-capacity", &[]);
+    let rows = tmp("life-capacity.csv");
+    let tracks = tmp("life-capacity-tracks");
+    let run_with = |limits: &[&str]| {
+        let mut args = vec![
+            "online",
+            "battery",
+            "--input",
+            s(&dir),
+            "--start-times",
+            s(&table),
+            "--out",
+            s(&tracks),
+            "--life-out",
+            s(&rows),
+        ];
+        args.extend(limits);
+        let o = run(&args);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        life_rows(&rows)
+    };
+    // B0005: charged to 4.2 V, discharged to 2.7 V.
+    let r = run_with(&["--voltage-min", "2.7", "--voltage-max", "4.2"]);
+    let first: f64 = r[0][3].parse().unwrap();
+    for x in &r {
+        assert_eq!(
+            (x[10].as_str(), x[14].as_str()),
+            ("identified", "full_discharge"),
+            "{x:?}"
+        );
+        assert_eq!(x[9], x[3], "{x:?}");
+        let soh: f64 = x[11].parse().unwrap();
+        let ah: f64 = x[3].parse().unwrap();
+        assert!((soh - ah / first).abs() < 1e-9, "{x:?}");
+    }
+    // A lower limit the load never comes near: not a check.
+    let r = run_with(&["--voltage-min", "2.0", "--voltage-max", "4.2"]);
+    assert!(
+        r.iter().all(|x| x[14].is_empty() && x[9].is_empty()),
+        "{r:?}"
+    );
 }
