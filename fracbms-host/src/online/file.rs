@@ -104,7 +104,7 @@ pub struct OnlineReport {
     /// How the `--state-in` snapshot was taken.
     pub state_in: state::StateIn,
     /// What the track published, for a life's row ([`super::life`]).
-    pub life: super::life::FileTally,
+    pub life: super::log_tally::FileTally,
 }
 
 /// `online battery`: reads the record `input`, runs the online estimator
@@ -217,7 +217,7 @@ pub(crate) fn battery_run(
             .or(table.and_then(|v| v.last().copied()));
         lo.zip(hi)
     };
-    let mut life = super::life::FileTally::of_record(&rec, limits);
+    let mut life = super::log_tally::FileTally::of_record(&rec, limits);
     let summary = {
         let mut res = Ok(TrackSummary::default());
         io::write_atomic(out, |w| {

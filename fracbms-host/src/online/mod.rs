@@ -26,6 +26,7 @@ pub use prior::{
 
 mod file;
 pub mod life;
+mod log_tally;
 pub mod power;
 mod prior;
 pub mod schema;
