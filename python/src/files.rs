@@ -30,6 +30,25 @@ pub(crate) fn files(paths: &Bound<'_, PyAny>) -> PyResult<Vec<PathBuf>> {
     Ok(list)
 }
 
+/// How a file is read: the keywords `columns=`, `current_sign=`,
+/// `period_s=` as the CLI's `--columns`, `--current-sign`, `--period`.
+pub(crate) fn record_options(
+    columns: Option<&str>,
+    current_sign: &str,
+    period_s: Option<f64>,
+) -> PyResult<RecordOptions> {
+    Ok(RecordOptions {
+        columns: columns
+            .map(ColumnMap::parse)
+            .transpose()
+            .map_err(value_error)?
+            .unwrap_or_default(),
+        current_sign: choice::<CurrentSign>("current_sign", current_sign)?,
+        period: period_s,
+        ..RecordOptions::default()
+    })
+}
+
 /// Raises
 /// ------
 /// ValueError
@@ -82,16 +101,7 @@ pub(crate) fn identify_files<'py>(
         voltage_min,
         voltage_max,
         current_limit,
-        record: RecordOptions {
-            columns: columns
-                .map(ColumnMap::parse)
-                .transpose()
-                .map_err(value_error)?
-                .unwrap_or_default(),
-            current_sign: choice::<CurrentSign>("current_sign", current_sign)?,
-            period: period_s,
-            ..RecordOptions::default()
-        },
+        record: record_options(columns, current_sign, period_s)?,
     };
     let map_method = choice::<MapMethod>("map_method", map_method)?;
     let m = ManyOptions {

@@ -3,8 +3,8 @@
 //! --life-out` runs it ([`fracbms_host::online::life`]). `fracbms.life`
 //! (`fracbms/life.py`) makes the rows a DataFrame.
 
-use super::{choice, files::files, value_error, warn};
-use fracbms_host::cycler::{ColumnMap, CurrentSign, RecordOptions};
+use super::files::{files, record_options};
+use super::{value_error, warn};
 use fracbms_host::ocv::OcvOptions;
 use fracbms_host::online::life::{self, LIFE_HEADER};
 use fracbms_host::online::OnlineBatteryOptions;
@@ -51,16 +51,7 @@ pub(crate) fn life_rows<'py>(
             capacity_ah,
             soc0,
         },
-        record: RecordOptions {
-            columns: columns
-                .map(ColumnMap::parse)
-                .transpose()
-                .map_err(value_error)?
-                .unwrap_or_default(),
-            current_sign: choice::<CurrentSign>("current_sign", current_sign)?,
-            period: period_s,
-            ..RecordOptions::default()
-        },
+        record: record_options(columns, current_sign, period_s)?,
         ..OnlineBatteryOptions::default()
     };
     let label = paths

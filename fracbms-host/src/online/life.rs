@@ -143,18 +143,12 @@ pub struct LifeRow {
 pub const LIFE_HEADER: &str = "file,start_time,samples,discharged_ah,charged_ah,r_i,r_i_status,r_ct,alpha,capacity_ah,capacity_status,soh_c,soh_r,error,capacity_source";
 
 impl LifeRow {
-    fn csv(&self) -> String {
+    /// The row's cells in [`LIFE_HEADER`]'s order.
+    fn cells(&self) -> Vec<String> {
         let n = |x: Option<f64>| x.map_or(String::new(), |x| format!("{x:.9e}"));
-        let quoted = |s: &str| {
-            if s.contains([',', '"', '\n']) {
-                format!("\"{}\"", s.replace('"', "\"\""))
-            } else {
-                s.to_string()
-            }
-        };
-        [
-            quoted(&self.file.display().to_string()),
-            quoted(self.start_time.as_deref().unwrap_or("")),
+        vec![
+            self.file.display().to_string(),
+            self.start_time.clone().unwrap_or_default(),
             self.samples.to_string(),
             n(self.discharged_ah),
             n(self.charged_ah),
@@ -166,10 +160,9 @@ impl LifeRow {
             self.capacity_status.to_string(),
             n(self.soh_c),
             n(self.soh_r),
-            quoted(self.error.as_deref().unwrap_or("")),
+            self.error.clone().unwrap_or_default(),
             self.capacity_source.to_string(),
         ]
-        .join(",")
     }
 }
 
@@ -178,13 +171,8 @@ impl LifeRow {
 /// # Errors
 /// A file that cannot be written.
 pub fn write_life_csv(path: &Path, rows: &[LifeRow]) -> Result<()> {
-    io::write_atomic(path, |w| {
-        writeln!(w, "{LIFE_HEADER}")?;
-        for r in rows {
-            writeln!(w, "{}", r.csv())?;
-        }
-        Ok(())
-    })
+    let header: Vec<&str> = LIFE_HEADER.split(',').collect();
+    io::write_csv(path, &header, rows.iter().map(LifeRow::cells))
 }
 
 /// Draws a life (`--life-plot`): the counted discharge and the capacity
