@@ -41,8 +41,10 @@ def life(
 
     ``paths``: a directory, a glob pattern, or a sequence of files.
     ``start_times``: a CSV ``file,start_time`` (ISO 8601) giving the order
-    and the time between logs; without it the logs run in name order, each
-    taken to start an hour after the one before ended. ``out_dir``: where
+    and the time between logs; without it, the date and time of each log's
+    first row where every log has a column of them (``Date_Time``,
+    ``TimeStamp``, ...), else name order, each taken to start an hour after
+    the one before ended. ``out_dir``: where
     each log's track is written (``NAME-track.csv``; default a temporary
     directory, removed after). ``options``: ``ocv``, ``capacity_ah``,
     ``soc0``, ``window``, ``columns``, ``current_sign``, ``period_s``,

@@ -59,8 +59,10 @@ pub(crate) fn life_rows<'py>(
         .unwrap_or_else(|_| PathBuf::from("paths"));
     let list = files(paths)?;
     let mut notes = vec![];
-    let logs = life::order_logs(list, &label, start_times.as_deref(), |l| notes.push(l))
-        .map_err(value_error)?;
+    let logs = life::order_logs(list, &label, start_times.as_deref(), &o.record, |l| {
+        notes.push(l)
+    })
+    .map_err(value_error)?;
     let lived = py.detach(|| life::run_life(&logs, &out_dir, &o, None, |l| notes.push(l)));
     for n in notes.iter().filter(|n| n.starts_with("warning: ")) {
         warn(py, n.trim_start_matches("warning: "))?;

@@ -51,3 +51,14 @@ def test_life_gives_the_rows_of_the_cli_life_out(host_sim, logs, tmp_path):
             else:
                 assert abs(float(row[key]) - ours) <= 1e-8 * abs(ours), (k, key)
         assert row["r_i_status"] == df["r_i_status"][k]
+
+
+def test_without_start_times_the_logs_own_time_stamps_give_the_order(tmp_path):
+    """The Panasonic MAT-files' `TimeStamp`: the later log listed first runs
+    second, each row with its first row's date and time."""
+    pan = REPO / "data" / "panasonic-18650pf"
+    later, earlier = pan / "03-27-17_10.29 3423_dis5_10p.mat", pan / "03-11-17_10.10 3390_dis5_10p.mat"
+    df = fracbms.life([later, earlier], window=64)
+    assert [p.rsplit("/", 1)[-1] for p in df["file"]] == [earlier.name, later.name]
+    assert df["start_time"][1] == "2017-03-27T10:29:11"
+    assert df["start_time"][0].startswith("2017-03-11T")

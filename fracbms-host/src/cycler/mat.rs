@@ -390,3 +390,69 @@ fn joined(
     r.report.table = Some(wanted.join(","));
     Ok(r)
 }
+
+/// The text of a char array (one row: the first of a char matrix).
+fn first_text(v: &MatVariable) -> Option<String> {
+    let MatVariable::NumericArray(a) = v else {
+        return None;
+    };
+    let (MatlabType::UTF8(x) | MatlabType::UTF16(x)) = &a.value else {
+        return None;
+    };
+    let rows = a.dim.first().copied().unwrap_or(1).max(1);
+    Some(
+        x.iter()
+            .step_by(rows)
+            .filter_map(|&c| char::from_u32(u32::from(c)))
+            .collect(),
+    )
+}
+
+/// Every field named as an absolute time column
+/// ([`super::date_time::absolute_time_rank`]) holding text (a cell array of
+/// char rows, or a char matrix): its rank, dot path and first row.
+fn absolute_times(
+    prefix: &str,
+    fields: Vec<(String, &MatVariable)>,
+    depth: usize,
+    out: &mut Vec<(usize, String, String)>,
+) {
+    for (name, v) in fields {
+        let path = if prefix.is_empty() {
+            name.clone()
+        } else {
+            format!("{prefix}.{name}")
+        };
+        match v {
+            MatVariable::Structure(s) if depth < MAX_DEPTH => {
+                let inner = s.value.iter().map(|(k, v)| (k.clone(), v)).collect();
+                absolute_times(&path, inner, depth + 1, out);
+            }
+            _ => {
+                let Some(rank) = super::date_time::absolute_time_rank(&name) else {
+                    continue;
+                };
+                let text = match v {
+                    MatVariable::CellArray(c) => c.value.first().and_then(first_text),
+                    other => first_text(other),
+                };
+                if let Some(text) = text {
+                    out.push((rank, path, text));
+                }
+            }
+        }
+    }
+}
+
+/// The absolute time field of a MAT-file (its dot path) and its first
+/// row's text, the best-ranked of them; `None` without one.
+pub(super) fn first_absolute_time(bytes: &[u8], path: &Path) -> Result<Option<(String, String)>> {
+    let parsed = std::panic::catch_unwind(|| matrw::load_matfile_from_u8(bytes));
+    let Ok(Ok(file)) = parsed else {
+        bail!(Data, "{}: not a readable MAT-file", path.display());
+    };
+    let top: Vec<(String, &MatVariable)> = file.iter().map(|(k, v)| (k.clone(), v)).collect();
+    let mut found = vec![];
+    absolute_times("", top, 0, &mut found);
+    Ok(found.into_iter().min().map(|(_, p, t)| (p, t)))
+}

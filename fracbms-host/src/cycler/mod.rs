@@ -27,6 +27,8 @@
 //! # Ok::<(), fracbms_host::Error>(())
 //! ```
 
+pub mod clock;
+pub mod date_time;
 pub mod headers;
 mod mat;
 pub mod resample;

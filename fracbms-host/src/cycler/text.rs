@@ -241,3 +241,41 @@ pub(super) fn read_rows(
     }
     Ok(out)
 }
+
+/// The absolute time column of a text export (its name) and the cell of
+/// its first data row that reads as a date and time
+/// ([`super::date_time::parse_date_time`]; a units row under the header is
+/// passed over); `None` without such a column or cell.
+pub(super) fn first_absolute_time(
+    bytes: &[u8],
+    path: &Path,
+    map: &ColumnMap,
+) -> Result<Option<(String, String)>> {
+    let (_, start, delimiter, _) = find_header(bytes, path, map)?;
+    let head = bytes[..start].trim_ascii_end();
+    let from = head
+        .iter()
+        .rposition(|&c| c == b'\n' || c == b'\r')
+        .map_or(0, |p| p + 1);
+    let line = &head[from..];
+    let cells = split_line(
+        line.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(line),
+        delimiter,
+    );
+    let Some((index, name)) = cells
+        .iter()
+        .enumerate()
+        .filter_map(|(i, c)| super::date_time::absolute_time_rank(c).map(|r| (r, i, c)))
+        .min()
+        .map(|(_, i, c)| (i, c.clone()))
+    else {
+        return Ok(None);
+    };
+    let cell = bytes[start..]
+        .split(|&c| c == b'\n' || c == b'\r')
+        .filter(|l| !l.iter().all(u8::is_ascii_whitespace))
+        .take(3)
+        .filter_map(|l| split_line(l, delimiter).get(index).cloned())
+        .find(|c| super::date_time::parse_date_time(c).is_some());
+    Ok(cell.map(|c| (name, c)))
+}

@@ -1,15 +1,17 @@
 //! A cell's life: many logs of one cell through one online estimator, in
 //! the order they were taken, its state carried from each to the next
-//! exactly as `--state-out` and `--state-in` carry it ([`life`]), and one
+//! exactly as `--state-out` and `--state-in` carry it ([`life()`]), and one
 //! row per log of what it published ([`LifeRow`], `--life-out`).
 //!
 //! The order is the logs' start times (`--start-times FILE.csv`, columns
-//! `file,start_time`, ISO 8601), else the files' names. The time between
+//! `file,start_time`, ISO 8601), else the date and time of each log's
+//! first row where every log has an absolute time column
+//! ([`crate::cycler::clock`]), else the files' names. The time between
 //! two logs is a gap the cell rested through: the snapshot is aged by it
 //! (the core's [`estimator_core::battery::snapshot::RestorePolicy`]), so
 //! after more than a minute the state of charge is read again from the
-//! next rested voltage (with an OCV table). Without start times each log
-//! is taken to start an hour after the one before ended.
+//! next rested voltage (with an OCV table). Without any start time each
+//! log is taken to start an hour after the one before ended.
 //!
 //! It owns the order, the carrying and the rows; it must not change how
 //! one log is run ([`super::battery_file`]'s options apply to each).
@@ -22,90 +24,17 @@ use crate::identify::many::{expand_inputs, outputs_in};
 /// The time assumed between two logs without start times (s).
 pub const UNKNOWN_GAP_S: f64 = 3600.0;
 
-/// `YYYY-MM-DD[THH:MM[:SS[.f]]][Z|±HH:MM]` (a blank for the `T` too) as
-/// seconds since 1970-01-01 00:00 UTC; a time without a zone is taken as
-/// UTC. `None` for anything else.
-///
-/// ```
-/// use fracbms_host::online::life::parse_start_time;
-/// assert_eq!(parse_start_time("1970-01-02"), Some(86_400.0));
-/// assert_eq!(parse_start_time("2008-04-02T15:25:41Z"), Some(1_207_149_941.0));
-/// assert_eq!(parse_start_time("2008-04-02 17:25:41+02:00"), Some(1_207_149_941.0));
-/// assert_eq!(parse_start_time("02/04/2008"), None);
-/// ```
-pub fn parse_start_time(s: &str) -> Option<f64> {
-    let s = s.trim();
-    let (date, rest) = match s.find(['T', ' ']) {
-        Some(i) => (&s[..i], Some(&s[i + 1..])),
-        None => (s, None),
-    };
-    let d: Vec<&str> = date.split('-').collect();
-    let [y, m, day] = d.as_slice() else {
-        return None;
-    };
-    if y.len() != 4 || m.len() != 2 || day.len() != 2 {
-        return None;
-    }
-    let (y, m, day): (i64, u32, u32) = (y.parse().ok()?, m.parse().ok()?, day.parse().ok()?);
-    if !(1..=12).contains(&m) || !(1..=31).contains(&day) {
-        return None;
-    }
-    let mut secs = days_from_civil(y, m, day) as f64 * 86_400.0;
-    if let Some(rest) = rest {
-        // The zone: `Z`, or `±HH:MM` after the clock.
-        let (clock, offset) = if let Some(c) = rest.strip_suffix(['Z', 'z']) {
-            (c, 0.0)
-        } else if let Some(i) = rest.rfind(['+', '-']) {
-            let z: Vec<&str> = rest[i + 1..].split(':').collect();
-            let [zh, zm] = z.as_slice() else {
-                return None;
-            };
-            let sign = if rest[i..].starts_with('-') {
-                -1.0
-            } else {
-                1.0
-            };
-            let (zh, zm): (f64, f64) = (zh.parse().ok()?, zm.parse().ok()?);
-            (&rest[..i], sign * (zh * 3600.0 + zm * 60.0))
-        } else {
-            (rest, 0.0)
-        };
-        let c: Vec<&str> = clock.split(':').collect();
-        let (h, mi, sec) = match c.as_slice() {
-            [h, mi] => (h.parse::<f64>().ok()?, mi.parse::<f64>().ok()?, 0.0),
-            [h, mi, sec] => (
-                h.parse::<f64>().ok()?,
-                mi.parse::<f64>().ok()?,
-                sec.parse::<f64>().ok()?,
-            ),
-            _ => return None,
-        };
-        if !(0.0..24.0).contains(&h) || !(0.0..60.0).contains(&mi) || !(0.0..61.0).contains(&sec) {
-            return None;
-        }
-        secs += h * 3600.0 + mi * 60.0 + sec - offset;
-    }
-    secs.is_finite().then_some(secs)
-}
-
-/// Days from 1970-01-01 to the proleptic Gregorian date (H. Hinnant's
-/// `days_from_civil`).
-fn days_from_civil(y: i64, m: u32, d: u32) -> i64 {
-    let y = if m <= 2 { y - 1 } else { y };
-    let era = y.div_euclid(400);
-    let yoe = y - era * 400;
-    let mp = i64::from((m + 9) % 12);
-    let doy = (153 * mp + 2) / 5 + i64::from(d) - 1;
-    let doe = yoe * 365 + yoe / 4 - yoe / 100 + doy;
-    era * 146_097 + doe - 719_468
-}
+use crate::cycler::clock::{log_start, LogStart};
+pub use crate::cycler::date_time::parse_start_time;
+use crate::cycler::RecordOptions;
 
 /// One log of a life (a row of `--life-out`).
 #[derive(Clone, Debug, PartialEq)]
 pub struct LifeRow {
     /// The log's path, as listed.
     pub file: PathBuf,
-    /// Its start time as the `--start-times` table gave it.
+    /// Its start time as the `--start-times` table gave it, or its first
+    /// row's date and time (ISO 8601).
     pub start_time: Option<String>,
     /// Samples run.
     pub samples: usize,
@@ -277,24 +206,28 @@ pub fn read_start_times(path: &Path) -> Result<Vec<(String, String, f64)>> {
     Ok(out)
 }
 
-/// A log and its start time: as the table wrote it, and in seconds since
-/// 1970 (`None` without a table).
+/// A log and its start time: as the table wrote it (or ISO 8601 of its
+/// first row's date and time), and in seconds since 1970 (`None` without
+/// either).
 pub type TimedLog = (PathBuf, Option<(String, f64)>);
 
 /// The logs of `input` (a directory or a pattern,
 /// [`crate::identify::many::expand_inputs`]) in the order they were taken,
 /// each with its start time: by the `start_times` table (a file matches a
-/// row by its path as listed or by its name), else by name (`note` says
-/// so).
+/// row by its path as listed or by its name), else by the date and time of
+/// each log's first row when every log has an absolute time column
+/// ([`crate::cycler::clock::log_start`], its header chosen as `record`
+/// says), else by name. `note` says which.
 ///
 /// # Errors
 /// No files, or a file the table has no time for.
 pub fn ordered_logs(
     input: &Path,
     start_times: Option<&Path>,
+    record: &RecordOptions,
     note: impl FnMut(String),
 ) -> Result<Vec<TimedLog>> {
-    order_logs(expand_inputs(input)?, input, start_times, note)
+    order_logs(expand_inputs(input)?, input, start_times, record, note)
 }
 
 /// [`ordered_logs`] of the files listed (`input` names them in `note`).
@@ -305,16 +238,11 @@ pub fn order_logs(
     files: Vec<PathBuf>,
     input: &Path,
     start_times: Option<&Path>,
+    record: &RecordOptions,
     mut note: impl FnMut(String),
 ) -> Result<Vec<TimedLog>> {
     let Some(table) = start_times else {
-        note(format!(
-            "{}: {} logs in file name order (no --start-times): each taken to start {:.0} s after the one before ended",
-            input.display(),
-            files.len(),
-            UNKNOWN_GAP_S
-        ));
-        return Ok(files.into_iter().map(|f| (f, None)).collect());
+        return Ok(by_absolute_time(files, input, record, note));
     };
     let times = read_start_times(table)?;
     let mut out = vec![];
@@ -347,6 +275,63 @@ pub fn order_logs(
     Ok(out)
 }
 
+/// The logs in the order of their first rows' date and time when every
+/// one has an absolute time column, else in the order given (file names);
+/// `note` says which, and names a log without one when others have it.
+fn by_absolute_time(
+    files: Vec<PathBuf>,
+    input: &Path,
+    record: &RecordOptions,
+    mut note: impl FnMut(String),
+) -> Vec<TimedLog> {
+    // A log that cannot be read has no time here; its run says why.
+    let starts: Vec<Option<LogStart>> = files
+        .iter()
+        .map(|f| log_start(f, record).ok().flatten())
+        .collect();
+    let missing = starts.iter().position(Option::is_none);
+    let Some(missing) = missing else {
+        let column = starts
+            .first()
+            .and_then(|s| s.as_ref())
+            .map_or(String::new(), |s| s.column.clone());
+        let mut out: Vec<TimedLog> = files
+            .into_iter()
+            .zip(starts)
+            .map(|(f, s)| {
+                let s = s.expect("every log has a start");
+                (f, Some((s.iso, s.utc_s)))
+            })
+            .collect();
+        out.sort_by(|a, b| {
+            let ta = a.1.as_ref().map_or(f64::NAN, |t| t.1);
+            let tb = b.1.as_ref().map_or(f64::NAN, |t| t.1);
+            ta.total_cmp(&tb).then_with(|| a.0.cmp(&b.0))
+        });
+        note(format!(
+            "{}: {} logs in the order of their first rows' date and time (`{column}`; no --start-times)",
+            input.display(),
+            out.len(),
+        ));
+        return out;
+    };
+    let why = if starts.iter().any(Option::is_some) {
+        format!(
+            "; {} has no date and time in its first row",
+            files[missing].display()
+        )
+    } else {
+        String::new()
+    };
+    note(format!(
+        "{}: {} logs in file name order (no --start-times{why}): each taken to start {:.0} s after the one before ended",
+        input.display(),
+        files.len(),
+        UNKNOWN_GAP_S
+    ));
+    files.into_iter().map(|f| (f, None)).collect()
+}
+
 /// What a life did: its rows and the snapshot after the last log.
 #[derive(Clone, Debug)]
 pub struct Life {
@@ -375,11 +360,11 @@ pub fn life(
     snapshot: Option<Vec<u8>>,
     mut note: impl FnMut(String),
 ) -> Result<Life> {
-    let logs = ordered_logs(input, start_times, &mut note)?;
+    let logs = ordered_logs(input, start_times, &o.record, &mut note)?;
     run_life(&logs, out_dir, o, snapshot, note)
 }
 
-/// [`life`] over logs already in order ([`order_logs`]).
+/// [`life()`] over logs already in order ([`order_logs`]).
 ///
 /// # Errors
 /// Two logs of one name, or an output directory that cannot be made.
@@ -481,21 +466,4 @@ pub fn run_life(
         rows,
         snapshot: carried,
     })
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn start_times_parse_as_utc_seconds_or_not_at_all() {
-        assert_eq!(parse_start_time("1970-01-01T00:00:00Z"), Some(0.0));
-        assert_eq!(parse_start_time("2000-03-01"), Some(951_868_800.0));
-        assert_eq!(parse_start_time("2024-02-29T12:00"), Some(1_709_208_000.0));
-        assert_eq!(parse_start_time("1969-12-31T23:59:59"), Some(-1.0));
-        assert_eq!(parse_start_time("2008-13-01"), None);
-        assert_eq!(parse_start_time("2008-04-02T25:00:00"), None);
-        assert_eq!(parse_start_time("2008-4-2"), None);
-        assert_eq!(parse_start_time(""), None);
-    }
 }

@@ -14,7 +14,9 @@ pub struct OnlineBatteryArgs {
     /// (columns recognised or named with --columns). Or a cell's life: a
     /// directory (its .csv/.txt/.tsv/.mat files) or a quoted pattern
     /// (`'logs/*.csv'`): every log run through one estimator in the order
-    /// they were taken (--start-times, else by name), its state carried
+    /// they were taken (--start-times, else the date and time of each
+    /// log's first row where every log has a column of them, else by
+    /// name), its state carried
     /// from each to the next as --state-out/--state-in would carry it;
     /// --out is then a directory of tracks (`NAME-track.csv`), and
     /// --life-out writes one row per log (docs/life.md).
@@ -87,12 +89,16 @@ pub struct OnlineBatteryArgs {
     /// zone is given): the snapshot's clock is this plus the record's time,
     /// so a snapshot carried from one log to the next (--state-out,
     /// --state-in) is aged by the time between them. With a life
-    /// (--input DIR): each log's comes from --start-times.
+    /// (--input DIR): each log's comes from --start-times or its own
+    /// date and time column.
     #[arg(long, value_name = "ISO8601")]
     pub start_time: Option<String>,
     /// A life's start times: a CSV with columns `file,start_time` (the
     /// log's name or its path as listed; ISO 8601). The logs run in this
     /// order, each aged from the one before by the time between them.
+    /// Without it: the date and time of each log's first row (Arbin's
+    /// `Date_Time`, a MAT-file's `TimeStamp`, Maccor's `DPt Time`, …)
+    /// where every log has one, else file name order.
     #[arg(long, value_name = "FILE.csv")]
     pub start_times: Option<PathBuf>,
     /// A life's rows (--input DIR|PATTERN): `file,start_time,samples,

@@ -306,3 +306,85 @@ fn discharges_between_the_voltage_limits_are_capacity_checks() {
         "{r:?}"
     );
 }
+
+/// B0005's first discharge with a `Date_Time` column (its first row's
+/// `first`, the rows after a second later each, as a cycler writes them).
+fn dated_log(first: &str) -> String {
+    let text = std::fs::read_to_string(data("nasa-pcoe-b0005/discharge/05122.csv")).unwrap();
+    let mut lines = text.lines();
+    let mut out = format!("{},Date_Time\n", lines.next().unwrap());
+    for (k, l) in lines.enumerate() {
+        let cell = if k == 0 {
+            first.to_string()
+        } else {
+            format!("later {k}")
+        };
+        out.push_str(&format!("{l},{cell}\n"));
+    }
+    out
+}
+
+#[test]
+fn without_start_times_the_logs_own_date_and_time_give_the_order() {
+    let dir = tmp("life-dated");
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    // Name order a, b, c; time order b, c, a (the US form, then ISO).
+    for (f, t) in [
+        ("a.csv", "4/3/2008 12:01:06 AM"),
+        ("b.csv", "4/2/2008 3:25:41 PM"),
+        ("c.csv", "2008-04-02 19:43:48"),
+    ] {
+        std::fs::write(dir.join(f), dated_log(t)).unwrap();
+    }
+    let life = |name: &str| {
+        let rows = tmp(&format!("{name}.csv"));
+        let o = run(&[
+            "online",
+            "battery",
+            "--input",
+            s(&dir),
+            "--window",
+            "64",
+            "--out",
+            s(&tmp(&format!("{name}-tracks"))),
+            "--life-out",
+            s(&rows),
+        ]);
+        let err = String::from_utf8_lossy(&o.stderr).into_owned();
+        assert!(o.status.success(), "{err}");
+        (life_rows(&rows), err)
+    };
+    let (r, err) = life("life-dated");
+    assert!(
+        err.contains("3 logs in the order of their first rows' date and time (`Date_Time`; no --start-times)"),
+        "{err}"
+    );
+    let got: Vec<(&str, &str)> = r
+        .iter()
+        .map(|x| (x[0].rsplit('/').next().unwrap(), x[1].as_str()))
+        .collect();
+    assert_eq!(
+        got,
+        [
+            ("b.csv", "2008-04-02T15:25:41"),
+            ("c.csv", "2008-04-02T19:43:48"),
+            ("a.csv", "2008-04-03T00:01:06"),
+        ]
+    );
+    // One log without a date: name order, and that log named.
+    std::fs::copy(
+        data("nasa-pcoe-b0005/discharge/05124.csv"),
+        dir.join("d.csv"),
+    )
+    .unwrap();
+    let (r, err) = life("life-dated-one-without");
+    assert!(
+        err.contains("4 logs in file name order (no --start-times; ")
+            && err.contains("d.csv has no date and time in its first row"),
+        "{err}"
+    );
+    let names: Vec<&str> = r.iter().map(|x| x[0].rsplit('/').next().unwrap()).collect();
+    assert_eq!(names, ["a.csv", "b.csv", "c.csv", "d.csv"]);
+    assert!(r.iter().all(|x| x[1].is_empty()));
+}
