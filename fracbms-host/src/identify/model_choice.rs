@@ -149,7 +149,7 @@ pub(super) fn refine_fit<const N: usize>(
 
 /// Two refinements whose parameters are this close (`|Δ ln p|` of each
 /// resistance, `Q` and the Butler–Volmer terms, `|Δα|`) are in one basin:
-/// the one with the higher cost is given up by [`refine_best`].
+/// the one with the higher cost is given up by `refine_best`.
 pub const SAME_BASIN: f64 = 0.02;
 
 /// Whether `a` and `b` are within [`SAME_BASIN`] of each other.

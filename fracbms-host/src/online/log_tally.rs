@@ -15,7 +15,7 @@ use estimator_core::battery::online::Identification;
 pub const FULL_DISCHARGE_MARGIN_V: f64 = 0.05;
 
 /// What one log's track published, gathered as it is written: a life's
-/// row ([`LifeRow`]).
+/// row ([`super::life::LifeRow`]).
 #[derive(Clone, Debug, Default)]
 pub struct FileTally {
     /// Samples run.
