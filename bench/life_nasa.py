@@ -68,6 +68,15 @@ def after_load(path):
     return -np.sum(i[last:-1] * np.diff(t)[last:]) / 3600
 
 
+def rest_after_load(path):
+    """The time logged after the last loaded row (|I| > 1 A): the rest at
+    the log's end (s)."""
+    d = np.genfromtxt(path, delimiter=",", names=True)
+    t, i = d["Time"], d["Current_measured"]
+    last = np.nonzero(np.abs(i) > 1.0)[0][-1]
+    return t[-1] - t[last]
+
+
 def growth(x):
     x = np.asarray(x, float)
     x = x[np.isfinite(x)]
@@ -132,6 +141,9 @@ def main():
     print(f"counted after the last loaded row (the load switching off): median {np.median(tail):.4f} A h, "
           f"at most {tail.max():.4f} A h; the baseline at the first log {base[0]:.4f} ohm, "
           f"EIS Re then {re_t[0]:.4f} ohm")
+    rest = np.array([rest_after_load(f"{DATA}/discharge/{n}") for n in names])
+    print(f"rest logged after the last loaded row: {rest.min():.0f}-{rest.max():.0f} s, "
+          f"median {np.median(rest):.0f} s")
     print()
     print("| resistance | logs with a value | Spearman with Re | with Re + Rct | growth over life (last 10 / first 10) |")
     print("|---|---|---|---|---|")
