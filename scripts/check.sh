@@ -9,6 +9,10 @@ cd "$(dirname "$0")/.."
 # (1.9 GB on a clean run), and a CI machine's disk once ran out.
 export CARGO_INCREMENTAL=0
 
+# Each stage's header says when it began (s since the start), so a CI log
+# shows where the time goes.
+stage() { echo "== [${SECONDS} s] $*"; }
+
 # rust-toolchain.toml pins the toolchain, the thumbv7em-none-eabihf target
 # and the clippy/rustfmt/llvm-tools components; rustup installs them on first
 # use. Make sure they are present even with an older rustup.
@@ -21,65 +25,65 @@ fi
 # The firmware runs under QEMU (mps2-an386) in the tests; its log is decoded
 # by defmt-print (installed once into ~/.cargo/bin, then reused).
 if ! command -v qemu-system-arm >/dev/null 2>&1; then
-  echo "== installing qemu-system-arm"
+  stage "installing qemu-system-arm"
   SUDO=""; [ "$(id -u)" -ne 0 ] && SUDO="sudo"
   $SUDO apt-get update -qq
   $SUDO apt-get install -y --no-install-recommends qemu-system-arm >/dev/null
 fi
 if ! command -v defmt-print >/dev/null 2>&1; then
-  echo "== installing defmt-print"
+  stage "installing defmt-print"
   cargo install defmt-print --version 1.2.0 --locked --quiet
 fi
 
 # The C example firmware (examples/c/) is built with arm-none-eabi-gcc.
 if ! command -v arm-none-eabi-gcc >/dev/null 2>&1; then
-  echo "== installing gcc-arm-none-eabi"
+  stage "installing gcc-arm-none-eabi"
   SUDO=""; [ "$(id -u)" -ne 0 ] && SUDO="sudo"
   $SUDO apt-get update -qq
   $SUDO apt-get install -y --no-install-recommends gcc-arm-none-eabi >/dev/null
 fi
 
-echo "== cargo fmt --check"
+stage "cargo fmt --check"
 cargo fmt --all --check
-echo "== layout: no import circles between modules, no file over 800 lines without a reason"
+stage "layout: no import circles between modules, no file over 800 lines without a reason"
 python3 scripts/layout_check.py estimator-core fracbms-host host-sim estimator-ffi firmware xtask python tests
-echo "== cargo clippy (host crates and the Python extension, all targets)"
+stage "cargo clippy (host crates and the Python extension, all targets)"
 cargo clippy --all-targets -- -D warnings
 cargo clippy -p fracbms-python --all-targets -- -D warnings
-echo "== no_std build: estimator-core for thumbv7em-none-eabihf"
+stage "no_std build: estimator-core for thumbv7em-none-eabihf"
 cargo build -p estimator-core --target thumbv7em-none-eabihf --release
 cargo clippy -p estimator-core --target thumbv7em-none-eabihf -- -D warnings
-echo "== C ABI: the static library for thumbv7em-none-eabihf, and include/fracbms.h up to date"
+stage "C ABI: the static library for thumbv7em-none-eabihf, and include/fracbms.h up to date"
 cargo clippy -p estimator-ffi --target thumbv7em-none-eabihf --release -- -D warnings
 cargo build -p estimator-ffi --target thumbv7em-none-eabihf --release
 cargo xtask header --check
-echo "== firmware for the STM32L452 board (built, not run: no board here), with clippy"
+stage "firmware for the STM32L452 board (built, not run: no board here), with clippy"
 for f in board-stm32l452 stm32l452-bq769x0; do
   cargo clippy -p firmware --target thumbv7em-none-eabihf --release --no-default-features --features "$f" -- -D warnings
   cargo build -p firmware --target thumbv7em-none-eabihf --release --no-default-features --features "$f"
 done
-echo "== firmware for thumbv7em-none-eabihf (QEMU board), with clippy"
+stage "firmware for thumbv7em-none-eabihf (QEMU board), with clippy"
 cargo clippy -p firmware --target thumbv7em-none-eabihf --release -- -D warnings
 cargo build -p firmware --target thumbv7em-none-eabihf --release
-echo "== no panic path in the firmware's sample step (docs/panic-paths.md): the default image, and one with an OCV table, Butler-Volmer and the tail"
+stage "no panic path in the firmware's sample step (docs/panic-paths.md): the default image, and one with an OCV table, Butler-Volmer and the tail"
 cargo xtask panic-sites --deny-reachable | tail -1
 FRACBMS_REPLAY="$PWD/data/pybamm/chen2020-hppc.csv" FRACBMS_OCV="$PWD/data/pybamm/chen2020-ocv.csv" \
   FRACBMS_CAPACITY_AH=5.153198 FRACBMS_MODEL=butler-volmer FRACBMS_TAIL=1 \
   cargo xtask panic-sites --deny-reachable | tail -1
-echo "== numpy reference of the battery 2S-OP-GI iteration agrees with host-sim to 1e-9"
+stage "numpy reference of the battery 2S-OP-GI iteration agrees with host-sim to 1e-9"
 python3 -c "import numpy" 2>/dev/null || python3 -m pip install --quiet numpy
 python3 bench/compare.py --runs 1 --iterations 100
-echo "== the Hammerstein refinement reaches the independent maximum-likelihood reference (scipy)"
+stage "the Hammerstein refinement reaches the independent maximum-likelihood reference (scipy)"
 python3 -c "import scipy" 2>/dev/null || python3 -m pip install --quiet scipy
 python3 bench/hammerstein_reference_check.py
 # The tests run to the end even when some fail, so that the summary below
 # counts them all.
 set +e
-echo "== cargo test (host crates, CLI end to end, firmware under QEMU)"
+stage "cargo test (host crates, CLI end to end, firmware under QEMU)"
 cargo test --workspace 2>&1 | tee target/test-output.txt
 cargo_status=${PIPESTATUS[0]}
 
-echo "== Python: pip install ./python into a new virtual environment, then pytest python/tests"
+stage "Python: pip install ./python into a new virtual environment, then pytest python/tests"
 # The package is built once (maturin, profile `python`) and its tests compare
 # it with the host-sim binary cargo test has just built.
 python_status=0
@@ -112,7 +116,7 @@ else
   echo "test result: FAILED. 0 passed; 1 failed; (pip install ./python)" >> target/test-output.txt
 fi
 set -e
-echo "== disk: target/ holds $(du -sh target 2>/dev/null | cut -f1) after the run"
+stage "disk: target/ holds $(du -sh target 2>/dev/null | cut -f1) after the run"
 
 # Finish on a one-line summary of every test binary and of pytest (a cargo
 # test run that did not finish counts as one failure).
