@@ -50,6 +50,14 @@ def metadata():
     return rows
 
 
+def impedance(meta):
+    """The EIS tests with an `Re`, in time order: their start times (s),
+    `Re` and `Rct` (ohm)."""
+    imp = sorted((r for r in meta if r["type"] == "impedance" and r["Re"]), key=lambda r: r["t"])
+    return (np.array([r["t"] for r in imp]), np.array([float(r["Re"]) for r in imp]),
+            np.array([float(r["Rct"]) for r in imp]))
+
+
 def first_step(path):
     """The voltage step over the current step at the first loaded row
     (|I| > 1 A) against the row before it (Ω)."""
@@ -108,10 +116,7 @@ def main():
     rows = list(csv.DictReader(open(life)))
     meta = metadata()
     by_file = {r["filename"]: r for r in meta if r["type"] == "discharge"}
-    imp = sorted((r for r in meta if r["type"] == "impedance" and r["Re"]), key=lambda r: r["t"])
-    ti = np.array([r["t"] for r in imp])
-    re = np.array([float(r["Re"]) for r in imp])
-    rct = np.array([float(r["Rct"]) for r in imp])
+    ti, re, rct = impedance(meta)
 
     names = [os.path.basename(r["file"]) for r in rows]
     t = np.array([by_file[n]["t"] for n in names])
@@ -124,7 +129,7 @@ def main():
     ok = np.isfinite(r_i)
 
     within = np.abs(dis / nasa - 1) <= 0.02
-    print(f"B0005: {len(rows)} discharges, {len(imp)} impedance tests; life in one command "
+    print(f"B0005: {len(rows)} discharges, {len(ti)} impedance tests; life in one command "
           f"(window {a.window}): {statistics.median(secs):.2f} s median of {a.runs} on one core")
     print(f"discharged_ah within 2 % of NASA's capacity: {within.sum()} of {len(rows)} "
           f"({within.mean():.1%}); ratio median {np.median(dis / nasa):.4f}, "

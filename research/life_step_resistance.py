@@ -32,16 +32,13 @@ from scipy.optimize import least_squares
 from scipy.stats import spearmanr
 
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "bench"))
-from life_nasa import DATA, metadata  # noqa: E402
+from life_nasa import DATA, impedance, metadata  # noqa: E402
 
 
 def logs():
     meta = metadata()
     by = {r["filename"]: r for r in meta if r["type"] == "discharge"}
-    imp = sorted((r for r in meta if r["type"] == "impedance" and r["Re"]), key=lambda r: r["t"])
-    ti = np.array([r["t"] for r in imp])
-    re = np.array([float(r["Re"]) for r in imp])
-    rct = np.array([float(r["Rct"]) for r in imp])
+    ti, re, rct = impedance(meta)
     names = sorted(by, key=lambda n: by[n]["t"])
     t = np.array([by[n]["t"] for n in names])
     out = []

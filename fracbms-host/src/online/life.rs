@@ -261,11 +261,7 @@ pub fn order_logs(
         };
         out.push((f, Some((iso.clone(), *s))));
     }
-    out.sort_by(|a, b| {
-        let ta = a.1.as_ref().map_or(f64::NAN, |t| t.1);
-        let tb = b.1.as_ref().map_or(f64::NAN, |t| t.1);
-        ta.total_cmp(&tb).then_with(|| a.0.cmp(&b.0))
-    });
+    by_start(&mut out);
     note(format!(
         "{}: {} logs in the order of their start times ({})",
         input.display(),
@@ -273,6 +269,15 @@ pub fn order_logs(
         table.display()
     ));
     Ok(out)
+}
+
+/// Sorts logs by their start times (then by path, for equal times).
+fn by_start(logs: &mut [TimedLog]) {
+    logs.sort_by(|a, b| {
+        let ta = a.1.as_ref().map_or(f64::NAN, |t| t.1);
+        let tb = b.1.as_ref().map_or(f64::NAN, |t| t.1);
+        ta.total_cmp(&tb).then_with(|| a.0.cmp(&b.0))
+    });
 }
 
 /// The logs in the order of their first rows' date and time when every
@@ -298,16 +303,9 @@ fn by_absolute_time(
         let mut out: Vec<TimedLog> = files
             .into_iter()
             .zip(starts)
-            .map(|(f, s)| {
-                let s = s.expect("every log has a start");
-                (f, Some((s.iso, s.utc_s)))
-            })
+            .map(|(f, s)| (f, s.map(|s| (s.iso, s.utc_s))))
             .collect();
-        out.sort_by(|a, b| {
-            let ta = a.1.as_ref().map_or(f64::NAN, |t| t.1);
-            let tb = b.1.as_ref().map_or(f64::NAN, |t| t.1);
-            ta.total_cmp(&tb).then_with(|| a.0.cmp(&b.0))
-        });
+        by_start(&mut out);
         note(format!(
             "{}: {} logs in the order of their first rows' date and time (`{column}`; no --start-times)",
             input.display(),
