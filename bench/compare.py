@@ -6,7 +6,7 @@ runs, each including start-up and reading the file).
 
     python3 bench/compare.py [--length 1000] [--iterations 100] [--runs 7]
 
-Builds host-sim (release) first. The last line is one JSON object:
+Builds host-sim (release) first, unless --host-sim names a binary. The last line is one JSON object:
 {"rows", "iterations", "max_rel_diff", "host_sim_s", "numpy_s", "numpy_identify_s", "speedup"}.
 """
 import argparse
@@ -36,9 +36,13 @@ def main():
     ap.add_argument("--iterations", type=int, default=100)
     ap.add_argument("--runs", type=int, default=7)
     ap.add_argument("--seed", type=int, default=3)
+    ap.add_argument("--host-sim", help="this host-sim binary (not built; the check of "
+                    "scripts/check.sh takes cargo test's: the same results, not its speed)")
     a = ap.parse_args()
-    subprocess.run(["cargo", "build", "--quiet", "--release", "-p", "host-sim"], cwd=ROOT, check=True)
-    hs = os.path.join(os.environ.get("CARGO_TARGET_DIR", os.path.join(ROOT, "target")), "release", "host-sim")
+    hs = a.host_sim
+    if hs is None:
+        subprocess.run(["cargo", "build", "--quiet", "--release", "-p", "host-sim"], cwd=ROOT, check=True)
+        hs = os.path.join(os.environ.get("CARGO_TARGET_DIR", os.path.join(ROOT, "target")), "release", "host-sim")
     with tempfile.TemporaryDirectory() as d:
         csv = os.path.join(d, "cell.csv")
         run([hs, "simulate", "battery", "--preset", "cell", "--profile", "pulse", "--sigma", "0.0001",

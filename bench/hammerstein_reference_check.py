@@ -10,8 +10,9 @@ reference's (relative 1e-9: both evaluate the same criterion), at most the
 cost at the true parameters, and its estimate is within 1e-3 (relative, on
 p = [a, c, b_iγ_j, α]) of the reference's. Exit status 1 on failure.
 
-    python3 bench/hammerstein_reference_check.py    # builds host-sim (release)
+    python3 bench/hammerstein_reference_check.py    # builds host-sim (release), or --host-sim PATH
 """
+import argparse
 import json
 import math
 import os
@@ -23,8 +24,12 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 
 def main():
-    subprocess.run(["cargo", "build", "--quiet", "--release", "-p", "host-sim"], cwd=ROOT, check=True)
-    hs = os.path.join(os.environ.get("CARGO_TARGET_DIR", os.path.join(ROOT, "target")), "release", "host-sim")
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--host-sim", help="this host-sim binary (not built; scripts/check.sh takes cargo test's)")
+    hs = ap.parse_args().host_sim
+    if hs is None:
+        subprocess.run(["cargo", "build", "--quiet", "--release", "-p", "host-sim"], cwd=ROOT, check=True)
+        hs = os.path.join(os.environ.get("CARGO_TARGET_DIR", os.path.join(ROOT, "target")), "release", "host-sim")
     env = dict(os.environ, OMP_NUM_THREADS="1", OPENBLAS_NUM_THREADS="1", MKL_NUM_THREADS="1")
     failures = 0
     with tempfile.TemporaryDirectory() as d:
