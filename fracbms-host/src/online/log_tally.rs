@@ -46,14 +46,55 @@ impl FileTally {
     /// its period; a current that is not finite counts nothing), and
     /// whether it is a capacity check between the voltage limits
     /// `limits` (`(lowest, highest)`; `None`: none known, no check).
-    pub fn of_record(rec: &io::BatteryRecord, limits: Option<(f64, f64)>) -> Self {
+    ///
+    /// Across a gap of the log whose charge the export's own count gives
+    /// ([`Gap::charge_ah`]) the gap counts as one net charge, the held
+    /// current's count and that charge together: what the estimator
+    /// counts there ([`super::Tracker::bridge_gap`]). Across a gap whose
+    /// charge is not known, the held current.
+    pub fn of_record(rec: &io::BatteryRecord, limits: Option<(f64, f64)>, gaps: &[Gap]) -> Self {
         let (mut dis, mut ch) = (0.0, 0.0);
-        for &i in rec.current.iter().filter(|i| i.is_finite()) {
-            if i < 0.0 {
-                dis -= i * rec.h / 3600.0;
+        let mut add = |q: f64| {
+            if q < 0.0 {
+                dis -= q;
             } else {
-                ch += i * rec.h / 3600.0;
+                ch += q;
             }
+        };
+        // The gaps with a known charge, in time order: (start, end,
+        // charge beyond the held current's count), and the held count
+        // of the one open.
+        let mut known = gaps
+            .iter()
+            .filter_map(|g| Some((g.start_s, g.start_s + g.length_s, g.charge_ah?)))
+            .peekable();
+        let mut open: Option<(f64, f64)> = None;
+        for (&t, &i) in rec.time.iter().zip(&rec.current) {
+            let q = if i.is_finite() {
+                i * rec.h / 3600.0
+            } else {
+                0.0
+            };
+            if let Some((end, held)) = open {
+                if t < end {
+                    open = Some((end, held + q));
+                    continue;
+                }
+                open = None;
+                add(held);
+            }
+            while known.next_if(|&(_, end, _)| end <= t).is_some() {}
+            if let Some(&(start, end, c)) = known.peek() {
+                if t >= start {
+                    known.next();
+                    open = Some((end, c + q));
+                    continue;
+                }
+            }
+            add(q);
+        }
+        if let Some((_, held)) = open {
+            add(held);
         }
         let full_discharge = limits.is_some_and(|(lo, hi)| {
             let peak = rec
@@ -121,5 +162,50 @@ impl FileTally {
             0.5 * (v[n / 2 - 1] + v[n / 2])
         };
         (Some(m), "identified")
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A record of `current` at 60 s, 0 → 600 s.
+    fn record(current: &[f64]) -> io::BatteryRecord {
+        io::BatteryRecord {
+            time: (0..current.len()).map(|k| 60.0 * k as f64).collect(),
+            voltage: vec![3.7; current.len()],
+            current: current.to_vec(),
+            h: 60.0,
+        }
+    }
+
+    #[test]
+    fn a_gap_counts_its_known_charge_not_the_held_current() {
+        // Rest, then a gap of 240 s (rows at 120 s and 360 s; the samples
+        // between hold the rest) across which the export counted 0.1 A·h
+        // of discharge, then 1 A of discharge for two samples.
+        let rec = record(&[0.0, 0.0, 0.0, 0.0, 0.0, 0.0, -1.0, -1.0]);
+        let gap = |charge_ah| Gap {
+            start_s: 120.0,
+            length_s: 240.0,
+            charge_ah,
+        };
+        let t = FileTally::of_record(&rec, None, &[gap(Some(-0.1))]);
+        let loaded = 2.0 * 60.0 / 3600.0;
+        assert!((t.discharged_ah - (0.1 + loaded)).abs() < 1e-12, "{t:?}");
+        assert_eq!(t.charged_ah, 0.0);
+        // Unknown: the held current alone.
+        let t = FileTally::of_record(&rec, None, &[gap(None)]);
+        assert!((t.discharged_ah - loaded).abs() < 1e-12, "{t:?}");
+        // A discharge held across a gap that was a charge: the gap's net
+        // charge counts as charged, and nothing of the held discharge.
+        let rec = record(&[-1.0, -1.0, -1.0, -1.0, -1.0, -1.0, 0.0, 0.0]);
+        let held = 4.0 * 60.0 / 3600.0;
+        let t = FileTally::of_record(&rec, None, &[gap(Some(0.5 + held))]);
+        assert!((t.charged_ah - 0.5).abs() < 1e-12, "{t:?}");
+        assert!(
+            (t.discharged_ah - 2.0 * 60.0 / 3600.0).abs() < 1e-12,
+            "{t:?}"
+        );
     }
 }
