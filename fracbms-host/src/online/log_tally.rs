@@ -169,7 +169,7 @@ impl FileTally {
 mod tests {
     use super::*;
 
-    /// A record of `current` at 60 s, 0 → 600 s.
+    /// A record of `current`, a sample every 60 s from 0 s.
     fn record(current: &[f64]) -> io::BatteryRecord {
         io::BatteryRecord {
             time: (0..current.len()).map(|k| 60.0 * k as f64).collect(),
