@@ -20,6 +20,7 @@
 use super::{stack, BoardApi};
 use core::sync::atomic::{AtomicU32, Ordering};
 use cortex_m::peripheral::syst::SystClkSource;
+use cortex_m::peripheral::SCB;
 use cortex_m_rt::{exception, ExceptionFrame};
 use cortex_m_semihosting::debug;
 use defmt_semihosting as _;
@@ -160,12 +161,20 @@ impl BoardApi for Qemu {
     }
 
     fn clocks(&self) -> u64 {
+        // The counter may have wrapped while its interrupt is still pending
+        // (QEMU takes interrupts only between translated blocks): then the
+        // period is not yet in TICKS and is added here. Without this, one
+        // update in a few thousand read a period back and its cost wrapped
+        // to 2⁶⁴ − 21 795 clocks.
         loop {
             let t1 = TICKS.load(Ordering::Relaxed);
+            let p1 = SCB::is_pendst_pending();
             let v = cortex_m::peripheral::SYST::get_current();
+            let p2 = SCB::is_pendst_pending();
             let t2 = TICKS.load(Ordering::Relaxed);
-            if t1 == t2 {
-                return u64::from(t1) * u64::from(RELOAD + 1) + u64::from(RELOAD - v);
+            if t1 == t2 && p1 == p2 {
+                let periods = u64::from(t1) + u64::from(p1);
+                return periods * u64::from(RELOAD + 1) + u64::from(RELOAD - v);
             }
         }
     }

@@ -37,12 +37,17 @@ pub(crate) fn host_sim(args: &[&str]) {
     );
 }
 
+/// The cargo profile of the tests' images: the release profile's
+/// optimisation without its whole-program LTO (each configuration is a
+/// new image, and the LTO tripled each one's build).
+pub(crate) const PROFILE: &str = "firmware-test";
+
 /// Runs `cargo xtask qemu --input FILE ARGS…` (taking its turn).
 pub(crate) fn xtask_qemu(input: &Path, args: &[&str]) -> Output {
     let _turn = QEMU.lock().unwrap_or_else(|p| p.into_inner());
     Command::new(env!("CARGO"))
         .current_dir(root())
-        .args(["xtask", "qemu", "--input"])
+        .args(["xtask", "qemu", "--profile", PROFILE, "--input"])
         .arg(input)
         .args(args)
         .output()
