@@ -163,9 +163,9 @@ impl BoardApi for Qemu {
     fn clocks(&self) -> u64 {
         // The counter may have wrapped while its interrupt is still pending
         // (QEMU takes interrupts only between translated blocks): then the
-        // period is not yet in TICKS and is added here. Without this, one
-        // update in a few thousand read a period back and its cost wrapped
-        // to 2⁶⁴ − 21 795 clocks.
+        // period is not yet in TICKS and is added here. Without this, a read
+        // could go a period back: on a 4-cell pack record the total lost
+        // 4 400 periods and the longest update wrapped to 2⁶⁴ − 21 795.
         loop {
             let t1 = TICKS.load(Ordering::Relaxed);
             let p1 = SCB::is_pendst_pending();
