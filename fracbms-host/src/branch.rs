@@ -4,18 +4,25 @@
 //! The recursion `(1 + a)·x(l) = drive(l) − a·Σ_{j=1}^{M−1} w_j·x(l − j)`
 //! is the convolution `d ∗ x = drive` with `d = δ + a·w`. Its solution from
 //! a history `x[..warm]` is `x = g ∗ f` over the rows `l ≥ warm`, with
-//! `g = 1/d` the power series of the inverse (its first `N` coefficients,
-//! by Newton's iteration `g ← g + g·(1 − d·g)` on FFTs of doubling size)
-//! and `f = drive − a·(w ∗ x_history)`. Every convolution is a real FFT of
-//! a size at least `2N` with no prime factor above 5 ([`realfft`]), so none wraps: the
-//! values are those of the direct recursion
-//! ([`estimator_core::battery::branch::GlRecursion`]) up to rounding
-//! (test: within 1e−9 of the largest value, to 65 536 rows).
+//! `g = 1/d` the power series of the inverse (its first `N` coefficients)
+//! and `f = drive − a·(w ∗ x_history)`. With the whole memory, `w` is the
+//! series of `(1 − z)^α` and `g` that of `1/(1 + a·(1 − z)^α)`: evaluated
+//! on a circle just inside the unit circle and transformed back (two
+//! transforms); with a shorter memory, by Newton's iteration
+//! `g ← g + g·(1 − d·g)` on FFTs of doubling size (about ten). Every
+//! convolution is a real FFT of a size at least `2N` with no prime factor
+//! above 5 ([`realfft`]), so none wraps: the values are those of the
+//! direct recursion ([`estimator_core::battery::branch::GlRecursion`]) to
+//! about 1e−11 of the largest value (tests: within 1e−9, to 65 536 rows,
+//! `a` from 1e−4 to 1e4). From rest, the history sums `w ∗ x` the
+//! refinement reads come from the recursion itself, `x + a·(w ∗ x) =
+//! drive`, with no transform.
 //!
 //! The spectra of `w`, `∂w/∂α` and `g` are kept while the order, `a` and
 //! the window are unchanged (one refinement iteration changes them once
-//! per trial). Below [`DIRECT_TAPS`] taps the direct recursion is cheaper
-//! and is used instead. This module owns the transforms only; the model,
+//! per trial); `w`'s is taken only when a history or a derivative needs
+//! it. Below [`DIRECT_TAPS`] taps the direct recursion is cheaper and is
+//! used instead. This module owns the transforms only; the model,
 //! the search and the weights are `estimator-core`'s.
 //!
 //! ```
@@ -49,6 +56,12 @@ type Planner = RealFftPlanner<f64>;
 /// cheaper than three transforms there.
 pub const DIRECT_TAPS: usize = 128;
 
+/// From this `a` up, [`BranchSolver::filter`] from rest takes the history
+/// sums from the recursion itself (`E = (drive − x)/a`, exact up to
+/// rounding, which `1/a` scales) instead of a convolution of `x` with the
+/// weights.
+const RECURSION_SUM_MIN_A: f64 = 0.1;
+
 /// Spectra of one sequence at one transform size, and the sequence they
 /// are of (the key: a spectrum is reused only for the same values).
 #[derive(Default)]
@@ -56,7 +69,27 @@ struct Spectrum {
     of: Vec<f64>,
     size: usize,
     hat: Vec<Complex<f64>>,
+    /// `hat` is not yet `of`'s (it is taken when first needed).
+    stale: bool,
 }
+
+/// The points `z_j = r·e^{−2πij/N}` (`j = 0..=N/2`, the forward
+/// transform's sign) of a circle inside
+/// the unit circle, for one transform size `N`: `ln(1 − z_j)`, and
+/// `ln r`. The power series `1/(1 + a·(1 − z)^α)` evaluated there and
+/// transformed back gives its coefficients times `r^k`, the terms from
+/// `N` on folded in times `r^N` ([`CIRCLE_FOLD`]).
+#[derive(Default)]
+struct Circle {
+    size: usize,
+    ln_r: f64,
+    ln_one_minus_z: Vec<Complex<f64>>,
+}
+
+/// `r^N` of [`Circle`]: how much of the series' terms from `N` on folds
+/// onto the first `N` (it also scales the rounding of the `k`-th term by
+/// at most `r^{−N/4}`, 10³, since only the first `N/4` are kept).
+const CIRCLE_FOLD: f64 = 1e-9;
 
 /// The FFT solver of the constant-phase recursion (see the module docs).
 /// It holds transform plans and the spectra of the last weights; a clone
@@ -78,6 +111,12 @@ pub struct FftBranch {
     /// (with `weights.of` as its `w`).
     inverse: Spectrum,
     inverse_key: Option<(u64, usize)>,
+    /// The circle `g` is evaluated on where `w` is the whole
+    /// Grünwald–Letnikov series ([`FftBranch::gl_inverse`]).
+    circle: Circle,
+    /// The spectrum of `ℓ`, the series of `ln(1 − z)` (`−1/k` from
+    /// `k = 1`), to the rows of the last unit branch.
+    log_series: Spectrum,
     /// The spectra of the last drives of
     /// [`FftBranch::unit_branch_with_derivatives`] (a joint fit's knots
     /// each run to their own end: one per end), most recent last.
@@ -208,21 +247,85 @@ impl FftBranch {
     fn prepare(&mut self, w: &[f64], a: f64, n: usize) -> usize {
         let size = transform_size(n);
         let taps = &w[..w.len().min(n)];
-        if self.weights.keep(&mut self.t, taps, size) {
+        let wt = &mut self.weights;
+        if wt.size != size || wt.of != taps {
+            // The weights' own spectrum is taken when a history or a
+            // derivative needs it ([`Self::weights_hat`]).
+            wt.of.clear();
+            wt.of.extend_from_slice(taps);
+            wt.size = size;
+            wt.stale = true;
             self.inverse_key = None;
         }
         if self.inverse_key != Some((a.to_bits(), n)) {
-            let d: Vec<f64> = taps
-                .iter()
-                .enumerate()
-                .map(|(j, &wj)| a * wj + if j == 0 { 1.0 } else { 0.0 })
-                .collect();
-            let g = self.inverse_series(&d, n);
+            let g = match gl_order(taps, n) {
+                Some(alpha) => self.gl_inverse(alpha, a, n, size),
+                None => {
+                    let d: Vec<f64> = taps
+                        .iter()
+                        .enumerate()
+                        .map(|(j, &wj)| a * wj + if j == 0 { 1.0 } else { 0.0 })
+                        .collect();
+                    self.inverse_series(&d, n)
+                }
+            };
             self.t.forward(&g, size, &mut self.inverse.hat);
             self.inverse.size = size;
             self.inverse_key = Some((a.to_bits(), n));
         }
         size
+    }
+
+    /// The spectrum of the weights last prepared, taken now if it was not.
+    fn weights_hat(&mut self) {
+        let wt = &mut self.weights;
+        if wt.stale {
+            self.t.forward(&wt.of, wt.size, &mut wt.hat);
+            wt.stale = false;
+        }
+    }
+
+    /// The first `n` coefficients of `g = 1/(1 + a·(1 − z)^α)`, the
+    /// inverse series of `δ + a·w` when `w` is the Grünwald–Letnikov
+    /// series of order α to `n` terms: the function evaluated on the
+    /// [`Circle`] of transform size `size` (`≥ 2n`), transformed back and
+    /// unscaled by `r^{−k}`. Two transforms where Newton's iteration takes
+    /// about ten; within about 1e−11 of the largest coefficient (the
+    /// folding of the terms from `size` on, and the rounding unscaled).
+    fn gl_inverse(&mut self, alpha: f64, a: f64, n: usize, size: usize) -> Vec<f64> {
+        // Twice the transform size: at most a quarter of the coefficients
+        // are kept, so the rounding is unscaled by at most `r^{−N/4}`.
+        let points = size;
+        let c = &mut self.circle;
+        if c.size != points {
+            c.size = points;
+            c.ln_r = CIRCLE_FOLD.ln() / points as f64;
+            let r = c.ln_r.exp();
+            let step = std::f64::consts::TAU / points as f64;
+            c.ln_one_minus_z = (0..=points / 2)
+                .map(|j| (Complex::new(1.0, 0.0) - Complex::from_polar(r, -step * j as f64)).ln())
+                .collect();
+        }
+        let spec = &mut self.spec;
+        spec.clear();
+        spec.extend(
+            c.ln_one_minus_z
+                .iter()
+                .map(|&l| (Complex::new(1.0, 0.0) + a * (alpha * l).exp()).inv()),
+        );
+        let ln_r = c.ln_r;
+        let mut g = Vec::with_capacity(points);
+        self.t.backward(spec, points, &mut g);
+        g.truncate(n);
+        // r^{−k}, a product from 1 (its rounding grows as k·ε, far below
+        // the folding).
+        let up = (-ln_r).exp();
+        let mut scale = 1.0;
+        for gk in &mut g {
+            *gk *= scale;
+            scale *= up;
+        }
+        g
     }
 
     /// The first `n` coefficients of the power series `1/d` (`d[0] ≠ 0`),
@@ -265,6 +368,9 @@ impl FftBranch {
     /// below), with the history `x[..warm]`, into `x[warm..]`.
     fn solve_into(&mut self, a: f64, warm: usize, x: &mut [f64], pair: bool, size: usize) {
         let n = x.len();
+        if warm > 0 {
+            self.weights_hat();
+        }
         let f = if pair { &mut self.fy } else { &mut self.fx };
         if warm > 0 {
             let past = &mut self.y;
@@ -306,8 +412,12 @@ impl FftBranch {
     ///
     /// With `a = τ·h^(−α)` and `g = 1/(δ + a·w)`, `y = g ∗ I`,
     /// `∂y/∂ln τ = −a·g ∗ (w ∗ y)` and
-    /// `∂y/∂α = −a·g ∗ (∂w/∂α ∗ y) − ln h·∂y/∂ln τ`: one inverse series for
-    /// all three (where finite differences take three).
+    /// `∂y/∂α = −a·g ∗ (∂w/∂α ∗ y) − ln h·∂y/∂ln τ`. The weights are the
+    /// series of `(1 − z)^α`, so `a·w ∗ g = δ − g` and `∂w/∂α = ℓ ∗ w`
+    /// with `ℓ` the series of `ln(1 − z)`: `∂y/∂ln τ = g ∗ y − y` and
+    /// `∂y/∂α = ℓ ∗ ∂y/∂ln τ − ln h·∂y/∂ln τ`. One inverse series and five
+    /// transforms for all three (where finite differences take three
+    /// series).
     pub fn unit_branch_with_derivatives(
         &mut self,
         ln_tau: f64,
@@ -320,33 +430,29 @@ impl FftBranch {
         fill_weights(alpha, &mut w, &mut dw);
         let a = (ln_tau - alpha * h.ln()).exp();
         let size = self.prepare(&w, a, n);
-        let (mut y, mut wy, mut d_tau, mut d_alpha) = (vec![], vec![], vec![], vec![]);
+        let (mut y, mut d_tau, mut d_alpha) = (vec![], vec![], vec![]);
         let t = &mut self.t;
         // The current's spectrum is kept (a fit drives every branch with
-        // the same current), and y's is taken once for both products.
+        // the same current), and so is ℓ's.
         let drive = kept(&mut self.drives, t, current, size);
         let spec = &mut self.spec;
         product(&drive.hat, &self.inverse.hat, spec);
         t.backward(spec, size, &mut y);
         y.truncate(n);
-        let mut y_hat = std::mem::take(&mut self.series_hat);
-        t.forward(&y, size, &mut y_hat);
-        product(&y_hat, &self.weights.hat, spec);
-        t.backward(spec, size, &mut wy);
-        wy.truncate(n);
-        t.convolve(&wy, &self.inverse.hat, size, spec, &mut d_tau);
+        t.convolve(&y, &self.inverse.hat, size, spec, &mut d_tau);
         d_tau.truncate(n);
-        d_tau.iter_mut().for_each(|x| *x *= -a);
-        self.derivatives.keep(t, &dw, size);
-        product(&y_hat, &self.derivatives.hat, spec);
-        t.backward(spec, size, &mut wy);
-        wy.truncate(n);
-        t.convolve(&wy, &self.inverse.hat, size, spec, &mut d_alpha);
+        d_tau.iter_mut().zip(&y).for_each(|(d, &yl)| *d -= yl);
+        if self.log_series.size != size || self.log_series.of.len() != n {
+            let l: Vec<f64> = (0..n)
+                .map(|k| if k == 0 { 0.0 } else { -1.0 / k as f64 })
+                .collect();
+            self.log_series.keep(t, &l, size);
+        }
+        t.convolve(&d_tau, &self.log_series.hat, size, spec, &mut d_alpha);
         d_alpha.truncate(n);
-        self.series_hat = y_hat;
         let ln_h = h.ln();
         for (x, &dt) in d_alpha.iter_mut().zip(&d_tau) {
-            *x = -a * *x - ln_h * dt;
+            *x -= ln_h * dt;
         }
         [y, d_tau, d_alpha]
     }
@@ -403,6 +509,20 @@ fn direct(n: usize, m: usize) -> bool {
     n.min(m) < DIRECT_TAPS
 }
 
+/// The order α of `taps` when they are the first `n` Grünwald–Letnikov
+/// weights of order α (`w₀ = 1`, `w₁ = −α`, `w₂ = w₁·(1 − (α + 1)/2)`), all
+/// `n` of them (the whole memory): then `δ + a·w` is `1 + a·(1 − z)^α` to
+/// `n` terms ([`FftBranch::gl_inverse`]).
+fn gl_order(taps: &[f64], n: usize) -> Option<f64> {
+    if taps.len() < n.max(3) || taps[0] != 1.0 {
+        return None;
+    }
+    let alpha = -taps[1];
+    let w2 = taps[1] * (1.0 - (alpha + 1.0) / 2.0);
+    ((taps[2] - w2).abs() <= 1e-12 * w2.abs().max(1e-300) && alpha > 0.0 && alpha <= 1.0)
+        .then_some(alpha)
+}
+
 /// `buf` as `n` zeros.
 fn zeroed(buf: &mut Vec<f64>, n: usize) {
     buf.clear();
@@ -424,11 +544,42 @@ impl BranchSolver<f64> for FftBranch {
             return GlRecursion.filter(w, a, warm, x, drive, seen);
         }
         let size = self.solve_drive(w, a, warm, x, drive);
+        if warm == 0 && a >= RECURSION_SUM_MIN_A {
+            // E = w ∗ x from the recursion itself, `x + a·E = drive`: no
+            // transform (`fx` still holds the drive: nothing was taken
+            // off it for a history).
+            let ia = 1.0 / a;
+            for (l, (&xl, &f)) in x.iter().zip(&self.fx).enumerate() {
+                seen(l, xl, (f - xl) * ia - xl);
+            }
+            return;
+        }
         // E = w ∗ x, and H = E − x (w₀ = 1).
+        self.weights_hat();
         self.t
             .convolve(x, &self.weights.hat, size, &mut self.spec, &mut self.y);
         for (l, (&xl, &e)) in x.iter().zip(&self.y).enumerate().skip(warm) {
             seen(l, xl, e - xl);
+        }
+    }
+
+    fn filter_with_free(
+        &mut self,
+        w: &[f64],
+        a: f64,
+        warm: usize,
+        x: &mut [f64],
+        y: &mut [f64],
+        drive: impl FnMut(usize) -> f64,
+        seen: impl FnMut(usize, f64, f64),
+    ) {
+        self.filter(w, a, warm, x, drive, seen);
+        if warm == 0 {
+            // No history: the free response is zero (two transforms of
+            // zeros saved).
+            y.iter_mut().for_each(|v| *v = 0.0);
+        } else {
+            self.solve(w, a, warm, y, |_| 0.0);
         }
     }
 

@@ -66,7 +66,14 @@ fn compare<const MEM: usize>(n: usize, m: usize, alpha: f64, a: f64, warm: usize
 
 #[test]
 fn from_rest_with_the_full_memory_it_is_the_direct_recursion() {
-    for (alpha, a) in [(0.6, 3.0), (0.95, 40.0), (0.2, 0.01), (1.0, 1e3)] {
+    for (alpha, a) in [
+        (0.6, 3.0),
+        (0.95, 40.0),
+        (0.2, 0.01),
+        (1.0, 1e3),
+        (0.5, 1e4),
+        (0.3, 1e-4),
+    ] {
         let worst = compare::<4096>(4096, 4096, alpha, a, 0);
         assert!(worst < 1e-9, "α {alpha}, a {a}: {worst:e}");
     }
