@@ -442,12 +442,8 @@ impl FftBranch {
         t.convolve(&y, &self.inverse.hat, size, spec, &mut d_tau);
         d_tau.truncate(n);
         d_tau.iter_mut().zip(&y).for_each(|(d, &yl)| *d -= yl);
-        if self.log_series.size != size || self.log_series.of.len() != n {
-            let l: Vec<f64> = (0..n)
-                .map(|k| if k == 0 { 0.0 } else { -1.0 / k as f64 })
-                .collect();
-            self.log_series.keep(t, &l, size);
-        }
+        self.log_series_hat(n, size);
+        let (t, spec) = (&mut self.t, &mut self.spec);
         t.convolve(&d_tau, &self.log_series.hat, size, spec, &mut d_alpha);
         d_alpha.truncate(n);
         let ln_h = h.ln();
@@ -455,6 +451,17 @@ impl FftBranch {
             *x -= ln_h * dt;
         }
         [y, d_tau, d_alpha]
+    }
+
+    /// The spectrum of `ℓ` (the series of `ln(1 − z)`, `−1/k` from
+    /// `k = 1`) to `n` terms at transform size `size`, kept.
+    fn log_series_hat(&mut self, n: usize, size: usize) {
+        if self.log_series.size != size || self.log_series.of.len() != n {
+            let l: Vec<f64> = (0..n)
+                .map(|k| if k == 0 { 0.0 } else { -1.0 / k as f64 })
+                .collect();
+            self.log_series.keep(&mut self.t, &l, size);
+        }
     }
 
     /// The voltage of `cell` over a current record from rest with the full
@@ -620,6 +627,37 @@ impl BranchSolver<f64> for FftBranch {
         }
         self.solve_into(a, warm, x, false, size);
         self.solve_into(a, warm, y, true, size);
+    }
+
+    fn rest_sums(&mut self, w: &[f64], a: f64, x: &[f64], y: &mut [f64], z: &mut [f64]) -> bool {
+        let n = x.len();
+        if y.len() < n
+            || z.len() < n
+            || direct(n, w.len())
+            || a < RECURSION_SUM_MIN_A
+            || gl_order(&w[..w.len().min(n)], n).is_none()
+        {
+            return false;
+        }
+        let size = self.prepare(w, a, n);
+        // y = g ∗ E = (x − g ∗ x)/a, from E = (R_ct·I − x)/a and
+        // x = g ∗ (R_ct·I).
+        self.t
+            .convolve(x, &self.inverse.hat, size, &mut self.spec, &mut self.y);
+        let ia = 1.0 / a;
+        for ((yl, &xl), &gx) in y.iter_mut().zip(x).zip(&self.y) {
+            *yl = (xl - gx) * ia;
+        }
+        self.log_series_hat(n, size);
+        self.t.convolve(
+            &y[..n],
+            &self.log_series.hat,
+            size,
+            &mut self.spec,
+            &mut self.y,
+        );
+        z[..n].copy_from_slice(&self.y[..n]);
+        true
     }
 
     fn weight_derivative<const MEM: usize>(

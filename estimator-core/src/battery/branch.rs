@@ -102,6 +102,21 @@ pub trait BranchSolver<T: Real>: Default {
         rows: Range<usize>,
         f: impl FnMut(usize, T),
     );
+
+    /// From rest, with `x` the solution [`filter`](Self::filter) gave for
+    /// the weights `w` and `a` (no history): `y = g ∗ E` and `z = ℓ ∗ y`,
+    /// with `E = w ∗ x` the history sums, `g` the recursion's inverse
+    /// (`g ∗ (δ + a·w) = δ`) and `ℓ` the series of `ln(1 − z)` (so that
+    /// `g ∗ (∂w/∂α ∗ x) = ℓ ∗ y` when `w` is the whole Grünwald–Letnikov
+    /// series, `∂w/∂α = ℓ ∗ w`). The refinement's sensitivities from rest
+    /// are sums of `x`, `y` and `z`. A solver that takes them for less
+    /// than the three recursions they replace fills `y` and `z` (over
+    /// `x.len()`) and returns true; the default returns false and leaves
+    /// them, and the caller runs the recursions.
+    fn rest_sums(&mut self, w: &[T], a: T, x: &[T], y: &mut [T], z: &mut [T]) -> bool {
+        let _ = (w, a, x, y, z);
+        false
+    }
 }
 
 /// The direct solver: the recursion row by row (in blocks through the

@@ -268,3 +268,29 @@ fn transform_sizes_are_five_smooth_and_least() {
     // The Panasonic test's 48 800 samples: 98 304 = 2^15·3, not 131 072.
     assert_eq!(transform_size(48_800), 98_304);
 }
+
+/// From rest with the whole memory, `rest_sums` gives `g ∗ E` and
+/// `ℓ ∗ (g ∗ E)` as the direct recursion and the direct sum do; with a
+/// shorter memory it declines.
+#[test]
+fn the_rest_sums_are_the_recursions_they_replace() {
+    const N: usize = 2000;
+    let (alpha, a) = (0.7, 5.0);
+    let w = GlWeights::<f64, N>::new(alpha, 1.0, N).unwrap();
+    let (mut x, mut e) = (vec![0.0; N], vec![0.0; N]);
+    GlRecursion.filter(w.weights(), a, 0, &mut x, drive, |l, xl, h| e[l] = xl + h);
+    let mut y_ref = vec![0.0; N];
+    GlRecursion.solve(w.weights(), a, 0, &mut y_ref, |l| e[l]);
+    let z_ref: Vec<f64> = (0..N)
+        .map(|l| (1..=l).map(|k| -y_ref[l - k] / k as f64).sum())
+        .collect();
+    let mut fft = FftBranch::default();
+    let mut xf = vec![0.0; N];
+    fft.filter(w.weights(), a, 0, &mut xf, drive, |_, _, _| {});
+    let (mut y, mut z) = (vec![0.0; N], vec![0.0; N]);
+    assert!(fft.rest_sums(w.weights(), a, &xf, &mut y, &mut z));
+    assert!(relative(&y_ref, &y) < 1e-9, "{:e}", relative(&y_ref, &y));
+    assert!(relative(&z_ref, &z) < 1e-9, "{:e}", relative(&z_ref, &z));
+    let short = GlWeights::<f64, N>::new(alpha, 1.0, N / 2).unwrap();
+    assert!(!fft.rest_sums(short.weights(), a, &xf, &mut y, &mut z));
+}

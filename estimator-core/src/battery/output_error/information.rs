@@ -121,6 +121,11 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
     }
 }
 
+/// The finest voltage a cell's record resolves (V): no cycler or BMS
+/// front end measures below it, so a fit's residuals smaller than it are
+/// rounding ([`FitInformation::bic`]).
+pub const VOLTAGE_RESOLUTION_V: f64 = 1e-6;
+
 /// The Gauss–Newton information of a converged fit
 /// ([`OutputErrorRefinement::information`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -178,11 +183,21 @@ impl<T: Real> FitInformation<T> {
         T::lit(2.0) * self.cost / T::lit(dof as f64)
     }
 
-    /// Bayesian information criterion `rows·ln(RSS/rows) + k·ln(rows)`.
+    /// Bayesian information criterion `rows·ln(RSS/rows) + k·ln(rows)`,
+    /// the mean square residual taken no lower than
+    /// [`VOLTAGE_RESOLUTION_V`]² (below it two fits differ by rounding,
+    /// not by what the data say: on a record without noise the model with
+    /// more parameters would otherwise win on rounding alone).
     pub fn bic(&self) -> T {
         let rows = T::lit(self.rows.max(1) as f64);
         let rss = T::lit(2.0) * self.cost;
-        rows * (rss / rows).ln() + T::lit(self.parameters() as f64) * rows.ln()
+        let floor = T::lit(VOLTAGE_RESOLUTION_V * VOLTAGE_RESOLUTION_V);
+        let ms = if rss / rows > floor {
+            rss / rows
+        } else {
+            floor
+        };
+        rows * ms.ln() + T::lit(self.parameters() as f64) * rows.ln()
     }
 
     /// Standard errors of the fitted coordinates of `x` (`None` for the

@@ -105,6 +105,39 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
         // its weights' derivatives too: h^(−α)·Σ_k ∂C_k/∂α·Z_k(l − M) over
         // the simulation.
         let (est, spare) = estimate_and_spare(&mut self.sims, self.held);
+        if warm == 0
+            && tails.is_none()
+            && p.r_ct > T::zero()
+            && self
+                .solver
+                .rest_sums(wts, a, &est.up[..n], &mut self.s_q[..n], &mut self.s_a[..n])
+        {
+            // From rest the three recursions' solutions are sums of
+            // U_p = g ∗ (R_ct·I), y = g ∗ E and z = ℓ ∗ y
+            // ([`BranchSolver::rest_sums`]): g ∗ I = U_p/R_ct, and the
+            // order's drive h^(−α)·∂w/∂α ∗ U_p gives h^(−α)·z.
+            let (q_g, rct_g, a_ln_h, tau_g) = (p.q * g, p.r_ct * g, a * ln_h, tau * g);
+            let inv_rct = T::one() / p.r_ct;
+            for (((rct, sq), sa), &up) in self.s_rct[..n]
+                .iter_mut()
+                .zip(&mut self.s_q[..n])
+                .zip(&mut self.s_a[..n])
+                .zip(&est.up[..n])
+            {
+                let (y, z) = (*sq, *sa);
+                *rct = up * inv_rct - q_g * y;
+                *sq = -rct_g * y;
+                *sa = a_ln_h * y - tau_g * z;
+            }
+            self.s_ri[..n].fill(T::zero());
+            self.s_uoc[..n].fill(T::zero());
+            self.s_beta[..n].fill(T::zero());
+            if kinetic {
+                self.s_bva[..n].fill(T::zero());
+                self.s_bvi0[..n].fill(T::zero());
+            }
+            return;
+        }
         let dup = &mut spare.up;
         self.solver
             .weight_derivative(&self.w, &est.up[..n], warm..n, |l, d| {
