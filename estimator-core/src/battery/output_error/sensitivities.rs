@@ -129,13 +129,7 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
                 *sq = -rct_g * y;
                 *sa = a_ln_h * y - tau_g * z;
             }
-            self.s_ri[..n].fill(T::zero());
-            self.s_uoc[..n].fill(T::zero());
-            self.s_beta[..n].fill(T::zero());
-            if kinetic {
-                self.s_bva[..n].fill(T::zero());
-                self.s_bvi0[..n].fill(T::zero());
-            }
+            self.zero_direct_columns(n, kinetic);
             return;
         }
         let dup = &mut spare.up;
@@ -211,14 +205,7 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
                 }
                 None => self.solver.solve(wts, a, warm, &mut self.s_a[..n], order),
             }
-            self.s_ri[..n].fill(T::zero());
-            self.s_uoc[..n].fill(T::zero());
-            self.s_beta[..n].fill(T::zero());
-            if kinetic {
-                // (Read by the Butler–Volmer model's columns only.)
-                self.s_bva[..n].fill(T::zero());
-                self.s_bvi0[..n].fill(T::zero());
-            }
+            self.zero_direct_columns(n, kinetic);
             return;
         }
         // A history at rest (every current exactly 0, as a rest longer than
@@ -327,6 +314,21 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
                     .solver
                     .solve(wts, a, warm, &mut self.s_uoc[..n], |_| T::zero()),
             }
+        }
+    }
+
+    /// From rest (no history) the history's free responses, which the
+    /// columns of R_i, U_oc, β and the kinetic a and i₀ start from, are
+    /// zero over the first `n` rows (and no stale ones from an earlier
+    /// window are left); the kinetic ones are read by the Butler–Volmer
+    /// model's columns only.
+    fn zero_direct_columns(&mut self, n: usize, kinetic: bool) {
+        self.s_ri[..n].fill(T::zero());
+        self.s_uoc[..n].fill(T::zero());
+        self.s_beta[..n].fill(T::zero());
+        if kinetic {
+            self.s_bva[..n].fill(T::zero());
+            self.s_bvi0[..n].fill(T::zero());
         }
     }
 
