@@ -88,7 +88,7 @@ struct Circle {
 
 /// `r^N` of [`Circle`]: how much of the series' terms from `N` on folds
 /// onto the first `N` (it also scales the rounding of the `k`-th term by
-/// at most `r^{−N/4}`, 10³, since only the first `N/4` are kept).
+/// at most `r^{−N/2}`, 3·10⁴, since at most the first `N/2` are kept).
 const CIRCLE_FOLD: f64 = 1e-9;
 
 /// The FFT solver of the constant-phase recursion (see the module docs).
@@ -293,8 +293,9 @@ impl FftBranch {
     /// about ten; within about 1e−11 of the largest coefficient (the
     /// folding of the terms from `size` on, and the rounding unscaled).
     fn gl_inverse(&mut self, alpha: f64, a: f64, n: usize, size: usize) -> Vec<f64> {
-        // Twice the transform size: at most a quarter of the coefficients
-        // are kept, so the rounding is unscaled by at most `r^{−N/4}`.
+        // As many points as the transform size (`≥ 2n`): at most half of
+        // the coefficients are kept, so the rounding is unscaled by at most
+        // `r^{−N/2}`.
         let points = size;
         let c = &mut self.circle;
         if c.size != points {
