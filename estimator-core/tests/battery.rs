@@ -213,6 +213,7 @@ fn f32_refinement_agrees_with_f64() {
         alpha_max: 1.0,
         epsilon: 1e-7,
         cost_tolerance: 0.0,
+        line_search: false,
         max_halvings: 12,
         max_order_step: 0.05,
         estimate_order: true,

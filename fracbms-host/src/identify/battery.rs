@@ -501,6 +501,7 @@ fn battery_run_sized<const N: usize, const MEM: usize>(
             let mut so = BatterySettings::new(rec.h, rm);
             so.ocv_slope = refine.ocv_slope;
             so.cost_tolerance = super::model_choice::WHOLE_RECORD_COST_TOLERANCE;
+            so.line_search = true;
             // Several starts, the best fit kept: the paper's estimate (when
             // it is physical) and the rough ones from the data alone. On a
             // measured pulse they can end in different basins (the LG M50

@@ -333,6 +333,7 @@ pub fn refine_from_start(
                 CellModel::Linear
             },
             cost_tolerance: WHOLE_RECORD_COST_TOLERANCE,
+            line_search: true,
             ..BatterySettings::new(h, i.len().min(v.len()).max(1))
         };
         let f = refine_fit::<N>(&s, start, &win).map_err(ctx)?;
@@ -361,9 +362,11 @@ pub fn refine_from_start(
 /// sample that was not observed (a logger's gap, a rejected row), which
 /// the refinement leaves out of its fit while its current still drives
 /// the model (`estimator_core::battery::output_error`).
-pub(super) struct LoggedWindow<'a> {
-    pub(super) current: &'a [f64],
-    pub(super) voltage: &'a [f64],
+pub struct LoggedWindow<'a> {
+    /// The current of every row (A, charge positive).
+    pub current: &'a [f64],
+    /// The voltage of every row (V; NaN: not observed).
+    pub voltage: &'a [f64],
 }
 
 impl Window<f64> for LoggedWindow<'_> {

@@ -514,3 +514,99 @@ fn lg_m50_pulse_records_joined_give_a_map_that_predicts_the_rate_test() {
     let (by_map, by_single) = (predicted(&map), predicted(&fit));
     assert!(by_map < by_single, "map {by_map} single fit {by_single}");
 }
+
+/// The whole-record refinement's line search (`BatterySettings::
+/// line_search`) on the Panasonic HPPC test's overpotential, as
+/// `identify battery --ocv` fitted it (`--fit-out`: the OCV taken away,
+/// the samples fitted): the model cannot fit a measured cell exactly, and
+/// near the minimum the damped Gauss–Newton step overshoots across the
+/// valley, so the search zig-zags. With the line search the same start
+/// ends at the same minimum (the cost to its tolerance, the parameters to
+/// 0.1 %) in fewer iterations.
+#[test]
+fn panasonic_overpotential_is_fitted_in_fewer_iterations_with_the_line_search() {
+    use estimator_core::battery::output_error::OutputErrorRefinement;
+    use estimator_core::battery::BatterySettings;
+    use fracbms_host::branch::FftBranch;
+    use fracbms_host::identify::battery::{filled, rough_starts};
+    use fracbms_host::identify::model_choice::{LoggedWindow, WHOLE_RECORD_COST_TOLERANCE};
+
+    let (hppc, ocv) = panasonic_hppc_and_ocv("line-search-ocv.csv");
+    let fit_out = tmp("line-search-fit.csv");
+    succeeds(&[
+        "identify",
+        "battery",
+        "--input",
+        s(&hppc),
+        "--ocv",
+        s(&ocv),
+        "--capacity-ah",
+        "2.9",
+        "--model",
+        "linear",
+        "--fit-out",
+        s(&fit_out),
+    ]);
+    let mut rows = csv::Reader::from_path(&fit_out).unwrap();
+    let head = rows.headers().unwrap().clone();
+    let col = |name: &str| head.iter().position(|h| h == name).unwrap();
+    let (t, i, v, o, f) = (
+        col("time_s"),
+        col("current_a"),
+        col("voltage_v"),
+        col("ocv_v"),
+        col("fitted"),
+    );
+    let (mut time, mut current, mut over) = (Vec::new(), Vec::new(), Vec::new());
+    for r in rows.records() {
+        let r = r.unwrap();
+        let x = |k: usize| r[k].parse::<f64>().unwrap();
+        time.push(x(t));
+        current.push(x(i));
+        over.push(if x(f) > 0.5 { x(v) - x(o) } else { f64::NAN });
+    }
+    let h = time[1] - time[0];
+    const N: usize = 65_536;
+    assert!(current.len() <= N);
+    let start = rough_starts(&current, &filled(&over))[0];
+    let win = LoggedWindow {
+        current: &current,
+        voltage: &over,
+    };
+    let fit = |line_search: bool| {
+        let s = BatterySettings {
+            cost_tolerance: WHOLE_RECORD_COST_TOLERANCE,
+            line_search,
+            ..BatterySettings::new(h, current.len())
+        };
+        let mut oe =
+            Box::new(OutputErrorRefinement::<f64, N, N, FftBranch>::new(&s, start).unwrap());
+        for k in 1..=100 {
+            let st = oe.iterate(&s, &win).unwrap();
+            if st.converged {
+                return (k, st.rmse, oe.cell());
+            }
+        }
+        panic!("line search {line_search}: not converged in 100 iterations");
+    };
+    // (The refinement of 65 536 rows is built on the worker's stack.)
+    let run = |ls: bool| fracbms_host::worker::on_worker(|| Ok::<_, fracbms_host::Error>(fit(ls)));
+    let (k_off, rmse_off, p_off) = run(false).unwrap();
+    let (k_on, rmse_on, p_on) = run(true).unwrap();
+    assert!(
+        (rmse_on / rmse_off - 1.0).abs() < 1e-8,
+        "RMSE {rmse_on:e} with it, {rmse_off:e} without"
+    );
+    for (a, b) in [
+        (p_on.r_i, p_off.r_i),
+        (p_on.r_ct, p_off.r_ct),
+        (p_on.q, p_off.q),
+        (p_on.alpha, p_off.alpha),
+    ] {
+        assert!((a / b - 1.0).abs() < 1e-3, "{a} with it, {b} without");
+    }
+    assert!(
+        k_on < k_off,
+        "{k_on} iterations with the line search, {k_off} without"
+    );
+}

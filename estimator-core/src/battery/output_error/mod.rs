@@ -100,7 +100,7 @@ mod tests;
 
 pub use information::FitInformation;
 use search::*;
-pub use search::{AtBounds, RESISTANCE_FLOOR};
+pub use search::{AtBounds, LINE_SEARCH_BELOW, RESISTANCE_FLOOR};
 use sensitivities::*;
 use simulation::*;
 
