@@ -555,17 +555,11 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
         };
         let ts = self.spare();
         let sim = &mut self.sims[ts];
+        // Sliced here, where `n ≤ N` is known: no bounds check inside.
+        let (up, e, eta) = (&mut sim.up[..n], &mut sim.e[..n], &mut sim.eta[..n]);
         let mut simulate = |q: &CellParameters<T>, bq: T, solver: &mut K, w: &GlWeights<T, MEM>| {
-            simulate_window(
-                solver,
-                w,
-                &data,
-                q,
-                bq,
-                &mut sim.up[..n],
-                &mut sim.e[..n],
-                &mut sim.eta[..n],
-            ) + s.prior.map_or(T::zero(), |pr| pr.cost(q, s))
+            simulate_window(solver, w, &data, q, bq, up, e, eta)
+                + s.prior.map_or(T::zero(), |pr| pr.cost(q, s))
                 + Self::evidence_cost(evidence, q)
         };
         self.work.simulations = self.work.simulations.wrapping_add(1);
