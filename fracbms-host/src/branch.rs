@@ -21,7 +21,9 @@
 //! The spectra of `w`, `∂w/∂α` and `g` are kept while the order, `a` and
 //! the window are unchanged (one refinement iteration changes them once
 //! per trial); `w`'s is taken only when a history or a derivative needs
-//! it. Below [`DIRECT_TAPS`] taps the direct recursion is cheaper and is
+//! it. From rest, a drive that is a multiple of the last one (a fit's
+//! `R_ct·I` at each `R_ct` it tries) takes that one's spectrum, scaled:
+//! three transforms a solution instead of four. Below [`DIRECT_TAPS`] taps the direct recursion is cheaper and is
 //! used instead. This module owns the transforms only; the model,
 //! the search and the weights are `estimator-core`'s.
 //!
@@ -42,7 +44,6 @@
 //! assert!(worst < 1e-11);
 //! ```
 
-use std::cell::RefCell;
 use std::fmt;
 use std::ops::Range;
 use std::sync::Arc;
@@ -52,6 +53,9 @@ use estimator_core::battery::CellParameters;
 use estimator_core::frac::{fill_weights, GlWeights};
 use realfft::num_complex::Complex;
 use realfft::RealFftPlanner;
+
+mod circle;
+use circle::{sin_cos_half_pi, Circle};
 
 /// The transform planner (it keeps the plans of the sizes used).
 type Planner = RealFftPlanner<f64>;
@@ -76,118 +80,6 @@ struct Spectrum {
     /// `hat` is not yet `of`'s (it is taken when first needed).
     stale: bool,
 }
-
-/// The points `z_j = r·e^{−2πij/N}` (`j = 0..=N/2`, the forward
-/// transform's sign) of a circle inside
-/// the unit circle, for one transform size `N`: `ln|1 − z_j|` and
-/// `arg(1 − z_j)` (in `(−π/2, π/2)`: `Re(1 − z) ≥ 1 − r > 0`), and
-/// `ln r`. The power series `1/(1 + a·(1 − z)^α)` evaluated there and
-/// transformed back gives its coefficients times `r^k`, the terms from
-/// `N` on folded in times `r^N` ([`CIRCLE_FOLD`]). Shared by every solver
-/// of a thread (a fit's starts each hold one).
-#[derive(Default)]
-struct Circle {
-    size: usize,
-    ln_r: f64,
-    ln_modulus: Vec<f64>,
-    arg: Vec<f64>,
-}
-
-impl Circle {
-    fn new(points: usize) -> Self {
-        let ln_r = CIRCLE_FOLD.ln() / points as f64;
-        let r = ln_r.exp();
-        let step = std::f64::consts::TAU / points as f64;
-        let (ln_modulus, arg) = (0..=points / 2)
-            .map(|j| {
-                let l = (Complex::new(1.0, 0.0) - Complex::from_polar(r, -step * j as f64)).ln();
-                (l.re, l.im)
-            })
-            .unzip();
-        Self {
-            size: points,
-            ln_r,
-            ln_modulus,
-            arg,
-        }
-    }
-
-    /// The circle of `points` points: this thread's last one when it is
-    /// of that size, else made (and kept as the thread's last).
-    fn of(points: usize) -> Arc<Self> {
-        thread_local! {
-            static LAST: RefCell<Option<Arc<Circle>>> = const { RefCell::new(None) };
-        }
-        LAST.with(|last| {
-            let mut last = last.borrow_mut();
-            match &*last {
-                Some(c) if c.size == points => Arc::clone(c),
-                _ => {
-                    let c = Arc::new(Self::new(points));
-                    *last = Some(Arc::clone(&c));
-                    c
-                }
-            }
-        })
-    }
-}
-
-/// `(sin x, cos x)` for `|x| ≤ π/2`, by their Taylor series to `y²¹`
-/// and `y²²` on `|y| ≤ π/4` (the first terms left out are below 10⁻²⁰
-/// there; above π/4 from `π/2 − |x|`, with π/2 in two parts so the
-/// difference is exact, as cos near π/2 must not cancel) in Horner's form:
-/// no call, so a loop of them vectorizes, where libm's `sincos` was a third
-/// of the circle's evaluation. Within an ulp of libm (test
-/// `the_series_sine_is_libms`): the branch's inverse series unscales the
-/// rounding by up to `r^{−N/2}`.
-#[inline]
-fn sin_cos_half_pi(x: f64) -> (f64, f64) {
-    // sin: y·Σ (−y²)^k/(2k+1)!, cos: Σ (−y²)^k/(2k)!, k ≤ 10 and 11.
-    const S: [f64; 11] = [
-        1.0,
-        -1.0 / 6.0,
-        1.0 / 120.0,
-        -1.0 / 5040.0,
-        1.0 / 362_880.0,
-        -1.0 / 39_916_800.0,
-        1.0 / 6_227_020_800.0,
-        -1.0 / 1_307_674_368_000.0,
-        1.0 / 355_687_428_096_000.0,
-        -1.0 / 121_645_100_408_832_000.0,
-        1.0 / 51_090_942_171_709_440_000.0,
-    ];
-    const C: [f64; 12] = [
-        1.0,
-        -1.0 / 2.0,
-        1.0 / 24.0,
-        -1.0 / 720.0,
-        1.0 / 40_320.0,
-        -1.0 / 3_628_800.0,
-        1.0 / 479_001_600.0,
-        -1.0 / 87_178_291_200.0,
-        1.0 / 20_922_789_888_000.0,
-        -1.0 / 6_402_373_705_728_000.0,
-        1.0 / 2_432_902_008_176_640_000.0,
-        -1.0 / 1_124_000_727_777_607_680_000.0,
-    ];
-    /// π/2 = HI + LO, HI the f64 nearest.
-    const HI: f64 = std::f64::consts::FRAC_PI_2;
-    const LO: f64 = 6.123_233_995_736_766e-17;
-    let ax = x.abs();
-    let swap = ax > std::f64::consts::FRAC_PI_4;
-    // HI − ax is exact for ax in [π/4, π/2] (Sterbenz).
-    let y = if swap { (HI - ax) + LO } else { ax };
-    let y2 = y * y;
-    let s = y * S.iter().rev().fold(0.0, |acc, &c| acc * y2 + c);
-    let c = C.iter().rev().fold(0.0, |acc, &c| acc * y2 + c);
-    let (sin_ax, cos_x) = if swap { (c, s) } else { (s, c) };
-    (sin_ax.copysign(x), cos_x)
-}
-
-/// `r^N` of [`Circle`]: how much of the series' terms from `N` on folds
-/// onto the first `N` (it also scales the rounding of the `k`-th term by
-/// at most `r^{−N/2}`, 3·10⁴, since at most the first `N/2` are kept).
-const CIRCLE_FOLD: f64 = 1e-9;
 
 /// The FFT solver of the constant-phase recursion (see the module docs).
 /// It holds transform plans and the spectra of the last weights; a clone
@@ -215,6 +107,12 @@ pub struct FftBranch {
     /// The spectrum of `ℓ`, the series of `ln(1 − z)` (`−1/k` from
     /// `k = 1`), to the rows of the last unit branch.
     log_series: Spectrum,
+    /// The drive of the last solution from rest, and its spectrum: a drive
+    /// proportional to it (a fit's `R_ct·I`, at every `R_ct` it tries)
+    /// takes that spectrum scaled instead of a transform ([`proportion`]).
+    rest_drive: Spectrum,
+    /// Where the kept drive's largest value is (the scale is read there).
+    rest_peak: usize,
     /// The spectra of the last drives of
     /// [`FftBranch::unit_branch_with_derivatives`] (a joint fit's knots
     /// each run to their own end: one per end), most recent last.
@@ -472,10 +370,40 @@ impl FftBranch {
         g
     }
 
+    /// The spectrum of the solution from rest for the drive in `fx`, the
+    /// drive's times `g`'s, into `spec`: the drive's is the kept drive's
+    /// scaled when `fx` is a multiple of it, else transformed (and kept).
+    fn rest_solution_hat(&mut self, size: usize) {
+        let kept = &mut self.rest_drive;
+        let c = match proportion(&kept.of, self.rest_peak, &self.fx) {
+            Some(c) if kept.size == size => c,
+            _ => {
+                kept.keep(&mut self.t, &self.fx, size);
+                self.rest_peak = (0..kept.of.len())
+                    .max_by(|&i, &j| kept.of[i].abs().total_cmp(&kept.of[j].abs()))
+                    .unwrap_or(0);
+                1.0
+            }
+        };
+        self.spec.clear();
+        self.spec.extend(
+            kept.hat
+                .iter()
+                .zip(&self.inverse.hat)
+                .map(|(&f, &g)| f * g * c),
+        );
+    }
+
     /// Solves the recursion for the drive in `f` (rows `warm..`; zero
     /// below), with the history `x[..warm]`, into `x[warm..]`.
     fn solve_into(&mut self, a: f64, warm: usize, x: &mut [f64], pair: bool, size: usize) {
         let n = x.len();
+        if warm == 0 && !pair {
+            self.rest_solution_hat(size);
+            self.t.backward(&mut self.spec, size, &mut self.y);
+            x.copy_from_slice(&self.y[..n]);
+            return;
+        }
         if warm > 0 {
             self.weights_hat();
         }
@@ -611,6 +539,35 @@ fn kept<'a>(
     });
     &kept[at]
 }
+
+/// `c` with `x = c·of` to within [`PROPORTION_ROUNDINGS`] of each value,
+/// so that `c` times `of`'s spectrum is `x`'s to the transform's own
+/// rounding, read at `of[peak]` (its largest value); `None` when `x` is no
+/// such multiple (another length, a NaN, a value off the line), or `of` is
+/// empty or zero there.
+fn proportion(of: &[f64], peak: usize, x: &[f64]) -> Option<f64> {
+    if of.len() != x.len() {
+        return None;
+    }
+    let c = x.get(peak)? / of.get(peak)?;
+    if !c.is_finite() {
+        return None;
+    }
+    let tol = PROPORTION_ROUNDINGS * f64::EPSILON;
+    // Every value checked (no early exit: the loop vectorizes).
+    of.iter()
+        .zip(x)
+        .fold(true, |ok, (&o, &v)| {
+            ok & ((v - c * o).abs() <= tol * v.abs())
+        })
+        .then_some(c)
+}
+
+/// How many roundings (of `f64::EPSILON`, relative) a value of a drive may
+/// lie off the kept drive times its scale and still take the kept
+/// spectrum: `R_ct·I` against `R_ct'·I` is off by at most four (each
+/// product, the scale's quotient and its product).
+const PROPORTION_ROUNDINGS: f64 = 8.0;
 
 /// The product of two spectra of one size, into `out`.
 fn product(a: &[Complex<f64>], b: &[Complex<f64>], out: &mut Vec<Complex<f64>>) {

@@ -314,3 +314,69 @@ fn the_series_sine_is_libms() {
     }
     assert!(worst <= 2.0 * f64::EPSILON, "{worst:e}");
 }
+
+#[test]
+fn a_drive_proportional_to_the_last_takes_its_spectrum_and_the_same_values() {
+    const N: usize = 3000;
+    let w = GlWeights::<f64, N>::new(0.7, 1.0, N).unwrap();
+    let alone = |scale: f64| {
+        let mut x = vec![0.0; N];
+        FftBranch::default().solve(w.weights(), 2.0, 0, &mut x, |l| scale * drive(l));
+        x
+    };
+    // One solver through R_ct·I at three R_ct, then a drive of another
+    // shape: each as a fresh solver gives it (to the transforms' rounding).
+    let mut kept = FftBranch::default();
+    for scale in [0.031, 0.0457, -2.0e-3] {
+        let mut x = vec![0.0; N];
+        kept.solve(w.weights(), 2.0, 0, &mut x, |l| scale * drive(l));
+        let fresh = alone(scale);
+        assert!(
+            relative(&fresh, &x) < 1e-13,
+            "{scale}: {:e}",
+            relative(&fresh, &x)
+        );
+        assert_eq!(
+            kept.rest_drive.of[7],
+            0.031 * drive(7),
+            "the first drive is kept"
+        );
+    }
+    let other = |l: usize| drive(l) + if l > 1000 { 0.5 } else { 0.0 };
+    let mut x = vec![0.0; N];
+    kept.solve(w.weights(), 2.0, 0, &mut x, other);
+    let mut fresh = vec![0.0; N];
+    FftBranch::default().solve(w.weights(), 2.0, 0, &mut fresh, other);
+    assert_eq!(x, fresh, "a drive of another shape is transformed");
+    assert_eq!(kept.rest_drive.of[1001], other(1001));
+}
+
+#[test]
+fn proportion_is_a_multiple_within_a_few_roundings_or_none() {
+    let d: Vec<f64> = (0..500).map(drive).collect();
+    let peak = (0..500)
+        .max_by(|&i, &j| d[i].abs().total_cmp(&d[j].abs()))
+        .unwrap();
+    let r = [0.0123, 0.0456];
+    let x: Vec<f64> = d.iter().map(|v| r[1] * v).collect();
+    let of: Vec<f64> = d.iter().map(|v| r[0] * v).collect();
+    let c = proportion(&of, peak, &x).expect("a multiple");
+    assert!((c - r[1] / r[0]).abs() <= 2.0 * f64::EPSILON * c);
+    let mut off = x.clone();
+    off[250] *= 1.0 + 1e-12;
+    assert_eq!(proportion(&of, peak, &off), None, "one value off the line");
+    off[250] = f64::NAN;
+    assert_eq!(proportion(&of, peak, &off), None, "a NaN");
+    assert_eq!(proportion(&of, peak, &x[..499]), None, "another length");
+    assert_eq!(proportion(&of, 500, &x[..]), None, "no peak");
+    assert_eq!(
+        proportion(&vec![0.0; 500], peak, &x),
+        None,
+        "a zero drive kept"
+    );
+    assert_eq!(
+        proportion(&of, peak, &vec![0.0; 500]),
+        Some(0.0),
+        "a zero drive"
+    );
+}
