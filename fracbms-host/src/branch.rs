@@ -23,9 +23,10 @@
 //! per trial); `w`'s is taken only when a history or a derivative needs
 //! it. From rest, a drive that is a multiple of the last one (a fit's
 //! `R_ct·I` at each `R_ct` it tries) takes that one's spectrum, scaled:
-//! three transforms a solution instead of four. Below [`DIRECT_TAPS`] taps the direct recursion is cheaper and is
-//! used instead. This module owns the transforms only; the model,
-//! the search and the weights are `estimator-core`'s.
+//! three transforms a solution instead of four. Below [`DIRECT_TAPS`] taps
+//! the direct recursion is cheaper and is used instead. This module owns
+//! the transforms only; the model, the search and the weights are
+//! `estimator-core`'s.
 //!
 //! ```
 //! use estimator_core::battery::branch::{BranchSolver, GlRecursion};
