@@ -1,8 +1,9 @@
 //! The firmware under QEMU (`cargo xtask qemu`), checked against host-sim.
 //!
 //! Needs `qemu-system-arm`, `defmt-print` and the thumbv7em-none-eabihf
-//! target; `scripts/check.sh` installs them. The runs share one firmware
-//! build directory, so they take turns (a process-wide lock).
+//! target; `scripts/check.sh` installs them. Each run builds its image
+//! under `cargo xtask qemu`'s build lock and runs a copy of its own, so the
+//! tests run side by side.
 
 #[path = "firmware_qemu/harness.rs"]
 mod harness;

@@ -26,6 +26,8 @@
 //!   "rejected", "string_sop": {the state-of-power keys of the string: the
 //!   weakest cell's currents, the sum of the cells' pulse voltages}}`;
 //!   `--cells N` replays a pack of N cells made from a one-cell record.
+//!   The build runs under a lock and QEMU runs a copy of the image of
+//!   its own, so runs at once do not run each other's record.
 //!   Both JSONs also carry the snapshot's keys (`restore_status`,
 //!   `snapshot_bytes` …) and the stack's: `stack_init_bytes` (start-up,
 //!   the task's initialisation included), `stack_high_water_bytes` (the
@@ -436,6 +438,39 @@ fn build(a: &QemuArgs) -> Result<PathBuf> {
         .join("firmware"))
 }
 
+/// The image built for `a`, copied to a path of this run's own
+/// (`target/qemu-images/firmware-PID`; removed when dropped).
+///
+/// Every configuration builds into one path (`firmware`'s build script
+/// bakes the record and settings in), so the build and the copy take an
+/// exclusive lock on `target/qemu-images/build.lock`: two runs at once
+/// (the QEMU tests run two) each run their own image, and one's QEMU run
+/// overlaps the other's build.
+fn built_image(a: &QemuArgs) -> Result<PrivateImage> {
+    let dir = target_dir().join("qemu-images");
+    std::fs::create_dir_all(&dir).with_context(|| format!("{}: cannot create", dir.display()))?;
+    let lock_path = dir.join("build.lock");
+    let lock = std::fs::File::create(&lock_path)
+        .with_context(|| format!("{}: cannot create", lock_path.display()))?;
+    lock.lock()
+        .with_context(|| format!("{}: cannot lock", lock_path.display()))?;
+    let elf = build(a)?;
+    let own = dir.join(format!("firmware-{}", std::process::id()));
+    std::fs::copy(&elf, &own)
+        .with_context(|| format!("{}: cannot copy to {}", elf.display(), own.display()))?;
+    // The lock is released when `lock` is dropped, here.
+    Ok(PrivateImage(own))
+}
+
+/// A firmware image copied for one run; the copy is removed on drop.
+struct PrivateImage(PathBuf);
+
+impl Drop for PrivateImage {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_file(&self.0);
+    }
+}
+
 /// `timeout T qemu-system-arm` on the mps2-an386 board (Cortex-M4F) with
 /// semihosting and no serial or monitor: add `-kernel ELF` (the Rust
 /// firmware and the C example run on the same command line).
@@ -532,8 +567,8 @@ fn run_elf(elf: &Path, timeout: u32, icount: bool) -> Result<Summary> {
 }
 
 fn qemu(a: &QemuArgs) -> Result<()> {
-    let elf = build(a)?;
-    let s = run_elf(&elf, a.timeout, a.icount)?;
+    let elf = built_image(a)?;
+    let s = run_elf(&elf.0, a.timeout, a.icount)?;
     if a.reset_at.is_some() {
         let restored = s
             .get("RESTORE")
@@ -614,8 +649,8 @@ fn bench_target(b: &BenchArgs) -> Result<()> {
         profile: "release".into(),
         bench: true,
     };
-    let elf = build(&a)?;
-    let s = run_elf(&elf, a.timeout, true)?;
+    let elf = built_image(&a)?;
+    let s = run_elf(&elf.0, a.timeout, true)?;
     let updates = int(&s, "COST", "updates")?;
     let iterations = int(&s, "COST", "iterations")?;
     let clocks = int(&s, "COST", "clocks")?;

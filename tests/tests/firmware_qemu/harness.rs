@@ -1,13 +1,11 @@
 //! The harness of the QEMU tests: paths, the host-sim and `cargo xtask
-//! qemu` runs (one at a time: they share one firmware build directory),
-//! and reading their results. Owns no check of its own.
+//! qemu` runs, and reading their results. Owns no check of its own. The
+//! runs go side by side: `cargo xtask qemu` builds under a lock of its own
+//! and runs a private copy of its image, so one test's QEMU run overlaps
+//! another's build.
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
-use std::sync::Mutex;
-
-static QEMU: Mutex<()> = Mutex::new(());
-
 pub(crate) fn root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
         .parent()
@@ -42,9 +40,8 @@ pub(crate) fn host_sim(args: &[&str]) {
 /// new image, and the LTO tripled each one's build).
 pub(crate) const PROFILE: &str = "firmware-test";
 
-/// Runs `cargo xtask qemu --input FILE ARGS…` (taking its turn).
+/// Runs `cargo xtask qemu --input FILE ARGS…`.
 pub(crate) fn xtask_qemu(input: &Path, args: &[&str]) -> Output {
-    let _turn = QEMU.lock().unwrap_or_else(|p| p.into_inner());
     Command::new(env!("CARGO"))
         .current_dir(root())
         .args(["xtask", "qemu", "--profile", PROFILE, "--input"])
