@@ -57,36 +57,59 @@ fn vector(v: &MatVariable) -> Option<Vec<f64>> {
     (x.len() >= 2).then_some(x)
 }
 
-/// Every struct (and the file's top level) that holds numeric vectors.
-fn tables(prefix: &str, fields: Vec<(String, &MatVariable)>, depth: usize, out: &mut Vec<Table>) {
-    let columns: Vec<(String, Vec<f64>)> = fields
-        .iter()
-        .filter_map(|(name, v)| vector(v).map(|x| (name.clone(), x)))
-        .collect();
-    if !columns.is_empty() {
-        out.push(Table {
-            path: if prefix.is_empty() {
-                "(top level)".to_string()
-            } else {
-                prefix.to_string()
-            },
-            columns,
-        });
-    }
+/// The named fields of a struct (or of the file's top level).
+type Fields<'a> = [(String, &'a MatVariable)];
+
+/// Calls `visit` with the dot path and the fields of the file's top level
+/// (path `""`) and of every struct in it, each struct before those inside
+/// it, down to [`MAX_DEPTH`] levels.
+fn walk_structs<'a>(
+    prefix: &str,
+    fields: Vec<(String, &'a MatVariable)>,
+    depth: usize,
+    visit: &mut dyn FnMut(&str, &Fields<'a>),
+) {
+    visit(prefix, &fields);
     if depth >= MAX_DEPTH {
         return;
     }
     for (name, v) in fields {
         if let MatVariable::Structure(s) = v {
-            let path = if prefix.is_empty() {
-                name.clone()
-            } else {
-                format!("{prefix}.{name}")
-            };
             let inner = s.value.iter().map(|(k, v)| (k.clone(), v)).collect();
-            tables(&path, inner, depth + 1, out);
+            walk_structs(&dot_path(prefix, &name), inner, depth + 1, visit);
         }
     }
+}
+
+/// `prefix.name`, or `name` at the top level.
+fn dot_path(prefix: &str, name: &str) -> String {
+    if prefix.is_empty() {
+        name.to_string()
+    } else {
+        format!("{prefix}.{name}")
+    }
+}
+
+/// Every struct (and the file's top level) that holds numeric vectors.
+fn tables(top: Vec<(String, &MatVariable)>) -> Vec<Table> {
+    let mut out = vec![];
+    walk_structs("", top, 0, &mut |prefix, fields| {
+        let columns: Vec<(String, Vec<f64>)> = fields
+            .iter()
+            .filter_map(|(name, v)| vector(v).map(|x| (name.clone(), x)))
+            .collect();
+        if !columns.is_empty() {
+            out.push(Table {
+                path: if prefix.is_empty() {
+                    "(top level)".to_string()
+                } else {
+                    prefix.to_string()
+                },
+                columns,
+            });
+        }
+    });
+    out
 }
 
 /// The step, state and charge columns of a table (those of another length
@@ -135,8 +158,7 @@ pub(super) fn read(bytes: &[u8], path: &Path, o: &RecordOptions) -> Result<Cycle
         Err(_) => bail!(Data, "{}: not a readable MAT-file", path.display()),
     };
     let top: Vec<(String, &MatVariable)> = file.iter().map(|(k, v)| (k.clone(), v)).collect();
-    let mut found = vec![];
-    tables("", top, 0, &mut found);
+    let found = tables(top);
     let wanted: Vec<&str> = o
         .table
         .as_deref()
@@ -411,37 +433,23 @@ fn first_text(v: &MatVariable) -> Option<String> {
 /// Every field named as an absolute time column
 /// ([`super::date_time::absolute_time_rank`]) holding text (a cell array of
 /// char rows, or a char matrix): its rank, dot path and first row.
-fn absolute_times(
-    prefix: &str,
-    fields: Vec<(String, &MatVariable)>,
-    depth: usize,
-    out: &mut Vec<(usize, String, String)>,
-) {
-    for (name, v) in fields {
-        let path = if prefix.is_empty() {
-            name.clone()
-        } else {
-            format!("{prefix}.{name}")
-        };
-        match v {
-            MatVariable::Structure(s) if depth < MAX_DEPTH => {
-                let inner = s.value.iter().map(|(k, v)| (k.clone(), v)).collect();
-                absolute_times(&path, inner, depth + 1, out);
-            }
-            _ => {
-                let Some(rank) = super::date_time::absolute_time_rank(&name) else {
-                    continue;
-                };
-                let text = match v {
-                    MatVariable::CellArray(c) => c.value.first().and_then(first_text),
-                    other => first_text(other),
-                };
-                if let Some(text) = text {
-                    out.push((rank, path, text));
-                }
+fn absolute_times(top: Vec<(String, &MatVariable)>) -> Vec<(usize, String, String)> {
+    let mut out = vec![];
+    walk_structs("", top, 0, &mut |prefix, fields| {
+        for (name, v) in fields {
+            let Some(rank) = super::date_time::absolute_time_rank(name) else {
+                continue;
+            };
+            let text = match v {
+                MatVariable::CellArray(c) => c.value.first().and_then(first_text),
+                other => first_text(other),
+            };
+            if let Some(text) = text {
+                out.push((rank, dot_path(prefix, name), text));
             }
         }
-    }
+    });
+    out
 }
 
 /// The absolute time field of a MAT-file (its dot path) and its first
@@ -452,7 +460,8 @@ pub(super) fn first_absolute_time(bytes: &[u8], path: &Path) -> Result<Option<(S
         bail!(Data, "{}: not a readable MAT-file", path.display());
     };
     let top: Vec<(String, &MatVariable)> = file.iter().map(|(k, v)| (k.clone(), v)).collect();
-    let mut found = vec![];
-    absolute_times("", top, 0, &mut found);
-    Ok(found.into_iter().min().map(|(_, p, t)| (p, t)))
+    Ok(absolute_times(top)
+        .into_iter()
+        .min()
+        .map(|(_, p, t)| (p, t)))
 }
