@@ -454,12 +454,38 @@ fn built_image(a: &QemuArgs) -> Result<PrivateImage> {
         .with_context(|| format!("{}: cannot create", lock_path.display()))?;
     lock.lock()
         .with_context(|| format!("{}: cannot lock", lock_path.display()))?;
+    remove_stale_images(&dir);
     let elf = build(a)?;
     let own = dir.join(format!("firmware-{}", std::process::id()));
     std::fs::copy(&elf, &own)
         .with_context(|| format!("{}: cannot copy to {}", elf.display(), own.display()))?;
     // The lock is released when `lock` is dropped, here.
     Ok(PrivateImage(own))
+}
+
+/// Removes from `dir` the copies (`firmware-PID`) of runs whose process is
+/// gone: a run killed before it dropped its [`PrivateImage`]. Only where
+/// `/proc` tells which processes run; elsewhere they are left.
+fn remove_stale_images(dir: &Path) {
+    let proc = Path::new("/proc");
+    if !proc.join("self").exists() {
+        return;
+    }
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return;
+    };
+    for e in entries.flatten() {
+        let name = e.file_name();
+        let pid = name
+            .to_str()
+            .and_then(|n| n.strip_prefix("firmware-"))
+            .and_then(|p| p.parse::<u32>().ok());
+        if let Some(pid) = pid {
+            if !proc.join(pid.to_string()).exists() {
+                let _ = std::fs::remove_file(e.path());
+            }
+        }
+    }
 }
 
 /// A firmware image copied for one run; the copy is removed on drop.
@@ -757,5 +783,30 @@ fn main() {
     if let Err(e) = r {
         eprintln!("error: {e:#}");
         std::process::exit(1);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A copy whose process is gone is removed; this process's copy and
+    /// other files stay.
+    #[test]
+    fn a_killed_runs_image_copy_is_removed() {
+        let dir = std::env::temp_dir().join(format!("xtask-images-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let own = dir.join(format!("firmware-{}", std::process::id()));
+        // Above Linux's largest process id (2^22).
+        let gone = dir.join("firmware-999999999");
+        let other = dir.join("build.lock");
+        for f in [&own, &gone, &other] {
+            std::fs::write(f, b"elf").unwrap();
+        }
+        remove_stale_images(&dir);
+        let proc_tells = Path::new("/proc/self").exists();
+        assert_eq!(gone.exists(), !proc_tells);
+        assert!(own.exists() && other.exists());
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 }
