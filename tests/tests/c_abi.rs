@@ -4,14 +4,12 @@
 //! record.
 //!
 //! Needs `cc`, `arm-none-eabi-gcc` and `qemu-system-arm`;
-//! `scripts/check.sh` installs them. The builds share the target directory,
-//! so the tests take turns.
+//! `scripts/check.sh` installs them. The two tests run side by side: cargo
+//! takes turns on the target directory itself, and each test writes its own
+//! files (`cargo xtask qemu` runs a private copy of its image).
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
-use std::sync::Mutex;
-
-static TURN: Mutex<()> = Mutex::new(());
 
 fn root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -57,7 +55,6 @@ fn num(j: &serde_json::Value, k: &str) -> f64 {
 
 #[test]
 fn the_c_example_under_qemu_agrees_with_the_rust_firmware() {
-    let _turn = TURN.lock().unwrap_or_else(|p| p.into_inner());
     let input = "firmware/data/cell-pulse.csv";
     let c = cargo_json(&["xtask", "c-demo", "--input", input]);
     // The QEMU tests' profile (tests/firmware_qemu/harness.rs): the same
@@ -82,7 +79,6 @@ fn the_c_example_under_qemu_agrees_with_the_rust_firmware() {
 
 #[test]
 fn the_host_c_program_runs_the_library_and_checks_its_errors() {
-    let _turn = TURN.lock().unwrap_or_else(|p| p.into_inner());
     let root = root();
     // The dev profile: its dependencies are those `cargo test` has just
     // built, where a release build compiles the host library again with
