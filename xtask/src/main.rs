@@ -66,6 +66,7 @@ use std::process::{Command, Stdio};
 
 mod c_demo;
 mod header;
+mod image;
 mod panic_sites;
 mod summary;
 
@@ -439,62 +440,9 @@ fn build(a: &QemuArgs) -> Result<PathBuf> {
 }
 
 /// The image built for `a`, copied to a path of this run's own
-/// (`target/qemu-images/firmware-PID`; removed when dropped).
-///
-/// Every configuration builds into one path (`firmware`'s build script
-/// bakes the record and settings in), so the build and the copy take an
-/// exclusive lock on `target/qemu-images/build.lock`: two runs at once
-/// (the QEMU tests run two) each run their own image, and one's QEMU run
-/// overlaps the other's build.
-fn built_image(a: &QemuArgs) -> Result<PrivateImage> {
-    let dir = target_dir().join("qemu-images");
-    std::fs::create_dir_all(&dir).with_context(|| format!("{}: cannot create", dir.display()))?;
-    let lock_path = dir.join("build.lock");
-    let lock = std::fs::File::create(&lock_path)
-        .with_context(|| format!("{}: cannot create", lock_path.display()))?;
-    lock.lock()
-        .with_context(|| format!("{}: cannot lock", lock_path.display()))?;
-    remove_stale_images(&dir);
-    let elf = build(a)?;
-    let own = dir.join(format!("firmware-{}", std::process::id()));
-    std::fs::copy(&elf, &own)
-        .with_context(|| format!("{}: cannot copy to {}", elf.display(), own.display()))?;
-    // The lock is released when `lock` is dropped, here.
-    Ok(PrivateImage(own))
-}
-
-/// Removes from `dir` the copies (`firmware-PID`) of runs whose process is
-/// gone: a run killed before it dropped its [`PrivateImage`]. Only where
-/// `/proc` tells which processes run; elsewhere they are left.
-fn remove_stale_images(dir: &Path) {
-    let proc = Path::new("/proc");
-    if !proc.join("self").exists() {
-        return;
-    }
-    let Ok(entries) = std::fs::read_dir(dir) else {
-        return;
-    };
-    for e in entries.flatten() {
-        let name = e.file_name();
-        let pid = name
-            .to_str()
-            .and_then(|n| n.strip_prefix("firmware-"))
-            .and_then(|p| p.parse::<u32>().ok());
-        if let Some(pid) = pid {
-            if !proc.join(pid.to_string()).exists() {
-                let _ = std::fs::remove_file(e.path());
-            }
-        }
-    }
-}
-
-/// A firmware image copied for one run; the copy is removed on drop.
-struct PrivateImage(PathBuf);
-
-impl Drop for PrivateImage {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_file(&self.0);
-    }
+/// ([`image::own_copy`]).
+fn built_image(a: &QemuArgs) -> Result<image::PrivateImage> {
+    image::own_copy(&target_dir().join("qemu-images"), || build(a))
 }
 
 /// `timeout T qemu-system-arm` on the mps2-an386 board (Cortex-M4F) with
@@ -594,7 +542,7 @@ fn run_elf(elf: &Path, timeout: u32, icount: bool) -> Result<Summary> {
 
 fn qemu(a: &QemuArgs) -> Result<()> {
     let elf = built_image(a)?;
-    let s = run_elf(&elf.0, a.timeout, a.icount)?;
+    let s = run_elf(elf.path(), a.timeout, a.icount)?;
     if a.reset_at.is_some() {
         let restored = s
             .get("RESTORE")
@@ -676,7 +624,7 @@ fn bench_target(b: &BenchArgs) -> Result<()> {
         bench: true,
     };
     let elf = built_image(&a)?;
-    let s = run_elf(&elf.0, a.timeout, true)?;
+    let s = run_elf(elf.path(), a.timeout, true)?;
     let updates = int(&s, "COST", "updates")?;
     let iterations = int(&s, "COST", "iterations")?;
     let clocks = int(&s, "COST", "clocks")?;
@@ -783,30 +731,5 @@ fn main() {
     if let Err(e) = r {
         eprintln!("error: {e:#}");
         std::process::exit(1);
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// A copy whose process is gone is removed; this process's copy and
-    /// other files stay.
-    #[test]
-    fn a_killed_runs_image_copy_is_removed() {
-        let dir = std::env::temp_dir().join(format!("xtask-images-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        let own = dir.join(format!("firmware-{}", std::process::id()));
-        // Above Linux's largest process id (2^22).
-        let gone = dir.join("firmware-999999999");
-        let other = dir.join("build.lock");
-        for f in [&own, &gone, &other] {
-            std::fs::write(f, b"elf").unwrap();
-        }
-        remove_stale_images(&dir);
-        let proc_tells = Path::new("/proc/self").exists();
-        assert_eq!(gone.exists(), !proc_tells);
-        assert!(own.exists() && other.exists());
-        std::fs::remove_dir_all(&dir).unwrap();
     }
 }
