@@ -608,6 +608,11 @@ pub struct OnlinePack {
     /// How each cell's SOC is published (`--soc`, `--soc-rest-s`,
     /// `--soc-bias-sigma-a`, `--soc-rest-load-sigma-a`, `--soc-voltage-sigma-v`).
     pub soc: SocOptions,
+    /// The slow part's memory (s; `--slow-memory-s`,
+    /// [`TrackOptions::slow_memory_s`]).
+    pub slow_memory_s: Option<f64>,
+    /// The slow part's memory in state of charge (`--slow-memory-soc`).
+    pub slow_memory_soc: Option<f64>,
     /// A snapshot to start from (`--state-in`, docs/persistence.md).
     pub state_in: Option<PathBuf>,
     /// Where to save the snapshot after the last sample (`--state-out`).
@@ -628,6 +633,8 @@ impl Default for OnlinePack {
             ocv: OcvOptions::default(),
             power: PowerOptions::default(),
             soc: SocOptions::default(),
+            slow_memory_s: None,
+            slow_memory_soc: None,
             state_in: None,
             state_out: None,
         }
@@ -684,6 +691,8 @@ pub fn run_pack_with(
     track.cell = cell.as_ref();
     track.power = a.power;
     track.soc = a.soc;
+    track.slow_memory_s = a.slow_memory_s;
+    track.slow_memory_soc = a.slow_memory_soc;
     let o = PackOptions {
         track,
         updates_per_period: a.updates_per_period.unwrap_or(u16::MAX),

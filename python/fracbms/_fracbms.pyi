@@ -162,6 +162,8 @@ def online_pack(
     t0: float = 0.0,
     state_in: Optional[bytes] = None,
     return_state: bool = False,
+    slow_memory_s: Optional[float] = None,
+    slow_memory_soc: Optional[float] = None,
 ) -> Union[dict[str, Any], tuple[dict[str, Any], bytes]]:
     """A series string's record (``current_a`` one per sample, ``cells_v``
     shape ``(samples, cells)``) through the pack estimator: the columns of
@@ -175,7 +177,11 @@ def online_pack(
     starts every cell from it and adds ``restoration``; a rejected one
     raises ``ValueError``. ``return_state=True`` returns ``(track,
     snapshot)``, the CLI's ``--state-out`` bytes. ``t0`` is the first
-    sample's time (s), the snapshot's clock."""
+    sample's time (s), the snapshot's clock. ``slow_memory_s`` is the
+    CLI's ``--slow-memory-s``: the published ``r_ct``, ``q`` and ``alpha``
+    the mean of what the windows identified, forgetting over that many
+    seconds (default: each window's own), and ``slow_memory_soc`` over that
+    much state of charge (``--slow-memory-soc``, default 0.05)."""
 
 class OnlineCell:
     """The online estimator of one cell (``host-sim online battery``): a
@@ -213,6 +219,8 @@ class OnlineCell:
         soc_voltage_sigma_v: Optional[float] = None,
         sop_carry_s: Optional[float] = None,
         sop_confidence: Optional[float] = None,
+        slow_memory_s: Optional[float] = None,
+        slow_memory_soc: Optional[float] = None,
     ) -> None:
         """``horizons`` (s), ``voltage_min``/``voltage_max`` (V; default the OCV
         table's range), ``current_limit`` (A) and ``pulse_current_a`` (A, +
@@ -232,7 +240,12 @@ class OnlineCell:
         ``soc_voltage_sigma_v``, default 0.005 V),
         ``capacity_ah``, ``capacity_sigma_ah``, ``soc_sigma``,
         ``soc_ocv_weight``) or the count
-        (``soc="coulomb"``); ``soc_coulomb`` is always the count."""
+        (``soc="coulomb"``); ``soc_coulomb`` is always the count.
+        ``slow_memory_s`` (s; ``--slow-memory-s``): the published ``r_ct``,
+        ``q`` and ``alpha`` the mean of what the windows identified,
+        forgetting over that many seconds (default: each window's own), and
+        ``slow_memory_soc`` over that much state of charge
+        (``--slow-memory-soc``, default 0.05)."""
     def push(
         self, current_a: float, voltage_v: float, temperature_c: Optional[float] = None
     ) -> Optional[dict[str, Any]]:

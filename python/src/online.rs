@@ -175,7 +175,8 @@ impl OnlineCell {
         prior_alpha_sigma = 0.1, prior_noise_mv = 100.0, horizons = vec![10.0, 30.0],
         voltage_min = None, voltage_max = None, current_limit = None, pulse_current_a = None,
         soc = "observer", soc_rest_s = None, soc_bias_sigma_a = None, soc_rest_load_sigma_a = None,
-        soc_voltage_sigma_v = None, sop_carry_s = None, sop_confidence = None
+        soc_voltage_sigma_v = None, sop_carry_s = None, sop_confidence = None,
+        slow_memory_s = None, slow_memory_soc = None
     ))]
     #[allow(clippy::too_many_arguments)]
     fn new(
@@ -209,6 +210,8 @@ impl OnlineCell {
         soc_voltage_sigma_v: Option<f64>,
         sop_carry_s: Option<f64>,
         sop_confidence: Option<f64>,
+        slow_memory_s: Option<f64>,
+        slow_memory_soc: Option<f64>,
     ) -> PyResult<Self> {
         if !(h.is_finite() && h > 0.0) {
             return Err(PyValueError::new_err(format!(
@@ -277,6 +280,8 @@ impl OnlineCell {
                 rest_load_sigma_a: soc_rest_load_sigma_a,
                 voltage_sigma_v: soc_voltage_sigma_v,
             },
+            slow_memory_s,
+            slow_memory_soc,
         };
         let tracker = py
             .detach(|| on_worker(|| Tracker::new(&o, h, spec.and_then(|s| s.soc0))))

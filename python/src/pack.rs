@@ -48,7 +48,8 @@ use crate::{choice, ocv_spec, power_options, vec, Floats};
     tail = false, ocv = None, capacity_ah = None, soc0 = None, horizons = vec![10.0, 30.0],
     voltage_min = None, voltage_max = None, current_limit = None, pulse_current_a = None,
     sop_carry_s = None, sop_confidence = None, soc = "observer", soc_rest_s = None, soc_bias_sigma_a = None,
-    soc_rest_load_sigma_a = None, soc_voltage_sigma_v = None, t0 = 0.0, state_in = None, return_state = false
+    soc_rest_load_sigma_a = None, soc_voltage_sigma_v = None, t0 = 0.0, state_in = None, return_state = false,
+    slow_memory_s = None, slow_memory_soc = None
 ))]
 #[allow(clippy::too_many_arguments)]
 pub fn online_pack<'py>(
@@ -82,6 +83,8 @@ pub fn online_pack<'py>(
     t0: f64,
     state_in: Option<Vec<u8>>,
     return_state: bool,
+    slow_memory_s: Option<f64>,
+    slow_memory_soc: Option<f64>,
 ) -> PyResult<Bound<'py, PyAny>> {
     if !(h.is_finite() && h > 0.0) {
         return Err(PyValueError::new_err(format!(
@@ -137,6 +140,8 @@ pub fn online_pack<'py>(
             rest_load_sigma_a: soc_rest_load_sigma_a,
             voltage_sigma_v: soc_voltage_sigma_v,
         },
+        slow_memory_s,
+        slow_memory_soc,
         state_in: None,
         state_out: None,
     };

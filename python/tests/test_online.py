@@ -136,6 +136,31 @@ def test_the_state_of_power_carry_equals_the_cli(host_sim, tmp_path):
             c["current_a"][:10], c["voltage_v"][:10])
 
 
+def test_the_slow_part_carried_across_windows_equals_the_cli(host_sim, tmp_path):
+    rec, ocv_file, cap, c, o = chen_hppc()
+    tracks = {}
+    for memory in (None, 600.0):
+        args = ["--ocv", ocv_file, "--capacity-ah", str(cap)]
+        if memory is not None:
+            args += ["--slow-memory-s", str(memory), "--slow-memory-soc", "0.05"]
+        cli = cli_track(host_sim, rec, tmp_path, *args)
+        cell = fracbms.OnlineCell(ocv=(o["soc"], o["ocv_v"]), capacity_ah=cap,
+                                  slow_memory_s=memory, slow_memory_soc=0.05)
+        py = cell.run(c["current_a"], c["voltage_v"])
+        assert_same_track(py, cli)
+        tracks[memory] = py
+    own, mean = tracks[None], tracks[600.0]
+    # Only what is published of the slow part moves: the window's fit,
+    # R_i and the state of power are the same.
+    for k in ("window_r_ct", "window_q", "r_i", "sop_discharge_a_10s", "pulse_v_30s"):
+        np.testing.assert_array_equal(own[k], mean[k], err_msg=k)
+    moved = np.isfinite(own["r_ct"]) & (own["r_ct"] != mean["r_ct"])
+    assert moved.sum() > 100
+    with pytest.raises(ValueError):
+        fracbms.OnlineCell(ocv=(o["soc"], o["ocv_v"]), capacity_ah=cap, slow_memory_s=-1.0).run(
+            c["current_a"][:10], c["voltage_v"][:10])
+
+
 def test_the_state_of_power_confidence_equals_the_cli(host_sim, tmp_path):
     rec, ocv_file, cap, c, o = chen_hppc()
     runs = {}

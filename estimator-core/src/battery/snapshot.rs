@@ -33,7 +33,10 @@
 //! charge, and the SOC observer's state (SOC, current bias, capacity, their
 //! covariance, the last identified capacity). For the pack: which cell the
 //! next period's updates start at. The window, the counters and the state
-//! of power's polarization are not kept: they refill from new samples.
+//! of power's polarization are not kept: they refill from new samples. Nor
+//! is the mean of the slow part carried across windows
+//! ([`OnlineSettings::slow_memory_s`]): it starts again at the first
+//! window that identifies each parameter.
 //!
 //! # Layout (a fixed layout, little-endian)
 //! A fixed layout rather than a serde format: the bytes are the same from

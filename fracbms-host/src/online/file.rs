@@ -48,6 +48,11 @@ pub struct OnlineBatteryOptions {
     /// How the SOC is published (`--soc`, `--soc-rest-s`,
     /// `--soc-bias-sigma-a`, `--soc-rest-load-sigma-a`, `--soc-voltage-sigma-v`).
     pub soc: soc::SocOptions,
+    /// The slow part's memory (s; `--slow-memory-s`,
+    /// [`TrackOptions::slow_memory_s`]).
+    pub slow_memory_s: Option<f64>,
+    /// The slow part's memory in state of charge (`--slow-memory-soc`).
+    pub slow_memory_soc: Option<f64>,
     /// A snapshot to start from (`--state-in`, [`state`]).
     pub state_in: Option<PathBuf>,
     /// Where to save the snapshot after the last sample (`--state-out`).
@@ -80,6 +85,8 @@ impl Default for OnlineBatteryOptions {
             record: crate::cycler::RecordOptions::default(),
             power: power::PowerOptions::default(),
             soc: soc::SocOptions::default(),
+            slow_memory_s: None,
+            slow_memory_soc: None,
             state_in: None,
             state_out: None,
             start_time_s: None,
@@ -196,6 +203,8 @@ pub(crate) fn battery_run(
         tail: o.tail,
         power: o.power,
         soc: o.soc,
+        slow_memory_s: o.slow_memory_s,
+        slow_memory_soc: o.slow_memory_soc,
     };
     let mut tracker = Tracker::new(&t, rec.h, t.cell.map(|c| c.soc0))?;
     let clock = o.start_time_s.unwrap_or(0.0);

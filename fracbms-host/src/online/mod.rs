@@ -148,6 +148,14 @@ pub struct TrackOptions<'a> {
     pub power: power::PowerOptions,
     /// How the SOC is published (with `cell`).
     pub soc: soc::SocOptions,
+    /// The memory (s) of the slow part carried across windows
+    /// (`--slow-memory-s`, the core's `OnlineSettings::slow_memory_s`):
+    /// the published `R_ct`, `Q` and α are the mean of what the windows
+    /// identified. `None`: each window's own.
+    pub slow_memory_s: Option<f64>,
+    /// The slow part's memory in state of charge (`--slow-memory-soc`,
+    /// `OnlineSettings::slow_memory_soc`; `None`: the core's default).
+    pub slow_memory_soc: Option<f64>,
 }
 
 impl TrackOptions<'_> {
@@ -168,6 +176,8 @@ impl TrackOptions<'_> {
             tail: false,
             power: power::PowerOptions::default(),
             soc: soc::SocOptions::default(),
+            slow_memory_s: None,
+            slow_memory_soc: None,
         }
     }
 
@@ -196,6 +206,24 @@ impl TrackOptions<'_> {
         s.battery.model = self.cell_model();
         s.battery.tail = self.tail;
         s.iterations_per_sample = self.iterations_per_sample;
+        if let Some(m) = self.slow_memory_s {
+            if m.is_nan() || m < 0.0 {
+                bail!(
+                    Options,
+                    "--slow-memory-s {m}: must be a number of seconds, 0 or more"
+                );
+            }
+            s.slow_memory_s = T::lit(m);
+        }
+        if let Some(m) = self.slow_memory_soc {
+            if m.is_nan() || m <= 0.0 {
+                bail!(
+                    Options,
+                    "--slow-memory-soc {m}: must be a positive fraction of the state of charge"
+                );
+            }
+            s.slow_memory_soc = T::lit(m);
+        }
         s.method = match self.method {
             BatteryMethod::Paper => Method::Paper,
             BatteryMethod::Refined => Method::Refined,

@@ -143,8 +143,8 @@ pub struct OnlineBatteryArgs {
     pub out: PathBuf,
 }
 
-/// The state of charge and the state of power: the flags `online battery`
-/// and `online pack` share.
+/// What is published, the state of charge and the state of power: the
+/// flags `online battery` and `online pack` share.
 #[derive(clap::Args, Debug)]
 pub struct StateArgs {
     /// State of power: the horizons (s) of the columns
@@ -155,6 +155,19 @@ pub struct StateArgs {
     /// sample; empty until every parameter is published (docs/state-of-power.md).
     #[arg(long, value_delimiter = ',', default_value = "10,30")]
     pub horizons: Vec<f64>,
+    /// The memory (s) of the slow part carried across windows: the
+    /// published R_ct, Q and α are the mean of the values the windows
+    /// identified, each weighed by its information (1/σ² of its log, of α)
+    /// and by exp(−age/S), started again where the SOC has moved more than
+    /// 0.15 from the last (docs/online-publication.md). Default 0: each
+    /// window's own values. The window_* columns and the state of power
+    /// are the window's fit either way.
+    #[arg(long, value_name = "S", allow_hyphen_values = true)]
+    pub slow_memory_s: Option<f64>,
+    /// The slow part's memory in state of charge (with --ocv): an earlier
+    /// value weighs exp(−|ΔSOC|/F) less besides (default 0.05).
+    #[arg(long, value_name = "F", allow_hyphen_values = true)]
+    pub slow_memory_soc: Option<f64>,
     /// The lowest voltage a state-of-power pulse may reach (V; default:
     /// the OCV table's lowest; without a table and this, no state of power).
     #[arg(long)]
@@ -341,6 +354,8 @@ pub(super) fn battery(a: OnlineBatteryArgs) -> Result<()> {
         record: (&a.record).into(),
         power: a.states.power()?,
         soc: a.states.soc(),
+        slow_memory_s: a.states.slow_memory_s,
+        slow_memory_soc: a.states.slow_memory_soc,
         state_in: a.snapshot.state_in.clone(),
         state_out: a.snapshot.state_out.clone(),
         start_time_s: match &a.start_time {
@@ -464,6 +479,8 @@ pub(super) fn pack(a: OnlinePackArgs) -> Result<()> {
         ocv: (&a.cell).into(),
         power: a.states.power()?,
         soc: a.states.soc(),
+        slow_memory_s: a.states.slow_memory_s,
+        slow_memory_soc: a.states.slow_memory_soc,
         state_in: a.snapshot.state_in.clone(),
         state_out: a.snapshot.state_out.clone(),
     };

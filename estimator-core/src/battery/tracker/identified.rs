@@ -15,7 +15,10 @@
 //! answers a current step with at once ([`StepResistance::model_ohm`]:
 //! `R_i` in the linear model) is within that factor of the resistance the
 //! last current step showed. Otherwise the last identified value stays
-//! published, marked held, or nothing is published for it yet.
+//! published, marked held, or nothing is published for it yet. What is
+//! published of an identified `R_ct`, `Q` or α is the window's value, or
+//! with [`OnlineSettings::slow_memory_s`] the mean the windows' values make
+//! ([`super::fusion`]).
 //!
 //! With a prior, identified means by the window's data alone
 //! ([`FitInformation::without_prior`]): the prior's weight would otherwise
@@ -27,6 +30,7 @@
 //! estimate the tracker iterates from (the refinement keeps its own), nor
 //! the overall [`Status`].
 
+use super::fusion::Slow;
 use super::*;
 use crate::battery::output_error::{FitInformation, COLUMNS};
 use crate::battery::power::{ParameterSpread, SopBasis};
@@ -100,7 +104,9 @@ impl Identification {
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct PublishedParameter<T> {
-    /// The value of the last window that identified it.
+    /// The value of the last window that identified it; for `R_ct`, `Q`
+    /// and α with [`OnlineSettings::slow_memory_s`] above 0, the mean of
+    /// the values the windows identified.
     pub value: Option<T>,
     /// Whether that window is the last one.
     pub status: Identification,
@@ -455,11 +461,23 @@ impl<T: Real, const N: usize> CellState<T, N> {
             // A fixed order is known exactly.
             alpha.map(|_| (p.alpha, Some(T::zero())))
         };
+        // The slow part: what the windows identified, carried across them
+        // ([`super::fusion`]; each window's own with `slow_memory_s` 0).
+        let at = (self.counts.samples, soc);
+        let slow = &mut self.slow;
+        let mut fused = |k: Slow, v: Option<(T, Option<T>)>, st: Option<Identification>| {
+            v.map(|(x, e)| match st {
+                Some(Identification::Identified) => (slow.take(s, k, x, e, at), e),
+                _ => (x, e),
+            })
+        };
+        let r_ct_v = fused(Slow::RCt, value(p.r_ct, 1, r_ct), r_ct);
+        let q_v = fused(Slow::Q, value(p.q, 2, q), q);
+        let alpha_v = fused(Slow::Alpha, alpha_v, alpha);
         let pb = &mut self.published;
         pb.r_i.update(value(p.r_i, 0, r_i), r_i.unwrap_or(id), soc);
-        pb.r_ct
-            .update(value(p.r_ct, 1, r_ct), r_ct.unwrap_or(id), soc);
-        pb.q.update(value(p.q, 2, q), q.unwrap_or(id), soc);
+        pb.r_ct.update(r_ct_v, r_ct.unwrap_or(id), soc);
+        pb.q.update(q_v, q.unwrap_or(id), soc);
         pb.alpha.update(alpha_v, alpha.unwrap_or(id), soc);
     }
 }

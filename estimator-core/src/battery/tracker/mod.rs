@@ -9,7 +9,8 @@
 //! it ([`CurrentHistory`], [`CellWindow`]), the guard that validates and
 //! substitutes each sample ([`guard`]), the iterations and the
 //! plausibility check before an estimate is published ([`iterate`]), and
-//! which parameters the data identify ([`identified`]). The
+//! which parameters the data identify ([`identified`]), and the slow part
+//! carried across windows ([`fusion`]). The
 //! per-sample flow is described in [`super::online`].
 //!
 //! It must not touch the pack's schedule or health (which cell updates in
@@ -17,6 +18,7 @@
 //! pack estimator: both are built on it. Its public items are re-exported
 //! from [`super::online`], their public path.
 
+mod fusion;
 mod guard;
 mod history;
 mod identified;

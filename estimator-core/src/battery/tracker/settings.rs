@@ -76,6 +76,18 @@ pub struct OnlineSettings<T, const P: usize = 0> {
     /// this from the present one expires (with an OCV curve): resistances
     /// and time constants change with the state of charge.
     pub hold_soc_span: T,
+    /// The memory (s) of the slow part carried across windows: what is
+    /// published of `R_ct`, `Q` and α is the information-weighted mean of
+    /// the values the windows identified, an earlier one weighing
+    /// `exp(−Δt/slow_memory_s)` less (and nothing beyond
+    /// [`hold_soc_span`](Self::hold_soc_span) of state of charge). 0 (the
+    /// default): each window's own value.
+    pub slow_memory_s: T,
+    /// The slow part's memory in state of charge: an earlier value weighs
+    /// `exp(−|ΔSOC|/slow_memory_soc)` less besides (with an OCV curve;
+    /// default 0.05: resistances and time constants change with the state
+    /// of charge).
+    pub slow_memory_soc: T,
     /// The SOC observer beside the count (with a curve;
     /// [`crate::battery::soc`]). [`with_curve`](Self::with_curve) sets its
     /// defaults for the curve's capacity: change them after it.
@@ -90,7 +102,8 @@ impl<T: Real> OnlineSettings<T> {
     /// 3 consecutive spikes believed; published relaxation times up to one
     /// fitted window, OCV offsets up to 0.15 V; parameters published when
     /// identified to a factor 2 (α to ±0.1), held within 0.15 of the state
-    /// of charge they were identified at.
+    /// of charge they were identified at; each window's own values published
+    /// (no slow part carried across windows).
     pub fn new(h: T, memory: usize, initial: CellParameters<T>) -> Self {
         let mut battery = BatterySettings::new(h, memory);
         battery.start = Start::FromData;
@@ -114,6 +127,8 @@ impl<T: Real> OnlineSettings<T> {
             identify_factor: T::lit(2.0),
             identify_alpha: T::lit(0.1),
             hold_soc_span: T::lit(0.15),
+            slow_memory_s: T::zero(),
+            slow_memory_soc: T::lit(0.05),
             soc: SocSettings::new(T::one(), h),
         }
     }
@@ -156,6 +171,8 @@ impl<T: Real, const P: usize> OnlineSettings<T, P> {
             identify_factor: self.identify_factor,
             identify_alpha: self.identify_alpha,
             hold_soc_span: self.hold_soc_span,
+            slow_memory_s: self.slow_memory_s,
+            slow_memory_soc: self.slow_memory_soc,
             max_relaxation_windows: self.max_relaxation_windows,
             soc,
         }
@@ -264,7 +281,9 @@ pub(crate) fn check_limits<T: Real, const P: usize>(s: &OnlineSettings<T, P>) ->
         && s.spike_floor > T::zero()
         && s.spike_floor.is_finite()
         && s.max_ocv_offset > T::zero()
-        && s.max_relaxation_windows > T::zero();
+        && s.max_relaxation_windows > T::zero()
+        && s.slow_memory_s >= T::zero()
+        && s.slow_memory_soc > T::zero();
     if !limits_ok {
         return Err(Error::BadSetting);
     }

@@ -2,6 +2,7 @@
 //! one at a time ([`WorkingArea`]): settings, per-cell state and scratch
 //! apart, as in the pack.
 
+use super::fusion::SlowFusion;
 use super::*;
 use crate::battery::output_error::{OutputErrorRefinement, RefinementState, RefinementWork};
 use crate::battery::regression::{PaperRegressionGi, PaperRegressionState};
@@ -67,6 +68,8 @@ pub struct CellState<T, const N: usize> {
     /// What is published of each parameter, and whether the data
     /// identify it ([`super::identified`]).
     pub(super) published: PublishedParameters<T>,
+    /// The slow part carried across windows ([`super::fusion`]).
+    pub(super) slow: SlowFusion<T>,
     /// Each parameter's last published value once it has expired
     /// (`[R_i, R_ct, Q, α]`, NaN: none): what a state of power falls back
     /// on ([`crate::battery::power::SopBasis::Stale`]).
@@ -214,6 +217,7 @@ impl<T: Real, const N: usize> CellState<T, N> {
         last_rejection: None,
         past: PastModes::new(),
         published: PublishedParameters::NONE,
+        slow: SlowFusion::EMPTY,
         stale: [T::NAN; 4],
         soc_observer: SocObserver::BLANK,
         step: None,
@@ -246,6 +250,7 @@ impl<T: Real, const N: usize> CellState<T, N> {
         self.last_rejection = None;
         self.past = PastModes::new();
         self.published = PublishedParameters::NONE;
+        self.slow = SlowFusion::EMPTY;
         self.stale = [T::NAN; 4];
         self.soc_observer = SocObserver::new(&s.soc, None);
         self.step = None;
