@@ -194,7 +194,7 @@ def pct(x):
     return f"{100 * x:.1f}"
 
 
-def acceptance(host_sim, out, map_method):
+def acceptance(host_sim, out, map_method, online_args=()):
     """Every pulse from each record's second pulse group on, with and
     without the record's own map as the prior, beside two baselines
     measured on the same pulses: the last pulse's drop at that duration
@@ -237,7 +237,7 @@ def acceptance(host_sim, out, map_method):
                 subprocess.run([host_sim, "online", "battery", "--input", path, "--ocv", ocv_path,
                                 "--capacity-ah", str(cap), "--pulse-current-a", str(c),
                                 "--horizons", ",".join(map(str, horizons)), "--window", "256",
-                                "--out", track] + extra,
+                                "--out", track] + extra + list(online_args),
                                check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
                 tracks[c] = list(csv.DictReader(open(track)))
             for h in horizons:
@@ -304,10 +304,13 @@ def main():
                     "two baselines (issue 72)")
     ap.add_argument("--map-method", default="joint", choices=("joint", "levels"),
                     help="with --acceptance: how the record's own map is made (default joint)")
+    ap.add_argument("--online-args", default="",
+                    help="with --acceptance: more flags for every `online battery` run, "
+                    "e.g. '--slow-memory-s 600'")
     a = ap.parse_args()
     os.makedirs(a.out, exist_ok=True)
     if a.acceptance:
-        acceptance(a.host_sim, a.out, a.map_method)
+        acceptance(a.host_sim, a.out, a.map_method, a.online_args.split())
         return
     ps, (t, v) = pulses()
     if a.resistances:
