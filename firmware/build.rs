@@ -15,7 +15,8 @@
 //!   writes it into `config.rs` as two `static` arrays (flash).
 //! * Reads the prior's centre (`FRACBMS_PRIOR=r_i,r_ct,q,alpha[,bv_a,bv_i0]`)
 //!   and the cell model (`FRACBMS_MODEL=linear|butler-volmer`), the
-//!   short-memory correction (`FRACBMS_TAIL=0|1`).
+//!   short-memory correction (`FRACBMS_TAIL=0|1`) and the slow part's
+//!   memory (`FRACBMS_SLOW_MEMORY_S`, seconds; 0, the default: off).
 //! * Reads the parameter map (`FRACBMS_MAP`, the `--map-out` CSV of
 //!   `host-sim identify battery`), keeps its identifiable levels, checks
 //!   them with the core's `ParameterMap` in `f32` and writes them as a
@@ -311,6 +312,13 @@ fn main() {
         "1" => true,
         t => fail(format!("FRACBMS_TAIL={t}: must be 0 or 1")),
     };
+    let slow_memory_s = var("FRACBMS_SLOW_MEMORY_S", "0");
+    let slow_memory_s: f32 = match slow_memory_s.parse() {
+        Ok(s) if s >= 0.0 && f32::is_finite(s) => s,
+        _ => fail(format!(
+            "FRACBMS_SLOW_MEMORY_S={slow_memory_s}: must be a number of seconds, 0 or more"
+        )),
+    };
     let bench = match var("FRACBMS_BENCH", "0").as_str() {
         "0" => false,
         "1" => true,
@@ -508,6 +516,9 @@ fn main() {
          /// The short-memory correction: the taps beyond the memory\n\
          /// (`FRACBMS_TAIL=1`, `BatterySettings::tail`).\n\
          pub const TAIL: bool = {tail};\n\
+         /// The memory (s) of the slow part carried across windows\n\
+         /// (`FRACBMS_SLOW_MEMORY_S`, `OnlineSettings::slow_memory_s`; 0: off).\n\
+         pub const SLOW_MEMORY_S: f32 = {slow_memory_s:?};\n\
          /// The cell model the window fits (`FRACBMS_MODEL`).\n\
          pub const MODEL: estimator_core::battery::CellModel = estimator_core::battery::CellModel::{model};",
         list(&ocv_soc),

@@ -98,6 +98,7 @@ impl TaskSettings {
         online.iterations_per_sample = iterations;
         online.battery.model = crate::config::MODEL;
         online.battery.tail = crate::config::TAIL;
+        online.slow_memory_s = crate::config::SLOW_MEMORY_S;
         if let Some([r_i, r_ct, q, alpha, bv_a, bv_i0]) = crate::config::PRIOR {
             online.battery.prior = Some(Prior::new(CellParameters {
                 r_i,

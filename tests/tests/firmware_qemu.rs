@@ -598,6 +598,108 @@ fn qemu_pack_firmware_agrees_with_host_sim_and_flags_the_aged_cell() {
     }
 }
 
+/// The slow part carried across windows (`--slow-memory-s 600`, the
+/// firmware's `FRACBMS_SLOW_MEMORY_S`) on docs/pack.md's 8-cell HPPC string:
+/// the firmware (f32, QEMU) ends with every cell's published R_ct, Q and α
+/// within 1 % (α 0.005) of host-sim's (f64), with the same statuses, and
+/// each published value is within ±10 % of the cell's truth (α 0.05).
+#[test]
+fn qemu_pack_firmware_carries_the_slow_part_as_host_sim_does() {
+    let csv = tmp("pack8-hppc.csv");
+    host_sim(&[
+        "simulate",
+        "pack",
+        "--cells",
+        "8",
+        "--preset",
+        "cell",
+        "--profile",
+        "hppc",
+        "--spread",
+        "0.1",
+        "--aged",
+        "3",
+        "--sigma",
+        "0.001",
+        "--length",
+        "2400",
+        "--seed",
+        "1",
+        "--out",
+        csv.to_str().unwrap(),
+    ]);
+    let track = tmp("pack8-hppc-slow-track.csv");
+    host_sim(&[
+        "online",
+        "pack",
+        "--input",
+        csv.to_str().unwrap(),
+        "--window",
+        "256",
+        "--memory",
+        "64",
+        "--start",
+        "at-rest",
+        "--tail",
+        "--slow-memory-s",
+        "600",
+        "--out",
+        track.to_str().unwrap(),
+    ]);
+    let t = std::fs::read_to_string(&track).unwrap();
+    let header: Vec<&str> = t.lines().next().unwrap().split(',').collect();
+    let rows: Vec<Vec<&str>> = t.lines().skip(1).map(|l| l.split(',').collect()).collect();
+    let at = |name: &str| header.iter().position(|h| *h == name).unwrap();
+    let truth: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(csv.with_extension("json")).unwrap())
+            .unwrap();
+    let fw = firmware(
+        &csv,
+        &[
+            "--window",
+            "256",
+            "--memory",
+            "64",
+            "--tail",
+            "--slow-memory-s",
+            "600",
+        ],
+    );
+    assert_eq!(fw["samples"].as_u64(), Some(2400), "{fw}");
+    let cells = fw["cells"].as_array().expect("a pack JSON");
+    assert_eq!(cells.len(), 8);
+    for (k, (c, row)) in cells.iter().zip(&rows[rows.len() - 8..]).enumerate() {
+        assert_eq!(row[at("cell")], (k + 1).to_string());
+        let t = &truth["cells"][k];
+        for (key, tol) in [("r_ct", 0.01), ("q", 0.01), ("alpha", 0.005)] {
+            let status = format!("{key}_status");
+            assert_eq!(c[&status].as_str(), Some(row[at(&status)]), "{key}: {c}");
+            let a = c[&format!("published_{key}")].as_f64().expect("published");
+            let b: f64 = row[at(key)].parse().unwrap();
+            let truth = f(t, key);
+            if key == "alpha" {
+                assert!((a - b).abs() < tol, "cell {}: {key} {a} vs {b}", k + 1);
+                assert!(
+                    (a - truth).abs() < 0.05,
+                    "cell {}: {key} {a} vs {truth}",
+                    k + 1
+                );
+            } else {
+                assert!(
+                    (a / b - 1.0).abs() < tol,
+                    "cell {}: {key} {a} vs {b}",
+                    k + 1
+                );
+                assert!(
+                    (a / truth - 1.0).abs() < 0.10,
+                    "cell {}: {key} {a} vs {truth}",
+                    k + 1
+                );
+            }
+        }
+    }
+}
+
 /// A measured cell, without a prior (issue 35): the first 2000 s of the
 /// Panasonic NCR18650PF 25 °C HPPC test (data/panasonic-18650pf, read from
 /// its MAT-file as it comes and put on 2 s by fracbms-host, from 1000 s:

@@ -187,6 +187,10 @@ struct QemuArgs {
     /// memory (FRACBMS_TAIL=1; docs/pack.md).
     #[arg(long)]
     tail: bool,
+    /// The memory (s) of the slow part carried across windows
+    /// (FRACBMS_SLOW_MEMORY_S; as `online battery --slow-memory-s`).
+    #[arg(long, value_name = "S", default_value_t = 0.0)]
+    slow_memory_s: f64,
     /// Reset the board at sample period N (FRACBMS_RESET_AT): the firmware
     /// saves its snapshot into its flash region, resets, restores from it
     /// with the core's judgement and replays on from period N
@@ -238,6 +242,9 @@ struct BenchArgs {
     /// The short-memory correction (as `qemu --tail`).
     #[arg(long)]
     tail: bool,
+    /// The slow part's memory (s; as `qemu --slow-memory-s`).
+    #[arg(long, value_name = "S", default_value_t = 0.0)]
+    slow_memory_s: f64,
     /// Measure a pack of this many cells: the input's voltage for every
     /// cell (cell k offset by k − 1 mV), all cells updated every period;
     /// the last line then is the pack's JSON.
@@ -388,6 +395,7 @@ fn build(a: &QemuArgs) -> Result<PathBuf> {
         .env("FRACBMS_MAP", map.as_deref().unwrap_or(Path::new("")))
         .env("FRACBMS_MODEL", &a.model)
         .env("FRACBMS_TAIL", if a.tail { "1" } else { "0" })
+        .env("FRACBMS_SLOW_MEMORY_S", a.slow_memory_s.to_string())
         .env("FRACBMS_RESET_AT", a.reset_at.unwrap_or(0).to_string())
         .env(
             "FRACBMS_CAPACITY_AH",
@@ -618,6 +626,7 @@ fn bench_target(b: &BenchArgs) -> Result<()> {
         map: None,
         model: b.model.clone(),
         tail: b.tail,
+        slow_memory_s: b.slow_memory_s,
         reset_at: None,
         // The cost is the shipped image's.
         profile: "release".into(),
