@@ -495,6 +495,20 @@ typedef struct FracbmsSettings {
    * The cell's capacity (A·h), with a table.
    */
   float capacity_ah;
+  /**
+   * The memory (s) of the slow part carried across windows
+   * (`--slow-memory-s`): the published `R_ct`, `Q` and α are the mean of
+   * what the windows identified, an earlier value weighing
+   * `exp(−Δt/slow_memory_s)` less. 0 (the default): each window's own.
+   * Negative or NaN: `FRACBMS_ERROR_SETTINGS`.
+   */
+  float slow_memory_s;
+  /**
+   * The slow part's memory in state of charge (`--slow-memory-soc`,
+   * default 0.05): an earlier value weighs `exp(−|ΔSOC|/slow_memory_soc)`
+   * less besides. Not positive or NaN: `FRACBMS_ERROR_SETTINGS`.
+   */
+  float slow_memory_soc;
 } FracbmsSettings;
 
 /**

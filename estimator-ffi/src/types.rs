@@ -336,6 +336,16 @@ pub struct FracbmsSettings {
     pub ocv_points: u16,
     /// The cell's capacity (A·h), with a table.
     pub capacity_ah: f32,
+    /// The memory (s) of the slow part carried across windows
+    /// (`--slow-memory-s`): the published `R_ct`, `Q` and α are the mean of
+    /// what the windows identified, an earlier value weighing
+    /// `exp(−Δt/slow_memory_s)` less. 0 (the default): each window's own.
+    /// Negative or NaN: `FRACBMS_ERROR_SETTINGS`.
+    pub slow_memory_s: f32,
+    /// The slow part's memory in state of charge (`--slow-memory-soc`,
+    /// default 0.05): an earlier value weighs `exp(−|ΔSOC|/slow_memory_soc)`
+    /// less besides. Not positive or NaN: `FRACBMS_ERROR_SETTINGS`.
+    pub slow_memory_soc: f32,
 }
 
 /// One sample's outcome and the estimate after it.
@@ -740,6 +750,8 @@ pub(crate) unsafe fn settings(c: &FracbmsSettings) -> Result<Settings, FracbmsCo
         _ => return Err(FracbmsCode::FRACBMS_ERROR_SETTINGS),
     };
     s.battery.tail = c.tail;
+    s.slow_memory_s = c.slow_memory_s;
+    s.slow_memory_soc = c.slow_memory_soc;
     s.current_limit = c.current_limit;
     s.voltage_min = c.voltage_min;
     s.voltage_max = c.voltage_max;
@@ -788,5 +800,7 @@ pub(crate) fn default_settings(h: f32) -> FracbmsSettings {
         ocv_v: core::ptr::null(),
         ocv_points: 0,
         capacity_ah: 0.0,
+        slow_memory_s: core.slow_memory_s,
+        slow_memory_soc: core.slow_memory_soc,
     }
 }
