@@ -19,7 +19,7 @@ records our model did not make, and how far it is from a reference.
     cargo build --release -p host-sim
     bash bench/panasonic_chain.sh          # target/real-cells/panasonic/ocv.csv
     python3 bench/prior_free.py [--host-sim target/release/host-sim] [--out target/prior-free]
-        [--window 256] [--period S] [--tail] [--slow-memory-s S]
+        [--window 256] [--period S] [--tail] [--slow-memory-s S] [--slow-memory-soc F]
 """
 
 import argparse
@@ -268,10 +268,12 @@ def main():
                     help="online battery --tail (the taps beyond the memory, through the tail's modes)")
     ap.add_argument("--slow-memory-s", type=float,
                     help="online battery --slow-memory-s (the slow part carried across windows)")
+    ap.add_argument("--slow-memory-soc", type=float, help="online battery --slow-memory-soc")
     a = ap.parse_args()
     ONLINE[:] = ["--window", str(a.window)] + (["--period", str(a.period)] if a.period else []) \
         + (["--tail"] if a.tail else []) \
-        + (["--slow-memory-s", str(a.slow_memory_s)] if a.slow_memory_s is not None else [])
+        + (["--slow-memory-s", str(a.slow_memory_s)] if a.slow_memory_s is not None else []) \
+        + (["--slow-memory-soc", str(a.slow_memory_soc)] if a.slow_memory_soc is not None else [])
     os.makedirs(a.out, exist_ok=True)
     dfn(a.host_sim, a.out)
     held_out(a.host_sim, a.out)

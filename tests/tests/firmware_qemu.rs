@@ -528,29 +528,7 @@ fn qemu_firmware_with_the_butler_volmer_model_agrees_with_host_sim() {
 /// α 0.05 of its truth (issue 17).
 #[test]
 fn qemu_pack_firmware_agrees_with_host_sim_and_flags_the_aged_cell() {
-    let csv = tmp("pack8.csv");
-    host_sim(&[
-        "simulate",
-        "pack",
-        "--cells",
-        "8",
-        "--preset",
-        "cell",
-        "--profile",
-        "pulse",
-        "--spread",
-        "0.1",
-        "--aged",
-        "3",
-        "--sigma",
-        "0.001",
-        "--length",
-        "2000",
-        "--seed",
-        "1",
-        "--out",
-        csv.to_str().unwrap(),
-    ]);
+    let csv = pack8("pack8.csv", "pulse", 2000);
     let track = tmp("pack8-track.csv");
     host_sim(&[
         "online",
@@ -605,29 +583,7 @@ fn qemu_pack_firmware_agrees_with_host_sim_and_flags_the_aged_cell() {
 /// each published value is within ±10 % of the cell's truth (α 0.05).
 #[test]
 fn qemu_pack_firmware_carries_the_slow_part_as_host_sim_does() {
-    let csv = tmp("pack8-hppc.csv");
-    host_sim(&[
-        "simulate",
-        "pack",
-        "--cells",
-        "8",
-        "--preset",
-        "cell",
-        "--profile",
-        "hppc",
-        "--spread",
-        "0.1",
-        "--aged",
-        "3",
-        "--sigma",
-        "0.001",
-        "--length",
-        "2400",
-        "--seed",
-        "1",
-        "--out",
-        csv.to_str().unwrap(),
-    ]);
+    let csv = pack8("pack8-hppc.csv", "hppc", 2400);
     let track = tmp("pack8-hppc-slow-track.csv");
     host_sim(&[
         "online",

@@ -20,6 +20,36 @@ pub(crate) fn tmp(name: &str) -> PathBuf {
     d.join(name)
 }
 
+/// docs/pack.md's 8-cell string (preset `cell`, ±10 % spread, cell 3
+/// aged 1.5×, σ 1 mV, seed 1) with `profile` over `length` samples, made
+/// by `host-sim simulate pack` into `name` (its truth beside it as JSON).
+pub(crate) fn pack8(name: &str, profile: &str, length: usize) -> PathBuf {
+    let csv = tmp(name);
+    host_sim(&[
+        "simulate",
+        "pack",
+        "--cells",
+        "8",
+        "--preset",
+        "cell",
+        "--profile",
+        profile,
+        "--spread",
+        "0.1",
+        "--aged",
+        "3",
+        "--sigma",
+        "0.001",
+        "--length",
+        &length.to_string(),
+        "--seed",
+        "1",
+        "--out",
+        csv.to_str().unwrap(),
+    ]);
+    csv
+}
+
 /// Runs the host-sim command line (`cargo run -p host-sim`: the binary
 /// `cargo test --workspace` has built, or built now).
 pub(crate) fn host_sim(args: &[&str]) {
