@@ -343,7 +343,7 @@ pub struct FracbmsSettings {
     /// Negative or NaN: `FRACBMS_ERROR_SETTINGS`.
     pub slow_memory_s: f32,
     /// The slow part's memory in state of charge (`--slow-memory-soc`,
-    /// default 0.05): an earlier value weighs `exp(−|ΔSOC|/slow_memory_soc)`
+    /// default 0.02): an earlier value weighs `exp(−|ΔSOC|/slow_memory_soc)`
     /// less besides. Not positive or NaN: `FRACBMS_ERROR_SETTINGS`.
     pub slow_memory_soc: f32,
 }

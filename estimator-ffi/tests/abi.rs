@@ -153,7 +153,7 @@ fn a_cell_through_the_abi_is_the_core_estimator_bit_for_bit() {
 fn the_slow_part_through_the_abi_is_the_cores_bit_for_bit() {
     let (i, v) = record();
     let mut s = defaults();
-    assert_eq!((s.slow_memory_s, s.slow_memory_soc), (0.0, 0.05));
+    assert_eq!((s.slow_memory_s, s.slow_memory_soc), (0.0, 0.02));
     s.slow_memory_s = 600.0;
     let (mut mem, size) = cell_memory();
     let mut cell = std::ptr::null_mut();

@@ -181,7 +181,7 @@ def online_pack(
     CLI's ``--slow-memory-s``: the published ``r_ct``, ``q`` and ``alpha``
     the mean of what the windows identified, forgetting over that many
     seconds (default: each window's own), and ``slow_memory_soc`` over that
-    much state of charge (``--slow-memory-soc``, default 0.05)."""
+    much state of charge (``--slow-memory-soc``, default 0.02)."""
 
 class OnlineCell:
     """The online estimator of one cell (``host-sim online battery``): a
@@ -245,7 +245,7 @@ class OnlineCell:
         ``q`` and ``alpha`` the mean of what the windows identified,
         forgetting over that many seconds (default: each window's own), and
         ``slow_memory_soc`` over that much state of charge
-        (``--slow-memory-soc``, default 0.05)."""
+        (``--slow-memory-soc``, default 0.02)."""
     def push(
         self, current_a: float, voltage_v: float, temperature_c: Optional[float] = None
     ) -> Optional[dict[str, Any]]:

@@ -165,7 +165,7 @@ pub struct StateArgs {
     #[arg(long, value_name = "S", allow_hyphen_values = true)]
     pub slow_memory_s: Option<f64>,
     /// The slow part's memory in state of charge (with --ocv): an earlier
-    /// value weighs exp(−|ΔSOC|/F) less besides (default 0.05).
+    /// value weighs exp(−|ΔSOC|/F) less besides (default 0.02).
     #[arg(long, value_name = "F", allow_hyphen_values = true)]
     pub slow_memory_soc: Option<f64>,
     /// The lowest voltage a state-of-power pulse may reach (V; default:

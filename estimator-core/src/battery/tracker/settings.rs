@@ -85,7 +85,7 @@ pub struct OnlineSettings<T, const P: usize = 0> {
     pub slow_memory_s: T,
     /// The slow part's memory in state of charge: an earlier value weighs
     /// `exp(−|ΔSOC|/slow_memory_soc)` less besides (with an OCV curve;
-    /// default 0.05: resistances and time constants change with the state
+    /// default 0.02: resistances and time constants change with the state
     /// of charge).
     pub slow_memory_soc: T,
     /// The SOC observer beside the count (with a curve;
@@ -128,7 +128,7 @@ impl<T: Real> OnlineSettings<T> {
             identify_alpha: T::lit(0.1),
             hold_soc_span: T::lit(0.15),
             slow_memory_s: T::zero(),
-            slow_memory_soc: T::lit(0.05),
+            slow_memory_soc: T::lit(0.02),
             soc: SocSettings::new(T::one(), h),
         }
     }
