@@ -505,7 +505,7 @@ typedef struct FracbmsSettings {
   float slow_memory_s;
   /**
    * The slow part's memory in state of charge (`--slow-memory-soc`,
-   * default 0.05): an earlier value weighs `exp(−|ΔSOC|/slow_memory_soc)`
+   * default 0.02): an earlier value weighs `exp(−|ΔSOC|/slow_memory_soc)`
    * less besides. Not positive or NaN: `FRACBMS_ERROR_SETTINGS`.
    */
   float slow_memory_soc;
