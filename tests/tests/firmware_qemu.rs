@@ -529,27 +529,9 @@ fn qemu_firmware_with_the_butler_volmer_model_agrees_with_host_sim() {
 #[test]
 fn qemu_pack_firmware_agrees_with_host_sim_and_flags_the_aged_cell() {
     let csv = pack8("pack8.csv", "pulse", 2000);
-    let track = tmp("pack8-track.csv");
-    host_sim(&[
-        "online",
-        "pack",
-        "--input",
-        csv.to_str().unwrap(),
-        "--window",
-        "256",
-        "--memory",
-        "64",
-        "--start",
-        "at-rest",
-        "--tail",
-        "--out",
-        track.to_str().unwrap(),
-    ]);
-    let t = std::fs::read_to_string(&track).unwrap();
+    let t = online_pack8(&csv, "pack8-track.csv", &[]);
     let rows: Vec<Vec<&str>> = t.lines().skip(1).map(|l| l.split(',').collect()).collect();
-    let truth: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(csv.with_extension("json")).unwrap())
-            .unwrap();
+    let truth = truth_of(&csv);
     let fw = firmware(&csv, &["--window", "256", "--memory", "64", "--tail"]);
     eprintln!("firmware {fw}");
     assert_eq!(fw["samples"].as_u64(), Some(2000), "{fw}");
@@ -584,31 +566,15 @@ fn qemu_pack_firmware_agrees_with_host_sim_and_flags_the_aged_cell() {
 #[test]
 fn qemu_pack_firmware_carries_the_slow_part_as_host_sim_does() {
     let csv = pack8("pack8-hppc.csv", "hppc", 2400);
-    let track = tmp("pack8-hppc-slow-track.csv");
-    host_sim(&[
-        "online",
-        "pack",
-        "--input",
-        csv.to_str().unwrap(),
-        "--window",
-        "256",
-        "--memory",
-        "64",
-        "--start",
-        "at-rest",
-        "--tail",
-        "--slow-memory-s",
-        "600",
-        "--out",
-        track.to_str().unwrap(),
-    ]);
-    let t = std::fs::read_to_string(&track).unwrap();
+    let t = online_pack8(
+        &csv,
+        "pack8-hppc-slow-track.csv",
+        &["--slow-memory-s", "600"],
+    );
     let header: Vec<&str> = t.lines().next().unwrap().split(',').collect();
     let rows: Vec<Vec<&str>> = t.lines().skip(1).map(|l| l.split(',').collect()).collect();
     let at = |name: &str| header.iter().position(|h| *h == name).unwrap();
-    let truth: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(csv.with_extension("json")).unwrap())
-            .unwrap();
+    let truth = truth_of(&csv);
     let fw = firmware(
         &csv,
         &[

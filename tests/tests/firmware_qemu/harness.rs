@@ -50,6 +50,35 @@ pub(crate) fn pack8(name: &str, profile: &str, length: usize) -> PathBuf {
     csv
 }
 
+/// `host-sim online pack` over `csv` as the QEMU pack tests run the
+/// firmware (window 256, memory 64, from rest, the short-memory
+/// correction) with `extra` flags: the track's text.
+pub(crate) fn online_pack8(csv: &Path, track_name: &str, extra: &[&str]) -> String {
+    let track = tmp(track_name);
+    let mut args = vec![
+        "online",
+        "pack",
+        "--input",
+        csv.to_str().unwrap(),
+        "--window",
+        "256",
+        "--memory",
+        "64",
+        "--start",
+        "at-rest",
+        "--tail",
+    ];
+    args.extend_from_slice(extra);
+    args.extend_from_slice(&["--out", track.to_str().unwrap()]);
+    host_sim(&args);
+    std::fs::read_to_string(&track).unwrap()
+}
+
+/// The truth `host-sim simulate` wrote beside `csv` (`FILE.json`).
+pub(crate) fn truth_of(csv: &Path) -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(csv.with_extension("json")).unwrap()).unwrap()
+}
+
 /// Runs the host-sim command line (`cargo run -p host-sim`: the binary
 /// `cargo test --workspace` has built, or built now).
 pub(crate) fn host_sim(args: &[&str]) {
