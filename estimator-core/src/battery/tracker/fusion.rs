@@ -5,12 +5,14 @@
 //! One window of a few minutes pins the branch's slow part loosely: from
 //! one window to the next its `Q` scatters by several per cent
 //! (docs/pack.md). Each identified value enters a mean weighted by its
-//! information (`1/σ²` of `ln R_ct`, `ln Q`, α) that forgets with time (by
-//! `exp(−Δt/τ)`, `τ` =
-//! [`OnlineSettings::slow_memory_s`](super::OnlineSettings::slow_memory_s))
+//! information (`1/σ²` of `ln R_ct`, `ln Q`, α) that forgets with time and
+//! with the state of charge moved (by `exp(−Δt/τ − |ΔSOC|/σ)`, `τ` =
+//! [`OnlineSettings::slow_memory_s`](super::OnlineSettings::slow_memory_s),
+//! `σ` =
+//! [`OnlineSettings::slow_memory_soc`](super::OnlineSettings::slow_memory_soc))
 //! and starts again where the state of charge has moved beyond
 //! [`OnlineSettings::hold_soc_span`](super::OnlineSettings::hold_soc_span)
-//! from the last value it took.
+//! from the last value it took. Measured in docs/online-publication.md.
 //!
 //! It owns those sums; it must not judge what is identified
 //! ([`super::identified`] does, and asks it for the value to publish) nor
