@@ -29,6 +29,11 @@
 #define FRACBMS_PACK_STRING UINT16_MAX
 
 /**
+ * Largest parameter map the C interface takes (levels).
+ */
+#define FRACBMS_MAP_LEVELS_MAX 64
+
+/**
  * `UINT32_MAX`: a time the caller does not know.
  */
 #define FRACBMS_TIME_UNKNOWN UINT32_MAX
@@ -37,11 +42,6 @@
  * Largest OCV table the C interface takes (points).
  */
 #define FRACBMS_OCV_POINTS_MAX 128
-
-/**
- * Largest parameter map the C interface takes (levels).
- */
-#define FRACBMS_MAP_LEVELS_MAX 64
 
 /**
  * The most horizons one state-of-power request asks for (the core's

@@ -68,6 +68,7 @@ mod types;
 #[cfg(not(target_os = "none"))]
 pub use identify::{FracbmsFit, FracbmsIdentifyOptions};
 pub use map::{fracbms_cell_follow_map, fracbms_cell_set_prior, fracbms_map_cell_at};
+pub use map::{FracbmsMapLevel, FRACBMS_MAP_LEVELS_MAX};
 pub use snapshot::{
     fracbms_cell_snapshot_restore, fracbms_cell_snapshot_save, fracbms_cell_snapshot_size,
     fracbms_pack_snapshot_restore, fracbms_pack_snapshot_save, fracbms_pack_snapshot_size,
@@ -78,10 +79,10 @@ pub use soc::{
     FracbmsSocSettings,
 };
 pub use types::{
-    FracbmsCode, FracbmsEstimate, FracbmsHorizonPower, FracbmsIdentification, FracbmsMapLevel,
-    FracbmsMethod, FracbmsModel, FracbmsParameters, FracbmsPower, FracbmsPowerRequest,
-    FracbmsPublished, FracbmsRejection, FracbmsRestoration, FracbmsSettings, FracbmsSoc,
-    FracbmsStatus, FRACBMS_HORIZONS_MAX, FRACBMS_MAP_LEVELS_MAX, FRACBMS_OCV_POINTS_MAX,
+    FracbmsCode, FracbmsEstimate, FracbmsHorizonPower, FracbmsIdentification, FracbmsMethod,
+    FracbmsModel, FracbmsParameters, FracbmsPower, FracbmsPowerRequest, FracbmsPublished,
+    FracbmsRejection, FracbmsRestoration, FracbmsSettings, FracbmsSoc, FracbmsStatus,
+    FRACBMS_HORIZONS_MAX, FRACBMS_OCV_POINTS_MAX,
 };
 
 use state::{CellOp, PackOp, PackOut};

@@ -5,15 +5,69 @@
 //! caller's array (`FracbmsMapLevel`, the identifiable rows of `host-sim
 //! identify battery --map-out`); the interpolation and the follow rule are
 //! the core's (`estimator_core::battery::map`), as in the firmware and
-//! `host-sim online battery --prior MAP.csv`. This module only converts.
+//! `host-sim online battery --prior MAP.csv`. This module owns the C level
+//! (`FracbmsMapLevel`, `FRACBMS_MAP_LEVELS_MAX`) and only converts.
 
-use estimator_core::battery::map::MapLevel;
+use estimator_core::battery::map::{MapLevel, ParameterMap};
 use estimator_core::battery::{CellParameters, Prior};
 
 use crate::state::{self, CellOp};
-use crate::types::{self, FracbmsCode, FracbmsMapLevel, FracbmsParameters, FRACBMS_MAP_LEVELS_MAX};
+use crate::types::{FracbmsCode, FracbmsParameters};
 use crate::{code, put, FracbmsCell};
 use FracbmsCode::*;
+
+/// Largest parameter map the C interface takes (levels).
+pub const FRACBMS_MAP_LEVELS_MAX: usize = 64;
+
+/// One level of a parameter map (a row of `host-sim identify battery
+/// --map-out` whose `identifiable` is true): the cell fitted at a SOC and a
+/// temperature.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct FracbmsMapLevel {
+    /// Temperature (°C); NaN when unknown.
+    pub temperature_c: f32,
+    /// State of charge in `[0, 1]`.
+    pub soc: f32,
+    /// The cell there (`u_oc`: the map's `ocv_offset_v`; a linear level has
+    /// `bv_a = 0`, `bv_i0 = 1`).
+    pub parameters: FracbmsParameters,
+}
+
+impl From<FracbmsMapLevel> for MapLevel<f32> {
+    fn from(l: FracbmsMapLevel) -> Self {
+        Self {
+            temperature_c: (!l.temperature_c.is_nan()).then_some(l.temperature_c),
+            soc: l.soc,
+            cell: l.parameters.into(),
+        }
+    }
+}
+
+/// The C levels `levels` (`n` of them) converted into `buf` and checked as
+/// the core's map.
+///
+/// # Safety
+/// `levels` is null or points to `n` readable levels.
+pub(crate) unsafe fn parameter_map(
+    levels: *const FracbmsMapLevel,
+    n: u16,
+    buf: &mut [MapLevel<f32>; FRACBMS_MAP_LEVELS_MAX],
+) -> Result<ParameterMap<'_, f32>, FracbmsCode> {
+    if levels.is_null() {
+        return Err(FracbmsCode::FRACBMS_ERROR_NULL);
+    }
+    let n = usize::from(n);
+    if n > FRACBMS_MAP_LEVELS_MAX {
+        return Err(FracbmsCode::FRACBMS_ERROR_MAP);
+    }
+    // SAFETY: non-null; the caller guarantees `n` readable levels.
+    let src = unsafe { core::slice::from_raw_parts(levels, n) };
+    for (b, l) in buf.iter_mut().zip(src) {
+        *b = (*l).into();
+    }
+    ParameterMap::new(&buf[..n]).map_err(|_| FracbmsCode::FRACBMS_ERROR_MAP)
+}
 
 /// An empty level for the conversion buffer.
 const EMPTY: MapLevel<f32> = MapLevel {
@@ -55,7 +109,7 @@ pub unsafe extern "C" fn fracbms_map_cell_at(
     }
     let mut buf = [EMPTY; FRACBMS_MAP_LEVELS_MAX];
     // SAFETY: forwarded from the caller.
-    let map = match unsafe { types::parameter_map(levels, n_levels, &mut buf) } {
+    let map = match unsafe { parameter_map(levels, n_levels, &mut buf) } {
         Ok(m) => m,
         Err(c) => return c,
     };
@@ -119,7 +173,7 @@ pub unsafe extern "C" fn fracbms_cell_follow_map(
 ) -> FracbmsCode {
     let mut buf = [EMPTY; FRACBMS_MAP_LEVELS_MAX];
     // SAFETY: forwarded from the caller.
-    let map = match unsafe { types::parameter_map(levels, n_levels, &mut buf) } {
+    let map = match unsafe { parameter_map(levels, n_levels, &mut buf) } {
         Ok(m) => m,
         Err(c) => return c,
     };

@@ -2,7 +2,6 @@
 //! conversion to and from the core's. This module owns the mapping between
 //! the two; it must not hold state.
 
-use estimator_core::battery::map::{MapLevel, ParameterMap};
 use estimator_core::battery::ocv::{OcvModel, OcvTable};
 use estimator_core::battery::online::{
     Identification, Method, OnlineSettings, PublishedParameter, PublishedParameters, Rejection,
@@ -15,59 +14,6 @@ use estimator_core::battery::{CellModel, CellParameters, Start};
 
 /// Largest OCV table the C interface takes (points).
 pub const FRACBMS_OCV_POINTS_MAX: usize = 128;
-
-/// Largest parameter map the C interface takes (levels).
-pub const FRACBMS_MAP_LEVELS_MAX: usize = 64;
-
-/// One level of a parameter map (a row of `host-sim identify battery
-/// --map-out` whose `identifiable` is true): the cell fitted at a SOC and a
-/// temperature.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct FracbmsMapLevel {
-    /// Temperature (°C); NaN when unknown.
-    pub temperature_c: f32,
-    /// State of charge in `[0, 1]`.
-    pub soc: f32,
-    /// The cell there (`u_oc`: the map's `ocv_offset_v`; a linear level has
-    /// `bv_a = 0`, `bv_i0 = 1`).
-    pub parameters: FracbmsParameters,
-}
-
-impl From<FracbmsMapLevel> for MapLevel<f32> {
-    fn from(l: FracbmsMapLevel) -> Self {
-        Self {
-            temperature_c: (!l.temperature_c.is_nan()).then_some(l.temperature_c),
-            soc: l.soc,
-            cell: l.parameters.into(),
-        }
-    }
-}
-
-/// The C levels `levels` (`n` of them) converted into `buf` and checked as
-/// the core's map.
-///
-/// # Safety
-/// `levels` is null or points to `n` readable levels.
-pub(crate) unsafe fn parameter_map(
-    levels: *const FracbmsMapLevel,
-    n: u16,
-    buf: &mut [MapLevel<f32>; FRACBMS_MAP_LEVELS_MAX],
-) -> Result<ParameterMap<'_, f32>, FracbmsCode> {
-    if levels.is_null() {
-        return Err(FracbmsCode::FRACBMS_ERROR_NULL);
-    }
-    let n = usize::from(n);
-    if n > FRACBMS_MAP_LEVELS_MAX {
-        return Err(FracbmsCode::FRACBMS_ERROR_MAP);
-    }
-    // SAFETY: non-null; the caller guarantees `n` readable levels.
-    let src = unsafe { core::slice::from_raw_parts(levels, n) };
-    for (b, l) in buf.iter_mut().zip(src) {
-        *b = (*l).into();
-    }
-    ParameterMap::new(&buf[..n]).map_err(|_| FracbmsCode::FRACBMS_ERROR_MAP)
-}
 
 /// The core's settings as the C interface stores them.
 pub(crate) type Settings = OnlineSettings<f32, FRACBMS_OCV_POINTS_MAX>;

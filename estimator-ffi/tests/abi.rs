@@ -13,7 +13,7 @@ use fracbms::FracbmsCode::*;
 use fracbms::*;
 
 mod common;
-use common::{cell_memory, core_settings, defaults, memory, nmc_table, record};
+use common::{core_settings, defaults, memory, nmc_table, record, same_published};
 
 /// A state-of-power request: limits 3.0–4.2 V, 50 A, horizons 2, 10 and
 /// 30 s, a 2 A discharge pulse.
@@ -144,59 +144,6 @@ fn a_cell_through_the_abi_is_the_core_estimator_bit_for_bit() {
         FRACBMS_OK
     );
     assert_eq!(unsafe { again.assume_init() }.parameters, e.parameters);
-}
-
-/// The slow part carried across windows (`slow_memory_s`) reaches C: what
-/// the cell publishes is the core's, bit for bit, and on the pulse record
-/// it is not each window's own.
-#[test]
-fn the_slow_part_through_the_abi_is_the_cores_bit_for_bit() {
-    let (i, v) = record();
-    let mut s = defaults();
-    assert_eq!((s.slow_memory_s, s.slow_memory_soc), (0.0, 0.02));
-    s.slow_memory_s = 600.0;
-    let (mut mem, size) = cell_memory();
-    let mut cell = std::ptr::null_mut();
-    assert_eq!(
-        unsafe { fracbms_cell_init(mem.as_mut_ptr().cast(), size, &s, &mut cell) },
-        FRACBMS_OK
-    );
-    let mut cs = core_settings();
-    cs.slow_memory_s = 600.0;
-    let mut reference = Box::new(CellEstimator::<f32, 256, 64>::new(&cs).unwrap());
-    let mut own = Box::new(CellEstimator::<f32, 256, 64>::new(&core_settings()).unwrap());
-    let mut e = MaybeUninit::<FracbmsEstimate>::uninit();
-    let mut moved = 0;
-    for (&i, &v) in i.iter().zip(&v) {
-        assert_eq!(
-            unsafe { fracbms_cell_push(cell, i, v, e.as_mut_ptr()) },
-            FRACBMS_OK
-        );
-        reference.push(&cs, i, v);
-        own.push(&core_settings(), i, v);
-        let e = unsafe { e.assume_init() };
-        same_published(&e.published, &reference.published().into());
-        let (a, b) = (reference.published().q.value, own.published().q.value);
-        moved += usize::from(a.is_some() && a != b);
-    }
-    println!("published Q other than the window's own at {moved} of 1000 samples");
-    assert!(moved > 100, "{moved}");
-}
-
-/// The same published values (bit for bit, NaN for none) and statuses.
-fn same_published(a: &FracbmsPublished, b: &FracbmsPublished) {
-    let bits = |p: &FracbmsPublished| [p.r_i, p.r_ct, p.q, p.alpha].map(f32::to_bits);
-    let statuses = |p: &FracbmsPublished| [p.r_i_status, p.r_ct_status, p.q_status, p.alpha_status];
-    assert_eq!(bits(a), bits(b));
-    assert_eq!(statuses(a), statuses(b));
-    for (v, s) in [(a.r_i, a.r_i_status), (a.r_ct, a.r_ct_status)] {
-        let none = matches!(
-            s,
-            FracbmsIdentification::FRACBMS_IDENTIFICATION_NOT_IDENTIFIED
-                | FracbmsIdentification::FRACBMS_IDENTIFICATION_EXPIRED
-        );
-        assert_eq!(v.is_nan(), none, "{v} {s:?}");
-    }
 }
 
 fn e_status(

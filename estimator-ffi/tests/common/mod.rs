@@ -61,3 +61,19 @@ pub fn core_settings() -> OnlineSettings<f32, FRACBMS_OCV_POINTS_MAX> {
     s.battery.start = Start::AtRest;
     s.with_curve(None)
 }
+
+/// The same published values (bit for bit, NaN for none) and statuses.
+pub fn same_published(a: &FracbmsPublished, b: &FracbmsPublished) {
+    let bits = |p: &FracbmsPublished| [p.r_i, p.r_ct, p.q, p.alpha].map(f32::to_bits);
+    let statuses = |p: &FracbmsPublished| [p.r_i_status, p.r_ct_status, p.q_status, p.alpha_status];
+    assert_eq!(bits(a), bits(b));
+    assert_eq!(statuses(a), statuses(b));
+    for (v, s) in [(a.r_i, a.r_i_status), (a.r_ct, a.r_ct_status)] {
+        let none = matches!(
+            s,
+            FracbmsIdentification::FRACBMS_IDENTIFICATION_NOT_IDENTIFIED
+                | FracbmsIdentification::FRACBMS_IDENTIFICATION_EXPIRED
+        );
+        assert_eq!(v.is_nan(), none, "{v} {s:?}");
+    }
+}
