@@ -15,6 +15,7 @@ mod ocv;
 mod persistence;
 mod predict;
 mod real;
+mod slow_part;
 mod tracking;
 
 fn bin() -> Command {
