@@ -44,6 +44,14 @@ struct Row {
 
 /// The schedule, the rows and, per rest, (its end time, SOC, voltage).
 fn test() -> (Vec<Row>, Vec<(f64, f64, f64)>) {
+    logged(true)
+}
+
+/// [`test`], each load's first row a period after its start
+/// (`late_loads`) or 10 ms after it (as the Panasonic MAT-files log a
+/// load: at once, the rest after it first logged a minute later).
+fn logged(late_loads: bool) -> (Vec<Row>, Vec<(f64, f64, f64)>) {
+    let first = |every: f64| if late_loads { every } else { 0.01 };
     let rest = |length: f64| Step {
         current: 0.0,
         length,
@@ -56,14 +64,14 @@ fn test() -> (Vec<Row>, Vec<(f64, f64, f64)>) {
             current: -30.0,
             length: 30.0,
             every: 0.5,
-            first: 0.5,
+            first: first(0.5),
         });
         steps.push(rest(600.0));
         steps.push(Step {
             current: -10.0,
             length: 1000.0,
             every: 1.0,
-            first: 1.0,
+            first: first(1.0),
         });
         steps.push(rest(3600.0));
     }
@@ -338,4 +346,80 @@ fn a_whole_record_fit_ends_at_the_step_counts_soc() {
     assert_eq!(f.report.unobserved_samples, 18 * 60);
     let r = f.result.json.record.as_ref().unwrap();
     assert_eq!(r.unobserved_samples, 18 * 60);
+}
+
+/// The same test as an export without step columns but with its own
+/// charge count, logged as the Panasonic MAT-files are (a load's first row
+/// at its start, a rest's a minute after it, `Ah`): where the rows around
+/// a change of the current are further apart than the log's rhythm, the
+/// count places the change, so each rest starts where the load stopped,
+/// not at its first row a minute later.
+#[test]
+fn without_a_step_time_the_exports_count_places_the_step_starts() {
+    let (rows, ends) = logged(false);
+    let export = |count: bool| {
+        let mut s = String::from(if count {
+            "Time(s),Current(A),Voltage(V),Ah\n"
+        } else {
+            "Time(s),Current(A),Voltage(V)\n"
+        });
+        for r in &rows {
+            s += &format!("{},{},{:.6}", r.t, r.i, r.v);
+            s += &if count {
+                format!(",{:.6}\n", r.q)
+            } else {
+                "\n".into()
+            };
+        }
+        s
+    };
+    let o = RecordOptions {
+        capacity_ah: Some(CAPACITY_AH),
+        ..RecordOptions::default()
+    };
+    let (r, x) = table(&export(true), &o);
+    let rec = &r.record;
+    assert_eq!(rec.h, 1.0);
+    let st = &r.report.steps;
+    assert_eq!(st.starts_from, "charge");
+    assert_eq!(st.charge_column.as_deref(), Some("Ah"));
+    // The 18 rests, each first logged a minute after the load stopped:
+    // its first 60 samples unobserved, or 59 where the count's rounding
+    // (1 µA·h, about 0.1 ms of the load) puts the start just after a
+    // sample.
+    assert_eq!((st.changes, st.unlogged.len()), (18, 18));
+    for u in &st.unlogged {
+        let late = u.first_row_s - u.start_s;
+        assert!((late - 60.0).abs() < 1e-3, "{u:?}");
+    }
+    assert!((18 * 59..=18 * 60).contains(&r.report.unobserved_samples));
+    assert!(r
+        .report
+        .summary(Path::new("p"))
+        .contains("the change placed by the export's charge `Ah`: 18 of 18"));
+    for &(t_end, z, _) in &ends {
+        let k = rec.time.iter().position(|&t| t >= t_end - 1e-9).unwrap();
+        let counted = 1.0 + rec.current[..k].iter().sum::<f64>() * rec.h / 3600.0 / CAPACITY_AH;
+        assert!(
+            (counted - z).abs() < 0.002,
+            "SOC {counted} at {t_end} s, by hand {z}"
+        );
+    }
+    for (p, &(_, z, v)) in x.rests.iter().zip(&ends) {
+        assert!((p.soc - z).abs() < 0.01, "SOC {} vs {z}", p.soc);
+        assert!((p.voltage_v - v).abs() < 3e-3, "{} V vs {v} V", p.voltage_v);
+    }
+    let c = r.report.charge_check.as_ref().unwrap();
+    assert!(c.max_gap_ah < 0.02, "{c:?}");
+    assert!(r.report.charge_warning.is_none());
+    // Without the count, each row's current is held to the next: every
+    // rest holds the load before it for its first minute (6 A·h of
+    // discharge too many), and the last rest lands 0.1 SOC off.
+    let (r, x) = table(&export(false), &o);
+    assert_eq!(r.report.steps.starts_from, "rows");
+    assert!(r.report.steps.unlogged.is_empty());
+    let drift = -r.record.current.iter().sum::<f64>() / 3600.0 + rows.last().unwrap().q;
+    assert!((drift - 6.0).abs() < 0.1, "{drift}");
+    let last = x.rests.last().unwrap();
+    assert!((last.soc - ends.last().unwrap().1).abs() > 0.1);
 }

@@ -213,21 +213,7 @@ impl RecordReport {
             Some(s) if s.signs_current => format!("from-state `{}`", s.column),
             _ => self.current_sign.as_str().to_string(),
         };
-        let st = &self.steps;
-        let steps = match (st.starts_from, &st.step_time_column) {
-            ("ignored", _) => "; step starts ignored (--steps ignore): each row's current held to the next".to_string(),
-            (_, Some(h)) => format!(
-                "; step starts from `{h}`: {} of {} steps began before their first row ({} unobserved samples){}",
-                st.unlogged.len(),
-                st.changes,
-                self.unobserved_samples,
-                match st.switch_rows {
-                    0 => String::new(),
-                    n => format!(", {n} rows at step time 0 taken as the switch, not a measurement"),
-                }
-            ),
-            _ => "; no step-time column: each row's current held to the next".to_string(),
-        };
+        let steps = self.steps.read_line(self.unobserved_samples);
         let others = match self.not_the_cell.as_slice() {
             [] => String::new(),
             h => {
@@ -588,7 +574,7 @@ fn finish(
             path.display()
         );
     }
-    let (raw, step_report) = steps::place_starts(raw, &keep, o.steps, c, path)?;
+    let (mut raw, mut step_report) = steps::place_starts(raw, &keep, o.steps, c, path)?;
     let keep: Vec<usize> = (0..raw.time.len()).collect();
     let kept_uniform = resample::uniform(&raw.time, &keep);
     let span = raw.time[keep[keep.len() - 1]] - raw.time[keep[0]];
@@ -618,6 +604,16 @@ fn finish(
     }
     r.gap_threshold_s = o.max_gap.unwrap_or((10.0 * h).max(300.0));
     let resampled = source != "uniform";
+    if let (true, "rows", Some(ch)) = (resampled, step_report.starts_from, &c.charge) {
+        steps::place_starts_from_count(
+            &mut raw,
+            h,
+            r.gap_threshold_s,
+            &ch.header,
+            &mut step_report,
+        );
+    }
+    let keep: Vec<usize> = (0..raw.time.len()).collect();
     let (time, current, voltage, temperature) = if resampled {
         let u = resample::to_uniform(
             &raw.time,

@@ -129,18 +129,26 @@ pub struct Unlogged {
 /// What the step columns did (JSON `record.steps`).
 #[derive(Clone, Debug, Default, PartialEq, Serialize)]
 pub struct StepReport {
-    /// `step_time` (starts from the step time), `rows` (no step-time
-    /// column: each row's current is held to the next row) or `ignored`
-    /// (`--steps ignore`).
+    /// `step_time` (starts from the step time), `charge` (no step-time
+    /// column, but a signed charge count of the export's own: where rows
+    /// further apart than the log's rhythm change the current, the change
+    /// is placed by the count; elsewhere each row's current is held to the
+    /// next), `rows` (no step-time column and no signed count: each row's
+    /// current is held to the next row) or `ignored` (`--steps ignore`).
     pub starts_from: &'static str,
+    /// The export's charge column that placed the starts (with
+    /// `starts_from` `charge`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub charge_column: Option<String>,
     /// The step index's header, if read.
     pub step_column: Option<String>,
     /// The step time's header, if read.
     pub step_time_column: Option<String>,
-    /// Step changes seen.
+    /// Step changes seen (with `starts_from` `charge`: the changes of the
+    /// current between rows further apart than the log's rhythm).
     pub changes: usize,
     /// The steps that began before their first row (their start placed
-    /// by the step time).
+    /// by the step time, or by the charge count).
     pub unlogged: Vec<Unlogged>,
     /// Rows logged at a step time of 0 after a step change: the switch
     /// itself, not a measurement (Digatron writes 0 A there, and the
@@ -148,6 +156,35 @@ pub struct StepReport {
     /// row's time; its first measurement is its first row with a step
     /// time above 0, and the stretch between is [`Unlogged`].
     pub switch_rows: usize,
+}
+
+impl StepReport {
+    /// What the `read` line says of the steps (`unobserved` samples).
+    pub(super) fn read_line(&self, unobserved: usize) -> String {
+        let switch = match self.switch_rows {
+            0 => String::new(),
+            n => format!(", {n} rows at step time 0 taken as the switch, not a measurement"),
+        };
+        match (self.starts_from, &self.step_time_column, &self.charge_column) {
+            ("ignored", _, _) => {
+                "; step starts ignored (--steps ignore): each row's current held to the next".into()
+            }
+            (_, Some(h), _) => format!(
+                "; step starts from `{h}`: {} of {} steps began before their first row ({unobserved} unobserved samples){switch}",
+                self.unlogged.len(),
+                self.changes,
+            ),
+            ("charge", _, Some(q)) if self.changes == 0 => format!(
+                "; no step-time column: each row's current held to the next (no change of it between rows further apart than the log's rhythm for the export's charge `{q}` to place)"
+            ),
+            ("charge", _, Some(q)) => format!(
+                "; no step-time column: each row's current held to the next, but where rows further apart than the log's rhythm change it, the change placed by the export's charge `{q}`: {} of {} began before the row ({unobserved} unobserved samples)",
+                self.unlogged.len(),
+                self.changes,
+            ),
+            _ => "; no step-time column: each row's current held to the next".into(),
+        }
+    }
 }
 
 /// How the state column signed the current (JSON `record.state`).
@@ -387,6 +424,105 @@ pub(super) fn place_starts(
         }
     }
     Ok((out, report))
+}
+
+/// Step starts placed from the export's own charge count, for rows
+/// without a step time (the Panasonic MAT-files' `Ah`): where two rows
+/// further apart than the log's rhythm (more than a period `h` and more
+/// than 1.5 times the rows' median spacing: a stretch the cycler did not
+/// log as it logs the rest) but not a gap (at most `gap_s`) carry
+/// currents `I₀`, `I₁` that differ by more than 1 % of the largest, and the
+/// export's signed count moved `ΔQ` between them, the current changed at
+/// the instant `τ` that gives that charge, `I₀·(τ − t₀) + I₁·(t₁ − τ) =
+/// ΔQ`: a row is put in at `τ` with the new current, and the stretch to
+/// the row is [`Unlogged`] (its voltage unobserved). Held from row to row
+/// instead, a discharge that ended at its last logged row runs on to the
+/// next one (a 60 s log's rest first logged 300 s later: 0.07 A·h a
+/// step). Nothing is placed where the count's step lies outside what the
+/// two currents can give (by more than 1 % of their difference: a
+/// restart, or more than one change), where it says the change came at
+/// the row itself, or for an export that counts magnitudes or whose count
+/// restarts anywhere. The report says `charge` when the count was used.
+pub(super) fn place_starts_from_count(
+    raw: &mut RawRows,
+    h: f64,
+    gap_s: f64,
+    column: &str,
+    report: &mut StepReport,
+) {
+    let Some((theirs, _, magnitude)) = counts(raw) else {
+        return;
+    };
+    // A count of magnitudes, or one that restarts, cannot place a change.
+    let restarts = charge_check(raw, column, gap_s).map_or(1, |c| c.resets);
+    if magnitude || restarts > 0 {
+        return;
+    }
+    report.starts_from = "charge";
+    report.charge_column = Some(column.to_string());
+    let big = raw
+        .current
+        .iter()
+        .filter(|x| x.is_finite())
+        .fold(0.0f64, |m, x| m.max(x.abs()));
+    let mut spacing: Vec<f64> = raw.time.windows(2).map(|w| w[1] - w[0]).collect();
+    spacing.sort_by(f64::total_cmp);
+    let median = spacing.get(spacing.len() / 2).copied().unwrap_or(0.0);
+    let rhythm = (h * (1.0 + 1e-9)).max(1.5 * median);
+    let mut at = Vec::new();
+    for p in 1..raw.time.len() {
+        let (t0, t1) = (raw.time[p - 1], raw.time[p]);
+        let (i0, i1) = (raw.current[p - 1], raw.current[p]);
+        let dt = t1 - t0;
+        let step = (i1 - i0).abs();
+        if dt <= rhythm || dt > gap_s || !step.is_finite() || step <= 0.01 * big {
+            continue;
+        }
+        report.changes += 1;
+        let dq = (theirs[p] - theirs[p - 1]) * 3600.0;
+        let (lo, hi) = (i0.min(i1) * dt, i0.max(i1) * dt);
+        let tol = 0.01 * (i1 - i0).abs() * dt;
+        if !dq.is_finite() || dq < lo - tol || dq > hi + tol {
+            continue;
+        }
+        let tau = t0 + (dq.clamp(lo, hi) - i1 * dt) / (i0 - i1);
+        if t1 - tau > 0.01 * dt {
+            at.push((p, tau.clamp(t0, t1)));
+            report.unlogged.push(Unlogged {
+                start_s: tau.clamp(t0, t1),
+                first_row_s: t1,
+            });
+        }
+    }
+    // The rows put in: each a copy of the new step's first row at its
+    // start, with no count of the export's.
+    let copy = |v: &[f64]| put_in(v, &at, |p, _| v[p]);
+    raw.current = copy(&raw.current);
+    raw.voltage = copy(&raw.voltage);
+    raw.temperature = raw.temperature.as_deref().map(copy);
+    raw.time = put_in(&raw.time, &at, |_, tau| tau);
+    raw.rows = put_in(&raw.rows, &at, |p, _| raw.rows[p]);
+    for c in [&mut raw.extra.charge, &mut raw.extra.discharge_charge]
+        .into_iter()
+        .flatten()
+    {
+        *c = put_in(c, &at, |_, _| f64::NAN);
+    }
+}
+
+/// `v` with `x(p, τ)` put in before its row `p`, for each `(p, τ)` of `at`
+/// (`p` ascending).
+fn put_in<T: Copy>(v: &[T], at: &[(usize, f64)], x: impl Fn(usize, f64) -> T) -> Vec<T> {
+    let mut out = Vec::with_capacity(v.len() + at.len());
+    let mut next = at.iter().peekable();
+    for (k, &y) in v.iter().enumerate() {
+        while let Some(&&(p, tau)) = next.peek().filter(|(p, _)| *p == k) {
+            out.push(x(p, tau));
+            next.next();
+        }
+        out.push(y);
+    }
+    out
 }
 
 /// Which of the rows `keep` (in time order) are a step's switch: after a

@@ -276,6 +276,39 @@ fn a_mat_file_struct_reads_as_a_table() {
     assert!(e.starts_with("j.mat: not a readable MAT-file"), "{e}");
 }
 
+/// The Panasonic 10 % discharge steps, logged every 60 s with each rest's
+/// first row 300 s after its discharge stopped and no step column: the
+/// export's own `Ah` places each rest's start, and the two counts then
+/// agree; held from row to row, each rest would run its discharge on for
+/// 300 s (0.07 A·h each, 0.9 A·h over the record).
+#[test]
+fn the_panasonic_discharge_steps_end_where_the_exports_count_says() {
+    let p = data("panasonic-18650pf/03-27-17_10.29 3423_dis5_10p.mat");
+    let r = read_record(&p, &RecordOptions::default()).unwrap();
+    let st = &r.report.steps;
+    assert_eq!(
+        (st.starts_from, st.charge_column.as_deref()),
+        ("charge", Some("Ah"))
+    );
+    assert_eq!((st.changes, st.unlogged.len()), (12, 12));
+    for u in &st.unlogged {
+        assert!((u.first_row_s - u.start_s - 300.0).abs() < 1.0, "{u:?}");
+    }
+    let c = r.report.charge_check.as_ref().unwrap();
+    assert!(c.max_gap_ah < 1e-3, "{c:?}");
+    assert!(r.report.charge_warning.is_none());
+    let held = read_record(
+        &p,
+        &RecordOptions {
+            steps: StepsMode::Ignore,
+            ..RecordOptions::default()
+        },
+    )
+    .unwrap();
+    let c = held.report.charge_check.as_ref().unwrap();
+    assert!(c.max_gap_ah > 0.5, "{c:?}");
+}
+
 /// A Digatron-style pulse (its LG M50 export): the pulse's first row, at
 /// step time 0, reads 0 A under the loaded voltage; the rest's first row,
 /// at step time 0, still reads the pulse's loaded voltage.
