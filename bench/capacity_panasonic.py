@@ -13,7 +13,9 @@ capacity 10 % high, and the estimated capacity compared with the measured
 one: 2.995 A h, the C/20 discharge of the same cell (data/panasonic-18650pf
 README). Then the export as it comes, its gaps bridged by the reader
 from the export's own `Ah` count, from a nominal 10 % high, right and
-10 % low.
+10 % low: read as by default (`--steps auto`) and with `--steps count`
+(the count also ends each 6C pulse at its last loaded row, where held to
+the next row 17.4 A runs on for a second).
 
     cargo build --release -p host-sim
     bash bench/panasonic_chain.sh          # target/real-cells/panasonic/ocv.csv
@@ -110,22 +112,26 @@ def main():
     # (docs/cycler.md). Also the farthest the published capacity moves
     # over the test, from the start given.
     print()
-    print("The export as it comes (gaps bridged by its own `Ah` count):")
+    print("The export as it comes (gaps bridged by its own `Ah` count; `--steps` as below):")
     print()
-    print("| nominal given | capacity_ah at the end | capacity_status | error vs 2.995 A h "
+    print("| `--steps` | nominal given | capacity_ah at the end | capacity_status | error vs 2.995 A h "
           "| published capacity over the test, against 2.995 A h | first identified at |")
-    print("|---|---|---|---|---|---|")
-    for nominal in (2.995 * 1.1, MEASURED_AH, 2.995 * 0.9):
-        out = os.path.join(a.out, f"raw-{nominal:.3f}.csv")
+    print("|---|---|---|---|---|---|---|")
+    # `auto` (the default: the HPPC's rows are within the log's rhythm, so
+    # each is held to the next) and `count` (the export's `Ah` places every
+    # change of the current: the 6C pulses end at their last loaded row).
+    for steps, nominal in [(s, q) for s in ("auto", "count")
+                           for q in (2.995 * 1.1, MEASURED_AH, 2.995 * 0.9)]:
+        out = os.path.join(a.out, f"raw-{steps}-{nominal:.3f}.csv")
         subprocess.run([a.host_sim, "online", "battery", "--input", HPPC, "--ocv", OCV,
-                        "--capacity-ah", f"{nominal:.4f}", "--out", out],
+                        "--capacity-ah", f"{nominal:.4f}", "--steps", steps, "--out", out],
                        check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
         rows = list(csv.DictReader(open(out)))
         caps = np.array([float(r["capacity_ah"]) for r in rows]) / MEASURED_AH - 1
         first = next((float(r["time_s"]) for r in rows if r["capacity_status"] == "identified"),
                      None)
         c = float(rows[-1]["capacity_ah"])
-        print(f"| {nominal:.3f} | {c:.3f} | {rows[-1]['capacity_status']} | {c / MEASURED_AH - 1:+.1%} "
+        print(f"| {steps} | {nominal:.3f} | {c:.3f} | {rows[-1]['capacity_status']} | {c / MEASURED_AH - 1:+.1%} "
               f"| {caps.min():+.1%} to {caps.max():+.1%} | "
               f"{'never' if first is None else f'{first:.0f} s'} |")
 

@@ -61,7 +61,7 @@ choice!(
     CurrentSign::DischargePositive,
     CurrentSign::FromState
 );
-choice!(StepsMode: StepsMode::Auto, StepsMode::Ignore);
+choice!(StepsMode: StepsMode::Auto, StepsMode::Ignore, StepsMode::Count);
 choice!(ReproducePart: ReproducePart::All, ReproducePart::Example1, ReproducePart::Battery);
 
 impl Choice for MapMethod {

@@ -412,6 +412,38 @@ fn without_a_step_time_the_exports_count_places_the_step_starts() {
     let c = r.report.charge_check.as_ref().unwrap();
     assert!(c.max_gap_ah < 0.02, "{c:?}");
     assert!(r.report.charge_warning.is_none());
+    // Each load's first row a period late (within the log's rhythm): the
+    // default places the 18 rests alone, `--steps count` every change the
+    // count dates, and the SOC is then the step-by-step count's as the
+    // exports with a step time give it.
+    let late = |steps| {
+        let (rows, _) = test();
+        let mut s = String::from("Time(s),Current(A),Voltage(V),Ah\n");
+        for r in &rows {
+            s += &format!("{},{},{:.6},{:.6}\n", r.t, r.i, r.v, r.q);
+        }
+        let o = RecordOptions {
+            capacity_ah: Some(CAPACITY_AH),
+            steps,
+            ..RecordOptions::default()
+        };
+        table(&s, &o)
+    };
+    let (r, _) = late(StepsMode::Auto);
+    assert_eq!(r.report.steps.unlogged.len(), 18);
+    let (r, _) = late(StepsMode::Count);
+    assert_eq!(r.report.steps.unlogged.len(), 36);
+    assert!((18 * 59..=18 * 60).contains(&r.report.unobserved_samples));
+    let (_, ends) = test();
+    let rec = &r.record;
+    for &(t_end, z, _) in &ends {
+        let k = rec.time.iter().position(|&t| t >= t_end - 1e-9).unwrap();
+        let counted = 1.0 + rec.current[..k].iter().sum::<f64>() * rec.h / 3600.0 / CAPACITY_AH;
+        assert!(
+            (counted - z).abs() < 0.002,
+            "SOC {counted} at {t_end} s, by hand {z}"
+        );
+    }
     // Without the count, each row's current is held to the next: every
     // rest holds the load before it for its first minute (6 A·h of
     // discharge too many), and the last rest lands 0.1 SOC off.

@@ -110,8 +110,10 @@ pub struct RecordOptions {
     /// more is refused. A whole-record fit sets [`MAX_SAMPLES`].
     #[serde(skip)]
     pub max_samples: Option<usize>,
-    /// Step starts from the step-time column (`auto`, default) or each
-    /// row's current held to the next row (`ignore`).
+    /// Step starts from the step-time column, or without one from the
+    /// export's charge count beyond the log's rhythm (`auto`, default);
+    /// the count placing every change it dates (`count`); or each row's
+    /// current held to the next row (`ignore`).
     pub steps: StepsMode,
     /// The cell's capacity (A·h), if known: the export's charge count is
     /// compared with ours to 0.5 % of it (else to 0.02 A·h).
@@ -605,13 +607,9 @@ fn finish(
     r.gap_threshold_s = o.max_gap.unwrap_or((10.0 * h).max(300.0));
     let resampled = source != "uniform";
     if let (true, "rows", Some(ch)) = (resampled, step_report.starts_from, &c.charge) {
-        steps::place_starts_from_count(
-            &mut raw,
-            h,
-            r.gap_threshold_s,
-            &ch.header,
-            &mut step_report,
-        );
+        let everywhere = o.steps == StepsMode::Count;
+        let limits = (h, r.gap_threshold_s);
+        steps::place_starts_from_count(&mut raw, limits, everywhere, &ch.header, &mut step_report);
     }
     let keep: Vec<usize> = (0..raw.time.len()).collect();
     let (time, current, voltage, temperature) = if resampled {

@@ -103,14 +103,20 @@ pub enum StepsMode {
     /// Each row's current held to the next row, whatever the step time
     /// says.
     Ignore,
+    /// As `Auto`, and where there is no step time, every change of the
+    /// current the export's charge count dates is placed by it, within
+    /// the log's rhythm too (a resampled log; [`StepReport::starts_from`]
+    /// `charge`).
+    Count,
 }
 
 impl StepsMode {
-    /// `auto` or `ignore`.
+    /// `auto`, `ignore` or `count`.
     pub fn as_str(self) -> &'static str {
         match self {
             StepsMode::Auto => "auto",
             StepsMode::Ignore => "ignore",
+            StepsMode::Count => "count",
         }
     }
 }
@@ -175,7 +181,7 @@ impl StepReport {
                 self.changes,
             ),
             ("charge", _, Some(q)) if self.changes == 0 => format!(
-                "; no step-time column: each row's current held to the next (no change of it between rows further apart than the log's rhythm for the export's charge `{q}` to place)"
+                "; no step-time column: each row's current held to the next (no change of it for the export's charge `{q}` to place)"
             ),
             ("charge", _, Some(q)) => format!(
                 "; no step-time column: each row's current held to the next, but where rows further apart than the log's rhythm change it, the change placed by the export's charge `{q}`: {} of {} began before the row ({unobserved} unobserved samples)",
@@ -314,7 +320,7 @@ pub(super) fn place_starts(
     path: &Path,
 ) -> Result<(RawRows, StepReport)> {
     let switch = match mode {
-        StepsMode::Auto => switch_rows(&raw, keep),
+        StepsMode::Auto | StepsMode::Count => switch_rows(&raw, keep),
         StepsMode::Ignore => vec![false; keep.len()],
     };
     let keep: Vec<usize> = keep
@@ -395,7 +401,7 @@ pub(super) fn place_starts(
             };
             if new_step {
                 report.changes += 1;
-                if let (StepsMode::Auto, Some((_, b))) = (mode, st) {
+                if let (StepsMode::Auto | StepsMode::Count, Some((_, b))) = (mode, st) {
                     if b.is_finite() {
                         let start = (t1 - b).clamp(t0, t1);
                         if t1 - start > tol {
@@ -442,11 +448,13 @@ pub(super) fn place_starts(
 /// two currents can give (by more than 1 % of their difference: a
 /// restart, or more than one change), where it says the change came at
 /// the row itself, or for an export that counts magnitudes or whose count
-/// restarts anywhere. The report says `charge` when the count was used.
+/// restarts anywhere. With `everywhere` ([`StepsMode::Count`]) the rows
+/// within the log's rhythm are placed too. The report says `charge` when
+/// the count was used.
 pub(super) fn place_starts_from_count(
     raw: &mut RawRows,
-    h: f64,
-    gap_s: f64,
+    (h, gap_s): (f64, f64),
+    everywhere: bool,
     column: &str,
     report: &mut StepReport,
 ) {
@@ -468,7 +476,11 @@ pub(super) fn place_starts_from_count(
     let mut spacing: Vec<f64> = raw.time.windows(2).map(|w| w[1] - w[0]).collect();
     spacing.sort_by(f64::total_cmp);
     let median = spacing.get(spacing.len() / 2).copied().unwrap_or(0.0);
-    let rhythm = (h * (1.0 + 1e-9)).max(1.5 * median);
+    let rhythm = if everywhere {
+        0.0
+    } else {
+        (h * (1.0 + 1e-9)).max(1.5 * median)
+    };
     let mut at = Vec::new();
     for p in 1..raw.time.len() {
         let (t0, t1) = (raw.time[p - 1], raw.time[p]);

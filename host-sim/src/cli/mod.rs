@@ -207,6 +207,10 @@ value_enum! {
         Auto,
         /// Each row's current held to the next row.
         Ignore,
+        /// As `auto`, and without a step time every change of the current
+        /// the export's charge count dates is placed by it, within the
+        /// log's rhythm too.
+        Count,
     }
 }
 
@@ -244,7 +248,10 @@ pub struct RecordArgs {
     /// Where each step began: `auto` from the step-time column (a step
     /// whose first row is logged late began at its row's time less its
     /// step time; the stretch before its first row is unobserved), or
-    /// `ignore`: each row's current held to the next row.
+    /// without one from the export's own charge count where rows further
+    /// apart than the log's rhythm change the current; `count`: as `auto`,
+    /// the count placing every change it dates; or `ignore`: each row's
+    /// current held to the next row.
     #[arg(long, value_enum, default_value = "auto")]
     pub steps: StepsArg,
 }
