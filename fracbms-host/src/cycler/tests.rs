@@ -309,6 +309,61 @@ fn the_panasonic_discharge_steps_end_where_the_exports_count_says() {
     assert!(c.max_gap_ah > 0.5, "{c:?}");
 }
 
+/// A charge count with holes, a restart and rows that disagree with it
+/// places nothing it cannot explain, and panics on none of it.
+#[test]
+fn a_count_that_cannot_date_a_change_places_nothing() {
+    let read = |count: [&str; 6]| {
+        let mut log = String::from("Time(s),Current(A),Voltage(V),Ah\n");
+        let rows = [
+            (0.0, 0.0),
+            (60.0, -1.0),
+            (61.0, -1.0),
+            (62.0, -1.0),
+            (362.0, 0.0),
+            (363.0, 0.0),
+        ];
+        for ((t, i), q) in rows.iter().zip(count) {
+            log += &format!("{t},{i},3.7,{q}\n");
+        }
+        for steps in [StepsMode::Auto, StepsMode::Count] {
+            let o = RecordOptions {
+                steps,
+                ..RecordOptions::default()
+            };
+            read_record_from(log.as_bytes(), Path::new("c.csv"), &o).unwrap();
+        }
+        read_record_from(
+            log.as_bytes(),
+            Path::new("c.csv"),
+            &RecordOptions::default(),
+        )
+        .unwrap()
+        .report
+        .steps
+    };
+    // The discharge's end dated by the count: it stopped at its last row.
+    let st = read([
+        "0",
+        "-0.0",
+        "-0.000278",
+        "-0.000556",
+        "-0.000556",
+        "-0.000556",
+    ]);
+    assert_eq!((st.starts_from, st.unlogged.len()), ("charge", 1));
+    assert!((st.unlogged[0].start_s - 62.0).abs() < 0.1, "{st:?}");
+    // A hole where the change is: nothing to date it.
+    let st = read(["0", "-0.0", "-0.000278", "NaN", "-0.000556", "-0.000556"]);
+    assert!(st.unlogged.is_empty(), "{st:?}");
+    // A count that moved more than the load could: nothing placed.
+    let st = read(["0", "-0.0", "-0.000278", "-0.000556", "-0.5", "-0.5"]);
+    assert!(st.unlogged.is_empty(), "{st:?}");
+    // A count that restarts: not used at all.
+    let st = read(["0", "-0.0", "-0.000278", "-0.000556", "0", "0"]);
+    assert_eq!(st.starts_from, "rows");
+}
+
 /// A Digatron-style pulse (its LG M50 export): the pulse's first row, at
 /// step time 0, reads 0 A under the loaded voltage; the rest's first row,
 /// at step time 0, still reads the pulse's loaded voltage.
