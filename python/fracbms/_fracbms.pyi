@@ -42,6 +42,7 @@ def identify_files(
     columns: Optional[str] = None,
     current_sign: Literal["charge-positive", "discharge-positive"] = "charge-positive",
     period_s: Optional[float] = None,
+    steps: Literal["auto", "ignore", "count"] = "auto",
     voltage_min: Optional[float] = None,
     voltage_max: Optional[float] = None,
     current_limit: Optional[float] = None,
@@ -72,6 +73,7 @@ def life_rows(
     columns: Optional[str] = None,
     current_sign: str = "charge-positive",
     period_s: Optional[float] = None,
+    steps: Literal["auto", "ignore", "count"] = "auto",
     voltage_min: Optional[float] = None,
     voltage_max: Optional[float] = None,
 ) -> list[dict[str, Any]]:

@@ -48,8 +48,9 @@ def life(
     each log's track is written (``NAME-track.csv``; default a temporary
     directory, removed after). ``options``: ``ocv``, ``capacity_ah``,
     ``soc0``, ``window``, ``columns``, ``current_sign``, ``period_s``,
-    ``voltage_min``, ``voltage_max`` (the limits a capacity check runs
-    between), as the CLI's flags.
+    ``steps`` (``"auto"``, ``"ignore"``, ``"count"``: where each step
+    began), ``voltage_min``, ``voltage_max`` (the limits a capacity check
+    runs between), as the CLI's flags.
 
     Raises ValueError for no files, a start-time table that does not cover
     them, or an option refused; ImportError without pandas."""

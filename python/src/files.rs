@@ -5,7 +5,7 @@
 //! cluster.
 
 use super::{choice, to_dict, value_error};
-use fracbms_host::cycler::{ColumnMap, CurrentSign, RecordOptions};
+use fracbms_host::cycler::{ColumnMap, CurrentSign, RecordOptions, StepsMode};
 use fracbms_host::identify::many::{self, ManyOptions};
 use fracbms_host::identify::record::BatteryFitOptions;
 use fracbms_host::identify::{BatteryMethod, ModelRequest};
@@ -31,11 +31,13 @@ pub(crate) fn files(paths: &Bound<'_, PyAny>) -> PyResult<Vec<PathBuf>> {
 }
 
 /// How a file is read: the keywords `columns=`, `current_sign=`,
-/// `period_s=` as the CLI's `--columns`, `--current-sign`, `--period`.
+/// `period_s=`, `steps=` as the CLI's `--columns`, `--current-sign`,
+/// `--period`, `--steps`.
 pub(crate) fn record_options(
     columns: Option<&str>,
     current_sign: &str,
     period_s: Option<f64>,
+    steps: &str,
 ) -> PyResult<RecordOptions> {
     Ok(RecordOptions {
         columns: columns
@@ -45,6 +47,7 @@ pub(crate) fn record_options(
             .unwrap_or_default(),
         current_sign: choice::<CurrentSign>("current_sign", current_sign)?,
         period: period_s,
+        steps: choice::<StepsMode>("steps", steps)?,
         ..RecordOptions::default()
     })
 }
@@ -60,7 +63,7 @@ pub(crate) fn record_options(
     paths, *, ocv = None, capacity_ah = None, soc0 = None, method = "refined", model = "auto",
     iterations = 50, memory = None, map = false, soc_bins = None, min_rest = 600.0,
     map_method = "joint", temperature_c = None, columns = None, current_sign = "charge-positive", period_s = None,
-    voltage_min = None, voltage_max = None, current_limit = None, jobs = None
+    steps = "auto", voltage_min = None, voltage_max = None, current_limit = None, jobs = None
 ))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn identify_files<'py>(
@@ -81,6 +84,7 @@ pub(crate) fn identify_files<'py>(
     columns: Option<&str>,
     current_sign: &str,
     period_s: Option<f64>,
+    steps: &str,
     voltage_min: Option<f64>,
     voltage_max: Option<f64>,
     current_limit: Option<f64>,
@@ -101,7 +105,7 @@ pub(crate) fn identify_files<'py>(
         voltage_min,
         voltage_max,
         current_limit,
-        record: record_options(columns, current_sign, period_s)?,
+        record: record_options(columns, current_sign, period_s, steps)?,
     };
     let map_method = choice::<MapMethod>("map_method", map_method)?;
     let m = ManyOptions {

@@ -22,7 +22,7 @@ use std::path::PathBuf;
 #[pyo3(signature = (
     paths, *, out_dir, start_times = None, ocv = None, capacity_ah = None, soc0 = None,
     window = 256, columns = None, current_sign = "charge-positive", period_s = None,
-    voltage_min = None, voltage_max = None
+    steps = "auto", voltage_min = None, voltage_max = None
 ))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn life_rows<'py>(
@@ -37,6 +37,7 @@ pub(crate) fn life_rows<'py>(
     columns: Option<&str>,
     current_sign: &str,
     period_s: Option<f64>,
+    steps: &str,
     voltage_min: Option<f64>,
     voltage_max: Option<f64>,
 ) -> PyResult<Bound<'py, PyList>> {
@@ -51,7 +52,7 @@ pub(crate) fn life_rows<'py>(
             capacity_ah,
             soc0,
         },
-        record: record_options(columns, current_sign, period_s)?,
+        record: record_options(columns, current_sign, period_s, steps)?,
         ..OnlineBatteryOptions::default()
     };
     let label = paths

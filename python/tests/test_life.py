@@ -62,3 +62,26 @@ def test_without_start_times_the_logs_own_time_stamps_give_the_order(tmp_path):
     assert [p.rsplit("/", 1)[-1] for p in df["file"]] == [earlier.name, later.name]
     assert df["start_time"][1] == "2017-03-27T10:29:11"
     assert df["start_time"][0].startswith("2017-03-11T")
+
+
+@pytest.mark.parametrize("steps", ["auto", "ignore"])
+def test_steps_reads_the_logs_as_the_cli_does(host_sim, tmp_path, steps):
+    """The Panasonic 10 % discharge steps: each rest first logged 300 s
+    after its discharge stopped, no step column. By default the export's
+    `Ah` places each rest's start (5.44 A h discharged, the export's own
+    count 5.45); `steps="ignore"` holds each row's current to the next
+    (7.33 A h), as `--steps ignore` does."""
+    d = tmp_path / "logs"
+    d.mkdir()
+    shutil.copy(REPO / "data" / "panasonic-18650pf" / "03-11-17_10.10 3390_dis5_10p.mat", d)
+    out = tmp_path / "life.csv"
+    r = host_sim("online", "battery", "--input", d, "--steps", steps, "--window", "64",
+                 "--out", tmp_path / "tracks", "--life-out", out)
+    assert r.returncode == 0, r.stderr
+    with open(out, newline="") as f:
+        cli = list(csv.DictReader(f))
+    df = fracbms.life(d, steps=steps, window=64)
+    for key in ("discharged_ah", "charged_ah"):
+        assert abs(float(cli[0][key]) - df[key][0]) <= 1e-9 * df[key][0], key
+    want = 5.449 if steps == "auto" else 7.327
+    assert abs(df["discharged_ah"][0] - want) < 0.01, df["discharged_ah"][0]
