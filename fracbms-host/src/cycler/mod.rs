@@ -677,9 +677,14 @@ fn finish(
             Some(q) => (0.005 * q, format!("0.5 % of the capacity {q} A·h")),
             None => (0.02, "0.02 A·h (no capacity given)".to_string()),
         };
+        // Where the count could date the changes within the log's rhythm.
+        let steps = match (o.steps, step_report.starts_from) {
+            (StepsMode::Auto, "charge") => "--steps count",
+            _ => "--steps",
+        };
         (k.max_gap_ah > limit).then(|| {
             format!(
-                "the export's own charge `{}` and ours part by up to {:.4} A·h (over the record: ours {:.4} A·h, theirs {:.4} A·h), more than {of}: are the step starts or the current's sign read right? (--steps, --current-sign)",
+                "the export's own charge `{}` and ours part by up to {:.4} A·h (over the record: ours {:.4} A·h, theirs {:.4} A·h), more than {of}: are the step starts or the current's sign read right? ({steps}, --current-sign)",
                 k.column, k.max_gap_ah, k.ours_ah, k.theirs_ah
             )
         })

@@ -146,6 +146,10 @@ pub struct StepReport {
     /// `starts_from` `charge`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub charge_column: Option<String>,
+    /// Whether the count placed the changes within the log's rhythm too
+    /// ([`StepsMode::Count`]).
+    #[serde(skip)]
+    pub count_everywhere: bool,
     /// The step index's header, if read.
     pub step_column: Option<String>,
     /// The step time's header, if read.
@@ -182,6 +186,11 @@ impl StepReport {
             ),
             ("charge", _, Some(q)) if self.changes == 0 => format!(
                 "; no step-time column: each row's current held to the next (no change of it for the export's charge `{q}` to place)"
+            ),
+            ("charge", _, Some(q)) if self.count_everywhere => format!(
+                "; no step-time column: each change of the current placed by the export's charge `{q}` (--steps count): {} of {} began before their row ({unobserved} unobserved samples)",
+                self.unlogged.len(),
+                self.changes,
             ),
             ("charge", _, Some(q)) => format!(
                 "; no step-time column: each row's current held to the next, but where rows further apart than the log's rhythm change it, the change placed by the export's charge `{q}`: {} of {} began before the row ({unobserved} unobserved samples)",
@@ -468,6 +477,7 @@ pub(super) fn place_starts_from_count(
     }
     report.starts_from = "charge";
     report.charge_column = Some(column.to_string());
+    report.count_everywhere = everywhere;
     let big = raw
         .current
         .iter()

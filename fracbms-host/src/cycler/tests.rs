@@ -309,6 +309,38 @@ fn the_panasonic_discharge_steps_end_where_the_exports_count_says() {
     assert!(c.max_gap_ah > 0.5, "{c:?}");
 }
 
+/// The Panasonic 25 °C HPPC test: its 6C pulses end at their last loaded
+/// row, the next row about 1 s later (within the log's rhythm). Held to
+/// it, our count parts from the export's by 48.6 mA·h and the reader
+/// warns, naming `--steps count`; with it the two agree to 7 mA·h.
+#[test]
+fn the_panasonic_hppc_pulses_end_where_the_count_says_with_steps_count() {
+    let p = data("panasonic-18650pf/03-11-17_08.47 25degC_5Pulse_HPPC_Pan18650PF.mat");
+    let read = |steps| {
+        let o = RecordOptions {
+            steps,
+            capacity_ah: Some(2.9),
+            ..RecordOptions::default()
+        };
+        read_record(&p, &o).unwrap().report
+    };
+    let auto = read(StepsMode::Auto);
+    assert!(auto.steps.unlogged.is_empty());
+    let gap = auto.charge_check.as_ref().unwrap().max_gap_ah;
+    assert!(gap > 0.04, "{gap}");
+    let w = auto.charge_warning.unwrap();
+    assert!(w.contains("(--steps count, --current-sign)"), "{w}");
+    let count = read(StepsMode::Count);
+    assert_eq!(
+        (count.steps.unlogged.len(), count.steps.changes),
+        (124, 134)
+    );
+    let gap = count.charge_check.as_ref().unwrap().max_gap_ah;
+    assert!(gap < 0.01, "{gap}");
+    assert!(count.charge_warning.is_none());
+    assert!(count.summary(&p).contains("(--steps count): 124 of 134"));
+}
+
 /// A charge count with holes, a restart and rows that disagree with it
 /// places nothing it cannot explain, and panics on none of it.
 #[test]
