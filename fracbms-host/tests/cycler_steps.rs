@@ -182,6 +182,19 @@ fn table(text: &str, o: &RecordOptions) -> (fracbms_host::cycler::CyclerRecord, 
     (r, x)
 }
 
+/// The SOC counted from the record at every rest's end is the
+/// step-by-step count's, to 0.002.
+fn assert_rest_socs(rec: &fracbms_host::io::BatteryRecord, ends: &[(f64, f64, f64)], name: &str) {
+    for &(t_end, z, _) in ends {
+        let k = rec.time.iter().position(|&t| t >= t_end - 1e-9).unwrap();
+        let counted = 1.0 + rec.current[..k].iter().sum::<f64>() * rec.h / 3600.0 / CAPACITY_AH;
+        assert!(
+            (counted - z).abs() < 0.002,
+            "{name}: SOC {counted} at {t_end} s, by hand {z}"
+        );
+    }
+}
+
 #[test]
 fn late_logged_rests_are_counted_step_by_step_in_every_vendors_export() {
     let (rows, ends) = test();
@@ -198,16 +211,7 @@ fn late_logged_rests_are_counted_step_by_step_in_every_vendors_export() {
         let (r, x) = table(&text, &o);
         let rec = &r.record;
         assert_eq!(rec.h, 1.0, "{name}");
-        // The SOC counted from the record at every rest's end is the
-        // step-by-step count's.
-        for &(t_end, z, _) in &ends {
-            let k = rec.time.iter().position(|&t| t >= t_end - 1e-9).unwrap();
-            let counted = 1.0 + rec.current[..k].iter().sum::<f64>() * rec.h / 3600.0 / CAPACITY_AH;
-            assert!(
-                (counted - z).abs() < 0.002,
-                "{name}: SOC {counted} at {t_end} s, by hand {z}"
-            );
-        }
+        assert_rest_socs(rec, &ends, name);
         // 18 rests begin a minute before their first row: 60 samples each.
         assert_eq!(r.report.steps.unlogged.len(), 18 + 9 + 9, "{name}");
         assert_eq!(r.report.unobserved_samples, 18 * 60, "{name}");
@@ -397,14 +401,7 @@ fn without_a_step_time_the_exports_count_places_the_step_starts() {
         .report
         .summary(Path::new("p"))
         .contains("the change placed by the export's charge `Ah`: 18 of 18"));
-    for &(t_end, z, _) in &ends {
-        let k = rec.time.iter().position(|&t| t >= t_end - 1e-9).unwrap();
-        let counted = 1.0 + rec.current[..k].iter().sum::<f64>() * rec.h / 3600.0 / CAPACITY_AH;
-        assert!(
-            (counted - z).abs() < 0.002,
-            "SOC {counted} at {t_end} s, by hand {z}"
-        );
-    }
+    assert_rest_socs(rec, &ends, "the count's placing");
     for (p, &(_, z, v)) in x.rests.iter().zip(&ends) {
         assert!((p.soc - z).abs() < 0.01, "SOC {} vs {z}", p.soc);
         assert!((p.voltage_v - v).abs() < 3e-3, "{} V vs {v} V", p.voltage_v);
@@ -436,14 +433,7 @@ fn without_a_step_time_the_exports_count_places_the_step_starts() {
     assert!((18 * 59..=18 * 60).contains(&r.report.unobserved_samples));
     let (_, ends) = test();
     let rec = &r.record;
-    for &(t_end, z, _) in &ends {
-        let k = rec.time.iter().position(|&t| t >= t_end - 1e-9).unwrap();
-        let counted = 1.0 + rec.current[..k].iter().sum::<f64>() * rec.h / 3600.0 / CAPACITY_AH;
-        assert!(
-            (counted - z).abs() < 0.002,
-            "SOC {counted} at {t_end} s, by hand {z}"
-        );
-    }
+    assert_rest_socs(rec, &ends, "--steps count");
     // Without the count, each row's current is held to the next: every
     // rest holds the load before it for its first minute (6 A·h of
     // discharge too many), and the last rest lands 0.1 SOC off.
