@@ -678,8 +678,8 @@ fn finish(
             None => (0.02, "0.02 A·h (no capacity given)".to_string()),
         };
         // Where the count could date the changes within the log's rhythm.
-        let steps = match (o.steps, step_report.starts_from) {
-            (StepsMode::Auto, "charge") => "--steps count",
+        let steps = match (o.steps, &step_report.charge_column) {
+            (StepsMode::Auto, Some(_)) => "--steps count",
             _ => "--steps",
         };
         (k.max_gap_ah > limit).then(|| {

@@ -136,14 +136,15 @@ pub struct Unlogged {
 #[derive(Clone, Debug, Default, PartialEq, Serialize)]
 pub struct StepReport {
     /// `step_time` (starts from the step time), `charge` (no step-time
-    /// column, but a signed charge count of the export's own: where rows
-    /// further apart than the log's rhythm change the current, the change
-    /// is placed by the count; elsewhere each row's current is held to the
-    /// next), `rows` (no step-time column and no signed count: each row's
-    /// current is held to the next row) or `ignored` (`--steps ignore`).
+    /// column, and the export's own signed charge count placed changes of
+    /// the current where rows further apart than the log's rhythm make
+    /// them; elsewhere each row's current is held to the next), `rows` (no
+    /// step-time column, and nothing placed: each row's current is held to
+    /// the next row) or `ignored` (`--steps ignore`).
     pub starts_from: &'static str,
-    /// The export's charge column that placed the starts (with
-    /// `starts_from` `charge`).
+    /// The export's charge column when it could place the starts (signed,
+    /// never restarting; without a step-time column): it did where
+    /// `starts_from` is `charge`.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub charge_column: Option<String>,
     /// Whether the count placed the changes within the log's rhythm too
@@ -183,9 +184,6 @@ impl StepReport {
                 "; step starts from `{h}`: {} of {} steps began before their first row ({unobserved} unobserved samples){switch}",
                 self.unlogged.len(),
                 self.changes,
-            ),
-            ("charge", _, Some(q)) if self.changes == 0 => format!(
-                "; no step-time column: each row's current held to the next (no change of it for the export's charge `{q}` to place)"
             ),
             ("charge", _, Some(q)) if self.count_everywhere => format!(
                 "; no step-time column: each change of the current placed by the export's charge `{q}` (--steps count): {} of {} began before their row ({unobserved} unobserved samples)",
@@ -475,9 +473,9 @@ pub(super) fn place_starts_from_count(
     if magnitude || restarts > 0 {
         return;
     }
-    report.starts_from = "charge";
+    // The count could date a change; the report says `charge` where it
+    // did (a log with none placed reads as `rows`, as without a count).
     report.charge_column = Some(column.to_string());
-    report.count_everywhere = everywhere;
     let big = raw
         .current
         .iter()
@@ -491,7 +489,7 @@ pub(super) fn place_starts_from_count(
     } else {
         (h * (1.0 + 1e-9)).max(1.5 * median)
     };
-    let mut at = Vec::new();
+    let (mut at, mut changes, mut unlogged) = (Vec::new(), 0, Vec::new());
     for p in 1..raw.time.len() {
         let (t0, t1) = (raw.time[p - 1], raw.time[p]);
         let (i0, i1) = (raw.current[p - 1], raw.current[p]);
@@ -500,7 +498,7 @@ pub(super) fn place_starts_from_count(
         if dt <= rhythm || dt > gap_s || !step.is_finite() || step <= 0.01 * big {
             continue;
         }
-        report.changes += 1;
+        changes += 1;
         let dq = (theirs[p] - theirs[p - 1]) * 3600.0;
         let (lo, hi) = (i0.min(i1) * dt, i0.max(i1) * dt);
         let tol = 0.01 * (i1 - i0).abs() * dt;
@@ -510,12 +508,19 @@ pub(super) fn place_starts_from_count(
         let tau = t0 + (dq.clamp(lo, hi) - i1 * dt) / (i0 - i1);
         if t1 - tau > 0.01 * dt {
             at.push((p, tau.clamp(t0, t1)));
-            report.unlogged.push(Unlogged {
+            unlogged.push(Unlogged {
                 start_s: tau.clamp(t0, t1),
                 first_row_s: t1,
             });
         }
     }
+    if at.is_empty() {
+        return;
+    }
+    report.starts_from = "charge";
+    report.count_everywhere = everywhere;
+    report.changes = changes;
+    report.unlogged = unlogged;
     // The rows put in: each a copy of the new step's first row at its
     // start, with no count of the export's.
     let copy = |v: &[f64]| put_in(v, &at, |p, _| v[p]);

@@ -325,6 +325,8 @@ fn the_panasonic_hppc_pulses_end_where_the_count_says_with_steps_count() {
         read_record(&p, &o).unwrap().report
     };
     let auto = read(StepsMode::Auto);
+    // Nothing placed: read row by row, as without a count.
+    assert_eq!((auto.steps.starts_from, auto.steps.changes), ("rows", 0));
     assert!(auto.steps.unlogged.is_empty());
     let gap = auto.charge_check.as_ref().unwrap().max_gap_ah;
     assert!(gap > 0.04, "{gap}");
