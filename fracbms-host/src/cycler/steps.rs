@@ -456,8 +456,8 @@ pub(super) fn place_starts(
 /// restart, or more than one change), where it says the change came at
 /// the row itself, or for an export that counts magnitudes or whose count
 /// restarts anywhere. With `everywhere` ([`StepsMode::Count`]) the rows
-/// within the log's rhythm are placed too. The report says `charge` when
-/// the count was used.
+/// within the log's rhythm are placed too. The report names the count
+/// when it could place a start, and says `charge` where it placed any.
 pub(super) fn place_starts_from_count(
     raw: &mut RawRows,
     (h, gap_s): (f64, f64),
