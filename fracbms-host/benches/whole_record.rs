@@ -18,7 +18,7 @@ use estimator_core::battery::CellParameters;
 use estimator_core::frac::GlWeights;
 use fracbms_host::branch::FftBranch;
 use fracbms_host::identify::battery::rough_starts;
-use fracbms_host::identify::model_choice::refine_from_start;
+use fracbms_host::identify::refine::refine_from_start;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::hint::black_box;

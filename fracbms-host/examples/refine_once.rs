@@ -13,7 +13,7 @@
 //! iterations, α.
 
 use fracbms_host::identify::battery::{filled, rough_starts};
-use fracbms_host::identify::model_choice::refine_from_start;
+use fracbms_host::identify::refine::refine_from_start;
 use std::time::Instant;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {

@@ -4,9 +4,8 @@
 //! screening and verdict of [`crate::trust`]. The estimators are
 //! `estimator-core`'s; this module drives them in `f64` and reports.
 
-use super::model_choice::{
-    choose_model, refine_best, stop_reason_name, LoggedWindow, ModelChoice, Refinement,
-};
+use super::model_choice::{choose_model, ModelChoice};
+use super::refine::{refine_best, stop_reason_name, LoggedWindow, Refinement};
 use super::{table_row, BatteryMethod, HistoryEntry, ModelRequest, BAT_MEM, MAX_BATTERY_ROWS};
 use crate::branch::FftBranch;
 use crate::error::Result;
@@ -500,7 +499,7 @@ fn battery_run_sized<const N: usize, const MEM: usize>(
             }
             let mut so = BatterySettings::new(rec.h, rm);
             so.ocv_slope = refine.ocv_slope;
-            so.cost_tolerance = super::model_choice::WHOLE_RECORD_COST_TOLERANCE;
+            so.cost_tolerance = super::refine::WHOLE_RECORD_COST_TOLERANCE;
             so.line_search = true;
             // Several starts, the best fit kept: the paper's estimate (when
             // it is physical) and the rough ones from the data alone. On a

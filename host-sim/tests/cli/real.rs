@@ -529,7 +529,7 @@ fn panasonic_overpotential_is_fitted_in_fewer_iterations_with_the_line_search() 
     use estimator_core::battery::BatterySettings;
     use fracbms_host::branch::FftBranch;
     use fracbms_host::identify::battery::{filled, rough_starts};
-    use fracbms_host::identify::model_choice::{LoggedWindow, WHOLE_RECORD_COST_TOLERANCE};
+    use fracbms_host::identify::refine::{LoggedWindow, WHOLE_RECORD_COST_TOLERANCE};
 
     let (hppc, ocv) = panasonic_hppc_and_ocv("line-search-ocv.csv");
     let fit_out = tmp("line-search-fit.csv");
