@@ -437,8 +437,24 @@ fn battery_run_sized<const N: usize, const MEM: usize>(
     // A warm start needs no regression to start from.
     let warm = refine.start.filter(|_| method == BatteryMethod::Refined);
     let paper_iterations = if warm.is_some() { 0 } else { iterations };
+    // As the refinement's start the regression is one start of several:
+    // when it fails (its rows past the memory carry no excitation, or a
+    // non-finite value), the refinement starts from the data alone.
+    let mut regression_failed = false;
     for _ in 0..paper_iterations {
-        let it = gi.iterate(&sg, &*win).map_err(ctx)?;
+        let it = match gi.iterate(&sg, &*win) {
+            Ok(it) => it,
+            Err(e) if method == BatteryMethod::Refined => {
+                eprintln!(
+                    "note: {}: 2S-OP-GI stopped after {} iterations ({e}); the refinement starts from the data alone",
+                    path.display(),
+                    history.len()
+                );
+                regression_failed = true;
+                break;
+            }
+            Err(e) => return Err(ctx(e)),
+        };
         history.push(HistoryEntry {
             k: it.k,
             alpha: it.alpha,
@@ -507,9 +523,9 @@ fn battery_run_sized<const N: usize, const MEM: usize>(
             // at 10 °C, SOC 0.2: 36 mV from the even split, 3.4 mV from the
             // charge-transfer one; docs/measured-cells.md). A start whose
             // search fails is passed over; the fit fails only when all do.
-            let paper = gi
-                .cell()
-                .filter(|c| c.alpha >= so.alpha_min && c.alpha <= so.alpha_max);
+            let paper = gi.cell().filter(|c| {
+                !regression_failed && c.alpha >= so.alpha_min && c.alpha <= so.alpha_max
+            });
             let starts: Vec<CellParameters<f64>> = match warm {
                 Some(w) => vec![w.linearized()],
                 None => paper

@@ -493,3 +493,63 @@ fn butler_volmer_model_is_chosen_when_the_data_identify_it() {
         "{err}"
     );
 }
+
+/// The paper's regression is one start of the refinement: on a record whose
+/// pulses all fall within its memory (the rows it regresses on are a rest,
+/// "no excitation"), `identify battery` says so in a note and fits from the
+/// data alone, where it used to end with that error. The paper's method
+/// itself still ends with it.
+#[test]
+fn a_regression_that_fails_leaves_the_refinements_other_starts() {
+    use estimator_core::battery::CellParameters;
+    use fracbms_host::simulate::{battery_voltage, OcvCurve};
+    let cell = CellParameters::cell_18650();
+    let i: Vec<f64> = (0..900)
+        .map(|k| match k {
+            0..=199 if (k / 40) % 2 == 0 => -3.0,
+            0..=199 => 1.0,
+            _ => 0.0,
+        })
+        .collect();
+    let v = battery_voltage(&cell, &i, 1.0, OcvCurve::Constant)
+        .unwrap()
+        .clean;
+    let csv = tmp("regression-fails.csv");
+    let mut t = String::from("time_s,current_a,voltage_v\n");
+    for (k, (a, u)) in i.iter().zip(&v).enumerate() {
+        t.push_str(&format!("{k},{a},{u}\n"));
+    }
+    std::fs::write(&csv, t).unwrap();
+    let json = tmp("regression-fails.json");
+    let o = run(&[
+        "identify",
+        "battery",
+        "--input",
+        s(&csv),
+        "--model",
+        "linear",
+        "--json",
+        s(&json),
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    assert!(
+        err.contains("2S-OP-GI stopped after 0 iterations (window carries no excitation)"),
+        "{err}"
+    );
+    let j = read_json(&json);
+    let g = |k: &str| j[k].as_f64().unwrap();
+    assert!((g("r_i") / cell.r_i - 1.0).abs() < 1e-3, "{j}");
+    assert!((g("r_ct") / cell.r_ct - 1.0).abs() < 1e-2, "{j}");
+    assert!(g("rmse_v") < 1e-5, "{j}");
+    let o = run(&[
+        "identify",
+        "battery",
+        "--input",
+        s(&csv),
+        "--method",
+        "paper",
+    ]);
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("carries no excitation"));
+}
