@@ -440,17 +440,18 @@ fn battery_run_sized<const N: usize, const MEM: usize>(
     // As the refinement's start the regression is one start of several:
     // when it fails (its rows past the memory carry no excitation, or a
     // non-finite value), the refinement starts from the data alone.
-    let mut regression_failed = false;
+    // The note is printed once the refinement has run: when it fails as
+    // well, its error is the one line.
+    let mut regression_failed = None;
     for _ in 0..paper_iterations {
         let it = match gi.iterate(&sg, &*win) {
             Ok(it) => it,
             Err(e) if method == BatteryMethod::Refined => {
-                eprintln!(
+                regression_failed = Some(format!(
                     "note: {}: 2S-OP-GI stopped after {} iterations ({e}); the refinement starts from the data alone",
                     path.display(),
                     history.len()
-                );
-                regression_failed = true;
+                ));
                 break;
             }
             Err(e) => return Err(ctx(e)),
@@ -524,7 +525,7 @@ fn battery_run_sized<const N: usize, const MEM: usize>(
             // charge-transfer one; docs/measured-cells.md). A start whose
             // search fails is passed over; the fit fails only when all do.
             let paper = gi.cell().filter(|c| {
-                !regression_failed && c.alpha >= so.alpha_min && c.alpha <= so.alpha_max
+                regression_failed.is_none() && c.alpha >= so.alpha_min && c.alpha <= so.alpha_max
             });
             let starts: Vec<CellParameters<f64>> = match warm {
                 Some(w) => vec![w.linearized()],
@@ -534,6 +535,9 @@ fn battery_run_sized<const N: usize, const MEM: usize>(
                     .collect(),
             };
             let (mut lin, run) = refine_best::<N>(&so, &starts, &logged).map_err(ctx)?;
+            if let Some(note) = &regression_failed {
+                eprintln!("{note}");
+            }
             iters += run;
             let bounds = [so.alpha_min, so.alpha_max];
             if refine.model == ModelRequest::Linear {
