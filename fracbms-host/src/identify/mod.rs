@@ -1,8 +1,9 @@
 //! Whole-record identification: the Hammerstein system of eq. (4)
 //! ([`hammerstein`]) and the battery cell of §6.2 ([`battery`], with the
-//! Butler–Volmer choice in [`model_choice`] and the whole-record
-//! refinement in [`refine`]); a record read from a file or arrays and
-//! fitted ([`record`]), many files at once ([`many`]), maps ([`map`]).
+//! Butler–Volmer choice in [`model_choice`], the whole-record refinement
+//! in [`refine`] and its starts from the data in [`starts`]); a record
+//! read from a file or arrays and fitted ([`record`]), many files at once
+//! ([`many`]), maps ([`map`]).
 //!
 //! This module owns the fit options (plain enums and structs, no argument
 //! parser), the fits' JSON types and the glue that drives
@@ -17,6 +18,7 @@ pub mod map;
 pub mod model_choice;
 pub mod record;
 pub mod refine;
+pub mod starts;
 
 pub use battery::{
     battery_identify, battery_identify_screened, battery_run, battery_run_with, model_for,
