@@ -300,6 +300,9 @@ fn identify_battery<'py>(
     if let Some(w) = sc.warning(name) {
         warn(py, w.strip_prefix("warning: ").unwrap_or(&w))?;
     }
+    if let Some(note) = &r.json.start_note {
+        warn(py, &format!("{RECORD}: {note}"))?;
+    }
     if let Some(why) = &r.json.identifiable_reason {
         warn(py, &format!("{RECORD}: the fit is not identifiable: {why}"))?;
     }

@@ -126,3 +126,26 @@ def test_unobserved_rows_are_counted_in_no_fit(cell_record):
     assert moved(unmasked) > 2 * moved(masked)
     with pytest.raises(ValueError, match="unobserved mask has 3 values"):
         fracbms.identify_battery(t, i, v, observed=[1, 1, 1])
+
+
+def test_a_regression_that_stops_is_a_warning_and_the_fit_goes_on(host_sim, tmp_path):
+    """Pulses in the first 200 s and then a rest: the paper regression's
+    rows past its memory carry no excitation and it stops. The fit goes
+    on from the data's own starts, as the CLI's does; the reason is a
+    UserWarning and the dict's `start_note`, `paper_start` says so."""
+    k = np.arange(900)
+    i = np.where(k < 200, np.where((k // 40) % 2 == 0, -3.0, 1.0), 0.0)
+    t = k.astype(float)
+    v = fracbms.simulate_battery(t, i, **CELL)
+    path = tmp_path / "rests.csv"
+    np.savetxt(path, np.column_stack([t, i, v]), delimiter=",",
+               header="time_s,current_a,voltage_v", comments="", fmt="%.17g")
+    cli = cli_json(host_sim, tmp_path, "identify", "battery", "--input", path, "--model", "linear")
+    with pytest.warns(UserWarning, match=r"record: 2S-OP-GI stopped after 0 iterations "
+                                         r"\(window carries no excitation\)"):
+        py = fracbms.identify_battery(t, i, v, model="linear")
+    py.pop("model_v")
+    assert json.dumps(py, sort_keys=True) == json.dumps(cli, sort_keys=True)
+    assert py["paper_start"] == "regression_failed"
+    assert "carries no excitation" in py["start_note"]
+    assert py["r_i"] == pytest.approx(CELL["r_i"], rel=1e-3)

@@ -73,6 +73,19 @@ pub struct BatteryJson {
     pub held_at_bounds: Option<Vec<&'static str>>,
     /// Per-iteration cost of 2S-OP-GI.
     pub history: Vec<HistoryEntry>,
+    /// Whether the refinement started from the paper regression's
+    /// estimate as well as from the data's rough starts: `used`;
+    /// `outside_bounds` (its α outside the search's bounds);
+    /// `no_estimate` (no physical estimate after its iterations);
+    /// `regression_failed` (it stopped with an error: `start_note` says
+    /// where and why); `not_run` (a warm start was given, the only one).
+    /// Null with `--method paper`.
+    pub paper_start: Option<&'static str>,
+    /// Why the paper regression's start is missing, when it stopped with
+    /// an error and the fit went on from the data alone (the CLI prints
+    /// it on stderr as a note on the file, Python warns with it); null
+    /// otherwise.
+    pub start_note: Option<String>,
     /// The fit can be trusted: no reason against it holds (see
     /// `identifiable_reason`, docs/trust.md).
     pub identifiable: bool,
@@ -362,16 +375,16 @@ fn battery_run_sized<const N: usize, const MEM: usize>(
     // As the refinement's start the regression is one start of several:
     // when it fails (its rows past the memory carry no excitation, or a
     // non-finite value), the refinement starts from the data alone.
-    // The note is printed once the refinement has run: when it fails as
-    // well, its error is the one line.
+    // The note goes with the result (`start_note`), for the face to show:
+    // when the refinement fails as well, its error is the one line.
     let mut regression_failed = None;
+    let mut paper_start = None;
     for _ in 0..paper_iterations {
         let it = match gi.iterate(&sg, &*win) {
             Ok(it) => it,
             Err(e) if method == BatteryMethod::Refined => {
                 regression_failed = Some(format!(
-                    "note: {}: 2S-OP-GI stopped after {} iterations ({e}); the refinement starts from the data alone",
-                    path.display(),
+                    "2S-OP-GI stopped after {} iterations ({e}); the refinement starts from the data alone",
                     history.len()
                 ));
                 break;
@@ -446,9 +459,17 @@ fn battery_run_sized<const N: usize, const MEM: usize>(
             // at 10 °C, SOC 0.2: 36 mV from the even split, 3.4 mV from the
             // charge-transfer one; docs/measured-cells.md). A start whose
             // search fails is passed over; the fit fails only when all do.
-            let paper = gi.cell().filter(|c| {
-                regression_failed.is_none() && c.alpha >= so.alpha_min && c.alpha <= so.alpha_max
+            let estimate = gi.cell();
+            let in_bounds =
+                |c: &CellParameters<f64>| c.alpha >= so.alpha_min && c.alpha <= so.alpha_max;
+            paper_start = Some(match (&warm, &regression_failed, &estimate) {
+                (Some(_), _, _) => "not_run",
+                (None, Some(_), _) => "regression_failed",
+                (None, None, None) => "no_estimate",
+                (None, None, Some(c)) if !in_bounds(c) => "outside_bounds",
+                _ => "used",
             });
+            let paper = estimate.filter(|c| regression_failed.is_none() && in_bounds(c));
             let starts: Vec<CellParameters<f64>> = match warm {
                 Some(w) => vec![w.linearized()],
                 None => paper
@@ -457,9 +478,6 @@ fn battery_run_sized<const N: usize, const MEM: usize>(
                     .collect(),
             };
             let (mut lin, run) = refine_best::<N>(&so, &starts, &logged).map_err(ctx)?;
-            if let Some(note) = &regression_failed {
-                eprintln!("{note}");
-            }
             iters += run;
             let bounds = [so.alpha_min, so.alpha_max];
             if refine.model == ModelRequest::Linear {
@@ -524,6 +542,8 @@ fn battery_run_sized<const N: usize, const MEM: usize>(
                 AtBounds::of(&s, &cell).names().collect()
             }),
             history,
+            paper_start,
+            start_note: regression_failed,
             identifiable: false,
             identifiable_reason: None,
             confidence: None,
@@ -660,10 +680,13 @@ pub fn battery_identify_screened(
         }
         sc.substitute_model(&r.model_voltage);
         // The refit without the new spikes starts from the fit it
-        // corrects; the regression's history stays the first fit's.
+        // corrects; the regression's history and what became of its
+        // start stay the first fit's.
         let mut next = fit(&sc, false, Some(r.cell))?;
         next.json.iterations += r.json.iterations;
         next.json.history = std::mem::take(&mut r.json.history);
+        next.json.paper_start = r.json.paper_start;
+        next.json.start_note = r.json.start_note.take();
         next.paper_track = std::mem::take(&mut r.paper_track);
         r = next;
     }

@@ -353,6 +353,9 @@ pub(super) fn battery(a: IdBatteryArgs) -> Result<()> {
         eprintln!("{w}");
     }
     let j = &r.json;
+    if let Some(note) = &j.start_note {
+        eprintln!("note: {}: {note}", a.input.display());
+    }
     println!(
         "{}: R_i = {:.6} Ω, R_ct = {:.6} Ω, Q = {:.3}, alpha = {:.4}, U_oc = {:.5} V, rmse = {:.3e} V ({} iterations, converged: {}{})",
         j.method,
@@ -516,7 +519,10 @@ fn battery_many(a: &IdBatteryArgs, o: &BatteryFitOptions) -> Result<()> {
         &files,
         o,
         &m,
-        |k, _, fit, map| {
+        |k, path, fit, map| {
+            if let Some(note) = &fit.result.json.start_note {
+                eprintln!("note: {}: {note}", path.display());
+            }
             if let Some(p) = json_out.as_ref().map(|v| &v[k]) {
                 io::write_json(p, &fit.result.json)?;
             }

@@ -52,6 +52,9 @@ fn battery_round_trip_recovers_the_cell() {
         "{why}"
     );
     assert_eq!(j["held_at_bounds"], serde_json::json!([]));
+    // The paper regression's estimate was one of the refinement's starts.
+    assert_eq!(j["paper_start"], "used");
+    assert!(j["start_note"].is_null());
 }
 
 /// The NMC curve of `simulate battery --ocv nmc`, every 2 % of SOC, as a
@@ -538,6 +541,20 @@ fn a_regression_that_fails_leaves_the_refinements_other_starts() {
         "{err}"
     );
     let j = read_json(&json);
+    // The note is printed once, on the file, and the JSON says what became
+    // of the paper's start and why.
+    assert_eq!(err.matches("2S-OP-GI stopped").count(), 1, "{err}");
+    assert!(
+        err.contains(&format!("note: {}: 2S-OP-GI", s(&csv))),
+        "{err}"
+    );
+    assert_eq!(j["paper_start"], "regression_failed", "{j}");
+    assert!(
+        j["start_note"]
+            .as_str()
+            .is_some_and(|n| n.contains("carries no excitation")),
+        "{j}"
+    );
     let g = |k: &str| j[k].as_f64().unwrap();
     assert!((g("r_i") / cell.r_i - 1.0).abs() < 1e-3, "{j}");
     assert!((g("r_ct") / cell.r_ct - 1.0).abs() < 1e-2, "{j}");

@@ -200,8 +200,10 @@ pub struct MapFit {
     pub unmeasured: Vec<bool>,
     /// The record's temperature (°C) the rows carry, if known.
     pub temperature_c: Option<f64>,
-    /// What a user should know of the map: no identifiable level, or the
-    /// single fit written in its place ([`MapFit::check_against`]).
+    /// What a user should know of the map: a level whose paper regression
+    /// stopped (its fit went on from the data alone), no identifiable
+    /// level, or the single fit written in its place
+    /// ([`MapFit::check_against`]).
     pub warnings: Vec<String>,
     /// The joint fit's candidates, each scored by leaving levels out
     /// (empty for `--map-method levels`).
@@ -303,6 +305,8 @@ pub fn build_map(
     });
     let mut rows = vec![];
     let mut skipped = vec![];
+    // A level's fit whose paper regression stopped: said as a warning.
+    let mut notes = vec![];
     let mut kept = vec![];
     for p in &parts {
         // The level at the log's own resolution where it is finer than the
@@ -368,6 +372,9 @@ pub fn build_map(
             }
         };
         let j = &r.json;
+        if let Some(note) = &j.start_note {
+            notes.push(format!("{at}: {note}"));
+        }
         let t = record_t;
         rows.push(MapRow {
             temperature_c: t,
@@ -424,7 +431,7 @@ pub fn build_map(
         parts: kept,
         unmeasured,
         temperature_c: record_t,
-        warnings: vec![],
+        warnings: notes,
         joint: chosen,
         joint_inputs,
     })
