@@ -20,7 +20,7 @@ MAX_BATTERY_ROWS: int
 SUMMARY_COLUMNS: list[str]
 """The keys of identify_files' rows, in the order of the CLI's --summary-out
 columns (file, status, error_kind, error, samples, period_s, method, model,
-r_i, r_ct, q, alpha, ..., fit_s)."""
+r_i, r_ct, q, alpha, ..., fit_s, paper_start)."""
 
 PathLike = Union[str, "os.PathLike[str]"]
 

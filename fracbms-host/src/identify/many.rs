@@ -143,7 +143,7 @@ pub struct ManyOptions {
 /// order. An empty cell is a value the file does not have (a failed file's
 /// parameters, a linear fit's Butler–Volmer term, a record without an OCV
 /// table's SOC).
-pub const SUMMARY_HEADER: [&str; 38] = [
+pub const SUMMARY_HEADER: [&str; 39] = [
     "file",
     "status",
     "error_kind",
@@ -182,6 +182,7 @@ pub const SUMMARY_HEADER: [&str; 38] = [
     "map_not_identifiable",
     "map_rmse_v",
     "fit_s",
+    "paper_start",
 ];
 
 /// One file's row of the summary: its fit, or why there is none.
@@ -270,6 +271,10 @@ pub struct FileSummary {
     /// Wall time of this file's read and fit (s); the only field that
     /// depends on the machine.
     pub fit_s: f64,
+    /// What became of the paper regression's start (the JSON's
+    /// `paper_start`: `used`, `outside_bounds`, `no_estimate`,
+    /// `regression_failed`, `not_run`; empty with `--method paper`).
+    pub paper_start: Option<&'static str>,
 }
 
 fn cell(x: Option<f64>) -> String {
@@ -344,6 +349,7 @@ impl FileSummary {
                 .map(|m| m.map.rows.iter().filter(|r| !r.identifiable).count()),
             map_rmse_v: map.map(|m| m.rmse_v),
             fit_s,
+            paper_start: j.paper_start,
         }
     }
 
@@ -392,6 +398,7 @@ impl FileSummary {
             n(self.map_not_identifiable),
             cell(self.map_rmse_v),
             format!("{:.3}", self.fit_s),
+            s(self.paper_start),
         ]
     }
 }

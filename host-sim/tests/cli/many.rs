@@ -123,7 +123,9 @@ fn a_directory_gives_one_row_per_file_and_a_bad_file_does_not_stop_the_others() 
         let hi: f64 = row["alpha_hi"].parse().unwrap();
         assert_eq!(hi, c["alpha"][1].as_f64().unwrap());
         assert_eq!(row["samples"], one["record"]["samples"].to_string());
+        assert_eq!(row["paper_start"], one["paper_start"].as_str().unwrap());
     }
+    assert_eq!(rows[0]["paper_start"], "");
 }
 
 #[test]
