@@ -78,7 +78,7 @@ pub struct BatteryJson {
     /// `outside_bounds` (its α outside the search's bounds);
     /// `no_estimate` (no physical estimate after its iterations);
     /// `regression_failed` (it stopped with an error: `start_note` says
-    /// where and why); `not_run` (a warm start was given, the only one).
+    /// after how many iterations and why); `not_run` (a warm start was given, the only one).
     /// Null with `--method paper`.
     pub paper_start: Option<&'static str>,
     /// Why the paper regression's start is missing, when it stopped with
@@ -460,16 +460,17 @@ fn battery_run_sized<const N: usize, const MEM: usize>(
             // charge-transfer one; docs/measured-cells.md). A start whose
             // search fails is passed over; the fit fails only when all do.
             let estimate = gi.cell();
-            let in_bounds =
-                |c: &CellParameters<f64>| c.alpha >= so.alpha_min && c.alpha <= so.alpha_max;
-            paper_start = Some(match (&warm, &regression_failed, &estimate) {
+            let used = match (&warm, &regression_failed, &estimate) {
                 (Some(_), _, _) => "not_run",
                 (None, Some(_), _) => "regression_failed",
                 (None, None, None) => "no_estimate",
-                (None, None, Some(c)) if !in_bounds(c) => "outside_bounds",
+                (None, None, Some(c)) if c.alpha < so.alpha_min || c.alpha > so.alpha_max => {
+                    "outside_bounds"
+                }
                 _ => "used",
-            });
-            let paper = estimate.filter(|c| regression_failed.is_none() && in_bounds(c));
+            };
+            paper_start = Some(used);
+            let paper = estimate.filter(|_| used == "used");
             let starts: Vec<CellParameters<f64>> = match warm {
                 Some(w) => vec![w.linearized()],
                 None => paper
