@@ -1012,6 +1012,12 @@ typedef struct FracbmsSocSettings {
    */
   float capacity_identify;
   /**
+   * ... and once two rests linked by the count have read SOCs at least
+   * this far apart through the OCV table (0: no span asked). Default
+   * 0.3; `host-sim online battery --capacity-min-span`.
+   */
+  float capacity_min_span;
+  /**
    * The spread added to the SOC by a gap of unknown charge. Default 0.5.
    */
   float gap_soc_sigma;

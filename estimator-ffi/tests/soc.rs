@@ -133,6 +133,7 @@ fn apply_to_check(c: &FracbmsSocSettings, s: &mut SocSettings<f32>) {
     s.rest_load_sigma_a = c.rest_load_sigma_a;
     s.capacity_sigma = c.capacity_sigma;
     s.capacity_identify = c.capacity_identify;
+    s.capacity_min_span = c.capacity_min_span;
     s.gap_soc_sigma = c.gap_soc_sigma;
     s.min_slope = c.min_slope;
 }
@@ -179,7 +180,7 @@ fn a_cell_with_soc_settings_is_the_core_cell_with_them() {
 }
 
 /// Each field of the C struct, to set one at a time.
-fn fields(s: &mut FracbmsSocSettings) -> [(&'static str, &mut f32); 14] {
+fn fields(s: &mut FracbmsSocSettings) -> [(&'static str, &mut f32); 15] {
     [
         ("rest_current_a", &mut s.rest_current_a),
         ("rest_s", &mut s.rest_s),
@@ -193,6 +194,7 @@ fn fields(s: &mut FracbmsSocSettings) -> [(&'static str, &mut f32); 14] {
         ("rest_load_sigma_a", &mut s.rest_load_sigma_a),
         ("capacity_sigma", &mut s.capacity_sigma),
         ("capacity_identify", &mut s.capacity_identify),
+        ("capacity_min_span", &mut s.capacity_min_span),
         ("gap_soc_sigma", &mut s.gap_soc_sigma),
         ("min_slope", &mut s.min_slope),
     ]
@@ -206,7 +208,7 @@ fn every_soc_setting_reaches_the_core() {
     let s = with_table(&zs, &vs);
     let d = soc_defaults(&s);
     let (mut mem, size) = cell_memory();
-    for k in 0..14 {
+    for k in 0..15 {
         let mut bad = d;
         let (name, x) = fields(&mut bad).into_iter().nth(k).unwrap();
         *x = f32::NAN;

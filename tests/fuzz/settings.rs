@@ -237,6 +237,7 @@ pub fn settings<T: Real, const MEM: usize>(rng: &mut Rng, clean: bool) -> (Setti
         o.capacity_sigma = lit(nasty_or!(rng, pm, pick(rng, &[0.15, 0.0, 1e20])));
         o.gap_soc_sigma = lit(nasty_or!(rng, pm, pick(rng, &[0.5, 0.0, 1e30])));
         o.min_slope = lit(nasty_or!(rng, pm, pick(rng, &[1e-3, 1e-9, 1e3])));
+        o.capacity_min_span = lit(nasty_or!(rng, pm, pick(rng, &[0.3, 0.0, 1e9])));
     }
     if let Some(m) = &s.ocv {
         // Known issue (tests/tests/fuzz.rs,
@@ -326,6 +327,7 @@ pub fn soc_documented<T: Real>(o: &estimator_core::battery::soc::SocSettings<T>)
         o.rest_load_sigma_a,
         o.capacity_sigma,
         o.capacity_identify,
+        o.capacity_min_span,
         o.gap_soc_sigma,
         o.min_slope,
     ];

@@ -23,6 +23,16 @@
 //! observations, against the SOC they differ by, then tells the capacity;
 //! both start at their priors (zero and the nominal capacity).
 //!
+//! **The capacity from rests far apart.** The capacity is identified
+//! (published as the data's, [`SocEstimate::capacity_identified`]) once its
+//! standard deviation is within [`SocSettings::capacity_identify`] of it
+//! *and* two rests linked by the count (no gap of unknown charge or SOC
+//! set between them) read SOCs at least [`SocSettings::capacity_min_span`]
+//! apart through the curve. The filter weighs each rest's reading as
+//! independent, though rests near one another read the same stretch of the
+//! curve and share its error: many rests within a narrow band would
+//! otherwise shrink the capacity's spread below what the curve allows.
+//!
 //! **Why at rest only.** Under load the terminal voltage is the OCV plus
 //! the polarization, and the window's model carries an OCV offset `ΔU`
 //! that absorbs any SOC error ([`super::ocv`]): the model cannot tell an
@@ -119,6 +129,10 @@ pub struct SocSettings<T> {
     /// The capacity is published as identified when its standard deviation
     /// is at most this fraction of it. Default 0.02.
     pub capacity_identify: T,
+    /// The capacity is identified only once two rests linked by the count
+    /// have also read SOCs at least this far apart through the curve
+    /// (module docs); 0: no span asked. Default 0.3.
+    pub capacity_min_span: T,
     /// The spread added to the SOC by a gap of unknown charge. Default 0.5.
     pub gap_soc_sigma: T,
     /// The smallest slope `|OCV'|` (V per unit SOC) an observation is
@@ -145,6 +159,7 @@ impl<T: Real> SocSettings<T> {
             rest_load_sigma_a: capacity_ah / T::lit(1000.0),
             capacity_sigma: T::lit(0.15),
             capacity_identify: T::lit(0.02),
+            capacity_min_span: T::lit(0.3),
             gap_soc_sigma: T::lit(0.5),
             min_slope: T::lit(1e-3),
         }
@@ -173,6 +188,7 @@ impl<T: Real> SocSettings<T> {
             self.rest_load_sigma_a,
             self.capacity_sigma,
             self.capacity_identify,
+            self.capacity_min_span,
             self.gap_soc_sigma,
             self.min_slope,
         ];
@@ -274,7 +290,7 @@ pub(crate) struct RestParts<T> {
 }
 
 /// The SOC observer of one cell (module docs). State only: the settings
-/// and the curve are given with every sample. 84 B in f32.
+/// and the curve are given with every sample. 92 B in f32.
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct SocObserver<T> {
@@ -288,6 +304,12 @@ pub struct SocObserver<T> {
     observations: u32,
     /// The last capacity the data identified (A·h).
     capacity_held: Option<T>,
+    /// The lowest and highest SOC read at a rest since the last gap of
+    /// unknown charge or SOC set (NaN before the first).
+    rest_span: [T; 2],
+    /// Two rests linked by the count have read SOCs
+    /// [`SocSettings::capacity_min_span`] apart.
+    span_reached: bool,
     /// A state of charge set, and a gap, to be taken at the next sample
     /// (with the settings it brings).
     set: Option<T>,
@@ -303,6 +325,8 @@ impl<T: Real> SocObserver<T> {
         ocv_weight: T::ZERO,
         observations: 0,
         capacity_held: None,
+        rest_span: [T::NAN; 2],
+        span_reached: false,
         set: None,
         gap: false,
     };
@@ -371,7 +395,9 @@ impl<T: Real> SocObserver<T> {
     /// the state `(SOC, b, g)` (`None` before the start), its covariance,
     /// the observations so far, the last identified capacity, the last
     /// observation's weight and a rest in progress. A pending set is not
-    /// kept.
+    /// kept, nor is the span of the rests read
+    /// ([`SocSettings::capacity_min_span`]): restored, the span counts as
+    /// reached when a capacity had been identified.
     pub(crate) fn parts(&self) -> ObserverParts<T> {
         ObserverParts {
             x: self.x,
@@ -408,6 +434,8 @@ impl<T: Real> SocObserver<T> {
             ocv_weight: parts.ocv_weight,
             observations: parts.observations,
             capacity_held: parts.capacity_held,
+            rest_span: [T::NAN; 2],
+            span_reached: parts.capacity_held.is_some(),
             set: None,
             gap: false,
         };
@@ -420,10 +448,12 @@ impl<T: Real> SocObserver<T> {
     /// The SOC is unknown again (a gap of unknown charge in the record, a
     /// reset): at the next sample its spread widens by
     /// [`SocSettings::gap_soc_sigma`]; any rest restarts now. The bias and
-    /// capacity are kept.
+    /// capacity are kept; the rests before it no longer span SOC with
+    /// those after ([`SocSettings::capacity_min_span`]).
     pub fn resume_after_gap(&mut self) {
         self.gap = true;
         self.rest = None;
+        self.rest_span = [T::NAN; 2];
     }
 
     /// A gap whose charge is known (A·h, + charging, beyond what the
@@ -454,10 +484,12 @@ impl<T: Real> SocObserver<T> {
 
     /// Sets the SOC (a value the caller knows better): from the next
     /// sample on, with spread [`SocSettings::soc0_sigma`] (the estimate
-    /// shows it at once). A non-finite value is ignored.
+    /// shows it at once), and the rests before it no longer span SOC with
+    /// those after. A non-finite value is ignored.
     pub fn set_state_of_charge(&mut self, soc: T) {
         if soc.is_finite() {
             self.set = Some(soc);
+            self.rest_span = [T::NAN; 2];
             if let Some(x) = &mut self.x {
                 x[0] = soc;
             }
@@ -527,13 +559,27 @@ impl<T: Real> SocObserver<T> {
     }
 
     /// The filter's capacity, its standard deviation, and whether that is
-    /// within [`SocSettings::capacity_identify`] of it.
+    /// within [`SocSettings::capacity_identify`] of it with the rests'
+    /// span reached ([`SocSettings::capacity_min_span`]).
     fn capacity(&self, s: &SocSettings<T>) -> Option<(T, T, bool)> {
         let g = self.x?[2];
         let c = s.capacity_ah / g;
         // d(C/g) = −C/g² dg
         let sd = c / g * self.p[5].max(T::ZERO).sqrt();
-        Some((c, sd, sd <= s.capacity_identify * c))
+        let spanned = self.span_reached || s.capacity_min_span <= T::ZERO;
+        Some((c, sd, spanned && sd <= s.capacity_identify * c))
+    }
+
+    /// Widens the span of the rests read with `z`, a rest's SOC through
+    /// the curve.
+    fn span_with(&mut self, s: &SocSettings<T>, z: T) {
+        let [lo, hi] = self.rest_span;
+        // NaN (no rest yet) gives way to `z` in `min` and `max`.
+        let (lo, hi) = (z.min(lo), z.max(hi));
+        self.rest_span = [lo, hi];
+        if hi - lo >= s.capacity_min_span {
+            self.span_reached = true;
+        }
     }
 
     /// Counts one sample (current in A, positive when charging; terminal
@@ -665,6 +711,7 @@ impl<T: Real> SocObserver<T> {
             return false;
         }
         let innovation = z - x[0];
+        self.span_with(s, z);
         let gain = self.measure(s, Measured::Soc, innovation, sum);
         self.ocv_weight = gain;
         self.observations = self.observations.saturating_add(1);

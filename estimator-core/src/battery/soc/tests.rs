@@ -199,13 +199,108 @@ fn after_a_gap_the_soc_is_read_again_after_five_minutes_of_rest() {
     assert!((e.soc - 0.45).abs() < 0.01, "{e:?}");
 }
 
+/// A cell swung `rounds` times between SOC `hi` and `lo` at 1 C, resting
+/// 15 min at each end, the curve and the count exact: the observer's last
+/// estimate.
+fn swing(
+    s: &SocSettings<f64>,
+    o: &mut SocObserver<f64>,
+    hi: f64,
+    lo: f64,
+    rounds: usize,
+) -> SocEstimate<f64> {
+    let t = table();
+    let mut soc = hi;
+    let mut last = None;
+    for _ in 0..rounds {
+        for i in [-5.0, 5.0] {
+            for _ in 0..900 {
+                last = o.push(s, &t, 0.0, t.ocv(soc));
+            }
+            let steps = ((hi - lo) * 5.0 * 3600.0 / 5.0).round() as usize;
+            for _ in 0..steps {
+                soc += i / 3600.0 / 5.0;
+                last = o.push(s, &t, i, t.ocv(soc));
+            }
+        }
+    }
+    last.unwrap()
+}
+
+/// Rests read to 2.5·10⁻³ of SOC each, but all within 0.15 of SOC: the
+/// filter's capacity spread falls below 2 %, yet the rests never span
+/// `capacity_min_span` (0.3), so the capacity is not identified; asked
+/// for 0.1, it is, and it is the cell's.
+#[test]
+fn rests_within_a_narrow_band_do_not_identify_the_capacity() {
+    let s = SocSettings {
+        voltage_sigma_v: 0.001,
+        table_sigma_soc: 0.002,
+        bias_sigma_a: 0.0,
+        bias_walk_a: 0.0,
+        ..SocSettings::new(5.0, 1.0)
+    };
+    let mut o = SocObserver::new(&s, Some(0.6));
+    let e = swing(&s, &mut o, 0.6, 0.45, 8);
+    assert!(e.capacity_sigma_ah < 0.02 * 5.0, "{e:?}");
+    assert!(!e.capacity_identified && e.capacity_ah == 5.0, "{e:?}");
+    let narrow = SocSettings {
+        capacity_min_span: 0.1,
+        ..s
+    };
+    let mut o = SocObserver::new(&narrow, Some(0.6));
+    let e = swing(&narrow, &mut o, 0.6, 0.45, 8);
+    assert!(
+        e.capacity_identified && (e.capacity_ah - 5.0).abs() < 0.05,
+        "{e:?}"
+    );
+    // A wider swing reaches the default span.
+    let mut o = SocObserver::new(&s, Some(0.8));
+    let e = swing(&s, &mut o, 0.8, 0.45, 4);
+    assert!(
+        e.capacity_identified && (e.capacity_ah - 5.0).abs() < 0.05,
+        "{e:?}"
+    );
+    // Restored, an identified capacity stays identified.
+    let back = SocObserver::from_parts(&o.parts(), false);
+    assert_eq!(back.estimate(&s).map(|e| e.capacity_identified), Some(true));
+}
+
+/// Rests on either side of a gap of unknown charge, or of a set SOC, are
+/// not linked by the count: they do not span SOC together.
+#[test]
+fn a_gap_or_a_set_soc_starts_the_span_again() {
+    let s = SocSettings::new(5.0, 1.0);
+    let t = table();
+    for cut in [0, 1] {
+        let mut o = SocObserver::new(&s, Some(0.8));
+        for _ in 0..900 {
+            o.push(&s, &t, 0.0, t.ocv(0.8));
+        }
+        o.push(&s, &t, -5.0, t.ocv(0.7));
+        assert!((o.rest_span[0] - 0.8).abs() < 0.01 && o.rest_span[1] == o.rest_span[0]);
+        if cut == 0 {
+            o.resume_after_gap();
+        } else {
+            o.set_state_of_charge(0.4);
+        }
+        for _ in 0..900 {
+            o.push(&s, &t, 0.0, t.ocv(0.4));
+        }
+        o.push(&s, &t, -5.0, t.ocv(0.3));
+        assert!(!o.span_reached, "{cut}: {:?}", o.rest_span);
+        assert!((o.rest_span[0] - 0.4).abs() < 0.01 && o.rest_span[1] == o.rest_span[0]);
+    }
+}
+
 #[test]
 fn the_observer_is_small() {
     // 6 + 3 variances and states, the rest (len, means, flags), the last
-    // weight, counters, the held capacity and a pending set: docs/bms-states.md.
+    // weight, counters, the held capacity, the rests' span and a pending
+    // set: docs/soc-observer.md.
     let n = core::mem::size_of::<SocObserver<f32>>();
     println!("size_of::<SocObserver<f32>>() = {n} B");
-    assert_eq!(n, 84);
+    assert_eq!(n, 92);
 }
 
 #[test]
