@@ -161,6 +161,7 @@ def online_pack(
     soc_bias_sigma_a: Optional[float] = None,
     soc_rest_load_sigma_a: Optional[float] = None,
     soc_voltage_sigma_v: Optional[float] = None,
+    capacity_min_span: Optional[float] = None,
     t0: float = 0.0,
     state_in: Optional[bytes] = None,
     return_state: bool = False,
@@ -183,7 +184,10 @@ def online_pack(
     CLI's ``--slow-memory-s``: the published ``r_ct``, ``q`` and ``alpha``
     the mean of what the windows identified, forgetting over that many
     seconds (default: each window's own), and ``slow_memory_soc`` over that
-    much state of charge (``--slow-memory-soc``, default 0.02)."""
+    much state of charge (``--slow-memory-soc``, default 0.02).
+    ``capacity_min_span`` is ``--capacity-min-span``: the SOC two rests
+    linked by the count must read apart before a cell's capacity is
+    identified (default 0.3)."""
 
 class OnlineCell:
     """The online estimator of one cell (``host-sim online battery``): a
@@ -223,6 +227,7 @@ class OnlineCell:
         sop_confidence: Optional[float] = None,
         slow_memory_s: Optional[float] = None,
         slow_memory_soc: Optional[float] = None,
+        capacity_min_span: Optional[float] = None,
     ) -> None:
         """``horizons`` (s), ``voltage_min``/``voltage_max`` (V; default the OCV
         table's range), ``current_limit`` (A) and ``pulse_current_a`` (A, +
@@ -241,7 +246,9 @@ class OnlineCell:
         C/1000; a rested voltage read as the OCV give or take
         ``soc_voltage_sigma_v``, default 0.005 V),
         ``capacity_ah``, ``capacity_sigma_ah``, ``soc_sigma``,
-        ``soc_ocv_weight``) or the count
+        ``soc_ocv_weight``; ``capacity_status`` ``identified`` once two rests
+        linked by the count read SOCs ``capacity_min_span`` apart, default
+        0.3, and the spread is within 2 %) or the count
         (``soc="coulomb"``); ``soc_coulomb`` is always the count.
         ``slow_memory_s`` (s; ``--slow-memory-s``): the published ``r_ct``,
         ``q`` and ``alpha`` the mean of what the windows identified,

@@ -176,7 +176,7 @@ impl OnlineCell {
         voltage_min = None, voltage_max = None, current_limit = None, pulse_current_a = None,
         soc = "observer", soc_rest_s = None, soc_bias_sigma_a = None, soc_rest_load_sigma_a = None,
         soc_voltage_sigma_v = None, sop_carry_s = None, sop_confidence = None,
-        slow_memory_s = None, slow_memory_soc = None
+        slow_memory_s = None, slow_memory_soc = None, capacity_min_span = None
     ))]
     #[allow(clippy::too_many_arguments)]
     fn new(
@@ -212,6 +212,7 @@ impl OnlineCell {
         sop_confidence: Option<f64>,
         slow_memory_s: Option<f64>,
         slow_memory_soc: Option<f64>,
+        capacity_min_span: Option<f64>,
     ) -> PyResult<Self> {
         if !(h.is_finite() && h > 0.0) {
             return Err(PyValueError::new_err(format!(
@@ -279,6 +280,7 @@ impl OnlineCell {
                 bias_sigma_a: soc_bias_sigma_a,
                 rest_load_sigma_a: soc_rest_load_sigma_a,
                 voltage_sigma_v: soc_voltage_sigma_v,
+                capacity_min_span,
             },
             slow_memory_s,
             slow_memory_soc,

@@ -48,7 +48,7 @@ use crate::{choice, ocv_spec, power_options, vec, Floats};
     tail = false, ocv = None, capacity_ah = None, soc0 = None, horizons = vec![10.0, 30.0],
     voltage_min = None, voltage_max = None, current_limit = None, pulse_current_a = None,
     sop_carry_s = None, sop_confidence = None, soc = "observer", soc_rest_s = None, soc_bias_sigma_a = None,
-    soc_rest_load_sigma_a = None, soc_voltage_sigma_v = None, t0 = 0.0, state_in = None, return_state = false,
+    soc_rest_load_sigma_a = None, soc_voltage_sigma_v = None, capacity_min_span = None, t0 = 0.0, state_in = None, return_state = false,
     slow_memory_s = None, slow_memory_soc = None
 ))]
 #[allow(clippy::too_many_arguments)]
@@ -80,6 +80,7 @@ pub fn online_pack<'py>(
     soc_bias_sigma_a: Option<f64>,
     soc_rest_load_sigma_a: Option<f64>,
     soc_voltage_sigma_v: Option<f64>,
+    capacity_min_span: Option<f64>,
     t0: f64,
     state_in: Option<Vec<u8>>,
     return_state: bool,
@@ -139,6 +140,7 @@ pub fn online_pack<'py>(
             bias_sigma_a: soc_bias_sigma_a,
             rest_load_sigma_a: soc_rest_load_sigma_a,
             voltage_sigma_v: soc_voltage_sigma_v,
+            capacity_min_span,
         },
         slow_memory_s,
         slow_memory_soc,

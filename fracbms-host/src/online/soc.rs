@@ -54,6 +54,9 @@ pub struct SocOptions {
     /// the polarization a rest of `rest_s` still holds. On a flat curve it
     /// sets how little a rest weighs (docs/soc-observer.md).
     pub voltage_sigma_v: Option<f64>,
+    /// The SOC span (0 to 1) two rests linked by the count must read
+    /// before the capacity is identified (default 0.3; 0: none asked).
+    pub capacity_min_span: Option<f64>,
 }
 
 impl Default for SocOptions {
@@ -64,6 +67,7 @@ impl Default for SocOptions {
             bias_sigma_a: None,
             rest_load_sigma_a: None,
             voltage_sigma_v: None,
+            capacity_min_span: None,
         }
     }
 }
@@ -74,7 +78,7 @@ impl SocOptions {
     ///
     /// # Errors
     /// A rest that is not finite and positive, a spread that is not finite
-    /// and not negative.
+    /// and not negative, a span outside `[0, 1]`.
     pub(crate) fn apply<T: Real>(&self, s: &mut SocSettings<T>) -> Result<()> {
         if let Some(r) = self.rest_s {
             if !(r.is_finite() && r > 0.0) {
@@ -94,6 +98,15 @@ impl SocOptions {
         }
         if let Some(v) = spread("--soc-voltage-sigma-v", self.voltage_sigma_v)? {
             s.voltage_sigma_v = T::lit(v);
+        }
+        if let Some(z) = self.capacity_min_span {
+            if !(0.0..=1.0).contains(&z) {
+                bail!(
+                    Options,
+                    "--capacity-min-span {z}: must be a fraction of SOC in [0, 1]"
+                );
+            }
+            s.capacity_min_span = T::lit(z);
         }
         Ok(())
     }

@@ -226,6 +226,15 @@ pub struct StateArgs {
     /// rest weighs; smaller only for a table known that well.
     #[arg(long)]
     pub soc_voltage_sigma_v: Option<f64>,
+    /// The capacity (column capacity_ah) is published as identified only
+    /// once two rests linked by the count (no gap of unknown charge
+    /// between them) have read SOCs at least this far apart through the
+    /// OCV table, and its spread is within 2 % (default 0.3; 0: no span
+    /// asked). The capacity is the charge counted between the rests over
+    /// the SOC they differ by, weighed with every rest by the SOC
+    /// observer (docs/soc-observer.md).
+    #[arg(long)]
+    pub capacity_min_span: Option<f64>,
 }
 
 impl StateArgs {
@@ -249,6 +258,7 @@ impl StateArgs {
             bias_sigma_a: self.soc_bias_sigma_a,
             rest_load_sigma_a: self.soc_rest_load_sigma_a,
             voltage_sigma_v: self.soc_voltage_sigma_v,
+            capacity_min_span: self.capacity_min_span,
         }
     }
 }

@@ -657,3 +657,104 @@ fn pack_with_an_ocv_table_publishes_each_cells_soc_and_power_and_the_strings() {
     assert_eq!(err.trim().lines().count(), 1, "{err}");
     assert!(err.contains("--soc0 1.5"), "{err}");
 }
+
+/// A 5 A·h cell discharged at 1C in eight steps of 0.1 of SOC from 0.95,
+/// 20-minute rests between (10 s samples, a linear-piecewise OCV): the
+/// rests span 0.8 of SOC, and the SOC observer identifies the capacity.
+/// Asked for a span of 0.9 (`--capacity-min-span`) it does not: the
+/// nominal capacity is published, `not_identified`; a span beyond 1 is
+/// one line and exit 1.
+#[test]
+fn the_capacity_is_identified_only_from_rests_far_enough_apart() {
+    let (zs, vs) = ([0.0, 0.25, 0.5, 0.75, 1.0], [3.0, 3.5, 3.7, 3.9, 4.2]);
+    let ocv = tmp("span-ocv.csv");
+    let mut table = String::from("soc,ocv_v\n");
+    for (z, v) in zs.iter().zip(vs) {
+        table += &format!("{z},{v}\n");
+    }
+    std::fs::write(&ocv, table).unwrap();
+    let ocv_at = |z: f64| {
+        let k = zs.iter().rposition(|&x| x <= z).unwrap_or(0).min(3);
+        vs[k] + (vs[k + 1] - vs[k]) * (z - zs[k]) / (zs[k + 1] - zs[k])
+    };
+    let (h, mut soc, mut t) = (10.0, 0.95, 0.0);
+    let mut csv = String::from("time_s,current_a,voltage_v\n");
+    let mut add = |i: f64, n: usize, csv: &mut String| {
+        for _ in 0..n {
+            soc += i * h / 3600.0 / 5.0;
+            *csv += &format!("{t},{i},{:.5}\n", ocv_at(soc) + 0.004 * i);
+            t += h;
+        }
+    };
+    add(0.0, 120, &mut csv);
+    for _ in 0..8 {
+        add(-5.0, 36, &mut csv);
+        add(0.0, 120, &mut csv);
+    }
+    let input = tmp("span-steps.csv");
+    std::fs::write(&input, csv).unwrap();
+    let last = |extra: &[&str]| {
+        let out = tmp("span-track.csv");
+        let mut args = vec![
+            "online",
+            "battery",
+            "--input",
+            s(&input),
+            "--ocv",
+            s(&ocv),
+            "--capacity-ah",
+            "5",
+            "--window",
+            "64",
+            "--out",
+            s(&out),
+        ];
+        args.extend_from_slice(extra);
+        let o = run(&args);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let text = std::fs::read_to_string(&out).unwrap();
+        let header: Vec<String> = text
+            .lines()
+            .next()
+            .unwrap()
+            .split(',')
+            .map(String::from)
+            .collect();
+        let row: Vec<String> = text
+            .lines()
+            .last()
+            .unwrap()
+            .split(',')
+            .map(String::from)
+            .collect();
+        let col = |name: &str| row[header.iter().position(|h| h == name).unwrap()].clone();
+        (
+            col("capacity_ah").parse::<f64>().unwrap(),
+            col("capacity_status"),
+        )
+    };
+    let (c, status) = last(&[]);
+    assert_eq!(status, "identified");
+    assert!((c - 5.0).abs() < 0.05, "{c}");
+    let (c, status) = last(&["--capacity-min-span", "0.9"]);
+    assert_eq!(status, "not_identified");
+    assert_eq!(c, 5.0);
+    let o = run(&[
+        "online",
+        "battery",
+        "--input",
+        s(&input),
+        "--ocv",
+        s(&ocv),
+        "--capacity-ah",
+        "5",
+        "--capacity-min-span",
+        "1.5",
+        "--out",
+        s(&tmp("span-bad.csv")),
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+    assert!(err.contains("--capacity-min-span"), "{err}");
+}
