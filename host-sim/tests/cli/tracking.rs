@@ -693,8 +693,8 @@ fn the_capacity_is_identified_only_from_rests_far_enough_apart() {
     }
     let input = tmp("span-steps.csv");
     std::fs::write(&input, csv).unwrap();
-    let last = |extra: &[&str]| {
-        let out = tmp("span-track.csv");
+    let out = tmp("span-track.csv");
+    let online = |extra: &[&str]| {
         let mut args = vec![
             "online",
             "battery",
@@ -710,24 +710,16 @@ fn the_capacity_is_identified_only_from_rests_far_enough_apart() {
             s(&out),
         ];
         args.extend_from_slice(extra);
-        let o = run(&args);
+        run(&args)
+    };
+    let last = |extra: &[&str]| {
+        let o = online(extra);
         assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
         let text = std::fs::read_to_string(&out).unwrap();
-        let header: Vec<String> = text
-            .lines()
-            .next()
-            .unwrap()
-            .split(',')
-            .map(String::from)
-            .collect();
-        let row: Vec<String> = text
-            .lines()
-            .last()
-            .unwrap()
-            .split(',')
-            .map(String::from)
-            .collect();
-        let col = |name: &str| row[header.iter().position(|h| h == name).unwrap()].clone();
+        let mut lines = text.lines();
+        let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+        let row: Vec<&str> = lines.last().unwrap().split(',').collect();
+        let col = |name: &str| row[header.iter().position(|h| *h == name).unwrap()].to_string();
         (
             col("capacity_ah").parse::<f64>().unwrap(),
             col("capacity_status"),
@@ -739,20 +731,7 @@ fn the_capacity_is_identified_only_from_rests_far_enough_apart() {
     let (c, status) = last(&["--capacity-min-span", "0.9"]);
     assert_eq!(status, "not_identified");
     assert_eq!(c, 5.0);
-    let o = run(&[
-        "online",
-        "battery",
-        "--input",
-        s(&input),
-        "--ocv",
-        s(&ocv),
-        "--capacity-ah",
-        "5",
-        "--capacity-min-span",
-        "1.5",
-        "--out",
-        s(&tmp("span-bad.csv")),
-    ]);
+    let o = online(&["--capacity-min-span", "1.5"]);
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(1), "{err}");
     assert_eq!(err.trim().lines().count(), 1, "{err}");
