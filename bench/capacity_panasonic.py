@@ -17,7 +17,7 @@ from the export's own `Ah` count, from a nominal 10 % high, right and
 (the count also ends each 6C pulse at its last loaded row, where held to
 the next row 17.4 A runs on for a second). Last, started at the measured
 capacity, with the SOC span two rests must read apart before the capacity
-is identified (`--capacity-min-span`) from 0 to 0.7.
+is identified (`--capacity-min-span`) from 0 to 0.8, with both `--steps`.
 
     cargo build --release -p host-sim
     bash bench/panasonic_chain.sh          # target/real-cells/panasonic/ocv.csv
@@ -140,20 +140,20 @@ def main():
     # (`--capacity-min-span`, default 0.3), the export as it comes, started
     # at the measured capacity.
     print()
-    print("| `--capacity-min-span` | published capacity over the test, against 2.995 A h "
+    print("| `--steps` | `--capacity-min-span` | published capacity over the test, against 2.995 A h "
           "| at the end | first identified at | SOC then |")
-    print("|---|---|---|---|---|")
-    for span in (0.0, 0.3, 0.5, 0.7):
-        out = os.path.join(a.out, f"raw-span-{span}.csv")
+    print("|---|---|---|---|---|---|")
+    for steps, span in [(s, z) for s in ("auto", "count") for z in (0.0, 0.3, 0.5, 0.7, 0.8)]:
+        out = os.path.join(a.out, f"raw-span-{steps}-{span}.csv")
         subprocess.run([a.host_sim, "online", "battery", "--input", HPPC, "--ocv", OCV,
                         "--capacity-ah", f"{MEASURED_AH:.4f}", "--capacity-min-span", str(span),
-                        "--out", out],
+                        "--steps", steps, "--out", out],
                        check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
         rows = list(csv.DictReader(open(out)))
         caps = np.array([float(r["capacity_ah"]) for r in rows]) / MEASURED_AH - 1
         first = next((r for r in rows if r["capacity_status"] == "identified"), None)
         when = "never" if first is None else f"{float(first['time_s']):.0f} s | {float(first['soc']):.2f}"
-        print(f"| {span:g} | {caps.min():+.1%} to {caps.max():+.1%} | {caps[-1]:+.1%} | {when} |")
+        print(f"| {steps} | {span:g} | {caps.min():+.1%} to {caps.max():+.1%} | {caps[-1]:+.1%} | {when} |")
 
 
 if __name__ == "__main__":
