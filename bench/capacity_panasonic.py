@@ -152,7 +152,7 @@ def main():
         rows = list(csv.DictReader(open(out)))
         caps = np.array([float(r["capacity_ah"]) for r in rows]) / MEASURED_AH - 1
         first = next((r for r in rows if r["capacity_status"] == "identified"), None)
-        when = "never" if first is None else f"{float(first['time_s']):.0f} s | {float(first['soc']):.2f}"
+        when = "never | —" if first is None else f"{float(first['time_s']):.0f} s | {float(first['soc']):.2f}"
         print(f"| {steps} | {span:g} | {caps.min():+.1%} to {caps.max():+.1%} | {caps[-1]:+.1%} | {when} |")
 
 

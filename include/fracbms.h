@@ -1012,12 +1012,6 @@ typedef struct FracbmsSocSettings {
    */
   float capacity_identify;
   /**
-   * ... and once two rests linked by the count have read SOCs at least
-   * this far apart through the OCV table (0: no span asked). Default
-   * 0.3; `host-sim online battery --capacity-min-span`.
-   */
-  float capacity_min_span;
-  /**
    * The spread added to the SOC by a gap of unknown charge. Default 0.5.
    */
   float gap_soc_sigma;
@@ -1026,6 +1020,14 @@ typedef struct FracbmsSocSettings {
    * SOC). Default 0.001.
    */
   float min_slope;
+  /**
+   * The capacity is identified only once relaxed rests linked by the
+   * count have also read SOCs at least this far apart through the OCV
+   * table (0 to 1; 0: no span asked). Default 0.3; `host-sim online
+   * battery --capacity-min-span`. (The last field: added after the
+   * others.)
+   */
+  float capacity_min_span;
 } FracbmsSocSettings;
 
 #ifdef __cplusplus

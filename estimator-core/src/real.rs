@@ -19,6 +19,11 @@ pub trait Real: Float + Debug + Default + Send + Sync + 'static + sealed::Sealed
     const ONE: Self;
     /// Not a number, usable in `const` contexts (an unset value).
     const NAN: Self;
+    /// Positive and negative infinity, usable in `const` contexts (an
+    /// empty range's ends).
+    const INFINITY: Self;
+    /// See [`Real::INFINITY`].
+    const NEG_INFINITY: Self;
     /// Converts an `f64` constant into this type (rounding for `f32`).
     fn lit(x: f64) -> Self;
     /// Widens to `f64` (exact for both implementations).
@@ -193,6 +198,8 @@ impl Real for f32 {
     const ZERO: Self = 0.0;
     const ONE: Self = 1.0;
     const NAN: Self = f32::NAN;
+    const INFINITY: Self = f32::INFINITY;
+    const NEG_INFINITY: Self = f32::NEG_INFINITY;
     #[inline]
     fn lit(x: f64) -> Self {
         x as f32
@@ -220,6 +227,8 @@ impl Real for f64 {
     const ZERO: Self = 0.0;
     const ONE: Self = 1.0;
     const NAN: Self = f64::NAN;
+    const INFINITY: Self = f64::INFINITY;
+    const NEG_INFINITY: Self = f64::NEG_INFINITY;
     #[inline]
     fn lit(x: f64) -> Self {
         x

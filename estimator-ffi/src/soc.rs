@@ -55,15 +55,17 @@ pub struct FracbmsSocSettings {
     /// The capacity is identified when its standard deviation is at most
     /// this fraction of it. Default 0.02.
     pub capacity_identify: f32,
-    /// ... and once two rests linked by the count have read SOCs at least
-    /// this far apart through the OCV table (0: no span asked). Default
-    /// 0.3; `host-sim online battery --capacity-min-span`.
-    pub capacity_min_span: f32,
     /// The spread added to the SOC by a gap of unknown charge. Default 0.5.
     pub gap_soc_sigma: f32,
     /// The smallest OCV slope an observation is weighed with (V per unit
     /// SOC). Default 0.001.
     pub min_slope: f32,
+    /// The capacity is identified only once relaxed rests linked by the
+    /// count have also read SOCs at least this far apart through the OCV
+    /// table (0 to 1; 0: no span asked). Default 0.3; `host-sim online
+    /// battery --capacity-min-span`. (The last field: added after the
+    /// others.)
+    pub capacity_min_span: f32,
 }
 
 impl FracbmsSocSettings {
@@ -82,9 +84,9 @@ impl FracbmsSocSettings {
             rest_load_sigma_a: s.rest_load_sigma_a,
             capacity_sigma: s.capacity_sigma,
             capacity_identify: s.capacity_identify,
-            capacity_min_span: s.capacity_min_span,
             gap_soc_sigma: s.gap_soc_sigma,
             min_slope: s.min_slope,
+            capacity_min_span: s.capacity_min_span,
         }
     }
 
@@ -106,9 +108,9 @@ impl FracbmsSocSettings {
             rest_load_sigma_a: self.rest_load_sigma_a,
             capacity_sigma: self.capacity_sigma,
             capacity_identify: self.capacity_identify,
-            capacity_min_span: self.capacity_min_span,
             gap_soc_sigma: self.gap_soc_sigma,
             min_slope: self.min_slope,
+            capacity_min_span: self.capacity_min_span,
         };
     }
 }

@@ -58,6 +58,7 @@ fn changed(d: FracbmsSocSettings) -> [FracbmsSocSettings; 3] {
         FracbmsSocSettings {
             bias_sigma_a: 0.0,
             bias_walk_a: 0.0,
+            capacity_min_span: 0.0,
             ..short
         },
     ]

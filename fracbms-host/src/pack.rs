@@ -606,7 +606,8 @@ pub struct OnlinePack {
     /// `--voltage-min`, … as `online battery`).
     pub power: PowerOptions,
     /// How each cell's SOC is published (`--soc`, `--soc-rest-s`,
-    /// `--soc-bias-sigma-a`, `--soc-rest-load-sigma-a`, `--soc-voltage-sigma-v`).
+    /// `--soc-bias-sigma-a`, `--soc-rest-load-sigma-a`, `--soc-voltage-sigma-v`,
+    /// `--capacity-min-span`).
     pub soc: SocOptions,
     /// The slow part's memory (s; `--slow-memory-s`,
     /// [`TrackOptions::slow_memory_s`]).

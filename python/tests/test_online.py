@@ -337,13 +337,14 @@ def test_the_rested_voltage_spread_is_the_clis(host_sim, tmp_path):
 def test_the_capacity_span_is_the_clis(host_sim, tmp_path):
     # The capacity is identified only once two rests linked by the count
     # read SOCs `capacity_min_span` apart (`--capacity-min-span`, default
-    # 0.3). A 5 A·h cell discharged at 1C in eight steps of 0.1 of SOC from
-    # 0.95, 20-minute rests between, 10 s samples: the rests span 0.8.
+    # 0.3). A 4.5 A·h cell (5 A·h nominal) discharged at 5 A in eight steps
+    # of 0.11 of SOC from 0.95, 20-minute rests between, 10 s samples: the
+    # rests span 0.89.
     zs, vs = [0.0, 0.25, 0.5, 0.75, 1.0], [3.0, 3.5, 3.7, 3.9, 4.2]
     ocv_file = tmp_path / "span-ocv.csv"
     ocv_file.write_text("soc,ocv_v\n" + "".join(f"{z},{v}\n" for z, v in zip(zs, vs)))
     i = np.concatenate([np.zeros(120)] + [np.r_[np.full(36, -5.0), np.zeros(120)]] * 8)
-    soc = 0.95 + np.cumsum(i) * 10.0 / 3600.0 / 5.0
+    soc = 0.95 + np.cumsum(i) * 10.0 / 3600.0 / 4.5
     v = np.interp(soc, zs, vs) + 0.004 * i
     record = tmp_path / "span.csv"
     with open(record, "w") as f:
@@ -351,12 +352,12 @@ def test_the_capacity_span_is_the_clis(host_sim, tmp_path):
         f.writelines(f"{10 * k},{a:.9g},{u:.9g}\n" for k, (a, u) in enumerate(zip(i, v)))
     args = ["--ocv", ocv_file, "--capacity-ah", "5", "--window", "64", "--memory", "16"]
     kw = dict(window=64, memory=16, h=10.0, ocv=(np.array(zs), np.array(vs)), capacity_ah=5.0)
-    tracks = spread_tracks(host_sim, record, tmp_path, args, kw, "capacity_min_span", (None, 0.9))
+    tracks = spread_tracks(host_sim, record, tmp_path, args, kw, "capacity_min_span", (None, 0.95))
     assert tracks[None]["capacity_status"][-1] == "identified"
-    assert abs(tracks[None]["capacity_ah"][-1] - 5.0) < 0.05
-    # Asked for 0.9 the rests never span it: the nominal capacity.
-    assert tracks[0.9]["capacity_status"][-1] == "not_identified"
-    assert tracks[0.9]["capacity_ah"][-1] == 5.0
+    assert abs(tracks[None]["capacity_ah"][-1] - 4.5) < 0.05
+    # Asked for 0.95 the rests never span it: the nominal capacity.
+    assert tracks[0.95]["capacity_status"][-1] == "not_identified"
+    assert tracks[0.95]["capacity_ah"][-1] == 5.0
     with pytest.raises(ValueError, match="capacity-min-span"):
         fracbms.OnlineCell(**kw, capacity_min_span=1.5)
 

@@ -308,7 +308,7 @@ pub fn expect_new<T: Real, const MEM: usize>(s: &Settings<T>) -> Expect {
 
 /// [`SocSettings::check`]'s documentation: every setting finite and not
 /// negative, the capacity, the period and the smallest slope positive,
-/// the capacity's square finite.
+/// the span asked of the rests at most 1, the capacity's square finite.
 ///
 /// [`SocSettings::check`]: estimator_core::battery::soc::SocSettings::check
 pub fn soc_documented<T: Real>(o: &estimator_core::battery::soc::SocSettings<T>) -> bool {
@@ -335,6 +335,7 @@ pub fn soc_documented<T: Real>(o: &estimator_core::battery::soc::SocSettings<T>)
         && [o.capacity_ah, o.h, o.min_slope]
             .iter()
             .all(|x| *x > T::zero())
+        && o.capacity_min_span <= T::one()
         && (o.capacity_ah * o.capacity_ah).is_finite()
 }
 

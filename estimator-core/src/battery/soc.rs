@@ -80,138 +80,10 @@
 //! ```
 
 use super::ocv::OcvTable;
-use crate::error::Error;
 use crate::real::Real;
 
-/// What the observer assumes about the sensors, the cell and its rests.
-#[derive(Clone, Copy, Debug, PartialEq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct SocSettings<T> {
-    /// The nominal capacity (A·h): the count's scale and the capacity's
-    /// prior.
-    pub capacity_ah: T,
-    /// Sample period (s).
-    pub h: T,
-    /// A sample is rested when its current, less the estimated bias, is at
-    /// most this (A). Default C/50.
-    pub rest_current_a: T,
-    /// The shortest rest that gives an observation (s). Default 600.
-    pub rest_s: T,
-    /// A rest this long gives its observation without waiting for its end
-    /// (s). Default 3600.
-    pub rest_max_s: T,
-    /// The spread of a rested voltage as the OCV (V): the table's error and
-    /// the polarization left after [`SocSettings::rest_s`]. Default 5 mV.
-    pub voltage_sigma_v: T,
-    /// The spread of a voltage read at once, not yet relaxed (V). Default
-    /// 30 mV.
-    pub unrelaxed_sigma_v: T,
-    /// The spread of the curve itself in SOC (its test's error, hysteresis,
-    /// temperature), added to every observation's: where the curve is
-    /// steep a rest reads no better than this. Default 0.01.
-    pub table_sigma_soc: T,
-    /// The spread of a start SOC (given, or read from the first voltage).
-    /// Default 0.1. A spread beyond four times an unrelaxed reading's
-    /// (a start given loosely, a gap) has the next rest read early.
-    pub soc0_sigma: T,
-    /// The prior spread of the current sensor's bias (A). Default C/50.
-    pub bias_sigma_a: T,
-    /// How far the bias may wander in an hour (A). Default C/1000.
-    pub bias_walk_a: T,
-    /// The spread of the true current in a rest (A): a quiescent load the
-    /// sensor cannot tell from its own bias. Each rest's mean current
-    /// observes the bias with this spread (a rested cell carries no
-    /// current, so what the sensor reads there is its bias). Default
-    /// C/1000.
-    pub rest_load_sigma_a: T,
-    /// The prior spread of the capacity, relative. Default 0.15.
-    pub capacity_sigma: T,
-    /// The capacity is published as identified when its standard deviation
-    /// is at most this fraction of it. Default 0.02.
-    pub capacity_identify: T,
-    /// The capacity is identified only once two rests linked by the count
-    /// have also read SOCs at least this far apart through the curve
-    /// (module docs); 0: no span asked. Default 0.3.
-    pub capacity_min_span: T,
-    /// The spread added to the SOC by a gap of unknown charge. Default 0.5.
-    pub gap_soc_sigma: T,
-    /// The smallest slope `|OCV'|` (V per unit SOC) an observation is
-    /// weighed with; a flatter curve counts as this flat. Default 10⁻³.
-    pub min_slope: T,
-}
-
-impl<T: Real> SocSettings<T> {
-    /// The defaults for a cell of nominal capacity `capacity_ah` (A·h)
-    /// sampled every `h` seconds.
-    pub fn new(capacity_ah: T, h: T) -> Self {
-        Self {
-            capacity_ah,
-            h,
-            rest_current_a: capacity_ah / T::lit(50.0),
-            rest_s: T::lit(600.0),
-            rest_max_s: T::lit(3600.0),
-            voltage_sigma_v: T::lit(0.005),
-            unrelaxed_sigma_v: T::lit(0.03),
-            table_sigma_soc: T::lit(0.01),
-            soc0_sigma: T::lit(0.1),
-            bias_sigma_a: capacity_ah / T::lit(50.0),
-            bias_walk_a: capacity_ah / T::lit(1000.0),
-            rest_load_sigma_a: capacity_ah / T::lit(1000.0),
-            capacity_sigma: T::lit(0.15),
-            capacity_identify: T::lit(0.02),
-            capacity_min_span: T::lit(0.3),
-            gap_soc_sigma: T::lit(0.5),
-            min_slope: T::lit(1e-3),
-        }
-    }
-
-    /// Checks the settings: every one finite, the capacity, the period and
-    /// the smallest slope positive, the rest not negative, and the
-    /// capacity's square finite (the bias's variance is capped at it, and
-    /// the capacity estimate is up to five times the nominal).
-    ///
-    /// # Errors
-    /// [`Error::BadSetting`] otherwise.
-    pub fn check(&self) -> Result<(), Error> {
-        let all = [
-            self.capacity_ah,
-            self.h,
-            self.rest_current_a,
-            self.rest_s,
-            self.rest_max_s,
-            self.voltage_sigma_v,
-            self.unrelaxed_sigma_v,
-            self.table_sigma_soc,
-            self.soc0_sigma,
-            self.bias_sigma_a,
-            self.bias_walk_a,
-            self.rest_load_sigma_a,
-            self.capacity_sigma,
-            self.capacity_identify,
-            self.capacity_min_span,
-            self.gap_soc_sigma,
-            self.min_slope,
-        ];
-        let positive = [self.capacity_ah, self.h, self.min_slope];
-        if all.iter().all(|x| x.is_finite() && *x >= T::ZERO)
-            && positive.iter().all(|x| *x > T::ZERO)
-            && (self.capacity_ah * self.capacity_ah).is_finite()
-        {
-            Ok(())
-        } else {
-            Err(Error::BadSetting)
-        }
-    }
-
-    /// The largest variances the filter keeps, `(SOC, bias, g)`: what
-    /// knowing nothing means (the SOC anywhere in `±1`, the bias up to 1C,
-    /// the capacity anywhere from a fifth to five times the nominal). A
-    /// wider spread says no more, and in `f32` the count's products of it
-    /// would overflow.
-    fn variance_caps(&self) -> [T; 3] {
-        [T::ONE, self.capacity_ah * self.capacity_ah, T::ONE]
-    }
-}
+mod settings;
+pub use settings::SocSettings;
 
 /// What the observer publishes after a sample.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -231,7 +103,9 @@ pub struct SocEstimate<T> {
     /// The filter's standard deviation of the capacity now (A·h).
     pub capacity_sigma_ah: T,
     /// Whether the data identify the capacity now: its standard deviation
-    /// is within [`SocSettings::capacity_identify`] of it. A test that
+    /// is within [`SocSettings::capacity_identify`] of it and relaxed rests
+    /// linked by the count have spanned [`SocSettings::capacity_min_span`]
+    /// of SOC. A test that
     /// only discharges at an even pace does not tell it from the bias.
     pub capacity_identified: bool,
     /// The gain of the last OCV observation on the SOC, 0..1: near 1 where
@@ -304,8 +178,8 @@ pub struct SocObserver<T> {
     observations: u32,
     /// The last capacity the data identified (A·h).
     capacity_held: Option<T>,
-    /// The lowest and highest SOC read at a rest since the last gap of
-    /// unknown charge or SOC set (NaN before the first).
+    /// The lowest and highest SOC a relaxed rest read since the last gap
+    /// of unknown charge or SOC set (`[∞, −∞]` before the first).
     rest_span: [T; 2],
     /// Two rests linked by the count have read SOCs
     /// [`SocSettings::capacity_min_span`] apart.
@@ -317,6 +191,8 @@ pub struct SocObserver<T> {
 }
 
 impl<T: Real> SocObserver<T> {
+    /// No rest read yet: the empty range.
+    const NO_SPAN: [T; 2] = [T::INFINITY, T::NEG_INFINITY];
     /// An observer not started (`new(s, None)`, whatever `s`).
     pub(crate) const BLANK: Self = Self {
         x: None,
@@ -325,7 +201,7 @@ impl<T: Real> SocObserver<T> {
         ocv_weight: T::ZERO,
         observations: 0,
         capacity_held: None,
-        rest_span: [T::NAN; 2],
+        rest_span: Self::NO_SPAN,
         span_reached: false,
         set: None,
         gap: false,
@@ -434,7 +310,7 @@ impl<T: Real> SocObserver<T> {
             ocv_weight: parts.ocv_weight,
             observations: parts.observations,
             capacity_held: parts.capacity_held,
-            rest_span: [T::NAN; 2],
+            rest_span: Self::NO_SPAN,
             span_reached: parts.capacity_held.is_some(),
             set: None,
             gap: false,
@@ -453,7 +329,7 @@ impl<T: Real> SocObserver<T> {
     pub fn resume_after_gap(&mut self) {
         self.gap = true;
         self.rest = None;
-        self.rest_span = [T::NAN; 2];
+        self.rest_span = Self::NO_SPAN;
     }
 
     /// A gap whose charge is known (A·h, + charging, beyond what the
@@ -489,7 +365,7 @@ impl<T: Real> SocObserver<T> {
     pub fn set_state_of_charge(&mut self, soc: T) {
         if soc.is_finite() {
             self.set = Some(soc);
-            self.rest_span = [T::NAN; 2];
+            self.rest_span = Self::NO_SPAN;
             if let Some(x) = &mut self.x {
                 x[0] = soc;
             }
@@ -570,11 +446,10 @@ impl<T: Real> SocObserver<T> {
         Some((c, sd, spanned && sd <= s.capacity_identify * c))
     }
 
-    /// Widens the span of the rests read with `z`, a rest's SOC through
-    /// the curve.
+    /// Widens the span of the rests read with `z`, a relaxed rest's SOC
+    /// through the curve.
     fn span_with(&mut self, s: &SocSettings<T>, z: T) {
         let [lo, hi] = self.rest_span;
-        // NaN (no rest yet) gives way to `z` in `min` and `max`.
         let (lo, hi) = (z.min(lo), z.max(hi));
         self.rest_span = [lo, hi];
         if hi - lo >= s.capacity_min_span {
@@ -614,12 +489,12 @@ impl<T: Real> SocObserver<T> {
             let unknown =
                 self.p[0].sqrt() * T::lit(0.25) > self.spread(s, table, s.unrelaxed_sigma_v);
             if unknown && !rest.early && rest.len >= s.rest_s / T::lit(2.0) {
-                if self.observe(s, table, rest.mean, s.unrelaxed_sigma_v) {
+                if self.observe(s, table, rest.mean, false) {
                     self.observe_bias(s, &mut rest);
                 }
                 rest.early = true;
             } else if !rest.done && rest.len >= s.rest_max_s {
-                if self.observe(s, table, rest.mean, s.voltage_sigma_v) {
+                if self.observe(s, table, rest.mean, true) {
                     self.observe_bias(s, &mut rest);
                 }
                 rest.done = true;
@@ -627,7 +502,7 @@ impl<T: Real> SocObserver<T> {
             self.rest = Some(rest);
         } else {
             if let Some(mut r) = self.rest.filter(|r| !r.done && r.len >= s.rest_s) {
-                if self.observe(s, table, r.mean, s.voltage_sigma_v) {
+                if self.observe(s, table, r.mean, true) {
                     self.observe_bias(s, &mut r);
                 }
             }
@@ -684,14 +559,23 @@ impl<T: Real> SocObserver<T> {
     /// One observation of the SOC: the curve's inverse of `voltage`, with
     /// spread `sigma_v` over the curve's slope there. A voltage outside
     /// the curve's range tells only that the SOC is past its end: nothing
-    /// is observed. True when it observed.
+    /// is observed. True when it observed. A `relaxed` rest's voltage has
+    /// the spread [`SocSettings::voltage_sigma_v`] and widens the span of
+    /// the rests read; one read early, before it relaxed,
+    /// [`SocSettings::unrelaxed_sigma_v`] and no span (its reading is the
+    /// same rest's as the relaxed one after it).
     fn observe<const P: usize>(
         &mut self,
         s: &SocSettings<T>,
         table: &OcvTable<T, P>,
         voltage: T,
-        sigma_v: T,
+        relaxed: bool,
     ) -> bool {
+        let sigma_v = if relaxed {
+            s.voltage_sigma_v
+        } else {
+            s.unrelaxed_sigma_v
+        };
         let Some(x) = self.x else { return false };
         let v = table.ocv_points();
         let inside = v
@@ -711,7 +595,9 @@ impl<T: Real> SocObserver<T> {
             return false;
         }
         let innovation = z - x[0];
-        self.span_with(s, z);
+        if relaxed {
+            self.span_with(s, z);
+        }
         let gain = self.measure(s, Measured::Soc, innovation, sum);
         self.ocv_weight = gain;
         self.observations = self.observations.saturating_add(1);

@@ -227,9 +227,9 @@ pub struct StateArgs {
     #[arg(long)]
     pub soc_voltage_sigma_v: Option<f64>,
     /// The capacity (column capacity_ah) is published as identified only
-    /// once two rests linked by the count (no gap of unknown charge
-    /// between them) have read SOCs at least this far apart through the
-    /// OCV table, and its spread is within 2 % (default 0.3; 0: no span
+    /// once two relaxed rests linked by the count (no gap of unknown
+    /// charge or SOC set between them) have read SOCs at least this far
+    /// apart through the OCV table, and its spread is within 2 % (default 0.3; 0: no span
     /// asked). The capacity is the charge counted between the rests over
     /// the SOC they differ by, weighed with every rest by the SOC
     /// observer (docs/soc-observer.md).

@@ -658,12 +658,12 @@ fn pack_with_an_ocv_table_publishes_each_cells_soc_and_power_and_the_strings() {
     assert!(err.contains("--soc0 1.5"), "{err}");
 }
 
-/// A 5 A·h cell discharged at 1C in eight steps of 0.1 of SOC from 0.95,
-/// 20-minute rests between (10 s samples, a linear-piecewise OCV): the
-/// rests span 0.8 of SOC, and the SOC observer identifies the capacity.
-/// Asked for a span of 0.9 (`--capacity-min-span`) it does not: the
-/// nominal capacity is published, `not_identified`; a span beyond 1 is
-/// one line and exit 1.
+/// A 4.5 A·h cell (5 A·h nominal) discharged at 5 A in eight steps of 0.11
+/// of SOC from 0.95, 20-minute rests between (10 s samples, a
+/// linear-piecewise OCV): the rests span 0.89 of SOC, and the SOC observer
+/// identifies the capacity, 4.5 A·h. Asked for a span of 0.95
+/// (`--capacity-min-span`) it does not: the nominal capacity is published,
+/// `not_identified`; a span beyond 1 is one line and exit 1.
 #[test]
 fn the_capacity_is_identified_only_from_rests_far_enough_apart() {
     let (zs, vs) = ([0.0, 0.25, 0.5, 0.75, 1.0], [3.0, 3.5, 3.7, 3.9, 4.2]);
@@ -681,7 +681,7 @@ fn the_capacity_is_identified_only_from_rests_far_enough_apart() {
     let mut csv = String::from("time_s,current_a,voltage_v\n");
     let mut add = |i: f64, n: usize, csv: &mut String| {
         for _ in 0..n {
-            soc += i * h / 3600.0 / 5.0;
+            soc += i * h / 3600.0 / 4.5;
             *csv += &format!("{t},{i},{:.5}\n", ocv_at(soc) + 0.004 * i);
             t += h;
         }
@@ -727,8 +727,8 @@ fn the_capacity_is_identified_only_from_rests_far_enough_apart() {
     };
     let (c, status) = last(&[]);
     assert_eq!(status, "identified");
-    assert!((c - 5.0).abs() < 0.05, "{c}");
-    let (c, status) = last(&["--capacity-min-span", "0.9"]);
+    assert!((c - 4.5).abs() < 0.05, "{c}");
+    let (c, status) = last(&["--capacity-min-span", "0.95"]);
     assert_eq!(status, "not_identified");
     assert_eq!(c, 5.0);
     let o = online(&["--capacity-min-span", "1.5"]);
