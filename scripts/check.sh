@@ -50,6 +50,8 @@ python3 scripts/layout_check.py estimator-core fracbms-host host-sim estimator-f
 stage "cargo clippy (host crates and the Python extension, all targets)"
 cargo clippy --all-targets -- -D warnings
 cargo clippy -p fracbms-python --all-targets -- -D warnings
+stage "cargo doc: the host crates' and the core's API docs, every intra-doc link resolved"
+RUSTDOCFLAGS="-D warnings" cargo doc --no-deps -p estimator-core -p fracbms-host -p host-sim -p estimator-ffi -p firmware
 stage "no_std build: estimator-core for thumbv7em-none-eabihf"
 cargo build -p estimator-core --target thumbv7em-none-eabihf --release
 cargo clippy -p estimator-core --target thumbv7em-none-eabihf -- -D warnings

@@ -256,7 +256,7 @@ pub struct BatterySettings<T> {
     /// `ftol`). 0 (the default): below what the cost resolves in `T`.
     pub cost_tolerance: T,
     /// Near a minimum (an accepted output-error step that lowered the cost
-    /// by less than [`output_error::LINE_SEARCH_NEAR`] of it), the cost
+    /// by less than 10⁻³ of it), the cost
     /// along the step is modelled by the parabola through the estimate's
     /// cost, its slope there and the step's cost; when that parabola's
     /// minimum lies short of the step (below

@@ -185,7 +185,7 @@ impl<T: Real> FitInformation<T> {
 
     /// Bayesian information criterion `rows·ln(RSS/rows) + k·ln(rows)`,
     /// the mean square residual taken no lower than
-    /// [`VOLTAGE_RESOLUTION_V`]² (below it two fits differ by rounding,
+    /// the record's resolution squared, (1 µV)² (below it two fits differ by rounding,
     /// not by what the data say: on a record without noise the model with
     /// more parameters would otherwise win on rounding alone).
     pub fn bic(&self) -> T {

@@ -69,7 +69,7 @@
 //! residual and its row of the Jacobian are zero, and it is not counted in
 //! the rows. Such samples belong after the warm-up (a history from data
 //! needs measured voltages). [`crate::window::SampleWindow`] refuses NaN;
-//! a host's own [`Window`](crate::window::Window) over a logged record
+//! a host's own [`Window`] over a logged record
 //! passes them.
 //!
 //! Bounds are held, not crept up to. A resistance below 10⁻⁶ of

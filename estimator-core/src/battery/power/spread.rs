@@ -58,7 +58,7 @@ pub(super) type Shifts<T> = [T; MAX_HORIZONS];
 impl<'a, T: Real, const MEM: usize, const P: usize> PulsePredictor<'a, T, MEM, P> {
     /// [`power`](Self::power) with the parameters' `spread`: each
     /// horizon's pulse voltage carries its standard deviation
-    /// ([`HorizonPower::uncertainty_v`]), and the limit currents keep the
+    /// ([`super::HorizonPower::uncertainty_v`]), and the limit currents keep the
     /// voltage [`PowerSettings::confidence`] standard deviations inside
     /// the limits at each horizon's end. A spread that is not valid
     /// ([`ParameterSpread::is_valid`]) is not used.

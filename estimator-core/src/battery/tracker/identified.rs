@@ -578,8 +578,8 @@ impl<T: Real, const N: usize> CellState<T, N> {
     /// `pulse_v − 2σ` at 92.5–95.0 % of the pulses without a prior
     /// (docs/bms-states.md).
     ///
-    /// The voltage's scatter is the window's RMSE (before a fit,
-    /// [`STEP_NOISE_FLOOR_V`]).
+    /// The voltage's scatter is the window's RMSE (before a fit, 0.1 mV:
+    /// a cell monitor's resolution).
     pub fn sop_spread<const P: usize>(
         &self,
         s: &OnlineSettings<T, P>,
