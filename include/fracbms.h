@@ -743,8 +743,9 @@ typedef struct FracbmsHorizonPower {
   float pulse_v;
   /**
    * The pulse voltage's standard deviation (V) from the spread of the
-   * parameters it was predicted with and the fit's RMSE, as `host-sim
-   * online battery`'s `sop_uncertainty_v_{H}s` (NaN without a pulse).
+   * parameters it was predicted with, the fit's RMSE and what the last
+   * pulse missed its prediction by, as `host-sim online battery`'s
+   * `sop_uncertainty_v_{H}s` (NaN without a pulse).
    */
   float uncertainty_v;
 } FracbmsHorizonPower;

@@ -36,16 +36,19 @@ fn rel(a: f64, b: f64) -> f64 {
 #[test]
 fn a_cell_keeps_under_2_kib_at_256_64_in_f32() {
     use estimator_core::battery::online::{CurrentHistory, WorkingArea};
-    use estimator_core::battery::power::PolarizationTail;
-    // A cell's state and the polarization tail the pack carries for it.
+    use estimator_core::battery::power::{PolarizationTail, PulseCheck};
+    // A cell's state, and the polarization tail and the check against the
+    // next pulse that the pack carries for it.
     let state = core::mem::size_of::<CellState<f32, 256>>();
     let tail = core::mem::size_of::<PolarizationTail<f32, 64>>();
-    let cell = state + tail;
+    let check = core::mem::size_of::<PulseCheck<f32>>();
+    let cell = state + tail + check;
     let work = core::mem::size_of::<WorkingArea<f32, 256, 64>>();
     let hist = core::mem::size_of::<CurrentHistory<f32, 256>>();
     let pack16 = core::mem::size_of::<PackEstimator<f32, 256, 64, 16>>();
     println!(
-        "size_of: per cell {cell} B (state {state} B, polarization tail {tail} B), \
+        "size_of: per cell {cell} B (state {state} B, polarization tail {tail} B, \
+         pulse check {check} B), \
          working area {work} B, current history {hist} B, 16-cell pack {pack16} B"
     );
     assert!(cell <= 2048, "{cell}");

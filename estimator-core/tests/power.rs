@@ -9,7 +9,7 @@ use common::nmc_table;
 use estimator_core::battery::ocv::OcvModel;
 use estimator_core::battery::online::{CellEstimator, OnlineSettings, Status};
 use estimator_core::battery::pack::{PackEstimator, PackSettings};
-use estimator_core::battery::power::{PowerLimits, PowerSettings, SopBasis};
+use estimator_core::battery::power::{PowerLimits, PowerSettings, PulsePredictor, SopBasis};
 use estimator_core::battery::profile::{ocv_nmc, Profile};
 use estimator_core::battery::simulate::simulate;
 use estimator_core::battery::{CellModel, CellParameters, Prior, Start};
@@ -523,5 +523,77 @@ fn after_a_gap_at_rest_the_state_of_power_comes_from_what_is_held() {
             let short = want - got;
             assert!((short - 0.2 * truth.r_i * 5.0).abs() < 0.003, "{short}");
         }
+    }
+}
+
+/// The state of power checked against the pulse that follows it
+/// (`PulseCheck`): after a 30 s pulse at −5 A from a short rest, each
+/// horizon's pulse-voltage variance is the parameters' alone (the same
+/// spread, the same predictor) plus, squared, the pulse's own response
+/// (its static drop and step response) times the fraction that pulse
+/// missed its prediction by at that duration, the fraction measured here
+/// from the prediction made before the pulse; the derated currents are
+/// the lower for it.
+#[test]
+fn the_next_pulse_widens_the_state_of_power_by_what_it_missed() {
+    let truth = CellParameters::<f64>::cell_18650();
+    let s = OnlineSettings::new(1.0, 64, truth).with_ocv(nmc());
+    let (at, rest, k, after) = (1100, 250, 30, 20);
+    let (mut i, _) = record(at, 0.0, rest + k + after);
+    for x in &mut i[at + rest..at + rest + k] {
+        *x = -5.0;
+    }
+    let v = noisy(truth_voltage(&truth, &i), at + rest);
+    let mut est = Box::new(CellEstimator::<f64, 256, 64>::new(&s).unwrap());
+    for l in 0..at + rest {
+        est.push(&s, i[l], v[l]);
+    }
+    // What the check predicts the pulse with: the state of power's set
+    // and polarization now.
+    let before = est.pulse_predictor(&s).expect("carried through the rest");
+    let v0 = v[at + rest - 1];
+    let miss = |h: usize| {
+        let p = before.pulse_voltage(-5.0, h);
+        (p - v[at + rest + h - 1]).abs() / (v0 - p).abs()
+    };
+    let missed: Vec<f64> = [2, 10, 30].iter().map(|&h| miss(h)).collect();
+    for l in at + rest..at + rest + k + after {
+        est.push(&s, i[l], v[l]);
+    }
+    let limits = PowerLimits {
+        voltage_min: 3.0,
+        voltage_max: 4.2,
+        current_limit: 50.0,
+    };
+    let ps = PowerSettings::new(limits, &[2, 10, 30], Some(-5.0)).unwrap();
+    let full = est.state_of_power(&s, &ps).expect("a state of power");
+    let c = est.cell_state();
+    let (q, basis) = c.sop_parameters(&s).unwrap();
+    let e = est.estimate().unwrap();
+    assert_eq!(
+        (q.r_i, q.r_ct, q.q, q.alpha),
+        (e.r_i, e.r_ct, e.q, e.alpha),
+        "the estimate's set ({basis:?})"
+    );
+    let pred = est.pulse_predictor(&s).unwrap();
+    let plain = pred.power_with_spread(&ps, &c.sop_spread(&s, basis, &q));
+    // The pulse's own response per ampere, from a cell without
+    // polarization or curve.
+    let w = GlWeights::<f64, 64>::new(q.alpha, 1.0, 64).unwrap();
+    let bare = PulsePredictor::<f64, 64, 0>::new(&q, &w, &[], None).unwrap();
+    for (j, &h) in [2usize, 10, 30].iter().enumerate() {
+        let own = (bare.pulse_voltage(-5.0, h) - bare.pulse_voltage(0.0, h)).abs();
+        let (f, p) = (full.horizons()[j], plain.horizons()[j]);
+        let (sf, sp) = (f.uncertainty_v.unwrap(), p.uncertainty_v.unwrap());
+        let widened = (sp * sp + (missed[j] * own).powi(2)).sqrt();
+        println!(
+            "{h} s: missed by {:.2} % of the predicted drop; sigma {:.3} mV, {:.3} mV with it",
+            100.0 * missed[j],
+            1e3 * sp,
+            1e3 * sf
+        );
+        assert!(missed[j] > 1e-4, "{missed:?}");
+        assert!((sf - widened).abs() <= 1e-9 * widened, "{sf} {widened}");
+        assert!(f.sop.discharge_a < p.sop.discharge_a, "{f:?} {p:?}");
     }
 }

@@ -364,10 +364,15 @@ fn footprint_of_an_f32_estimator() {
     // and states of charge, and the count and state of charge they were
     // aged to; 56 B): 31 984 B; a pack cell 1 952 B. The SOC observer's
     // span of the rests read (`SocSettings::capacity_min_span`: the lowest
-    // and highest SOC, 8 B): 31 992 B; a pack cell 1 960 B.
+    // and highest SOC, 8 B): 31 992 B; a pack cell 1 960 B. The state of
+    // power's check against the next pulse (`PulseCheck`: the pulse's
+    // currents, voltage before it, samples, five predicted voltages, the
+    // first sample's miss, the last pulse's five misses and the last two
+    // samples, 72 B): 32 064 B; a pack cell 2 032 B.
     use estimator_core::battery::online::{CellState, CurrentHistory, WorkingArea};
-    use estimator_core::battery::power::PolarizationTail;
-    let tail = core::mem::size_of::<PolarizationTail<f32, 64>>();
+    use estimator_core::battery::power::{PolarizationTail, PulseCheck};
+    let tail =
+        core::mem::size_of::<PolarizationTail<f32, 64>>() + core::mem::size_of::<PulseCheck<f32>>();
     let parts = core::mem::size_of::<CellState<f32, 256>>()
         + tail
         + core::mem::size_of::<WorkingArea<f32, 256, 64>>()
@@ -376,11 +381,24 @@ fn footprint_of_an_f32_estimator() {
     // `usize`), and padding.
     assert!(cell <= parts + 24, "{cell} {parts}");
     let per_cell = core::mem::size_of::<CellState<f32, 256>>() + tail;
-    println!("size_of: a pack cell's state and tail {per_cell} B");
+    println!("size_of: a pack cell's state, tail and pulse check {per_cell} B");
     // The MCU budget of a pack's cell (issue 35): 2 KiB.
     assert!(per_cell <= 2048, "{per_cell}");
     assert!(
-        cell < 26 * 1024 + 4 * 256 * 4 + 128 + 96 + 2 * 104 + 352 + 72 + 304 + 8 + 16 + 32 + 56 + 8,
+        cell < 26 * 1024
+            + 4 * 256 * 4
+            + 128
+            + 96
+            + 2 * 104
+            + 352
+            + 72
+            + 304
+            + 8
+            + 16
+            + 32
+            + 56
+            + 8
+            + 72,
         "{cell}"
     );
 }

@@ -487,8 +487,9 @@ pub struct FracbmsHorizonPower {
     /// without one); for a pack's string, the sum of its cells'.
     pub pulse_v: f32,
     /// The pulse voltage's standard deviation (V) from the spread of the
-    /// parameters it was predicted with and the fit's RMSE, as `host-sim
-    /// online battery`'s `sop_uncertainty_v_{H}s` (NaN without a pulse).
+    /// parameters it was predicted with, the fit's RMSE and what the last
+    /// pulse missed its prediction by, as `host-sim online battery`'s
+    /// `sop_uncertainty_v_{H}s` (NaN without a pulse).
     pub uncertainty_v: f32,
 }
 

@@ -3,7 +3,7 @@
 
 use crate::board::{self, BoardApi};
 use estimator_core::battery::online::{CellState, CurrentHistory, WorkingArea};
-use estimator_core::battery::power::PolarizationTail;
+use estimator_core::battery::power::{PolarizationTail, PulseCheck};
 use firmware::config;
 use firmware::sampler::PackSampler;
 use firmware::static_cell::TakeOnce;
@@ -199,9 +199,11 @@ fn main() -> ! {
     );
     defmt::println!(
         "MEM bytes_per_cell={=usize} shared_bytes={=usize}",
-        // A cell's state and the polarization tail the pack carries for it.
+        // A cell's state, and the polarization tail and the check against
+        // the next pulse that the pack carries for it.
         core::mem::size_of::<CellState<f32, { config::WINDOW }>>()
-            + core::mem::size_of::<PolarizationTail<f32, { config::MEMORY }>>(),
+            + core::mem::size_of::<PolarizationTail<f32, { config::MEMORY }>>()
+            + core::mem::size_of::<PulseCheck<f32>>(),
         core::mem::size_of::<WorkingArea<f32, { config::WINDOW }, { config::MEMORY }>>()
             + core::mem::size_of::<CurrentHistory<f32, { config::WINDOW }>>()
     );

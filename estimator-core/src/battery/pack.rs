@@ -27,7 +27,10 @@
 //!    carried one sample on otherwise (rests of any length included), so
 //!    any cell's state of power can be asked at any time
 //!    ([`PackEstimator::state_of_power`]; the string's,
-//!    the weakest cell's: [`PackEstimator::pack_state_of_power`]).
+//!    the weakest cell's: [`PackEstimator::pack_state_of_power`]). At
+//!    each clean current step the pulse that follows is checked against
+//!    the state of power's prediction of it ([`PulseCheck`]); what it
+//!    missed by widens the states of power after it.
 //! 4. **Health.** [`PackEstimator::health`] sets each cell's `R_i` and
 //!    `R_ct` beside the pack's median and flags a cell whose resistance
 //!    stands out by more than [`PackSettings::flag_ratio`] (an aged or
@@ -37,7 +40,9 @@
 //! [`super::online`]'s (a [`super::online::CellEstimator`] is the one-cell
 //! pack).
 
-use super::power::{PolarizationTail, PowerReport, PowerSettings, PulsePredictor};
+use super::power::{
+    PolarizationTail, PowerReport, PowerSettings, PulseCheck, PulsePredictor, CHECK_STEPS,
+};
 use super::tracker::{
     check_limits, CellState, CellWindow, CurrentHistory, OnlineSettings, SampleReport, WorkingArea,
 };
@@ -122,6 +127,8 @@ pub struct PackEstimator<T, const N: usize, const MEM: usize, const CELLS: usize
     pub(super) work: WorkingArea<T, N, MEM>,
     /// Each cell's polarization under its estimate, now.
     pub(super) tails: [PolarizationTail<T, MEM>; CELLS],
+    /// Each cell's state of power checked against its last pulse.
+    pub(super) checks: [PulseCheck<T>; CELLS],
     /// The cell the next period's updates start at.
     pub(super) next: usize,
 }
@@ -168,6 +175,7 @@ impl<T: Real, const N: usize, const MEM: usize, const CELLS: usize>
             active: 0,
             work: WorkingArea::BLANK,
             tails: [PolarizationTail::BLANK; CELLS],
+            checks: [PulseCheck::BLANK; CELLS],
             next: 0,
         }
     };
@@ -193,6 +201,7 @@ impl<T: Real, const N: usize, const MEM: usize, const CELLS: usize>
             cell.reset::<MEM, P>(&s.cell);
         }
         self.tails.fill(PolarizationTail::BLANK);
+        self.checks.fill(PulseCheck::BLANK);
         self.next = 0;
         self.active = cells;
         Ok(())
@@ -370,6 +379,7 @@ impl<T: Real, const N: usize, const MEM: usize, const CELLS: usize>
             active: cells,
             work: WorkingArea::new(s)?,
             tails: [PolarizationTail::default(); CELLS],
+            checks: [PulseCheck::BLANK; CELLS],
             next: 0,
         })
     }
@@ -400,6 +410,22 @@ impl<T: Real, const N: usize, const MEM: usize, const CELLS: usize>
         } else {
             self.history.newest()
         };
+        // A clean step starts a check of each cell's state of power: its
+        // pulse voltages for the step's current, predicted from the cell as
+        // it was before this sample.
+        let checked = if plausible { current } else { T::nan() };
+        for k in 0..cells {
+            // (An empty window: the cell starts, or starts again after a
+            // gap.)
+            if self.window(k).is_empty() {
+                self.checks[k].restart();
+            }
+            if self.checks[k].starts_pulse(s.battery.min_current_std, checked) {
+                if let Some(predicted) = self.check_predictions(k, s, checked) {
+                    self.checks[k].start(checked, predicted);
+                }
+            }
+        }
         let Self {
             history,
             cells: states,
@@ -417,6 +443,8 @@ impl<T: Real, const N: usize, const MEM: usize, const CELLS: usize>
         for k in 0..cells {
             let scheduled = (k + cells - first) % cells < updates;
             let r = self.cells[k].update(s, &self.history, &mut self.work, k, scheduled);
+            let v = voltages.get(k).copied().unwrap_or(T::nan());
+            self.checks[k].observe(checked, v, r.rejected.is_some());
             report(k, r);
             // While the working area is still this cell's.
             self.follow_polarization(s, k, stored);
@@ -609,6 +637,21 @@ impl<T: Real, const N: usize, const MEM: usize, const CELLS: usize>
         }
     }
 
+    /// The voltages cell `k`'s state of power predicts for a pulse of
+    /// `current` (A) at each of [`CHECK_STEPS`], from the set and the
+    /// polarization it would be asked with now
+    /// ([`state_of_power`](Self::state_of_power)); `None` when it has none.
+    fn check_predictions<const P: usize>(
+        &self,
+        k: usize,
+        s: &OnlineSettings<T, P>,
+        current: T,
+    ) -> Option<[T; CHECK_STEPS.len()]> {
+        let (q, _) = self.cell(k)?.sop_parameters(s)?;
+        let pred = self.predictor_within(k, s, None, Some(&q))?;
+        Some(pred.pulse_voltages(current, &CHECK_STEPS))
+    }
+
     /// Cell `k`'s state of power now for `power`'s horizons, predicted
     /// with the best parameter set the cell holds
     /// ([`CellState::sop_parameters`]: the window's, the map prior's, or
@@ -620,8 +663,9 @@ impl<T: Real, const N: usize, const MEM: usize, const CELLS: usize>
     /// without a predictor. With the Butler–Volmer term, the currents are
     /// capped at the largest the cell's window holds: the term is not
     /// extrapolated. Each pulse voltage carries its standard deviation
-    /// from the set's spread ([`CellState::sop_spread`]), and the currents
-    /// keep [`PowerSettings::confidence`] of it inside the limits.
+    /// from the set's spread ([`CellState::sop_spread`]) and what the
+    /// cell's last pulse missed its prediction by ([`PulseCheck`]), and the
+    /// currents keep [`PowerSettings::confidence`] of it inside the limits.
     pub fn state_of_power<const P: usize>(
         &self,
         k: usize,
@@ -651,7 +695,8 @@ impl<T: Real, const N: usize, const MEM: usize, const CELLS: usize>
             let cap = &mut power.limits.current_limit;
             *cap = cap.min(seen);
         }
-        let spread = c.sop_spread(s, basis, &q);
+        let mut spread = c.sop_spread(s, basis, &q);
+        spread.response = self.checks[k].missed();
         Some(
             predictor
                 .power_with_spread(&power, &spread)

@@ -16,7 +16,8 @@
 //! voltage at each); [`PulsePredictor::power`] answers them in one pass of
 //! the recursion ([`PowerReport`]). [`PolarizationTail`] is what a cell
 //! carries between samples to predict from at any time: its model and its
-//! last `M` polarization values, followed sample by sample.
+//! last `M` polarization values, followed sample by sample;
+//! [`PulseCheck`] what the last pulse showed of the prediction's miss.
 //!
 //! This module owns that prediction; it must not touch the estimators'
 //! state (the caller gives the model, the history and the weights at the
@@ -30,8 +31,10 @@ use super::CellParameters;
 use crate::frac::{GlWeights, ROW_BLOCK};
 use crate::real::Real;
 
+mod check;
 mod report;
 mod spread;
+pub use check::{PulseCheck, ResponseMiss, CHECK_STEPS};
 pub use report::{
     HorizonPower, PowerLimits, PowerReport, PowerSettings, SopBasis, StateOfPower,
     DEFAULT_CONFIDENCE, MAX_HORIZONS,
@@ -418,6 +421,34 @@ impl<'a, T: Real, const MEM: usize, const P: usize> PulsePredictor<'a, T, MEM, P
             }
         });
         v
+    }
+
+    /// [`pulse_voltage`](Self::pulse_voltage) at each of `steps` (samples,
+    /// each at least 1; NaN for a 0), in one pass of the recursion to the
+    /// longest.
+    ///
+    /// ```
+    /// use estimator_core::battery::power::PulsePredictor;
+    /// use estimator_core::battery::CellParameters;
+    /// use estimator_core::frac::GlWeights;
+    /// let p = CellParameters::<f64>::cell_18650();
+    /// let w = GlWeights::<f64, 64>::new(p.alpha, 1.0, 64).unwrap();
+    /// let cell = PulsePredictor::<f64, 64, 0>::new(&p, &w, &[0.0; 10], None).unwrap();
+    /// let v = cell.pulse_voltages(-5.0, &[1, 10, 30]);
+    /// assert_eq!(v[1], cell.pulse_voltage(-5.0, 10));
+    /// ```
+    pub fn pulse_voltages<const K: usize>(&self, current: T, steps: &[u32; K]) -> [T; K] {
+        let segment = Cell::new(0);
+        let mut out = [T::nan(); K];
+        let longest = steps.iter().copied().max().unwrap_or(0) as usize;
+        self.responses(longest, |k, f, g| {
+            for (o, &s) in out.iter_mut().zip(steps) {
+                if s as usize == k {
+                    *o = self.voltage(current, k, f, g, &segment);
+                }
+            }
+        });
+        out
     }
 
     /// The largest constant discharge and charge currents that keep the

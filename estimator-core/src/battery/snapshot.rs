@@ -32,8 +32,10 @@
 //! the state of charge each was identified at, the counted state of
 //! charge, and the SOC observer's state (SOC, current bias, capacity, their
 //! covariance, the last identified capacity). For the pack: which cell the
-//! next period's updates start at. The window, the counters and the state
-//! of power's polarization are not kept: they refill from new samples. Nor
+//! next period's updates start at. The window, the counters, the state
+//! of power's polarization and its check against the last pulse
+//! ([`PulseCheck`](super::power::PulseCheck)) are not kept: they refill
+//! from new samples. Nor
 //! is the mean of the slow part carried across windows
 //! ([`OnlineSettings::slow_memory_s`]): it starts again at the first
 //! window that identifies each parameter.
@@ -650,6 +652,7 @@ impl<T: Real, const N: usize, const MEM: usize, const CELLS: usize>
         for tail in &mut self.tails {
             tail.clear();
         }
+        self.checks.fill(super::power::PulseCheck::BLANK);
         self.work.release();
         self.next = next;
         Ok(())

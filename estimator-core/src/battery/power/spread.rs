@@ -7,7 +7,7 @@
 //! the parent module's, and where a spread comes from is the estimator's
 //! ([`crate::battery::online::CellState::sop_spread`]).
 
-use super::{same_order, PowerReport, PowerSettings, PulsePredictor, MAX_HORIZONS};
+use super::{same_order, PowerReport, PowerSettings, PulsePredictor, ResponseMiss, MAX_HORIZONS};
 use crate::battery::simulate::cpe_filter;
 use crate::battery::CellParameters;
 use crate::frac::{GlWeights, ROW_BLOCK};
@@ -19,11 +19,14 @@ use crate::real::Real;
 /// voltage's standard deviation is the model's answer to each parameter
 /// moved by its own (one at a time, added in quadrature with the scatter:
 /// the parameters' correlation is not known where the values came from
-/// different places).
+/// different places), and the pulse's own response moved by what the
+/// last pulse showed the model to miss by ([`Self::response`]).
 ///
 /// ```
-/// use estimator_core::battery::power::ParameterSpread;
-/// let s = ParameterSpread { r_i: 0.05, r_ct: 0.1, q: 0.1, alpha: 0.02, noise_v: 1e-3 };
+/// use estimator_core::battery::power::{ParameterSpread, ResponseMiss};
+/// let s = ParameterSpread {
+///     r_i: 0.05, r_ct: 0.1, q: 0.1, alpha: 0.02, noise_v: 1e-3, response: ResponseMiss::NONE,
+/// };
 /// assert!(s.is_valid());
 /// assert!(!ParameterSpread { noise_v: -1.0, ..s }.is_valid());
 /// ```
@@ -40,6 +43,12 @@ pub struct ParameterSpread<T> {
     pub alpha: T,
     /// The measured voltage's scatter about the model (V): the fit's RMSE.
     pub noise_v: T,
+    /// The relative miss of the last pulse the cell's state of power was
+    /// checked against ([`super::PulseCheck`]), per duration: the pulse's
+    /// own response per ampere (`R_i` and the step response) at a horizon
+    /// moves by that fraction of itself at one standard deviation.
+    /// [`ResponseMiss::NONE`]: none.
+    pub response: ResponseMiss<T>,
 }
 
 impl<T: Real> ParameterSpread<T> {
@@ -48,6 +57,7 @@ impl<T: Real> ParameterSpread<T> {
         [self.r_i, self.r_ct, self.q, self.alpha, self.noise_v]
             .iter()
             .all(|x| x.is_finite() && *x >= T::zero())
+            && self.response.is_valid()
     }
 }
 
@@ -73,7 +83,10 @@ impl<'a, T: Real, const MEM: usize, const P: usize> PulsePredictor<'a, T, MEM, P
     /// let cell = PulsePredictor::<f64, 64, 2>::new(&p, &w, &[0.0; 10], None).unwrap();
     /// let limits = PowerLimits { voltage_min: 3.0, voltage_max: 4.2, current_limit: 100.0 };
     /// let s = PowerSettings::new(limits, &[10], Some(-5.0)).unwrap();
-    /// let spread = ParameterSpread { r_i: 0.1, r_ct: 0.1, q: 0.1, alpha: 0.02, noise_v: 1e-3 };
+    /// let spread = ParameterSpread {
+    ///     r_i: 0.1, r_ct: 0.1, q: 0.1, alpha: 0.02, noise_v: 1e-3,
+    ///     response: estimator_core::battery::power::ResponseMiss::NONE,
+    /// };
     /// let (plain, derated) = (cell.power(&s), cell.power_with_spread(&s, &spread));
     /// let h = derated.horizons()[0];
     /// assert!(h.uncertainty_v.unwrap() > 0.0);
@@ -132,7 +145,8 @@ impl<'a, T: Real, const MEM: usize, const P: usize> PulsePredictor<'a, T, MEM, P
     /// moved by its spread alone, of the squared shift of the pulse's own
     /// response per ampere (the static drop's and the step response's),
     /// from `base`, the step response at each horizon's end
-    /// ([`Self::step_ends`]). A current `I` then moves the voltage by
+    /// ([`Self::step_ends`]), and of that response times the last
+    /// pulse's relative miss at the horizon ([`ParameterSpread::response`]). A current `I` then moves the voltage by
     /// `|I|·B` at one standard deviation. The polarization the cell
     /// already carries is taken as known (its decay is not moved). `None`
     /// when a moved model cannot be predicted with.
@@ -196,6 +210,15 @@ impl<'a, T: Real, const MEM: usize, const P: usize> PulsePredictor<'a, T, MEM, P
             for (o, (x, b)) in out.iter_mut().zip(e.iter().zip(base)) {
                 let d = *x - *b;
                 *o = *o + d * d;
+            }
+        }
+        // What the last pulse showed the model to miss by: the pulse's own
+        // response per ampere moved by that fraction of itself.
+        for ((o, &h), b) in out.iter_mut().zip(horizons).zip(base) {
+            let r = spread.response.at(h);
+            if r > T::zero() && b.is_finite() {
+                let own = (p.r_i + *b).abs() * r;
+                *o = *o + own * own;
             }
         }
         Some(out)

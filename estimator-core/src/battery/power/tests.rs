@@ -331,6 +331,7 @@ fn the_derated_limits_keep_the_pulse_voltages_spread_inside() {
         q: 0.15,
         alpha: 0.03,
         noise_v: 2e-3,
+        response: ResponseMiss::NONE,
     };
     for horizon in [10u32, 100] {
         let base =
@@ -399,6 +400,29 @@ fn the_derated_limits_keep_the_pulse_voltages_spread_inside() {
             top <= limits.voltage_max + 1e-9 && top > limits.voltage_max - 1e-6,
             "{top}"
         );
+        // The last pulse's miss: the pulse's own response (its static drop
+        // and step response, not the open-circuit voltage's part) moved by
+        // that fraction of itself, in quadrature.
+        let missed = ParameterSpread {
+            response: ResponseMiss { miss: [0.3; 5] },
+            ..spread
+        };
+        let no_ocv = PulsePredictor::<f64, 64, 101>::new(&p, &w, &up[..150], None).unwrap();
+        let own_response = (no_ocv.pulse_voltage(pulse, k) - no_ocv.pulse_voltage(0.0, k)).abs();
+        let wide = base.power_with_spread(&s, &missed).horizons()[0];
+        let expect = (sd * sd + (0.3 * own_response).powi(2)).sqrt();
+        assert!(
+            (wide.uncertainty_v.unwrap() - expect).abs() < 1e-9,
+            "{:?} {expect}",
+            wide.uncertainty_v
+        );
+        assert!(wide.sop.discharge_a < d, "derated further");
+        // A miss that is not a fraction is not a spread.
+        let bad = ParameterSpread {
+            response: ResponseMiss { miss: [-0.1; 5] },
+            ..spread
+        };
+        assert!(!bad.is_valid());
         // Zero confidence: the plain limits, the spread still reported.
         s.confidence = 0.0;
         let z = base.power_with_spread(&s, &spread).horizons()[0];

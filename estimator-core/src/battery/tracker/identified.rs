@@ -33,7 +33,7 @@
 use super::fusion::Slow;
 use super::*;
 use crate::battery::output_error::{FitInformation, COLUMNS};
-use crate::battery::power::{ParameterSpread, SopBasis};
+use crate::battery::power::{ParameterSpread, ResponseMiss, SopBasis};
 use crate::battery::CellParameters;
 use crate::real::Real;
 
@@ -644,6 +644,9 @@ impl<T: Real, const N: usize> CellState<T, N> {
             q: sd[2],
             alpha: sd[3],
             noise_v,
+            // The pack's check of the last pulse adds its miss
+            // ([`crate::battery::pack::PackEstimator::state_of_power`]).
+            response: ResponseMiss::NONE,
         }
     }
 }
