@@ -1,0 +1,71 @@
+#!/usr/bin/env python3
+# Research script (docs/research.md), not a benchmark.
+# Question: How much does checking the state of power against the last pulse (PulseCheck) widen the pulse voltage's sigma on the measured HPPC pulses?
+# Answer: without a prior, median 1.025x, 90th/95th percentile 1.93x/3.06x, more than doubled at 22 of 221 pulses; with the map, at most 1.17x.
+"""The pulse voltage's sigma with the check against the last pulse over
+the same without it, per measured Panasonic HPPC pulse (issue 72;
+docs/state-of-power.md, "How sure, and the derated limits").
+
+Reads two sets of `online battery` tracks that `python3
+bench/sop_pulses.py --acceptance` leaves: one from a build without the
+check (the commit before it, 5b2df75) in OLD, one from this build in NEW,
+and, per pulse from the second group on and per horizon, prints the ratio
+of `sop_uncertainty_v_{H}s` at the last sample before the pulse.
+
+    git worktree add /tmp/old 5b2df75
+    (cd /tmp/old && CARGO_TARGET_DIR=/tmp/old-target cargo build --release -p host-sim)
+    python3 bench/sop_pulses.py --acceptance --host-sim /tmp/old-target/release/host-sim --out target/sop-old
+    cargo build --release -p host-sim
+    python3 bench/sop_pulses.py --acceptance
+    python3 research/sop_sigma_ratio.py [--old target/sop-old] [--new target/sop]
+"""
+
+import argparse
+import csv
+import os
+import sys
+
+import numpy as np
+
+sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "bench"))
+import sop_pulses as S  # noqa: E402
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--old", default="target/sop-old")
+    ap.add_argument("--new", default="target/sop")
+    a = ap.parse_args()
+    for variant in ("none", "map"):
+        ratios = []
+        for name in ("Panasonic 25 degC HPPC", "Panasonic 10 degC HPPC"):
+            path, _, _, gap, horizons, _ = S.RECORD_SPECS[name]
+            ps, _ = S.pulses(path)
+            g = S.groups(ps, gap)
+            sub = os.path.splitext(os.path.basename(path))[0][:14].replace(" ", "_")
+            cache = {}
+
+            def track(root, c):
+                if (root, c) not in cache:
+                    cache[(root, c)] = list(csv.DictReader(open(f"{root}/{sub}/pulse{c}-{variant}.csv")))
+                return cache[(root, c)]
+
+            for h in horizons:
+                for j, (start, cur, length) in enumerate(ps):
+                    if g[j] == 0 or length < h:
+                        continue
+                    c = round(cur, 1)
+                    old, new = track(a.old, c), track(a.new, c)
+                    tt = np.array([float(r["time_s"]) for r in old])
+                    k = np.searchsorted(tt, start - (tt[1] - tt[0]), side="right") - 1
+                    so, sn = old[k][f"sop_uncertainty_v_{h}s"], new[k][f"sop_uncertainty_v_{h}s"]
+                    if so and sn:
+                        ratios.append(float(sn) / float(so))
+        r = np.array(ratios)
+        print(f"prior {variant}: {len(r)} pulses; sigma with the check / without: median {np.median(r):.3f}, "
+              f"90th percentile {np.percentile(r, 90):.2f}, 95th {np.percentile(r, 95):.2f}, "
+              f"largest {r.max():.2f}; more than doubled at {(r > 2).sum()}")
+
+
+if __name__ == "__main__":
+    main()
