@@ -638,9 +638,11 @@ impl<T: Real, const N: usize, const MEM: usize, const CELLS: usize>
     }
 
     /// The voltages cell `k`'s state of power predicts for a pulse of
-    /// `current` (A) at each of [`CHECK_STEPS`], from the set and the
-    /// polarization it would be asked with now
-    /// ([`state_of_power`](Self::state_of_power)); `None` when it has none.
+    /// `current` (A) at each of [`CHECK_STEPS`], from the set it would be
+    /// asked with now ([`state_of_power`](Self::state_of_power)) and the
+    /// polarization carried as far as the window reaches (the state of
+    /// power's default carry), at the step's own current (no cap of a
+    /// Butler–Volmer term's currents); `None` when it has none.
     fn check_predictions<const P: usize>(
         &self,
         k: usize,

@@ -52,7 +52,9 @@ pub struct ParameterSpread<T> {
 }
 
 impl<T: Real> ParameterSpread<T> {
-    /// Every spread finite and not negative.
+    /// Every parameter's spread and the scatter finite and not negative,
+    /// and every miss of [`Self::response`] not negative or not known
+    /// ([`ResponseMiss::is_valid`]).
     pub fn is_valid(&self) -> bool {
         [self.r_i, self.r_ct, self.q, self.alpha, self.noise_v]
             .iter()
