@@ -8,6 +8,7 @@ use common::nmc_table;
 use estimator_core::battery::ocv::OcvModel;
 use estimator_core::battery::online::{CellEstimator, Identification, OnlineSettings};
 use estimator_core::battery::output_error::{FitInformation, COLUMNS};
+use estimator_core::battery::power::ResponseMiss;
 use estimator_core::battery::profile::{ocv_nmc, Profile};
 use estimator_core::battery::simulate::simulate;
 use estimator_core::battery::{CellParameters, Prior};
@@ -379,8 +380,8 @@ fn the_state_of_powers_r_i_spread_carries_what_the_model_misses_at_a_step() {
         r_i: st.ohm / 1.5,
         ..p
     };
-    let a = cell.sop_spread(&s, basis, &agreeing);
-    let b = cell.sop_spread(&s, basis, &missing);
+    let a = cell.sop_spread(&s, basis, &agreeing, ResponseMiss::NONE);
+    let b = cell.sop_spread(&s, basis, &missing, ResponseMiss::NONE);
     assert!((a.r_i - own).abs() < 1e-12, "{a:?} against {own}");
     let want = (own * own + 1.5f64.ln().powi(2)).sqrt();
     assert!((b.r_i - want).abs() < 1e-12, "{b:?} against {want}");

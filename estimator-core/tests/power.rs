@@ -9,7 +9,9 @@ use common::nmc_table;
 use estimator_core::battery::ocv::OcvModel;
 use estimator_core::battery::online::{CellEstimator, OnlineSettings, Status};
 use estimator_core::battery::pack::{PackEstimator, PackSettings};
-use estimator_core::battery::power::{PowerLimits, PowerSettings, PulsePredictor, SopBasis};
+use estimator_core::battery::power::{
+    PowerLimits, PowerSettings, PulsePredictor, ResponseMiss, SopBasis,
+};
 use estimator_core::battery::profile::{ocv_nmc, Profile};
 use estimator_core::battery::simulate::simulate;
 use estimator_core::battery::{CellModel, CellParameters, Prior, Start};
@@ -576,7 +578,7 @@ fn the_next_pulse_widens_the_state_of_power_by_what_it_missed() {
         "the estimate's set ({basis:?})"
     );
     let pred = est.pulse_predictor(&s).unwrap();
-    let plain = pred.power_with_spread(&ps, &c.sop_spread(&s, basis, &q));
+    let plain = pred.power_with_spread(&ps, &c.sop_spread(&s, basis, &q, ResponseMiss::NONE));
     // The pulse's own response per ampere, from a cell without
     // polarization or curve.
     let w = GlWeights::<f64, 64>::new(q.alpha, 1.0, 64).unwrap();

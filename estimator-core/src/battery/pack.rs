@@ -422,7 +422,8 @@ impl<T: Real, const N: usize, const MEM: usize, const CELLS: usize>
             }
             if self.checks[k].starts_pulse(s.battery.min_current_std, checked) {
                 if let Some(predicted) = self.check_predictions(k, s, checked) {
-                    self.checks[k].start(checked, predicted);
+                    let noise = self.cells[k].voltage_noise();
+                    self.checks[k].start(checked, predicted, noise);
                 }
             }
         }
@@ -697,8 +698,7 @@ impl<T: Real, const N: usize, const MEM: usize, const CELLS: usize>
             let cap = &mut power.limits.current_limit;
             *cap = cap.min(seen);
         }
-        let mut spread = c.sop_spread(s, basis, &q);
-        spread.response = self.checks[k].missed();
+        let spread = c.sop_spread(s, basis, &q, self.checks[k].missed());
         Some(
             predictor
                 .power_with_spread(&power, &spread)

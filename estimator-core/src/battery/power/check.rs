@@ -15,6 +15,7 @@
 //! published or the prediction itself (the pack gives it the predicted
 //! voltages, [`crate::battery::pack`]).
 
+use crate::battery::tracker::{clean_edge, precise_change};
 use crate::real::Real;
 
 /// The durations a pulse is checked at (samples from its start, the step's
@@ -132,26 +133,36 @@ impl<T: Real> PulseCheck<T> {
     /// with a voltage before it.
     pub fn starts_pulse(&self, min_current_std: T, current: T) -> bool {
         let (prev, v) = self.last;
-        let di = current - prev;
-        let edge = T::lit(0.5) * current.abs().max(prev.abs());
-        di.is_finite()
-            && v.is_finite()
+        v.is_finite()
             && current.abs() > prev.abs()
-            && di.abs() >= T::lit(100.0) * min_current_std
-            && di.abs() >= edge
-            && (prev - self.earlier).abs() <= T::lit(0.1) * di.abs()
+            && clean_edge(min_current_std, self.earlier, prev, current)
     }
 
     /// Starts checking a pulse of `current` (A) with the voltages the
     /// state of power predicts for it at each of [`CHECK_STEPS`] (from
-    /// the cell as it was before the pulse's first sample).
-    pub fn start(&mut self, current: T, predicted: [T; CHECKS]) {
+    /// the cell as it was before the pulse's first sample), when every
+    /// predicted drop from the voltage before it is known to the step
+    /// resistance's precision against `noise_v`, the voltage's scatter in
+    /// one sample (the window's RMSE): `2·√2·noise_v ≤ 0.25·|drop|`
+    /// ([`crate::battery::online::STEP_PRECISION`]). A smaller step's
+    /// miss would be the voltage's noise over a drop of a few millivolts,
+    /// not the model's. Returns whether the pulse is checked.
+    pub fn start(&mut self, current: T, predicted: [T; CHECKS], noise_v: T) -> bool {
+        let before = self.last.1;
+        let precise = predicted
+            .iter()
+            .all(|&p| (before - p).is_finite() && precise_change(noise_v, before - p));
+        if !precise {
+            self.current = T::nan();
+            return false;
+        }
         self.current = current;
-        self.before = self.last.1;
+        self.before = before;
         self.held = current;
         self.elapsed = 0;
         self.predicted = predicted;
         self.first = T::nan();
+        true
     }
 
     /// Takes one sample (current in A, voltage in V; `rejected`: the
@@ -164,8 +175,10 @@ impl<T: Real> PulseCheck<T> {
     /// sample's miss counts once the second sample holds the same current
     /// (within 2 %); a first sample that averaged the current over the
     /// edge (a resampled log: at least half the current after it, of the
-    /// same sign) leaves the first duration's miss unknown, and the pulse
-    /// is checked at the current it then holds.
+    /// same sign) or a current still settling (within a tenth) leaves the
+    /// first duration's miss unknown, and the pulse is checked at the
+    /// current it then holds. A pulse that ends before a duration leaves
+    /// the last pulse's miss there.
     pub fn observe(&mut self, current: T, voltage: T, rejected: bool) {
         let usable = voltage.is_finite() && !rejected;
         if self.current.is_finite() {
@@ -186,16 +199,24 @@ impl<T: Real> PulseCheck<T> {
                         true
                     }
                     2 => {
-                        // A first sample that straddled the edge: this
-                        // pulse tells nothing of the first duration.
-                        if let Some(m) = self.missed.miss.first_mut() {
-                            *m = T::nan();
-                        }
+                        // A first sample not at the pulse's current: one
+                        // that straddled the edge, or a current still
+                        // settling (within a tenth). This pulse goes past
+                        // the first duration without telling its miss (an
+                        // older pulse's would stand for it), and is
+                        // checked at the current it now holds.
+                        let settling = (current - held).abs() <= T::lit(0.1) * held.abs();
                         let straddled = current * held > T::zero()
                             && current.abs() >= held.abs()
                             && T::lit(2.0) * held.abs() >= current.abs();
                         self.held = current;
-                        straddled
+                        let goes_on = settling || straddled;
+                        if goes_on {
+                            if let Some(m) = self.missed.miss.first_mut() {
+                                *m = T::nan();
+                            }
+                        }
+                        goes_on
                     }
                     _ => (current - held).abs() <= T::lit(0.1) * held.abs(),
                 };
@@ -260,7 +281,7 @@ mod tests {
         }
         assert!(c.starts_pulse(1e-3, -2.0));
         let predicted = CHECK_STEPS.map(|k| 3.7 - 0.1 - 0.001 * f64::from(k));
-        c.start(-2.0, predicted);
+        assert!(c.start(-2.0, predicted, 1e-3));
         for k in 1..=40u32 {
             let drop = 0.1 + 0.001 * f64::from(k.min(30));
             c.observe(-2.0, 3.7 - 1.1 * drop, false);
@@ -273,7 +294,7 @@ mod tests {
             c.observe(0.0, 3.7, false);
         }
         assert!(c.starts_pulse(1e-3, -2.0));
-        c.start(-2.0, predicted);
+        assert!(c.start(-2.0, predicted, 1e-3));
         for k in 1..=5u32 {
             c.observe(
                 -2.0,
@@ -304,7 +325,7 @@ mod tests {
         assert!(c.starts_pulse(1e-3, -1.9));
         // Predicted for −1.9 A: 0.19 V of drop and 1.9 mV a sample more.
         let predicted = CHECK_STEPS.map(|k| 3.7 - 1.9 * (0.1 + 0.001 * f64::from(k)));
-        c.start(-1.9, predicted);
+        assert!(c.start(-1.9, predicted, 1e-3));
         c.observe(-1.9, predicted[0], false);
         for k in 2..=30u32 {
             c.observe(-2.0, 3.7 - 2.0 * (0.1 + 0.001 * f64::from(k)), false);
@@ -329,12 +350,12 @@ mod tests {
         assert!(!c.starts_pulse(1e-3, -2.0), "not steady before");
         c.observe(-0.5, 3.69, false);
         assert!(c.starts_pulse(1e-3, -2.0));
-        c.start(-2.0, [3.6; 5]);
+        assert!(c.start(-2.0, [3.6; 5], 1e-3));
         c.observe(-2.0, f64::NAN, false);
         assert!(c.missed().miss.iter().all(|m| m.is_nan()));
         c.observe(-0.5, 3.69, false);
         c.observe(-0.5, 3.69, false);
-        c.start(-2.0, [3.6; 5]);
+        assert!(c.start(-2.0, [3.6; 5], 1e-3));
         c.observe(-2.0, 3.5, true);
         c.observe(-1.0, 3.5, false);
         assert!(c.missed().miss.iter().all(|m| m.is_nan()));
@@ -348,5 +369,56 @@ mod tests {
         assert!(!c.starts_pulse(1e-3, -2.0), "one sample is not steady");
         c.observe(0.0, 3.7, false);
         assert!(c.starts_pulse(1e-3, -2.0));
+    }
+
+    /// A step whose predicted drop is within the voltage's noise is not
+    /// checked; a pulse of one sample keeps the last pulse's first miss;
+    /// a current that settles within a tenth after its first sample is
+    /// checked from the second duration on at the current it holds, and
+    /// leaves the first duration's miss unknown.
+    #[test]
+    fn a_small_step_is_not_checked_and_a_short_one_keeps_the_last_miss() {
+        let mut c = PulseCheck::<f64>::BLANK;
+        let rest = |c: &mut PulseCheck<f64>| {
+            for _ in 0..3 {
+                c.observe(0.0, 3.7, false);
+            }
+        };
+        let predicted = CHECK_STEPS.map(|k| 3.7 - 0.1 - 0.001 * f64::from(k));
+        // Within the noise: 2·√2·10 mV > 0.25·100 mV.
+        rest(&mut c);
+        assert!(c.starts_pulse(1e-3, -2.0));
+        assert!(!c.start(-2.0, predicted, 0.01));
+        c.observe(-2.0, 3.5, false);
+        c.observe(-2.0, 3.5, false);
+        assert!(c.missed().miss.iter().all(|m| m.is_nan()));
+        // A pulse 10 % deeper than predicted at its first two samples.
+        rest(&mut c);
+        assert!(c.start(-2.0, predicted, 1e-3));
+        for k in 1..=2u32 {
+            c.observe(-2.0, 3.7 - 1.1 * (0.1 + 0.001 * f64::from(k)), false);
+        }
+        c.observe(0.0, 3.7, false);
+        let first = c.missed().miss[0];
+        assert!((first - 0.1).abs() < 1e-9, "{first}");
+        // One sample, then back to rest: the first miss stays.
+        rest(&mut c);
+        assert!(c.start(-2.0, predicted, 1e-3));
+        c.observe(-2.0, 3.0, false);
+        c.observe(0.0, 3.7, false);
+        assert_eq!(c.missed().miss[0], first);
+        // A current 5 % below its first sample's after it: checked on,
+        // as predicted, at −1.9 A.
+        rest(&mut c);
+        assert!(c.start(-2.0, predicted, 1e-3));
+        c.observe(-2.0, 3.0, false);
+        for k in 2..=30u32 {
+            c.observe(-1.9, 3.7 - 0.95 * (0.1 + 0.001 * f64::from(k)), false);
+        }
+        let m = c.missed().miss;
+        assert!(m[0].is_nan(), "gone past, not told: {m:?}");
+        for m in &m[1..] {
+            assert!(*m < 1e-12, "{m}");
+        }
     }
 }

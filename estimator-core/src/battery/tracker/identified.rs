@@ -304,7 +304,40 @@ pub const STEP_NOISE_FLOOR_V: f64 = 1e-4;
 /// 95 % two-sided normal quantile.
 const Z95: f64 = 1.96;
 
+/// Whether the current `i` after `prev` is a clean edge, as a step
+/// resistance is taken and a state of power is checked
+/// ([`crate::battery::power::PulseCheck`]): the current before it steady
+/// (`before`, the current of the sample before `prev`, within a tenth of
+/// the step), the step at least half of either current and a hundred
+/// times `min_current_std`.
+pub(crate) fn clean_edge<T: Real>(min_current_std: T, before: T, prev: T, i: T) -> bool {
+    let di = i - prev;
+    let edge = T::lit(0.5) * i.abs().max(prev.abs());
+    di.is_finite()
+        && di.abs() >= T::lit(100.0) * min_current_std
+        && di.abs() >= edge
+        && (prev - before).abs() <= T::lit(0.1) * di.abs()
+}
+
+/// Whether a voltage change `du` (V) is known to [`STEP_PRECISION`]
+/// against `noise_v`, the voltage's scatter in each of its two samples
+/// (its 95 % half-width `2·√2·noise_v`).
+pub(crate) fn precise_change<T: Real>(noise_v: T, du: T) -> bool {
+    T::lit(2.0 * core::f64::consts::SQRT_2) * noise_v <= T::lit(STEP_PRECISION) * du.abs()
+}
+
 impl<T: Real, const N: usize> CellState<T, N> {
+    /// The voltage's scatter in one sample (V): the window's RMSE, or
+    /// before a fit (or after the window restarted)
+    /// [`STEP_NOISE_FLOOR_V`], a logger's resolution.
+    pub(crate) fn voltage_noise(&self) -> T {
+        if self.rmse.is_finite() {
+            self.rmse
+        } else {
+            T::lit(STEP_NOISE_FLOOR_V)
+        }
+    }
+
     /// The step resistance of the sample `(i, u)` (window coordinates)
     /// after the previous one `prev`, when the step is a clean edge: the
     /// current before it steady (`before`, the current of the sample
@@ -316,12 +349,7 @@ impl<T: Real, const N: usize> CellState<T, N> {
     /// or is passed over: the next one's current before it is not steady.
     pub(super) fn observe_step(&mut self, min_current_std: T, before: T, prev: (T, T), i: T, u: T) {
         let (di, du) = (i - prev.0, u - prev.1);
-        let edge = T::lit(0.5) * i.abs().max(prev.0.abs());
-        if !(di.is_finite() && du.is_finite())
-            || di.abs() < T::lit(100.0) * min_current_std
-            || di.abs() < edge
-            || (prev.0 - before).abs() > T::lit(0.1) * di.abs()
-        {
+        if !du.is_finite() || !clean_edge(min_current_std, before, prev.0, i) {
             return;
         }
         let ohm = du / di;
@@ -329,13 +357,7 @@ impl<T: Real, const N: usize> CellState<T, N> {
         // resolution stands for the fit's RMSE: a step whose voltage hardly
         // moves (a resampled row that kept the voltage from before the
         // edge) says nothing of the resistance.
-        let noise = if self.rmse.is_finite() {
-            self.rmse
-        } else {
-            T::lit(STEP_NOISE_FLOOR_V)
-        };
-        let precise =
-            T::lit(2.0 * core::f64::consts::SQRT_2) * noise <= T::lit(STEP_PRECISION) * du.abs();
+        let precise = precise_change(self.voltage_noise(), du);
         if precise && ohm > T::zero() {
             self.step = Some(StepResistance {
                 ohm,
@@ -579,12 +601,16 @@ impl<T: Real, const N: usize> CellState<T, N> {
     /// (docs/bms-states.md).
     ///
     /// The voltage's scatter is the window's RMSE (before a fit, 0.1 mV:
-    /// a cell monitor's resolution).
+    /// a cell monitor's resolution), and `response` what the cell's last
+    /// checked pulse missed its prediction by
+    /// ([`crate::battery::power::PulseCheck::missed`];
+    /// [`ResponseMiss::NONE`] when none was checked).
     pub fn sop_spread<const P: usize>(
         &self,
         s: &OnlineSettings<T, P>,
         basis: SopBasis,
         p: &CellParameters<T>,
+        response: ResponseMiss<T>,
     ) -> ParameterSpread<T> {
         let z = T::lit(Z95);
         let bound = [
@@ -633,20 +659,13 @@ impl<T: Real, const N: usize> CellState<T, N> {
                 sd[0] = (sd[0] * sd[0] + miss * miss).sqrt();
             }
         }
-        let noise_v = if self.rmse.is_finite() {
-            self.rmse
-        } else {
-            T::lit(STEP_NOISE_FLOOR_V)
-        };
         ParameterSpread {
             r_i: sd[0],
             r_ct: sd[1],
             q: sd[2],
             alpha: sd[3],
-            noise_v,
-            // The pack's check of the last pulse adds its miss
-            // ([`crate::battery::pack::PackEstimator::state_of_power`]).
-            response: ResponseMiss::NONE,
+            noise_v: self.voltage_noise(),
+            response,
         }
     }
 }

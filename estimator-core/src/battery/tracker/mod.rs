@@ -29,6 +29,7 @@ mod state;
 mod status;
 
 pub use history::{CellWindow, CurrentHistory};
+pub(crate) use identified::{clean_edge, precise_change};
 pub use identified::{
     Identification, PublishedParameter, PublishedParameters, StepResistance, STEP_PRECISION,
 };
