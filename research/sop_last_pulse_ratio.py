@@ -1,0 +1,82 @@
+#!/usr/bin/env python3
+# Research script (docs/research.md), not a benchmark.
+# Question: Does scaling each state-of-power prediction by the last pulse's measured over predicted drop (at the same horizon, the currents within 2x) predict the next pulse better?
+# Answer: at 30 s on the DFN records the medians fall (Chen2020 8.8 -> 1.3 %), at 10 s they double where 2C and 1C pulses alternate (Chen2020 14.6 -> 28.4 %, Prada2013 with the map 13.7 -> 25.8 %), and the worst rises (Panasonic 10 degC at 10 s 87.9 -> 137.4 %). Not built.
+"""The state of power's pulse voltage corrected by the last pulse's
+measured-over-predicted drop, emulated on the tracks that `python3
+bench/sop_pulses.py --acceptance` leaves (issue 72; docs/research.md,
+"The state of power").
+
+For every pulse of each HPPC record of the acceptance (the Panasonic
+tests at 25 and 10 degC, the DFN HPPC records), with and without the
+record's map as the prior, and each horizon H: the `pulse_v_{H}s`
+published at the last sample before the pulse, `p`, and the measured
+voltage H s in, `m`, from the voltage before the pulse `u0`. The last
+pulse with a value gives `r = (u0' - m') / (u0' - p')`; where its
+current is within 2x of this one's, the corrected prediction is
+`u0 - r (u0 - p)`. Prints, per record, prior and horizon, the median and
+worst error (% of the measured drop) of both, over the pulses from the
+second group on, as the acceptance counts them.
+
+    cargo build --release -p host-sim
+    python3 bench/sop_pulses.py --acceptance
+    python3 research/sop_last_pulse_ratio.py [--out target/sop]
+"""
+
+import argparse
+import csv
+import os
+import sys
+
+import numpy as np
+
+sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "bench"))
+import sop_pulses as sp  # noqa: E402
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--out", default="target/sop")
+    a = ap.parse_args()
+    print("| record | prior | horizon | ours: median / worst % | corrected: median / worst % | corrected pulses |")
+    print("|---|---|---|---|---|---|")
+    for name, (path, _, _, gap_s, horizons, _) in sp.RECORD_SPECS.items():
+        ps, (t, v) = sp.pulses(path)
+        g = sp.groups(ps, gap_s)
+        rec_out = f"{a.out}/{os.path.splitext(os.path.basename(path))[0][:14].replace(' ', '_')}"
+        for variant in ("none", "map"):
+            tracks = {}
+            for h in horizons:
+                ours, corrected, last, n = [], [], None, 0
+                for j, (start, cur, length) in enumerate(ps):
+                    c = round(cur, 1)
+                    if c not in tracks:
+                        tracks[c] = list(csv.DictReader(open(f"{rec_out}/pulse{c}-{variant}.csv")))
+                    tr = tracks[c]
+                    tt = np.array([float(r["time_s"]) for r in tr])
+                    k = np.searchsorted(tt, start - (tt[1] - tt[0]), side="right") - 1
+                    if length < h:
+                        continue
+                    before = np.interp(start, t, v)
+                    measured = np.interp(start + h, t, v)
+                    drop = abs(before - measured)
+                    p = tr[k][f"pulse_v_{h}s"]
+                    if not p:
+                        last = None
+                        continue
+                    p = float(p)
+                    fixed = p
+                    if last is not None and 1 / 2.01 <= abs(cur / last[1]) <= 2.01:
+                        fixed = before - last[0] * (before - p)
+                        n += 1
+                    if g[j] > 0:
+                        ours.append(abs(p - measured) / drop)
+                        corrected.append(abs(fixed - measured) / drop)
+                    last = ((before - measured) / (before - p), cur)
+                mw = lambda x: f"{100 * np.median(x):.1f} / {100 * np.max(x):.1f}" if x else "none"
+                print(f"| {name} | {'own map' if variant == 'map' else 'none'} | {h} s | {mw(ours)} "
+                      f"| {mw(corrected)} | {n} |")
+
+
+if __name__ == "__main__":
+    main()
