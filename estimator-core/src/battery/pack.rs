@@ -28,9 +28,10 @@
 //!    any cell's state of power can be asked at any time
 //!    ([`PackEstimator::state_of_power`]; the string's,
 //!    the weakest cell's: [`PackEstimator::pack_state_of_power`]). At
-//!    each clean current step the pulse that follows is checked against
-//!    the state of power's prediction of it ([`PulseCheck`]); what it
-//!    missed by widens the states of power after it.
+//!    each clean current step whose predicted drop stands above the
+//!    cell's voltage noise, the pulse that follows is checked against the
+//!    state of power's prediction of it ([`PulseCheck`]); what it missed
+//!    by widens the states of power after it.
 //! 4. **Health.** [`PackEstimator::health`] sets each cell's `R_i` and
 //!    `R_ct` beside the pack's median and flags a cell whose resistance
 //!    stands out by more than [`PackSettings::flag_ratio`] (an aged or

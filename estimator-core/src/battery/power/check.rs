@@ -1,7 +1,8 @@
 //! The state of power checked against the pulses that follow it
-//! ([`PulseCheck`]): at each clean current step, the voltage the state of
-//! power's model predicts for a pulse of that step's current is taken at a
-//! few durations ([`CHECK_STEPS`]), and while the current holds, the
+//! ([`PulseCheck`]): at each clean current step whose predicted drop
+//! stands above the voltage's noise, the voltage the state of power's
+//! model predicts for a pulse of that step's current is taken at a few
+//! durations ([`CHECK_STEPS`]), and while the current holds, the
 //! measured voltage at each is set against it. What the last pulse missed
 //! by, relative to the drop predicted, at each duration
 //! ([`ResponseMiss`]) widens the spread of the states of power that follow
@@ -202,9 +203,11 @@ impl<T: Real> PulseCheck<T> {
                         // A first sample not at the pulse's current: one
                         // that straddled the edge, or a current still
                         // settling (within a tenth). This pulse goes past
-                        // the first duration without telling its miss (an
-                        // older pulse's would stand for it), and is
-                        // checked at the current it now holds.
+                        // the first duration without telling its miss:
+                        // the miss there becomes unknown (an older
+                        // pulse's does not stand for a duration a newer
+                        // one went past), and the pulse is checked at the
+                        // current it now holds.
                         let settling = (current - held).abs() <= T::lit(0.1) * held.abs();
                         let straddled = current * held > T::zero()
                             && current.abs() >= held.abs()

@@ -308,8 +308,8 @@ const Z95: f64 = 1.96;
 /// resistance is taken and a state of power is checked
 /// ([`crate::battery::power::PulseCheck`]): the current before it steady
 /// (`before`, the current of the sample before `prev`, within a tenth of
-/// the step), the step at least half of either current and a hundred
-/// times `min_current_std`.
+/// the step), the step at least half of the larger of the two currents
+/// and a hundred times `min_current_std`.
 pub(crate) fn clean_edge<T: Real>(min_current_std: T, before: T, prev: T, i: T) -> bool {
     let di = i - prev;
     let edge = T::lit(0.5) * i.abs().max(prev.abs());
