@@ -194,6 +194,25 @@ def pct(x):
     return f"{100 * x:.1f}"
 
 
+def record_dir(out, path):
+    """Where `--acceptance` writes a record's map and tracks, under `out`."""
+    return f"{out}/{os.path.splitext(os.path.basename(path))[0][:14].replace(' ', '_')}"
+
+
+def pulse_track(out, path, current, variant):
+    """The rows of the `--acceptance` run of the record at `path` asked for
+    pulses of `current` (A), without a prior (`variant` "none") or with the
+    record's own map ("map")."""
+    return list(csv.DictReader(open(f"{record_dir(out, path)}/pulse{round(current, 1)}-{variant}.csv")))
+
+
+def row_before(track, start):
+    """The index of the track's last row before a pulse that starts at
+    `start` (s): the row the state of power for that pulse is read from."""
+    tt = np.array([float(r["time_s"]) for r in track])
+    return np.searchsorted(tt, start - (tt[1] - tt[0]), side="right") - 1
+
+
 def acceptance(host_sim, out, map_method, online_args=()):
     """Every pulse from each record's second pulse group on, with and
     without the record's own map as the prior, beside two baselines
@@ -212,7 +231,7 @@ def acceptance(host_sim, out, map_method, online_args=()):
         ps, (t, v) = pulses(path)
         i_raw = read(path)[1]
         g = groups(ps, gap_s)
-        rec_out = f"{out}/{os.path.splitext(os.path.basename(path))[0][:14].replace(' ', '_')}"
+        rec_out = record_dir(out, path)
         os.makedirs(rec_out, exist_ok=True)
         mp = record_map(host_sim, path, rec_out, map_method, ocv_path, cap, min_rest)
         currents = sorted({round(c, 1) for _, c, _ in ps})
@@ -249,7 +268,7 @@ def acceptance(host_sim, out, map_method, online_args=()):
                     n += 1
                     tr = tracks[round(cur, 1)]
                     tt = np.array([float(r["time_s"]) for r in tr])
-                    k = np.searchsorted(tt, start - (tt[1] - tt[0]), side="right") - 1
+                    k = row_before(tr, start)
                     before = np.interp(start, t, v)
                     measured = np.interp(start + h, t, v)
                     drop = abs(before - measured)

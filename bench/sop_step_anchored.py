@@ -15,9 +15,6 @@ pulses that end above the prediction less 2 sigma.
     python3 bench/sop_step_anchored.py
 """
 
-import csv
-import os
-
 import numpy as np
 
 import sop_pulses as S
@@ -32,7 +29,6 @@ def main():
             continue
         ps, (t, v) = S.pulses(path)
         g = S.groups(ps, gap_s)
-        rec = f"target/sop/{os.path.splitext(os.path.basename(path))[0][:14].replace(' ', '_')}"
         for variant in ("none", "map"):
             tracks = {}
             for h in horizons:
@@ -42,10 +38,9 @@ def main():
                         continue
                     c = round(cur, 1)
                     if c not in tracks:
-                        tracks[c] = list(csv.DictReader(open(f"{rec}/pulse{c}-{variant}.csv")))
+                        tracks[c] = S.pulse_track("target/sop", path, cur, variant)
                     tr = tracks[c]
-                    tt = np.array([float(r["time_s"]) for r in tr])
-                    k = np.searchsorted(tt, start - (tt[1] - tt[0]), side="right") - 1
+                    k = S.row_before(tr, start)
                     before, measured = np.interp(start, t, v), np.interp(start + h, t, v)
                     drop = abs(before - measured)
                     row = tr[k]

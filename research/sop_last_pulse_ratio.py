@@ -24,7 +24,6 @@ second group on, as the acceptance counts them.
 """
 
 import argparse
-import csv
 import os
 import sys
 
@@ -43,7 +42,6 @@ def main():
     for name, (path, _, _, gap_s, horizons, _) in sp.RECORD_SPECS.items():
         ps, (t, v) = sp.pulses(path)
         g = sp.groups(ps, gap_s)
-        rec_out = f"{a.out}/{os.path.splitext(os.path.basename(path))[0][:14].replace(' ', '_')}"
         for variant in ("none", "map"):
             tracks = {}
             for h in horizons:
@@ -51,10 +49,9 @@ def main():
                 for j, (start, cur, length) in enumerate(ps):
                     c = round(cur, 1)
                     if c not in tracks:
-                        tracks[c] = list(csv.DictReader(open(f"{rec_out}/pulse{c}-{variant}.csv")))
+                        tracks[c] = sp.pulse_track(a.out, path, cur, variant)
                     tr = tracks[c]
-                    tt = np.array([float(r["time_s"]) for r in tr])
-                    k = np.searchsorted(tt, start - (tt[1] - tt[0]), side="right") - 1
+                    k = sp.row_before(tr, start)
                     if length < h:
                         continue
                     before = np.interp(start, t, v)
