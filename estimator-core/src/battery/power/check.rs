@@ -271,6 +271,23 @@ impl<T: Real> PulseCheck<T> {
 mod tests {
     use super::*;
 
+    /// Three samples at rest (0 A, 3.7 V).
+    fn rest(c: &mut PulseCheck<f64>) {
+        for _ in 0..3 {
+            c.observe(0.0, 3.7, false);
+        }
+    }
+
+    /// A pulse checked from the second duration on, as predicted: the
+    /// first duration's miss unknown, every other none.
+    fn assert_only_the_first_unknown(c: &PulseCheck<f64>) {
+        let m = c.missed().miss;
+        assert!(m[0].is_nan(), "gone past, not told: {m:?}");
+        for m in &m[1..] {
+            assert!(*m < 1e-12, "{m}");
+        }
+    }
+
     /// A pulse of −2 A from rest at 3.7 V whose measured drop is 10 %
     /// larger than predicted at every duration: each miss is 0.1, and a
     /// pulse that stops early leaves the longer durations' misses as they
@@ -293,9 +310,7 @@ mod tests {
             assert!((m - 0.1).abs() < 1e-9, "{m}");
         }
         // A second pulse, as predicted, that stops after 5 samples.
-        for _ in 0..3 {
-            c.observe(0.0, 3.7, false);
-        }
+        rest(&mut c);
         assert!(c.starts_pulse(1e-3, -2.0));
         assert!(c.start(-2.0, predicted, 1e-3));
         for k in 1..=5u32 {
@@ -333,12 +348,8 @@ mod tests {
         for k in 2..=30u32 {
             c.observe(-2.0, 3.7 - 2.0 * (0.1 + 0.001 * f64::from(k)), false);
         }
-        let m = c.missed().miss;
         // The straddled first sample tells nothing of the first duration.
-        assert!(m[0].is_nan(), "{m:?}");
-        for m in &m[1..] {
-            assert!(*m < 1e-12, "{m}");
-        }
+        assert_only_the_first_unknown(&c);
         assert!(!c.starts_pulse(1e-3, 0.0), "the pulse's end");
     }
 
@@ -382,11 +393,6 @@ mod tests {
     #[test]
     fn a_small_step_is_not_checked_and_a_short_one_keeps_the_last_miss() {
         let mut c = PulseCheck::<f64>::BLANK;
-        let rest = |c: &mut PulseCheck<f64>| {
-            for _ in 0..3 {
-                c.observe(0.0, 3.7, false);
-            }
-        };
         let predicted = CHECK_STEPS.map(|k| 3.7 - 0.1 - 0.001 * f64::from(k));
         // Within the noise: 2·√2·10 mV > 0.25·100 mV.
         rest(&mut c);
@@ -418,10 +424,6 @@ mod tests {
         for k in 2..=30u32 {
             c.observe(-1.9, 3.7 - 0.95 * (0.1 + 0.001 * f64::from(k)), false);
         }
-        let m = c.missed().miss;
-        assert!(m[0].is_nan(), "gone past, not told: {m:?}");
-        for m in &m[1..] {
-            assert!(*m < 1e-12, "{m}");
-        }
+        assert_only_the_first_unknown(&c);
     }
 }
