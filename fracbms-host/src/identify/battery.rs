@@ -341,7 +341,8 @@ fn battery_run_sized<const N: usize, const MEM: usize>(
     // The regression needs a voltage at every sample; the refinement
     // leaves the unobserved ones (NaN) out.
     let measured = filled(&rec.voltage);
-    let mut win = Box::new(SampleWindow::<f64, N>::new());
+    let Ok(mut win) =
+        crate::worker::boxed(|| Ok::<_, std::convert::Infallible>(SampleWindow::<f64, N>::new()));
     // As the refinement's start, the regression runs on the record's most
     // excited stretch (its cost grows with the rows times the memory);
     // as the paper's method, on the whole record.
@@ -357,7 +358,8 @@ fn battery_run_sized<const N: usize, const MEM: usize>(
         voltage: &rec.voltage,
     };
     let sg = BatterySettings::new(rec.h, mem);
-    let mut gi = Box::new(PaperRegressionGi::<f64, N, MEM>::new(&sg, 0.5).map_err(ctx)?);
+    let mut gi =
+        crate::worker::boxed(|| PaperRegressionGi::<f64, N, MEM>::new(&sg, 0.5)).map_err(ctx)?;
     let mut history = Vec::new();
     let mut track = Vec::new();
     let mut converged = false;
@@ -435,7 +437,7 @@ fn battery_run_sized<const N: usize, const MEM: usize>(
             // The information of the output-error criterion at the paper's
             // estimate (for its intervals; nothing is refitted).
             let si = BatterySettings::new(rec.h, n);
-            let info = Refinement::<N>::new(&si, cell)
+            let info = crate::worker::boxed(|| Refinement::<N>::new(&si, cell))
                 .and_then(|mut oe| oe.information(&si, &logged))
                 .ok();
             // The RMSE of the model voltage, computed below.

@@ -80,7 +80,7 @@ pub(super) fn refine_fit<const N: usize>(
     start: CellParameters<f64>,
     win: &impl Window<f64>,
 ) -> std::result::Result<Fit<N>, estimator_core::Error> {
-    let mut oe = Box::new(Refinement::<N>::new(s, start)?);
+    let mut oe = crate::worker::boxed(|| Refinement::<N>::new(s, start))?;
     let (mut rmse, mut iterations) = (f64::NAN, 0);
     let mut stop = FitStop::IterationLimit;
     let mut reason = None;
@@ -187,11 +187,11 @@ pub(super) fn refine_best<const N: usize>(
     let mut fits: Vec<(Fit<N>, Lane)> = Vec::with_capacity(starts.len());
     let mut failed = None;
     for &start in starts {
-        match Refinement::<N>::new(s, start) {
+        match crate::worker::boxed(|| Refinement::<N>::new(s, start)) {
             Ok(oe) => fits.push((
                 Fit {
                     cell: oe.cell(),
-                    oe: Box::new(oe),
+                    oe,
                     rmse: f64::NAN,
                     iterations: 0,
                     converged: false,
