@@ -365,3 +365,44 @@ fn a_windows_largest_current_is_the_largest_it_holds() {
         assert_eq!(w.largest_current() == 9.5, spike_held, "sample {l}");
     }
 }
+
+#[test]
+fn each_cell_checks_its_pulses_against_its_own_noise() {
+    // Two cells alike but for their voltage noise (0.5 and 60 mV), both
+    // predicted from the start (the prior). A pulse is checked only where
+    // its predicted drop stands above the cell's own noise (its window's
+    // RMSE, `2·√2·RMSE ≤ 0.25·|drop|`): the profile's 6 A steps (a drop of
+    // about 0.2 V) are, for the quiet cell, and are not for the noisy one,
+    // though it had the parameters to predict them. A pack that judged
+    // every cell by one noise would check both or neither (with 10 mV of
+    // noise the same steps are checked).
+    let p = CellParameters::<f64>::cell_18650();
+    let i = pulse(900);
+    let quiet = record(&p, &i, 0.0005, 21);
+    let noisy = record(&p, &i, 0.06, 22);
+    let mut cell = OnlineSettings::new(1.0, 32, p);
+    cell.battery.prior = Some(Prior::new(p));
+    let s = PackSettings::new(cell);
+    let mut pack = Box::new(PackEstimator::<f64, 128, 32, 2>::new(&s, 2).unwrap());
+    // Steps into a larger current at which the noisy cell had the
+    // parameters to predict a pulse from.
+    let mut predictable = 0;
+    for l in 0..i.len() {
+        let into_pulse = l > 0 && i[l].abs() > 2.0 * i[l - 1].abs();
+        if into_pulse && pack.cell(1).unwrap().sop_parameters(&s.cell).is_some() {
+            predictable += 1;
+        }
+        pack.push(&s, i[l], &[quiet[l], noisy[l]]).unwrap();
+    }
+    let checked = |k: usize| {
+        let m = pack.pulse_check(k).unwrap().missed().miss;
+        m.iter().filter(|m| m.is_finite()).count()
+    };
+    let rmse = |k: usize| pack.cell(k).unwrap().rmse();
+    assert!(rmse(0) < 0.001, "{}", rmse(0));
+    assert!(rmse(1) > 0.04, "{}", rmse(1));
+    assert!(predictable > 10, "{predictable}");
+    assert!(checked(0) > 0, "{:?}", pack.pulse_check(0));
+    assert_eq!(checked(1), 0, "{:?}", pack.pulse_check(1));
+    assert!(pack.pulse_check(2).is_none());
+}

@@ -254,6 +254,15 @@ impl<T: Real, const N: usize, const MEM: usize, const CELLS: usize>
         self.cells.get_mut(k).filter(|_| k < self.active)
     }
 
+    /// Cell `k`'s check of its state of power against the pulses that
+    /// follow ([`PulseCheck`]: what its last checked pulse missed the
+    /// prediction by, [`PulseCheck::missed`]), 0-based; `None` beyond the
+    /// cells in use. A step is checked against the cell's own voltage
+    /// noise (its window's RMSE).
+    pub fn pulse_check(&self, k: usize) -> Option<&PulseCheck<T>> {
+        self.checks.get(k).filter(|_| k < self.active)
+    }
+
     /// Cell `k`'s window (the pack's currents with its voltages). Cell
     /// indices beyond the cells in use give the last cell's (a pack of no
     /// cells, the first slot's).
