@@ -181,10 +181,10 @@ def measured(a):
         for t, c, v in zip(r["time_s"], i, y):
             f.write(f"{t:.9g},{c:.9g},{'nan' if np.isnan(v) else format(v, '.9g')}\n")
     # Each of the three timed --repeat times, in turn, and the median of
-    # each taken: a single run of a quarter-second process varies by a
-    # fifth from one run to the next on a shared machine.
+    # each taken: a single run of a quarter-second process varies by up to
+    # half from one run to the next on a shared machine.
     ones, commands, refs = [], [], []
-    for _ in range(a.repeat):
+    for _ in range(max(1, a.repeat)):
         ones.append(one_start(a.refine_once, path, "linear"))
         # The overpotential is near 0 V: the plausible-voltage floor off.
         commands.append(ours(hs, path, "linear", path + ".json", extra=["--voltage-min=-5"]))
@@ -203,7 +203,8 @@ def measured(a):
           f"{t_ref / one['seconds']:.1f}× | {t_ours:.2f} | {t_ref / t_ours:.1f}× | {t_export:.2f} | "
           f"{1e3 * one['rmse_v']:.6f} / {1e3 * rmse_ours:.6f} / {1e3 * rmse_ref:.6f} | "
           f"{j['alpha']:.4f} / {res.x[3]:.4f} |", flush=True)
-    return dict(record="panasonic-25degC-hppc", ours_one_start_s=one["seconds"],
+    return dict(record="panasonic-25degC-hppc", repeat=max(1, a.repeat),
+                ours_one_start_s=one["seconds"],
                 ours_one_start_iterations=one["iterations"], ours_command_s=t_ours,
                 ours_export_command_s=t_export, reference_s=t_ref,
                 reference_nfev=int(res.nfev), rmse_one_start_v=one["rmse_v"],

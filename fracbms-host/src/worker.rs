@@ -45,9 +45,9 @@ pub fn on_worker<R: Send, E: Send + From<Error>>(
 /// A frame is probed page by page when it is entered, so a function
 /// holding such a value inline touches every page of it, whichever branch
 /// it takes. Built here, every estimator of a fit is built in one stretch
-/// of the stack: on a 48 800-row record the worker's stack touched fell
-/// from 39 MB (two nested frames of 19 MB) to that of the largest value
-/// (docs/performance.md).
+/// of the stack, this function's frame: on a 48 800-row record 20 MB (a
+/// 10 MB refinement and its result), where two nested frames holding it
+/// inline would touch 39 MB (docs/performance.md).
 ///
 /// ```
 /// let v = fracbms_host::worker::boxed(|| Ok::<_, ()>([1.0f64; 4]))?;
