@@ -18,7 +18,7 @@ measurements of the same aging.
   (`taskset -c 0` where there is one), median of three.
 
     cargo build --release -p host-sim
-    python3 bench/life_nasa.py [--host-sim target/release/host-sim] [--window 256] [--out target/life]
+    python3 bench/life_nasa.py [--host-sim target/release/host-sim] [--window 256] [--memory M] [--out target/life]
 """
 
 import argparse
@@ -96,6 +96,7 @@ def main():
     ap.add_argument("--host-sim", default="target/release/host-sim")
     ap.add_argument("--out", default="target/life")
     ap.add_argument("--window", default="256")
+    ap.add_argument("--memory", default=None, help="the estimator's memory (default: the window's quarter)")
     ap.add_argument("--runs", type=int, default=3)
     a = ap.parse_args()
     os.makedirs(a.out, exist_ok=True)
@@ -107,6 +108,8 @@ def main():
            "--start-times", times, "--window", a.window,
            "--voltage-min", "2.7", "--voltage-max", "4.2",
            "--out", os.path.join(a.out, "tracks"), "--life-out", life]
+    if a.memory:
+        cmd += ["--memory", a.memory]
     pin = ["taskset", "-c", "0"] if shutil.which("taskset") else []
     secs = []
     for _ in range(a.runs):
