@@ -183,16 +183,19 @@ def measured(a):
     # Each of the three timed --repeat times, in turn, and the median of
     # each taken: a single run of a quarter-second process varies by up to
     # half from one run to the next on a shared machine.
+    repeat = max(1, a.repeat)
     ones, commands, refs = [], [], []
-    for _ in range(max(1, a.repeat)):
+    for _ in range(repeat):
         ones.append(one_start(a.refine_once, path, "linear"))
         # The overpotential is near 0 V: the plausible-voltage floor off.
         commands.append(ours(hs, path, "linear", path + ".json", extra=["--voltage-min=-5"]))
         refs.append(reference(i, y, False, h=float(r["time_s"][1] - r["time_s"][0])))
     one = dict(ones[0], seconds=float(np.median([o["seconds"] for o in ones])))
-    t_ours, rmse_ours, j = commands[0]
+    # The fits are deterministic: the first run's RMSE and parameters
+    # stand for all.
+    _, rmse_ours, j = commands[0]
     t_ours = float(np.median([c[0] for c in commands]))
-    t_ref, rmse_ref, res = refs[0]
+    _, rmse_ref, res = refs[0]
     t_ref = float(np.median([f[0] for f in refs]))
     print()
     print("| record | samples fitted | ours, one start (s) | scipy, one start (s) | ours faster | "
@@ -203,7 +206,7 @@ def measured(a):
           f"{t_ref / one['seconds']:.1f}× | {t_ours:.2f} | {t_ref / t_ours:.1f}× | {t_export:.2f} | "
           f"{1e3 * one['rmse_v']:.6f} / {1e3 * rmse_ours:.6f} / {1e3 * rmse_ref:.6f} | "
           f"{j['alpha']:.4f} / {res.x[3]:.4f} |", flush=True)
-    return dict(record="panasonic-25degC-hppc", repeat=max(1, a.repeat),
+    return dict(record="panasonic-25degC-hppc", repeat=repeat,
                 ours_one_start_s=one["seconds"],
                 ours_one_start_iterations=one["iterations"], ours_command_s=t_ours,
                 ours_export_command_s=t_export, reference_s=t_ref,
