@@ -19,6 +19,12 @@ measurements of the same aging.
 
     cargo build --release -p host-sim
     python3 bench/life_nasa.py [--host-sim target/release/host-sim] [--window 256] [--memory M] [--out target/life]
+        [--data data/nasa-pcoe-b0005] [--voltage-min 2.7]
+
+`--data` is a folder laid out as `data/nasa-pcoe-b0005` (`metadata.csv`
+and `discharge/`); another cell of the same test is run with its own
+cut-off (`--voltage-min`: B0006 and B0018 2.5 V, B0007 2.2 V, from the
+dataset's description).
 """
 
 import argparse
@@ -32,7 +38,6 @@ import time
 import numpy as np
 from scipy.stats import spearmanr
 
-DATA = "data/nasa-pcoe-b0005"
 
 
 def matlab_seconds(vector):
@@ -43,8 +48,8 @@ def matlab_seconds(vector):
     return t.replace(tzinfo=dt.timezone.utc).timestamp()
 
 
-def metadata():
-    rows = list(csv.DictReader(open(f"{DATA}/metadata.csv")))
+def metadata(data):
+    rows = list(csv.DictReader(open(f"{data}/metadata.csv")))
     for r in rows:
         r["t"] = matlab_seconds(r["start_time"])
     return rows
@@ -76,6 +81,18 @@ def after_load(path):
     return -np.sum(i[last:-1] * np.diff(t)[last:]) / 3600
 
 
+def count_to(path, volts):
+    """The charge counted up to the first loaded row (|I| > 1 A) below
+    `volts` (A h), each row's current held to the next: a capacity to that
+    cut-off."""
+    d = np.genfromtxt(path, delimiter=",", names=True)
+    t, i, v = d["Time"], d["Current_measured"], d["Voltage_measured"]
+    k = np.nonzero((np.abs(i) > 1.0) & (v < volts))[0]
+    if len(k) == 0:
+        return np.nan
+    return -np.sum(i[:k[0]] * np.diff(t)[:k[0]]) / 3600
+
+
 def rest_after_load(path):
     """The time logged after the last loaded row (|I| > 1 A): the rest at
     the log's end (s)."""
@@ -98,15 +115,18 @@ def main():
     ap.add_argument("--window", default="256")
     ap.add_argument("--memory", default=None, help="the estimator's memory (default: the window's quarter)")
     ap.add_argument("--runs", type=int, default=3)
+    ap.add_argument("--data", default="data/nasa-pcoe-b0005")
+    ap.add_argument("--voltage-min", default="2.7")
     a = ap.parse_args()
+    data = a.data
     os.makedirs(a.out, exist_ok=True)
     times = os.path.join(a.out, "start_times.csv")
     with open(times, "w") as f:
-        subprocess.run(["python3", "bench/nasa_start_times.py", DATA], stdout=f, check=True)
+        subprocess.run(["python3", "bench/nasa_start_times.py", data], stdout=f, check=True)
     life = os.path.join(a.out, "life.csv")
-    cmd = [a.host_sim, "online", "battery", "--input", f"{DATA}/discharge",
+    cmd = [a.host_sim, "online", "battery", "--input", f"{data}/discharge",
            "--start-times", times, "--window", a.window,
-           "--voltage-min", "2.7", "--voltage-max", "4.2",
+           "--voltage-min", a.voltage_min, "--voltage-max", "4.2",
            "--out", os.path.join(a.out, "tracks"), "--life-out", life]
     if a.memory:
         cmd += ["--memory", a.memory]
@@ -117,7 +137,7 @@ def main():
         subprocess.run(pin + cmd, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
         secs.append(time.perf_counter() - t0)
     rows = list(csv.DictReader(open(life)))
-    meta = metadata()
+    meta = metadata(data)
     by_file = {r["filename"]: r for r in meta if r["type"] == "discharge"}
     ti, re, rct = impedance(meta)
 
@@ -128,11 +148,12 @@ def main():
     r_i = np.array([float(r["r_i"]) if r["r_i"] else np.nan for r in rows])
     re_t = np.interp(t, ti, re)
     rerct_t = np.interp(t, ti, re + rct)
-    base = np.array([first_step(f"{DATA}/discharge/{n}") for n in names])
+    base = np.array([first_step(f"{data}/discharge/{n}") for n in names])
     ok = np.isfinite(r_i)
 
     within = np.abs(dis / nasa - 1) <= 0.02
-    print(f"B0005: {len(rows)} discharges, {len(ti)} impedance tests; life in one command "
+    cell = os.path.basename(os.path.normpath(data))
+    print(f"{cell}: {len(rows)} discharges, {len(ti)} impedance tests; life in one command "
           f"(window {a.window}): {statistics.median(secs):.2f} s median of {a.runs} on one core")
     print(f"discharged_ah within 2 % of NASA's capacity: {within.sum()} of {len(rows)} "
           f"({within.mean():.1%}); ratio median {np.median(dis / nasa):.4f}, "
@@ -141,15 +162,19 @@ def main():
     checks = np.array([r["capacity_source"] == "full_discharge" for r in rows])
     soh_c = np.array([float(r["soh_c"]) if r["soh_c"] else np.nan for r in rows])
     nasa_soh = nasa / nasa[0]
-    print(f"capacity checks recognised (rest at 4.2 V to 2.7 V, capacity_source=full_discharge): "
+    print(f"capacity checks recognised (rest at 4.2 V to {a.voltage_min} V, capacity_source=full_discharge): "
           f"{checks.sum()} of {len(rows)}; soh_c against NASA's capacity over its first: "
           f"largest difference {np.nanmax(np.abs(soh_c - nasa_soh)):.4f}, "
           f"at the end {soh_c[-1]:.4f} vs {nasa_soh[-1]:.4f}")
-    tail = np.array([after_load(f"{DATA}/discharge/{n}") for n in names])
+    tail = np.array([after_load(f"{data}/discharge/{n}") for n in names])
     print(f"counted after the last loaded row (the load switching off): median {np.median(tail):.4f} A h, "
           f"at most {tail.max():.4f} A h; the baseline at the first log {base[0]:.4f} ohm, "
           f"EIS Re then {re_t[0]:.4f} ohm")
-    rest = np.array([rest_after_load(f"{DATA}/discharge/{n}") for n in names])
+    to27 = np.array([count_to(f"{data}/discharge/{n}", 2.7) for n in names]) / nasa
+    print(f"counted to the first loaded row below 2.7 V, over NASA's capacity: median "
+          f"{np.nanmedian(to27):.4f}, range {np.nanmin(to27):.4f}-{np.nanmax(to27):.4f} "
+          f"({np.isfinite(to27).sum()} logs reach 2.7 V)")
+    rest = np.array([rest_after_load(f"{data}/discharge/{n}") for n in names])
     print(f"rest logged after the last loaded row: {rest.min():.0f}-{rest.max():.0f} s, "
           f"median {np.median(rest):.0f} s")
     print()

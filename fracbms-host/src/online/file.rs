@@ -226,8 +226,12 @@ pub(crate) fn battery_run(
             .or(table.and_then(|v| v.last().copied()));
         lo.zip(hi)
     };
-    let mut life =
-        super::log_tally::FileTally::of_record(&rec, limits, &read.report.resampling.gaps);
+    let mut life = super::log_tally::FileTally::of_record(
+        &rec,
+        &read.rows,
+        limits,
+        &read.report.resampling.gaps,
+    );
     let summary = {
         let mut res = Ok(TrackSummary::default());
         io::write_atomic(out, |w| {

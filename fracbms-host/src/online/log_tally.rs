@@ -14,6 +14,42 @@ use estimator_core::battery::online::Identification;
 /// ([`FileTally::full_discharge`]).
 pub const FULL_DISCHARGE_MARGIN_V: f64 = 0.05;
 
+/// Whether a log's own rows `rows` (as logged, before the uniform period)
+/// make a capacity check between the voltage limits `limits` (`(lowest,
+/// highest)`; `None`: none known, no check): the first row at rest (its
+/// current at most 1 % of the largest) within [`FULL_DISCHARGE_MARGIN_V`]
+/// of the upper limit, and a loaded row (above that 1 %) within the margin
+/// of the lower limit or below it. The rows, not the uniform samples: a
+/// cycler stops the load at the first row past its cut-off, and where that
+/// is the log's last row (NASA's B0006, B0007 and B0018 end so, the knee
+/// falling 0.2–0.4 V in one 19-s row) the samples of a coarser period hold
+/// only the voltage before it.
+pub fn capacity_check(rows: &io::BatteryRecord, limits: Option<(f64, f64)>) -> bool {
+    let Some((lo, hi)) = limits else {
+        return false;
+    };
+    let peak = rows
+        .current
+        .iter()
+        .filter(|i| i.is_finite())
+        .fold(0.0_f64, |m, i| m.max(i.abs()));
+    let rest = 0.01 * peak;
+    let first = rows
+        .current
+        .iter()
+        .zip(&rows.voltage)
+        .find(|(i, v)| i.is_finite() && v.is_finite());
+    let starts_full =
+        first.is_some_and(|(i, v)| i.abs() <= rest && *v >= hi - FULL_DISCHARGE_MARGIN_V);
+    let lowest_loaded = rows
+        .current
+        .iter()
+        .zip(&rows.voltage)
+        .filter(|(i, v)| i.abs() > rest && v.is_finite())
+        .fold(f64::INFINITY, |m, (_, v)| m.min(*v));
+    peak > 0.0 && starts_full && lowest_loaded <= lo + FULL_DISCHARGE_MARGIN_V
+}
+
 /// What one log's track published, gathered as it is written: a life's
 /// row ([`super::life::LifeRow`]).
 #[derive(Clone, Debug, Default)]
@@ -45,14 +81,21 @@ impl FileTally {
     /// A tally of `rec`'s counted charge (each sample's current held for
     /// its period; a current that is not finite counts nothing), and
     /// whether it is a capacity check between the voltage limits
-    /// `limits` (`(lowest, highest)`; `None`: none known, no check).
+    /// `limits` (`(lowest, highest)`; `None`: none known, no check),
+    /// judged on the log's own rows `rows` (before its uniform period:
+    /// [`capacity_check`]).
     ///
     /// Across a gap of the log whose charge the export's own count gives
     /// ([`Gap::charge_ah`]) the gap counts as one net charge, the held
     /// current's count and that charge together: what the estimator
     /// counts there ([`super::Tracker::bridge_gap`]). Across a gap whose
     /// charge is not known, the held current.
-    pub fn of_record(rec: &io::BatteryRecord, limits: Option<(f64, f64)>, gaps: &[Gap]) -> Self {
+    pub fn of_record(
+        rec: &io::BatteryRecord,
+        rows: &io::BatteryRecord,
+        limits: Option<(f64, f64)>,
+        gaps: &[Gap],
+    ) -> Self {
         let (mut dis, mut ch) = (0.0, 0.0);
         let mut add = |q: f64| {
             if q < 0.0 {
@@ -96,31 +139,7 @@ impl FileTally {
         if let Some((_, held)) = open {
             add(held);
         }
-        let full_discharge = limits.is_some_and(|(lo, hi)| {
-            let peak = rec
-                .current
-                .iter()
-                .filter(|i| i.is_finite())
-                .fold(0.0_f64, |m, i| m.max(i.abs()));
-            let rest = 0.01 * peak;
-            let first = rec
-                .current
-                .iter()
-                .zip(&rec.voltage)
-                .find(|(i, v)| i.is_finite() && v.is_finite());
-            let starts_full =
-                first.is_some_and(|(i, v)| i.abs() <= rest && *v >= hi - FULL_DISCHARGE_MARGIN_V);
-            let lowest_loaded = rec
-                .current
-                .iter()
-                .zip(&rec.voltage)
-                .filter(|(i, v)| i.abs() > rest && v.is_finite())
-                .fold(f64::INFINITY, |m, (_, v)| m.min(*v));
-            peak > 0.0
-                && starts_full
-                && ch <= 0.01 * dis
-                && lowest_loaded <= lo + FULL_DISCHARGE_MARGIN_V
-        });
+        let full_discharge = ch <= 0.01 * dis && capacity_check(rows, limits);
         Self {
             discharged_ah: dis,
             charged_ah: ch,
@@ -190,22 +209,80 @@ mod tests {
             length_s: 240.0,
             charge_ah,
         };
-        let t = FileTally::of_record(&rec, None, &[gap(Some(-0.1))]);
+        let t = FileTally::of_record(&rec, &rec, None, &[gap(Some(-0.1))]);
         let loaded = 2.0 * 60.0 / 3600.0;
         assert!((t.discharged_ah - (0.1 + loaded)).abs() < 1e-12, "{t:?}");
         assert_eq!(t.charged_ah, 0.0);
         // Unknown: the held current alone.
-        let t = FileTally::of_record(&rec, None, &[gap(None)]);
+        let t = FileTally::of_record(&rec, &rec, None, &[gap(None)]);
         assert!((t.discharged_ah - loaded).abs() < 1e-12, "{t:?}");
         // A discharge held across a gap that was a charge: the gap's net
         // charge counts as charged, and nothing of the held discharge.
         let rec = record(&[-1.0, -1.0, -1.0, -1.0, -1.0, -1.0, 0.0, 0.0]);
         let held = 4.0 * 60.0 / 3600.0;
-        let t = FileTally::of_record(&rec, None, &[gap(Some(0.5 + held))]);
+        let t = FileTally::of_record(&rec, &rec, None, &[gap(Some(0.5 + held))]);
         assert!((t.charged_ah - 0.5).abs() < 1e-12, "{t:?}");
         assert!(
             (t.discharged_ah - 2.0 * 60.0 / 3600.0).abs() < 1e-12,
             "{t:?}"
         );
+    }
+
+    /// A NASA-like discharge: at rest at 4.19 V, 2 A from the second row,
+    /// the voltage falling to 2.70 V and then, in the last row 20 s
+    /// later, to 2.44 V, past a 2.5 V cut-off; rows every 20.3 s.
+    fn discharge_rows(last_v: f64) -> io::BatteryRecord {
+        let n = 40;
+        let time: Vec<f64> = (0..n).map(|k| 20.3 * k as f64).collect();
+        let current: Vec<f64> = (0..n).map(|k| if k == 0 { -0.002 } else { -2.0 }).collect();
+        let mut voltage: Vec<f64> = (0..n)
+            .map(|k| 4.19 - (4.19 - 2.70) * k as f64 / (n - 2) as f64)
+            .collect();
+        voltage[n - 1] = last_v;
+        io::BatteryRecord {
+            time,
+            current,
+            voltage,
+            h: 20.3,
+        }
+    }
+
+    #[test]
+    fn a_log_whose_last_row_passes_the_cut_off_is_a_capacity_check() {
+        let rows = discharge_rows(2.44);
+        let limits = Some((2.5, 4.2));
+        assert!(capacity_check(&rows, limits));
+        // On a coarser period the samples end before the last row: their
+        // lowest voltage stays 0.2 V above the cut-off, so a check judged
+        // on them would not be one.
+        let mut r = crate::cycler::resample::Resampling {
+            gap_threshold_s: 1e3,
+            ..Default::default()
+        };
+        let keep = crate::cycler::resample::clean(&rows.time, &mut r);
+        let u = crate::cycler::resample::to_uniform(
+            &rows.time,
+            &rows.current,
+            &rows.voltage,
+            None,
+            &keep,
+            21.0,
+            &mut r,
+        );
+        let sampled = io::BatteryRecord {
+            time: u.time,
+            current: u.current,
+            voltage: u.voltage,
+            h: 21.0,
+        };
+        let lowest = sampled.voltage.iter().fold(f64::INFINITY, |m, v| m.min(*v));
+        assert!(lowest > 2.5 + FULL_DISCHARGE_MARGIN_V, "{lowest}");
+        let t = FileTally::of_record(&sampled, &rows, limits, &[]);
+        assert!(t.full_discharge, "{t:?}");
+        // A log stopped 0.2 V short of the cut-off is not a check, nor one
+        // that does not start near the upper limit, nor one without limits.
+        assert!(!capacity_check(&discharge_rows(2.70), limits));
+        assert!(!capacity_check(&rows, Some((2.5, 4.3))));
+        assert!(!capacity_check(&rows, None));
     }
 }
