@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 # Research script (docs/research.md), not a benchmark.
 # Question: Does a resistance read from each NASA B0005 discharge's load step (the step extrapolated back through the fractional branch's early power law) rank with EIS Re at the issue's 0.8?
-# Answer: no reading is both at 0.8 and robust: a sqrt(t) line over the first 3 loaded rows reaches 0.80 and falls to 0.68 over 10; the fractional power law (alpha free) gives 0.75-0.79 over 6-15 rows, and with a drift term over 20 rows -0.21; not built.
+# Answer: no reading is both at 0.8 and robust: on B0005 a sqrt(t) line over the first 3 loaded rows reaches 0.80 and falls to 0.68 over 10, the fractional power law (alpha free) 0.75-0.79 over 6-15 rows; on B0018 (run with its folder, bench/nasa_cell.py) the same readings rank at -0.81 and -0.84 to 0.22 where the crude baseline gives 0.79; not built.
 """Resistance over life from the load step alone (issue 70, "r_i ... its
 Spearman rank correlation with EIS Re ... >= 0.8"; docs/research.md,
 "A cell's resistance from its load steps").
@@ -21,7 +21,8 @@ against EIS Re (and Re + Rct) linear in time at the log's start
   free (t0 halfway), with and without a linear drift (the OCV falling),
   over m rows.
 
-    python3 research/life_step_resistance.py
+    python3 research/life_step_resistance.py [DATA]   (default data/nasa-pcoe-b0005;
+        another cell laid out by bench/nasa_cell.py)
 """
 
 import os
@@ -32,11 +33,13 @@ from scipy.optimize import least_squares
 from scipy.stats import spearmanr
 
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "bench"))
-from life_nasa import DATA, impedance, metadata  # noqa: E402
+from life_nasa import impedance, metadata  # noqa: E402
+
+DATA = sys.argv[1] if len(sys.argv) > 1 else "data/nasa-pcoe-b0005"
 
 
 def logs():
-    meta = metadata()
+    meta = metadata(DATA)
     by = {r["filename"]: r for r in meta if r["type"] == "discharge"}
     ti, re, rct = impedance(meta)
     names = sorted(by, key=lambda n: by[n]["t"])
@@ -85,7 +88,7 @@ def power_law(m, drift):
 
 def main():
     data, re_t, rr_t = logs()
-    print(f"B0005: {len(data)} discharges; EIS Re {re_t.min():.4f}-{re_t.max():.4f} ohm over them")
+    print(f"{os.path.basename(os.path.normpath(DATA))}: {len(data)} discharges; EIS Re {re_t.min():.4f}-{re_t.max():.4f} ohm over them")
     print()
     print("| reading of the load step | Spearman with Re | with Re + Rct | growth (last 10 / first 10) |")
     print("|---|---|---|---|")
