@@ -17,7 +17,7 @@
 //! one log is run ([`super::battery_file`]'s options apply to each).
 
 use super::file::battery_run;
-pub use super::log_tally::{FileTally, FULL_DISCHARGE_MARGIN_V};
+pub use super::log_tally::{capacity_check, FileTally, FULL_DISCHARGE_MARGIN_V};
 use super::*;
 use crate::identify::many::{expand_inputs, outputs_in};
 
