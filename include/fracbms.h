@@ -776,6 +776,13 @@ typedef struct FracbmsPower {
    * further away). 0 where nothing is published.
    */
   uint32_t basis;
+  /**
+   * The pulse voltage's standard deviation (V) at the longest horizon
+   * asked, as `host-sim online battery`'s `sop_uncertainty_v` (that
+   * horizon's `FracbmsHorizonPower::uncertainty_v`); NaN without a
+   * pulse, 0 where nothing is published.
+   */
+  float uncertainty_v;
 } FracbmsPower;
 
 /**

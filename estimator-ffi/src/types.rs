@@ -511,6 +511,11 @@ pub struct FracbmsPower {
     /// the hold span, or a snapshot), 3 `stale` (the last value, identified
     /// further away). 0 where nothing is published.
     pub basis: u32,
+    /// The pulse voltage's standard deviation (V) at the longest horizon
+    /// asked, as `host-sim online battery`'s `sop_uncertainty_v` (that
+    /// horizon's `FracbmsHorizonPower::uncertainty_v`); NaN without a
+    /// pulse, 0 where nothing is published.
+    pub uncertainty_v: f32,
 }
 
 impl FracbmsPowerRequest {
@@ -557,6 +562,8 @@ impl FracbmsPowerRequest {
             out.published = true;
             out.horizon_count = r.horizons().len() as u32;
             out.basis = u32::from(r.basis().code());
+            out.uncertainty_v = f32::NAN;
+            let mut longest = f32::NEG_INFINITY;
             for ((o, h), &hz) in out
                 .horizons
                 .iter_mut()
@@ -570,6 +577,12 @@ impl FracbmsPowerRequest {
                     pulse_v: h.pulse_v.unwrap_or(f32::NAN),
                     uncertainty_v: h.uncertainty_v.unwrap_or(f32::NAN),
                 };
+                // The longest horizon's (the first of equals), as the
+                // track's `sop_uncertainty_v`.
+                if hz > longest {
+                    longest = hz;
+                    out.uncertainty_v = o.uncertainty_v;
+                }
             }
         }
         out

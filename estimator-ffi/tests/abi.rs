@@ -52,6 +52,8 @@ fn core_power(r: Option<PowerReport<f32>>) -> FracbmsPower {
                 uncertainty_v: h.uncertainty_v.unwrap(),
             };
         }
+        // The longest horizon asked (30 s, the last).
+        out.uncertainty_v = out.horizons[r.horizons().len() - 1].uncertainty_v;
     }
     out
 }

@@ -409,6 +409,7 @@ static int online(const Table *rec, const Options *o)
             static const char *const BASIS[] = {"window", "map", "held", "stale"};
             printf("\"sop_basis\": \"%s\", ",
                    pw.published && pw.basis < 4 ? BASIS[pw.basis] : "");
+            f32v("sop_uncertainty_v", pw.published ? pw.uncertainty_v : NAN);
             for (int j = 0; j < HORIZONS; j++) {
                 char key[64];
                 int hs = (int)HORIZON_S[j];

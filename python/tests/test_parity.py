@@ -167,6 +167,8 @@ SOC_NUMBERS = ["soc", "soc_coulomb", "soc_sigma", "current_bias_a", "capacity_ah
 SOC_SETTINGS = dict(soc_rest_s=120.0, soc_bias_sigma_a=0.0, soc_voltage_sigma_v=0.002)
 SOP_NUMBERS = [f"{k}_{h}s" for h in (10, 30)
                for k in ("sop_discharge_a", "sop_charge_a", "pulse_v", "sop_uncertainty_v")]
+# The longest horizon's spread: the track's column, C's `FracbmsPower.uncertainty_v`.
+SOP_NUMBERS.append("sop_uncertainty_v")
 IDENTIFY_NUMBERS = ["r_i", "r_ct", "q", "alpha", "u_oc", "bv_a_v", "bv_i0_a", "ocv_offset_v",
                     "soc0", "soc_end", "rmse_v"]
 
