@@ -143,6 +143,37 @@ fn extra<'a>(
     }
 }
 
+/// `s` as one short line: terminal escapes and box-drawing left out,
+/// whitespace runs as one space, cut at `max` characters (the parser's
+/// errors are drawn for a terminal, over several lines).
+fn one_line(s: &str, max: usize) -> String {
+    let mut out = String::new();
+    let mut chars = s.chars().peekable();
+    let mut space = false;
+    while let Some(c) = chars.next() {
+        if c == '\u{1b}' {
+            // An escape sequence: `ESC [` then parameters up to a letter.
+            if chars.next_if_eq(&'[').is_some() {
+                while chars.next().is_some_and(|d| !d.is_ascii_alphabetic()) {}
+            }
+            continue;
+        }
+        if c.is_whitespace() || c.is_control() || ('\u{2500}'..='\u{257f}').contains(&c) {
+            space = !out.is_empty();
+            continue;
+        }
+        if space {
+            out.push(' ');
+            space = false;
+        }
+        out.push(c);
+    }
+    match out.char_indices().nth(max) {
+        Some((k, _)) => format!("{}…", &out[..k]),
+        None => out,
+    }
+}
+
 /// Reads a MAT-file's table as [`super::read_record_from`] reads a CSV.
 pub(super) fn read(bytes: &[u8], path: &Path, o: &RecordOptions) -> Result<CyclerRecord> {
     // A parser of a binary format must not take the process down with it.
@@ -154,7 +185,12 @@ pub(super) fn read(bytes: &[u8], path: &Path, o: &RecordOptions) -> Result<Cycle
             "{}: a MAT-file v7.3 (HDF5) is not read; save it with `save(…, '-v7')`",
             path.display()
         ),
-        Ok(Err(e)) => bail!(Data, "{}: not a readable MAT-file ({e})", path.display()),
+        Ok(Err(e)) => bail!(
+            Data,
+            "{}: not a readable MAT-file ({})",
+            path.display(),
+            one_line(&e.to_string(), 120)
+        ),
         Err(_) => bail!(Data, "{}: not a readable MAT-file", path.display()),
     };
     let top: Vec<(String, &MatVariable)> = file.iter().map(|(k, v)| (k.clone(), v)).collect();

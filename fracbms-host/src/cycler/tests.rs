@@ -274,6 +274,23 @@ fn a_mat_file_struct_reads_as_a_table() {
         .unwrap_err()
         .to_string();
     assert!(e.starts_with("j.mat: not a readable MAT-file"), "{e}");
+    // One line, without the parser's terminal drawing.
+    assert!(
+        !e.contains('\n') && !e.contains('\u{1b}') && !e.contains('─'),
+        "{e}"
+    );
+    assert!(e.chars().count() < 200, "{e}");
+    // Binary data that is not a MAT-file: one line, no header of garbage.
+    let noise: Vec<u8> = (0u32..3000)
+        .map(|k| (k.wrapping_mul(2_654_435_761) >> 13) as u8)
+        .collect();
+    let e = read_record_from(&noise[..], Path::new("n.mat"), &RecordOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.starts_with("n.mat: binary data, neither a text table"),
+        "{e}"
+    );
 }
 
 /// The Panasonic 10 % discharge steps, logged every 60 s with each rest's

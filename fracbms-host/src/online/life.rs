@@ -429,6 +429,11 @@ pub fn run_life(
                 }
             }
             Err(e) => {
+                // The reason, without the file's name the error may start
+                // with (the row names the file).
+                let e = e.to_string();
+                let named = format!("{}: ", file.display());
+                let e = e.strip_prefix(&named).unwrap_or(&e).to_string();
                 note(format!(
                     "warning: {}: {e}; the life goes on across it as a gap",
                     file.display()
@@ -448,7 +453,7 @@ pub fn run_life(
                     capacity_source: "",
                     soh_c: None,
                     soh_r: None,
-                    error: Some(e.to_string()),
+                    error: Some(e),
                 }
             }
         };

@@ -73,8 +73,15 @@ impl PowerOptions {
     /// The default with these horizons (s).
     ///
     /// # Errors
-    /// None, more than [`MAX_HORIZONS`], or one that is not finite and
-    /// positive.
+    /// None, more than [`MAX_HORIZONS`], one that is not finite and
+    /// positive, or one given twice (each names its own columns).
+    ///
+    /// ```
+    /// use fracbms_host::online::power::PowerOptions;
+    /// assert_eq!(PowerOptions::default().with_horizons(&[2.0, 10.0])?.horizons(), [2.0, 10.0]);
+    /// assert!(PowerOptions::default().with_horizons(&[10.0, 10.0]).is_err());
+    /// # Ok::<(), fracbms_host::Error>(())
+    /// ```
     pub fn with_horizons(self, horizons_s: &[f64]) -> Result<Self> {
         if horizons_s.is_empty() || horizons_s.len() > MAX_HORIZONS {
             bail!(
@@ -87,6 +94,22 @@ impl PowerOptions {
             bail!(
                 Options,
                 "--horizons {h}: a horizon is a positive number of seconds"
+            );
+        }
+        // The columns are named by the horizon as printed (`pulse_v_10s`).
+        if let Some(h) = horizons_s
+            .iter()
+            .enumerate()
+            .find(|&(k, h)| {
+                horizons_s[..k]
+                    .iter()
+                    .any(|g| g.to_string() == h.to_string())
+            })
+            .map(|(_, h)| h)
+        {
+            bail!(
+                Options,
+                "--horizons {h}: given twice (each horizon names its own columns)"
             );
         }
         let mut o = self;

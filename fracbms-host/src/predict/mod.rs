@@ -66,20 +66,43 @@ pub enum Model {
     Map(crate::map::ParameterMap),
 }
 
-/// Reads a model: a map when the file's first line is the map's header
-/// (`temperature_c,soc,…`), else the JSON of a fit.
+/// The predictions of several records as one JSON array, each object with
+/// its record's path as `input` (`predict battery --json` with several
+/// `--input`).
+pub fn named(inputs: &[PathBuf], ps: &[Prediction]) -> serde_json::Value {
+    inputs
+        .iter()
+        .zip(ps)
+        .map(|(input, p)| {
+            let mut v = serde_json::to_value(p).unwrap_or(serde_json::Value::Null);
+            if let Some(o) = v.as_object_mut() {
+                o.insert("input".into(), input.display().to_string().into());
+            }
+            v
+        })
+        .collect()
+}
+
+/// Reads a model: the JSON of a fit when the file starts with `{`, a map
+/// when its first line is the map's header (`temperature_c,soc,…`) or its
+/// name ends in `.csv` (a CSV that is not a map is then refused by the
+/// map's reader, naming the columns it lacks), else the JSON of a fit.
 ///
 /// # Errors
 /// As [`read_fit`] and [`crate::map::ParameterMap::read_csv`].
 pub fn read_model(path: &Path) -> Result<Model> {
     let head = std::fs::read_to_string(path)
         .map_err(|e| err!(Io, "{}: cannot read ({e})", path.display()))?;
+    let is_csv = path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("csv"));
     if head.trim_start().starts_with('{') {
         read_fit(path).map(Model::Fit)
-    } else if head
-        .lines()
-        .next()
-        .is_some_and(|l| l.contains("soc") && l.contains("r_i"))
+    } else if is_csv
+        || head
+            .lines()
+            .next()
+            .is_some_and(|l| l.contains("soc") && l.contains("r_i"))
     {
         crate::map::ParameterMap::read_csv(path).map(Model::Map)
     } else {

@@ -152,7 +152,10 @@ pub struct StateArgs {
     /// current magnitudes whose predicted voltage stays within the limits
     /// for H seconds) and `pulse_v_{H}s` (the voltage at the end of a pulse
     /// of --pulse-current-a for H seconds), from the model after each
-    /// sample; empty until every parameter is published (docs/state-of-power.md).
+    /// sample, with the parameters `sop_basis` names (the window's, the
+    /// map prior's, held ones, or the last identified, widened); empty
+    /// until the cell has each parameter from one of these
+    /// (docs/state-of-power.md).
     #[arg(long, value_delimiter = ',', default_value = "10,30")]
     pub horizons: Vec<f64>,
     /// The memory (s) of the slow part carried across windows: the
@@ -378,6 +381,9 @@ pub(super) fn battery(a: OnlineBatteryArgs) -> Result<()> {
     if fracbms_host::identify::many::names_many(&a.input) {
         return battery_life(&a, &o);
     }
+    if !a.input.exists() {
+        anyhow::bail!("{}: no such file or directory", a.input.display());
+    }
     for (flag, given) in [
         ("--life-out", a.life_out.is_some()),
         ("--start-times", a.start_times.is_some()),
@@ -437,6 +443,28 @@ pub(super) fn battery(a: OnlineBatteryArgs) -> Result<()> {
 fn battery_life(a: &OnlineBatteryArgs, o: &OnlineBatteryOptions) -> Result<()> {
     if a.start_time.is_some() {
         anyhow::bail!("--start-time: a life takes each log's from --start-times");
+    }
+    // What is written after the whole life is run: its folders checked
+    // before the first log.
+    for (flag, path) in [
+        ("--life-out", &a.life_out),
+        ("--life-plot", &a.life_plot),
+        ("--state-out", &a.snapshot.state_out),
+    ] {
+        let Some(dir) = path
+            .as_deref()
+            .and_then(std::path::Path::parent)
+            .filter(|d| !d.as_os_str().is_empty())
+        else {
+            continue;
+        };
+        if !dir.is_dir() {
+            anyhow::bail!(
+                "{flag} {}: no such directory {}",
+                path.as_deref().unwrap_or(dir).display(),
+                dir.display()
+            );
+        }
     }
     let t0 = std::time::Instant::now();
     let snapshot = match &a.snapshot.state_in {

@@ -41,7 +41,7 @@ pub struct PredictBatteryArgs {
     pub report: Option<PathBuf>,
     /// The errors as JSON: `rmse_v`, `max_error_v`, `max_error_time_s`,
     /// `samples`, `in_table`, the SOC range, `map` and how the record was
-    /// read (an array of them with several --input).
+    /// read (an array of them with several --input, each with its `input`).
     #[arg(long)]
     pub json: Option<PathBuf>,
 }
@@ -70,7 +70,8 @@ pub(super) fn battery(a: PredictBatteryArgs) -> Result<()> {
     if let Some(j) = &a.json {
         match ps.as_slice() {
             [p] => fracbms_host::io::write_json(j, p)?,
-            _ => fracbms_host::io::write_json(j, &ps)?,
+            // Several: each named by its --input.
+            _ => fracbms_host::io::write_json(j, &predict::named(&a.input, &ps))?,
         }
     }
     for (input, p) in a.input.iter().zip(&ps) {

@@ -167,12 +167,15 @@ fn a_log_that_cannot_be_run_is_one_warning_and_a_row_and_the_life_goes_on() {
         warnings[0].contains("05125.csv") && warnings[0].contains("no current column"),
         "{err}"
     );
+    // The file named once: the warning's own name, not the error's again.
+    assert_eq!(warnings[0].matches("05125.csv").count(), 1, "{err}");
     let r = life_rows(&rows);
     assert_eq!(r.len(), 5);
     let b = &r[2];
     assert!(b[0].ends_with("05125.csv"), "{b:?}");
     assert_eq!((b[6].as_str(), b[10].as_str()), ("error", "error"));
     assert!(b[13].contains("no current column"), "{b:?}");
+    assert!(!b[13].contains("05125.csv"), "{b:?}");
     // The next log starts from the state of the one before the bad one.
     let next = std::fs::read_to_string(out.join("05126-track.csv")).unwrap();
     assert!(
@@ -258,6 +261,41 @@ fn life_flags_on_one_file_and_bad_start_times_are_one_line() {
     assert!(!o.status.success());
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(err.contains("no start time for"), "{err}");
+    // A life's outputs in a folder that is not there: one line before
+    // any log is run; an input that is not there: said so.
+    let tracks = tmp("life-flags-nodir-tracks");
+    let o = run(&[
+        "online",
+        "battery",
+        "--input",
+        s(&dir),
+        "--out",
+        s(&tracks),
+        "--life-out",
+        s(&tmp("life-flags-no-such-dir").join("life.csv")),
+    ]);
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+    assert!(
+        err.contains("--life-out") && err.contains("no such directory"),
+        "{err}"
+    );
+    assert!(!tracks.exists(), "no log was run");
+    let o = run(&[
+        "online",
+        "battery",
+        "--input",
+        s(&tmp("life-flags-no-such-input")),
+        "--out",
+        s(&out),
+        "--life-out",
+        s(&out),
+    ]);
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+    assert!(err.contains("no such file or directory"), "{err}");
 }
 
 /// A discharge from rest at the upper limit to the lower one is a capacity

@@ -148,7 +148,8 @@ fn a_pulse_fit_predicts_a_drive_cycle() {
         (
             s(&table),
             vec!["--ocv", s(&table), "--capacity-ah", "2.5"],
-            "not JSON",
+            // A CSV is read as a map, which says what it lacks.
+            "missing column `temperature_c` (a map of identify battery --map-out)",
         ),
     ] {
         let mut a = vec![
@@ -194,11 +195,22 @@ fn the_report_validates_several_records() {
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let dir = tmp("report-dir");
     let _ = std::fs::remove_dir_all(&dir);
+    let named = tmp("report-named.json");
     let mut a = vec!["predict", "battery", "--model", s(&fit)];
     a.extend(["--input", s(&pulse), s(&drive), "--report", s(&dir)]);
+    a.extend(["--json", s(&named)]);
     a.extend(ocv);
     let o = run(&a);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    // --json with several records: each named by its --input.
+    let named = read_json(&named);
+    let inputs: Vec<&str> = named
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|e| e["input"].as_str().unwrap())
+        .collect();
+    assert_eq!(inputs, [s(&pulse), s(&drive)]);
     let stdout = String::from_utf8_lossy(&o.stdout);
     assert_eq!(
         stdout.matches("inside the OCV table").count(),
