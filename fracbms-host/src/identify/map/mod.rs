@@ -62,6 +62,26 @@ pub fn levels(rec: &BatteryRecord, soc: &[f64], o: &MapOptions, gap: &[bool]) ->
         .collect()
 }
 
+/// The levels split by rests, with each run of levels that follow one
+/// another without a gap and whose SOCs lie within [`KNOT_SPACING`] of the
+/// first of them taken as one level (from the first one's start to the
+/// last one's end, at the first one's SOC): the pulses of one level of an
+/// HPPC test, parted by rests shorter than the test's rests between levels
+/// but longer than `--min-rest` (the Panasonic test's five pulses, 10
+/// minutes apart, with the default 600 s).
+pub fn one_level_per_soc(parts: Vec<Level>) -> Vec<Level> {
+    let mut out: Vec<Level> = Vec::with_capacity(parts.len());
+    for p in parts {
+        match out.last_mut() {
+            Some(l) if p.start <= l.end && (p.soc - l.soc).abs() <= KNOT_SPACING => {
+                l.end = l.end.max(p.end);
+            }
+            _ => out.push(p),
+        }
+    }
+    out
+}
+
 /// The fewest samples under current that make a part of a record a level.
 pub const MIN_EXCITED: usize = 2;
 
@@ -283,7 +303,10 @@ pub fn build_map(
     }
     let whole = ocv.resolve(path, rec)?;
     let soc = counted_soc(rec, &whole, gaps);
-    let parts = levels(rec, &soc, o, &in_gaps(rec, gaps));
+    let mut parts = levels(rec, &soc, o, &in_gaps(rec, gaps));
+    if o.soc_bins.is_none() {
+        parts = one_level_per_soc(parts);
+    }
     if parts.is_empty() {
         bail!(
             Data,
@@ -437,12 +460,44 @@ pub fn build_map(
     })
 }
 
+/// Levels whose SOCs lie within this of the first of them make one knot
+/// of the joint map, at their mean SOC: the pulses of one level of an HPPC
+/// test taken apart by shorter rests (the Panasonic test's five pulses
+/// span 0.021 of SOC with `--min-rest 600`, its levels are 0.039–0.11
+/// apart).
+pub const KNOT_SPACING: f64 = 0.03;
+
+/// The joint map's knots from the levels: their SOCs in order, those within
+/// [`KNOT_SPACING`] of the first of a run taken as one knot at their mean.
+pub fn level_knots(parts: &[Level]) -> Vec<f64> {
+    let mut socs: Vec<f64> = parts
+        .iter()
+        .map(|p| p.soc)
+        .filter(|z| z.is_finite())
+        .collect();
+    socs.sort_by(f64::total_cmp);
+    let mut knots = Vec::new();
+    let mut run: Vec<f64> = Vec::new();
+    for z in socs {
+        if run.first().is_some_and(|&a| z - a > KNOT_SPACING) {
+            knots.push(run.iter().sum::<f64>() / run.len() as f64);
+            run.clear();
+        }
+        run.push(z);
+    }
+    if !run.is_empty() {
+        knots.push(run.iter().sum::<f64>() / run.len() as f64);
+    }
+    knots
+}
+
 /// The joint map of `rec` (its levels `parts`, fitted on their own into
-/// `levels`): knots at the levels' SOCs (or `o.knots`), started from the
-/// identifiable levels' cells interpolated at each knot (all levels' when
-/// none is identifiable), the penalty and the varying set given or chosen
-/// by leaving each level out, and the record's long discharges (over 300
-/// s under one sign of current) as one more fold.
+/// `levels`): knots at the levels' SOCs ([`level_knots`]; or `o.knots`),
+/// started from the identifiable levels' cells interpolated at each knot
+/// (all levels' when none is identifiable), the penalty and the varying
+/// set given or chosen by leaving out each knot's levels together (the
+/// levels nearest it), and the record's long discharges (over 300 s under
+/// one sign of current) as one more fold.
 #[allow(clippy::too_many_arguments)]
 fn joint_map(
     rec: &BatteryRecord,
@@ -454,10 +509,7 @@ fn joint_map(
     record_t: Option<f64>,
     o: &MapOptions,
 ) -> Result<(ParameterMap, Vec<joint::Candidate>, joint::JointInputs)> {
-    let mut knots: Vec<f64> = o
-        .knots
-        .clone()
-        .unwrap_or_else(|| parts.iter().map(|p| p.soc).collect());
+    let mut knots: Vec<f64> = o.knots.clone().unwrap_or_else(|| level_knots(parts));
     knots.sort_by(f64::total_cmp);
     knots.dedup_by(|a, b| (*a - *b).abs() < 1e-6);
     if knots.is_empty() {
@@ -501,10 +553,16 @@ fn joint_map(
         knots: &knots,
     };
     let n = rec.time.len();
-    let mut folds: Vec<Vec<bool>> = parts
-        .iter()
-        .map(|p| (0..n).map(|k| k >= p.start && k < p.end).collect())
-        .collect();
+    // One fold per knot: every level nearest it left out together, so
+    // that no level is predicted from its twin at the same SOC.
+    let mut folds: Vec<Vec<bool>> = vec![vec![false; n]; knots.len()];
+    for p in parts {
+        let f = &mut folds[joint::nearest(&knots, p.soc)];
+        for x in &mut f[p.start.min(n)..p.end.min(n)] {
+            *x = true;
+        }
+    }
+    folds.retain(|f| f.iter().any(|x| *x));
     let long = joint::long_discharges(rec, 300.0);
     if long.iter().any(|x| *x) {
         folds.push(long);

@@ -521,3 +521,34 @@ fn long_discharges_are_the_long_stretches_under_one_sign() {
     assert_eq!(long.iter().filter(|x| **x).count(), 2 * 360);
     assert!(joint::long_discharges(&rec, 400.0).iter().all(|x| !x));
 }
+
+/// The pulses of one HPPC level parted by shorter rests are one level, and
+/// one knot; levels further apart in SOC, or parted by a gap, are not.
+#[test]
+fn the_pulses_of_one_soc_are_one_level_and_one_knot() {
+    let at = |start: usize, end: usize, soc: f64| Level { start, end, soc };
+    // Five pulses 10 minutes apart spanning 0.021 of SOC (the Panasonic
+    // test's at 0.97 with --min-rest 600), each level overlapping the
+    // next by its lead; then the next level 0.08 lower.
+    let socs = [0.9746, 0.9732, 0.9704, 0.9648, 0.9537, 0.8952, 0.8938];
+    let parts: Vec<Level> = socs
+        .iter()
+        .enumerate()
+        .map(|(k, &z)| at(100 * k, 100 * (k + 1) + 10, z))
+        .collect();
+    let merged = one_level_per_soc(parts.clone());
+    assert_eq!(
+        merged,
+        vec![at(0, 510, 0.9746), at(500, 710, 0.8952)],
+        "{merged:?}"
+    );
+    let knots = level_knots(&parts);
+    assert_eq!(knots.len(), 2, "{knots:?}");
+    assert!((knots[0] - 0.8945).abs() < 1e-12, "{knots:?}");
+    assert!((knots[1] - socs[..5].iter().sum::<f64>() / 5.0).abs() < 1e-12);
+    // A gap between two levels at one SOC keeps them apart (no level spans
+    // a gap), though they make one knot.
+    let apart = vec![at(0, 100, 0.5), at(150, 250, 0.49)];
+    assert_eq!(one_level_per_soc(apart.clone()), apart);
+    assert_eq!(level_knots(&apart).len(), 1);
+}
