@@ -395,15 +395,7 @@ pub fn read_record_from(
     if bytes.starts_with(mat::MAGIC) {
         return mat::read(&bytes, path, o);
     }
-    // A text table holds no NUL byte (UTF-8, or a Windows code page);
-    // binary data read as one would name a header of garbage.
-    if bytes.iter().take(1 << 16).any(|&b| b == 0) {
-        bail!(
-            Data,
-            "{}: binary data, neither a text table nor a level-5 MAT-file (a UTF-16 text export is not read: save it as UTF-8)",
-            path.display()
-        );
-    }
+    text::refuse_binary(&bytes, path)?;
     let (header_row, start, delimiter, choice) = text::find_header(&bytes, path, &o.columns)?;
     let raw = text::read_rows(
         &bytes[start..],

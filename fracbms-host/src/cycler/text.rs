@@ -9,6 +9,23 @@ use crate::io::{shown, LineCounter};
 use crate::{bail, err};
 use std::path::Path;
 
+/// Refuses binary data: a text table holds no NUL byte (UTF-8, or a
+/// Windows code page), and binary data read as one would name a header of
+/// garbage.
+///
+/// # Errors
+/// [`crate::ErrorKind::Data`] for a NUL byte in the first 64 KiB.
+pub(super) fn refuse_binary(bytes: &[u8], path: &Path) -> Result<()> {
+    if bytes.iter().take(1 << 16).any(|&b| b == 0) {
+        bail!(
+            Data,
+            "{}: binary data, neither a text table nor a level-5 MAT-file (a UTF-16 text export is not read: save it as UTF-8)",
+            path.display()
+        );
+    }
+    Ok(())
+}
+
 pub(super) type HeaderFound = (usize, usize, u8, ColumnChoice);
 
 /// The header line: the first of the first lines whose cells (split at

@@ -5,7 +5,7 @@
 //! It owns the fit ([`joint_fit`]), the choice of its penalty and of the
 //! parameters that vary with SOC by leaving levels out ([`choose`]), and
 //! the knots' intervals. It must not split a record (that is
-//! [`super::levels`]) nor write files.
+//! [`mod@super::levels`]) nor write files.
 //!
 //! The model is the map model of [`super::model`]: at each knot `j` a cell
 //! `(R_i, R_ct, τ = R_ct·Q, α, ΔU)`, its branch run over the whole record

@@ -1,3 +1,4 @@
+use super::levels::split;
 use super::*;
 use crate::identify::battery::model_voltage;
 use crate::io::HostOcvTable;
