@@ -577,8 +577,8 @@ impl FracbmsPowerRequest {
                     pulse_v: h.pulse_v.unwrap_or(f32::NAN),
                     uncertainty_v: h.uncertainty_v.unwrap_or(f32::NAN),
                 };
-                // The longest horizon's (the first of equals), as the
-                // track's `sop_uncertainty_v`.
+                // The longest horizon's, as the track's
+                // `sop_uncertainty_v` (equal horizons give equal values).
                 if hz > longest {
                     longest = hz;
                     out.uncertainty_v = o.uncertainty_v;

@@ -195,8 +195,9 @@ fn ocv_spec(
 ///     Memory M of the paper regression (default 256).
 /// map : bool
 ///     Also the parameter map (``identify battery --map-out``): the record
-///     split at its rests of at least ``min_rest`` s (or into ``soc_bins``
-///     SOC bins), each level fitted; the dict's ``map`` holds the levels
+///     split at its rests of at least ``min_rest`` s (parts within 0.03 of
+///     SOC of one another one level), or into ``soc_bins`` SOC bins, each
+///     level fitted; the dict's ``map`` holds the levels
 ///     (the map CSV's columns), the levels skipped and the whole-record
 ///     RMSE of the map model beside the single fit's. Needs ``ocv``.
 /// map_method : {"joint", "levels"}

@@ -18,8 +18,8 @@ pub const FULL_DISCHARGE_MARGIN_V: f64 = 0.05;
 /// make a capacity check between the voltage limits `limits` (`(lowest,
 /// highest)`; `None`: none known, no check): the first row at rest (its
 /// current at most 1 % of the largest) within [`FULL_DISCHARGE_MARGIN_V`]
-/// of the upper limit, and a loaded row (above that 1 %) within the margin
-/// of the lower limit or below it. The rows, not the uniform samples: a
+/// of the upper limit, and its last loaded row (above that 1 %) within the
+/// margin of the lower limit or below it. The rows, not the uniform samples: a
 /// cycler stops the load at the first row past its cut-off, and where that
 /// is the log's last row (NASA's B0006, B0007 and B0018 end so, the knee
 /// falling 0.2–0.4 V in one 19-s row) the samples of a coarser period hold
@@ -41,13 +41,16 @@ pub fn capacity_check(rows: &io::BatteryRecord, limits: Option<(f64, f64)>) -> b
         .find(|(i, v)| i.is_finite() && v.is_finite());
     let starts_full =
         first.is_some_and(|(i, v)| i.abs() <= rest && *v >= hi - FULL_DISCHARGE_MARGIN_V);
-    let lowest_loaded = rows
+    // The last loaded row: where the load stopped (one low row inside the
+    // discharge, a glitch, is not a cut-off).
+    let last_loaded = rows
         .current
         .iter()
         .zip(&rows.voltage)
-        .filter(|(i, v)| i.abs() > rest && v.is_finite())
-        .fold(f64::INFINITY, |m, (_, v)| m.min(*v));
-    peak > 0.0 && starts_full && lowest_loaded <= lo + FULL_DISCHARGE_MARGIN_V
+        .rev()
+        .find(|(i, v)| i.abs() > rest && v.is_finite())
+        .map(|(_, v)| *v);
+    peak > 0.0 && starts_full && last_loaded.is_some_and(|v| v <= lo + FULL_DISCHARGE_MARGIN_V)
 }
 
 /// What one log's track published, gathered as it is written: a life's
@@ -284,5 +287,9 @@ mod tests {
         assert!(!capacity_check(&discharge_rows(2.70), limits));
         assert!(!capacity_check(&rows, Some((2.5, 4.3))));
         assert!(!capacity_check(&rows, None));
+        // One low row inside the discharge, a glitch, is not the cut-off.
+        let mut glitch = discharge_rows(2.70);
+        glitch.voltage[20] = 2.3;
+        assert!(!capacity_check(&glitch, limits));
     }
 }

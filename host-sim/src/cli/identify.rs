@@ -159,7 +159,9 @@ pub struct IdBatteryArgs {
     /// record without rests) instead of at its rests.
     #[arg(long, requires = "map_out")]
     pub soc_bins: Option<usize>,
-    /// The shortest rest (s) that separates two SOC levels.
+    /// The shortest rest (s) that separates two SOC levels (parts that
+    /// follow one another within 0.03 of SOC stay one level: the pulses of
+    /// one HPPC level, docs/maps.md).
     #[arg(long, default_value_t = 600.0)]
     pub min_rest: f64,
     /// Also write each level's record as fitted into this folder
@@ -178,7 +180,7 @@ pub struct IdBatteryArgs {
     #[arg(long, value_enum, default_value_t = MapMethodArg::Joint, requires = "map_out")]
     pub map_method: MapMethodArg,
     /// The joint map's knots: SOCs, comma-separated (default: the levels'
-    /// SOCs).
+    /// SOCs, those within 0.03 of one another one knot at their mean).
     #[arg(long, value_delimiter = ',', requires = "map_out")]
     pub soc_knots: Option<Vec<f64>>,
     /// The joint map's smoothing penalty λ (V²) on the second differences

@@ -381,8 +381,8 @@ pub(super) fn battery(a: OnlineBatteryArgs) -> Result<()> {
     if fracbms_host::identify::many::names_many(&a.input) {
         return battery_life(&a, &o);
     }
-    if !a.input.exists() {
-        anyhow::bail!("{}: no such file or directory", a.input.display());
+    if let Err(e) = std::fs::metadata(&a.input) {
+        anyhow::bail!("{}: {e}", a.input.display());
     }
     for (flag, given) in [
         ("--life-out", a.life_out.is_some()),
@@ -458,7 +458,8 @@ fn battery_life(a: &OnlineBatteryArgs, o: &OnlineBatteryOptions) -> Result<()> {
         else {
             continue;
         };
-        if !dir.is_dir() {
+        // (`--out`, the tracks' folder, is made by the run.)
+        if !dir.is_dir() && !dir.starts_with(&a.out) {
             anyhow::bail!(
                 "{flag} {}: no such directory {}",
                 path.as_deref().unwrap_or(dir).display(),

@@ -190,26 +190,31 @@ pub(super) fn split(rec: &BatteryRecord, soc: &[f64], o: &MapOptions, gap: &[boo
 /// apart).
 pub const KNOT_SPACING: f64 = 0.03;
 
-/// The joint map's knots from the levels: their SOCs in order, those within
-/// [`KNOT_SPACING`] of the first of a run taken as one knot at their mean.
-pub fn level_knots(parts: &[Level]) -> Vec<f64> {
-    let mut socs: Vec<f64> = parts
-        .iter()
-        .map(|p| p.soc)
-        .filter(|z| z.is_finite())
-        .collect();
-    socs.sort_by(f64::total_cmp);
-    let mut knots = Vec::new();
-    let mut run: Vec<f64> = Vec::new();
-    for z in socs {
-        if run.first().is_some_and(|&a| z - a > KNOT_SPACING) {
-            knots.push(run.iter().sum::<f64>() / run.len() as f64);
-            run.clear();
+/// The levels in runs of one SOC (indices into `parts`): by SOC, those
+/// within [`KNOT_SPACING`] of the first of a run taken together (a level
+/// whose SOC is not finite alone). The joint map's knots sit at the runs'
+/// mean SOCs ([`level_knots`]) and each run is left out together when the
+/// penalty is chosen.
+pub fn level_runs(parts: &[Level]) -> Vec<Vec<usize>> {
+    let mut order: Vec<usize> = (0..parts.len()).collect();
+    order.sort_by(|&a, &b| parts[a].soc.total_cmp(&parts[b].soc));
+    let mut runs: Vec<Vec<usize>> = Vec::new();
+    for k in order {
+        let z = parts[k].soc;
+        match runs.last_mut() {
+            Some(run) if z.is_finite() && z - parts[run[0]].soc <= KNOT_SPACING => run.push(k),
+            _ => runs.push(vec![k]),
         }
-        run.push(z);
     }
-    if !run.is_empty() {
-        knots.push(run.iter().sum::<f64>() / run.len() as f64);
-    }
-    knots
+    runs
+}
+
+/// The joint map's knots from the levels: the mean SOC of each run of
+/// [`level_runs`] (runs without a finite SOC left out), in order.
+pub fn level_knots(parts: &[Level]) -> Vec<f64> {
+    level_runs(parts)
+        .iter()
+        .map(|run| run.iter().map(|&k| parts[k].soc).sum::<f64>() / run.len() as f64)
+        .filter(|z| z.is_finite())
+        .collect()
 }

@@ -24,7 +24,9 @@ use crate::ocv::OcvSpec;
 use crate::trust::Limits;
 use crate::{bail, err};
 use estimator_core::battery::CellParameters;
-pub use levels::{level_knots, levels, one_level_per_soc, Level, KNOT_SPACING, MIN_EXCITED};
+pub use levels::{
+    level_knots, level_runs, levels, one_level_per_soc, Level, KNOT_SPACING, MIN_EXCITED,
+};
 use std::path::Path;
 
 /// What [`build_map`] made: the map, the levels it could not fit, and the
@@ -288,12 +290,13 @@ pub fn build_map(
 }
 
 /// The joint map of `rec` (its levels `parts`, fitted on their own into
-/// `levels`): knots at the levels' SOCs ([`level_knots`]; or `o.knots`),
-/// started from the identifiable levels' cells interpolated at each knot
-/// (all levels' when none is identifiable), the penalty and the varying
-/// set given or chosen by leaving out each knot's levels together (the
-/// levels nearest it), and the record's long discharges (over 300 s under
-/// one sign of current) as one more fold.
+/// `levels`): knots at the mean SOCs of the levels' runs of one SOC
+/// ([`level_runs`]; each `--soc-bins` bin alone; or `o.knots`), started
+/// from the identifiable levels' cells interpolated at each knot (all
+/// levels' when none is identifiable), the penalty and the varying set
+/// given or chosen by leaving out each run's levels together, and the
+/// record's long discharges (over 300 s under one sign of current) as one
+/// more fold.
 #[allow(clippy::too_many_arguments)]
 fn joint_map(
     rec: &BatteryRecord,
@@ -305,7 +308,18 @@ fn joint_map(
     record_t: Option<f64>,
     o: &MapOptions,
 ) -> Result<(ParameterMap, Vec<joint::Candidate>, joint::JointInputs)> {
-    let mut knots: Vec<f64> = o.knots.clone().unwrap_or_else(|| level_knots(parts));
+    // Runs of one SOC: each bin alone with --soc-bins.
+    let runs: Vec<Vec<usize>> = if o.soc_bins.is_some() {
+        (0..parts.len()).map(|k| vec![k]).collect()
+    } else {
+        levels::level_runs(parts)
+    };
+    let mut knots: Vec<f64> = o.knots.clone().unwrap_or_else(|| {
+        runs.iter()
+            .map(|run| run.iter().map(|&k| parts[k].soc).sum::<f64>() / run.len() as f64)
+            .filter(|z| z.is_finite())
+            .collect()
+    });
     knots.sort_by(f64::total_cmp);
     knots.dedup_by(|a, b| (*a - *b).abs() < 1e-6);
     if knots.is_empty() {
@@ -349,15 +363,20 @@ fn joint_map(
         knots: &knots,
     };
     let n = rec.time.len();
-    // One fold per knot: every level nearest it left out together, so
-    // that no level is predicted from its twin at the same SOC.
-    let mut folds: Vec<Vec<bool>> = vec![vec![false; n]; knots.len()];
-    for p in parts {
-        let f = &mut folds[joint::nearest(&knots, p.soc)];
-        for x in &mut f[p.start.min(n)..p.end.min(n)] {
-            *x = true;
-        }
-    }
+    // One fold per run of one SOC: its levels left out together, so that
+    // no level is predicted from its twin at the same SOC.
+    let mut folds: Vec<Vec<bool>> = runs
+        .iter()
+        .map(|run| {
+            let mut f = vec![false; n];
+            for p in run.iter().map(|&k| &parts[k]) {
+                for x in &mut f[p.start.min(n)..p.end.min(n)] {
+                    *x = true;
+                }
+            }
+            f
+        })
+        .collect();
     folds.retain(|f| f.iter().any(|x| *x));
     let long = joint::long_discharges(rec, 300.0);
     if long.iter().any(|x| *x) {

@@ -543,6 +543,7 @@ fn the_pulses_of_one_soc_are_one_level_and_one_knot() {
         vec![at(0, 510, 0.9746), at(500, 710, 0.8952)],
         "{merged:?}"
     );
+    assert_eq!(level_runs(&parts), vec![vec![6, 5], vec![4, 3, 2, 1, 0]]);
     let knots = level_knots(&parts);
     assert_eq!(knots.len(), 2, "{knots:?}");
     assert!((knots[0] - 0.8945).abs() < 1e-12, "{knots:?}");
