@@ -212,8 +212,13 @@ pub fn level_runs(parts: &[Level]) -> Vec<Vec<usize>> {
 /// The joint map's knots from the levels: the mean SOC of each run of
 /// [`level_runs`] (runs without a finite SOC left out), in order.
 pub fn level_knots(parts: &[Level]) -> Vec<f64> {
-    level_runs(parts)
-        .iter()
+    run_means(parts, &level_runs(parts))
+}
+
+/// The mean SOC of each of `runs` (indices into `parts`), runs without a
+/// finite one left out.
+pub fn run_means(parts: &[Level], runs: &[Vec<usize>]) -> Vec<f64> {
+    runs.iter()
         .map(|run| run.iter().map(|&k| parts[k].soc).sum::<f64>() / run.len() as f64)
         .filter(|z| z.is_finite())
         .collect()

@@ -314,12 +314,10 @@ fn joint_map(
     } else {
         levels::level_runs(parts)
     };
-    let mut knots: Vec<f64> = o.knots.clone().unwrap_or_else(|| {
-        runs.iter()
-            .map(|run| run.iter().map(|&k| parts[k].soc).sum::<f64>() / run.len() as f64)
-            .filter(|z| z.is_finite())
-            .collect()
-    });
+    let mut knots: Vec<f64> = o
+        .knots
+        .clone()
+        .unwrap_or_else(|| levels::run_means(parts, &runs));
     knots.sort_by(f64::total_cmp);
     knots.dedup_by(|a, b| (*a - *b).abs() < 1e-6);
     if knots.is_empty() {
