@@ -599,3 +599,56 @@ fn the_next_pulse_widens_the_state_of_power_by_what_it_missed() {
         assert!(f.sop.discharge_a < p.sop.discharge_a, "{f:?} {p:?}");
     }
 }
+
+/// A map fitted with the Butler–Volmer term (`identify battery --model
+/// butler-volmer --map-method joint`) as the prior of the linear online
+/// model: its `map` basis predicts with the map's `R_i` and its term as one
+/// set (the window's linear estimate has none), and from a rest that has
+/// emptied the window, whose largest current is then unknown (the term is
+/// the map's, fitted over its test's currents). The term is
+/// `a·asinh(5/i₀)` = 16.5 mV of the pulse's drop.
+#[test]
+fn a_butler_volmer_maps_term_is_its_state_of_power() {
+    let truth = CellParameters::<f64> {
+        r_i: 0.012,
+        bv_a: 0.01,
+        bv_i0: 2.0,
+        ..CellParameters::cell_18650()
+    };
+    let (at, gap, rested, k) = (1100, 1500, 5, 10);
+    let resume = at + gap;
+    let (mut i, _) = record(at, 0.0, resume + rested + k - at);
+    for x in i.iter_mut().skip(resume + rested) {
+        *x = -5.0;
+    }
+    let v = noisy(truth_voltage(&truth, &i), resume + rested);
+    let limits = PowerLimits {
+        voltage_min: 2.5,
+        voltage_max: 4.2,
+        current_limit: 50.0,
+    };
+    let power = PowerSettings::new(limits, &[k as u32], Some(-5.0)).unwrap();
+    let mut s = OnlineSettings::new(1.0, 64, truth.linearized()).with_ocv(nmc());
+    s.battery.prior = Some(Prior::new(truth));
+    let mut est = Box::new(CellEstimator::<f64, 256, 64>::new(&s).unwrap());
+    for l in 0..at {
+        est.push(&s, i[l], v[l]);
+    }
+    est.resume_after_gap(true);
+    for l in resume..resume + rested {
+        est.push(&s, i[l], v[l]);
+    }
+    let r = est
+        .state_of_power(&s, &power)
+        .expect("a state of power after the gap");
+    assert_eq!(r.basis(), SopBasis::Map);
+    let got = r.horizons()[0].pulse_v.unwrap();
+    let want = v[resume + rested + k - 1];
+    let term = truth.bv_a * (5.0 / truth.bv_i0).asinh();
+    println!(
+        "map basis: {got:.5} V against {want:.5} V (the term {:.1} mV)",
+        1e3 * term
+    );
+    assert!(term > 0.015);
+    assert!((got - want).abs() < 0.003, "{got} vs {want}");
+}

@@ -346,6 +346,15 @@ fn check_cells<T: Real, const N: usize, const CELLS: usize, const P: usize>(
     check_limits(s)
 }
 
+/// True when `q`'s Butler–Volmer term is the map prior's: fitted over its
+/// test's currents, so the state of power neither caps its currents at
+/// the window's largest nor waits for the window to have seen one.
+fn maps_term<T: Real, const P: usize>(s: &OnlineSettings<T, P>, q: &CellParameters<T>) -> bool {
+    s.battery.prior.as_ref().is_some_and(|pr| {
+        pr.center.is_butler_volmer() && pr.center.bv_a == q.bv_a && pr.center.bv_i0 == q.bv_i0
+    })
+}
+
 /// The median of `x` (sorted in place; the mean of the middle two for an
 /// even count). Insertion sort: a pack has at most a few hundred cells.
 fn median<T: Real>(x: &mut [T]) -> T {
@@ -599,6 +608,7 @@ impl<T: Real, const N: usize, const MEM: usize, const CELLS: usize>
         // term's state of power is capped there; a long rest has emptied
         // the window itself).
         let known = q.bv_a == T::zero()
+            || maps_term(s, q)
             || (p.is_some() && tail.model() == p && tail.largest_current() > T::zero());
         let rested = known.then(|| c.relaxed_voltage(s).zip(ocv)).flatten();
         if let Some((v, (m, z))) = rested {
@@ -695,7 +705,9 @@ impl<T: Real, const N: usize, const MEM: usize, const CELLS: usize>
         // cycles, a 5C state of power from the extrapolated term took the
         // cell 165–262 mV below its limit within 30 s; docs/bms-states.md).
         let mut power = *power;
-        if c.window_estimate().is_some_and(|p| p.is_butler_volmer()) {
+        // A Butler–Volmer map's own term (the `map` basis) was fitted over
+        // its test's currents, not capped by the window's.
+        if c.window_estimate().is_some_and(|p| p.is_butler_volmer()) && !maps_term(s, &q) {
             // The window's largest current; from a long rest, which has
             // emptied the window, the one noted as the tail was carried
             // into the rest (`follow_polarization`).
