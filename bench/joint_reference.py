@@ -89,6 +89,9 @@ class Problem:
         with open(os.path.join(folder, "joint.json")) as f:
             d = json.load(f)
         self.doc = d
+        if d.get("butler_volmer"):
+            sys.exit("this joint map shares a Butler-Volmer term (identify --model butler-volmer); "
+                     "the reference fits the linear joint map only")
         _, i, v, counted, soc, ocv = read_csv(
             os.path.join(folder, "joint-record.csv"),
             ["time_s", "current_a", "voltage_v", "counted", "soc", "ocv_v"],

@@ -38,6 +38,9 @@ use nalgebra::{DMatrix, DVector};
 
 pub use crate::map::{JointCandidate as Candidate, JOINT_PARAMETERS as PARAMETERS};
 
+mod inputs;
+pub use inputs::JointInputs;
+
 /// The scale of each parameter's second difference in the penalty.
 const SCALE: [f64; 5] = [1.0, 1.0, 1.0, 0.1, 0.01];
 /// The pull towards the start, relative to the penalty's weight.
@@ -51,6 +54,9 @@ const BOUNDS: [[f64; 2]; 5] = [
     [0.05, 1.0],
     [-0.5, 0.5],
 ];
+
+/// The bounds of the shared Butler–Volmer unknowns (`ln a`, `ln i₀`).
+const KINETIC_BOUNDS: [[f64; 2]; 2] = [[-11.5, 0.7], [-6.9, 6.9]];
 
 /// How the joint fit runs.
 #[derive(Clone, Debug, PartialEq)]
@@ -129,15 +135,18 @@ fn weights(knots: &[f64], z: f64) -> [(usize, f64); 2] {
 }
 
 /// The layout of the unknowns: per parameter its first index and whether
-/// it varies (K values) or is shared (one).
+/// it varies (K values) or is shared (one); with the Butler–Volmer term,
+/// its `ln a` and `ln i₀` last, shared by every knot.
 struct Layout {
     first: [usize; 5],
     vary: [bool; 5],
+    /// The index of `ln a` (`ln i₀` the next), with the term.
+    kinetic: Option<usize>,
     len: usize,
 }
 
 impl Layout {
-    fn new(vary: [bool; 5], knots: usize) -> Self {
+    fn new(vary: [bool; 5], knots: usize, kinetic: bool) -> Self {
         let mut first = [0; 5];
         let mut at = 0;
         for p in 0..5 {
@@ -147,11 +156,27 @@ impl Layout {
         Layout {
             first,
             vary,
-            len: at,
+            kinetic: kinetic.then_some(at),
+            len: at + if kinetic { 2 } else { 0 },
         }
     }
     fn index(&self, p: usize, knot: usize) -> usize {
         self.first[p] + if self.vary[p] { knot } else { 0 }
+    }
+    /// The penalty's scale and the search's bounds of unknown `i`.
+    fn scale_and_bounds(&self, i: usize) -> (f64, [f64; 2]) {
+        match self.kinetic {
+            Some(at) if i >= at => (1.0, KINETIC_BOUNDS[i - at]),
+            _ => {
+                let p = (0..5).rev().find(|&p| self.first[p] <= i).unwrap_or(0);
+                (SCALE[p], BOUNDS[p])
+            }
+        }
+    }
+    /// The Butler–Volmer term `(a, i₀)` of `theta`, with the term.
+    fn kinetic_of(&self, theta: &[f64]) -> Option<(f64, f64)> {
+        self.kinetic
+            .map(|at| (theta[at].exp(), theta[at + 1].exp()))
     }
 }
 
@@ -176,7 +201,27 @@ fn unknowns(cells: &[CellParameters<f64>], l: &Layout) -> Vec<f64> {
     for (t, c) in theta.iter_mut().zip(&count) {
         *t /= (*c).max(1.0);
     }
+    if let Some(at) = l.kinetic {
+        // The term's start: the knots' median small-current resistance
+        // a/i₀ and median i₀.
+        let mut a_over_i0: Vec<f64> = cells.iter().map(|c| c.bv_a / c.bv_i0).collect();
+        let mut i0: Vec<f64> = cells.iter().map(|c| c.bv_i0).collect();
+        let i0 = median(&mut i0);
+        theta[at] = (median(&mut a_over_i0) * i0)
+            .max(1e-5)
+            .ln()
+            .clamp(KINETIC_BOUNDS[0][0], KINETIC_BOUNDS[0][1]);
+        theta[at + 1] = i0
+            .max(1e-3)
+            .ln()
+            .clamp(KINETIC_BOUNDS[1][0], KINETIC_BOUNDS[1][1]);
+    }
     theta
+}
+
+fn median(x: &mut [f64]) -> f64 {
+    x.sort_by(f64::total_cmp);
+    x[x.len() / 2]
 }
 
 /// Knot `j`'s parameters `[ln R_i, ln R_ct, ln τ, α, ΔU]` from `theta`.
@@ -184,17 +229,19 @@ fn knot(theta: &[f64], l: &Layout, j: usize) -> [f64; 5] {
     core::array::from_fn(|p| theta[l.index(p, j)])
 }
 
-/// The cell of knot parameters `k`.
-fn cell_of(k: [f64; 5]) -> CellParameters<f64> {
+/// The cell of knot parameters `k` and the Butler–Volmer term `(a, i₀)`
+/// (none: the linear model).
+fn cell_of(k: [f64; 5], kinetic: Option<(f64, f64)>) -> CellParameters<f64> {
     let r_ct = k[1].exp();
+    let (bv_a, bv_i0) = kinetic.unwrap_or((0.0, 1.0));
     CellParameters {
         r_i: k[0].exp(),
         r_ct,
         q: k[2].exp() / r_ct,
         alpha: k[3],
         u_oc: k[4],
-        bv_a: 0.0,
-        bv_i0: 1.0,
+        bv_a,
+        bv_i0,
     }
 }
 
@@ -249,7 +296,8 @@ pub fn joint_fit(
     if counted.is_empty() {
         return Err(err!(Data, "the joint map fit has no measured sample"));
     }
-    let l = Layout::new(o.vary, kn);
+    // The Butler–Volmer term, shared by the knots, when the start has it.
+    let l = Layout::new(o.vary, kn, start.iter().all(|c| c.is_butler_volmer()));
     let ocv: Vec<f64> = d.soc.iter().map(|&z| d.ocv.model.table.ocv(z)).collect();
     let w: Vec<[(usize, f64); 2]> = d.soc.iter().map(|&z| weights(d.knots, z)).collect();
     let pen = penalty(&l, kn);
@@ -289,8 +337,18 @@ pub fn joint_fit(
     // The model at theta: the voltage and its Jacobian rows.
     let mut evaluate = |theta: &[f64]| -> (Vec<f64>, Vec<Vec<(usize, f64)>>) {
         let mut v = ocv.clone();
-        // A sample is weighed by two knots at most: ten entries a row.
-        let mut rows: Vec<Vec<(usize, f64)>> = (0..n).map(|_| Vec::with_capacity(10)).collect();
+        // A sample is weighed by two knots at most: ten entries a row,
+        // and the Butler–Volmer term's two.
+        let mut rows: Vec<Vec<(usize, f64)>> = (0..n).map(|_| Vec::with_capacity(12)).collect();
+        if let (Some(at), Some((a, i0))) = (l.kinetic, l.kinetic_of(theta)) {
+            for (k, &i) in current.iter().enumerate() {
+                let x = i / i0;
+                let s = x.asinh();
+                v[k] += a * s;
+                rows[k].push((at, a * s));
+                rows[k].push((at + 1, -a * x / (1.0 + x * x).sqrt()));
+            }
+        }
         type Branches = (Vec<f64>, Vec<f64>, Vec<f64>);
         let mut memo: Vec<((u64, u64, usize), std::rc::Rc<Branches>)> = vec![];
         for (j, &own_end) in ends.iter().enumerate() {
@@ -342,17 +400,11 @@ pub fn joint_fit(
             .map(|r| r.iter().map(|(i, c)| c * theta[*i]).sum::<f64>().powi(2))
             .sum();
         let pull: f64 = (0..l.len)
-            .map(|i| {
-                let p = (0..5).rev().find(|&p| l.first[p] <= i).unwrap_or(0);
-                ((theta[i] - start_theta[i]) / SCALE[p]).powi(2)
-            })
+            .map(|i| ((theta[i] - start_theta[i]) / l.scale_and_bounds(i).0).powi(2))
             .sum();
         data + lam * smooth + ridge * pull
     };
-    let scale_of = |i: usize| {
-        let p = (0..5).rev().find(|&p| l.first[p] <= i).unwrap_or(0);
-        SCALE[p]
-    };
+    let scale_of = |i: usize| l.scale_and_bounds(i).0;
     let mut theta = start_theta.clone();
     let (mut v, mut jrows) = evaluate(&theta);
     let mut cost = cost_of(&v, &theta);
@@ -400,8 +452,8 @@ pub fn joint_fit(
         };
         let trial: Vec<f64> = (0..l.len)
             .map(|i| {
-                let p = (0..5).rev().find(|&p| l.first[p] <= i).unwrap_or(0);
-                (theta[i] + step[i]).clamp(BOUNDS[p][0], BOUNDS[p][1])
+                let [lo, hi] = l.scale_and_bounds(i).1;
+                (theta[i] + step[i]).clamp(lo, hi)
             })
             .collect();
         // The trial is taken with its Jacobian: most are accepted, and
@@ -432,7 +484,10 @@ pub fn joint_fit(
     // residual variance.
     let sigma2 = rss / (nf - l.len as f64).max(1.0);
     let cov = a.clone().try_inverse();
-    let cells: Vec<CellParameters<f64>> = (0..kn).map(|j| cell_of(knot(&theta, &l, j))).collect();
+    let kinetic = l.kinetic_of(&theta);
+    let cells: Vec<CellParameters<f64>> = (0..kn)
+        .map(|j| cell_of(knot(&theta, &l, j), kinetic))
+        .collect();
     let mut confidence = vec![];
     let mut reasons = vec![];
     for (j, c) in cells.iter().enumerate() {
@@ -674,109 +729,4 @@ pub fn long_discharges(rec: &BatteryRecord, min_s: f64) -> Vec<bool> {
         }
     }
     out
-}
-
-/// What a joint fit was given and what it chose, for an independent fit
-/// of the same objective (`identify battery --map-method joint
-/// --levels-out DIR` writes it as `joint-record.csv` and `joint.json`;
-/// `bench/joint_reference.py` fits it with scipy).
-#[derive(Clone, Debug)]
-pub struct JointInputs {
-    /// The record the fit ran on.
-    pub record: BatteryRecord,
-    /// The counted SOC after each sample.
-    pub soc: Vec<f64>,
-    /// The OCV at that SOC (V).
-    pub ocv_v: Vec<f64>,
-    /// Which samples the fit counts.
-    pub counted: Vec<bool>,
-    /// The knots' SOCs.
-    pub knots: Vec<f64>,
-    /// Each knot's start `[ln R_i, ln R_ct, ln τ, α, ΔU]` (the pull's
-    /// centre; a shared parameter's the knots' mean), as the fit took it.
-    pub start: Vec<[f64; 5]>,
-    /// The chosen candidate's penalty (V²).
-    pub smoothing: f64,
-    /// The chosen candidate's varying set.
-    pub vary: [bool; 5],
-    /// The chosen fit's knots `[ln R_i, ln R_ct, ln τ, α, ΔU]`.
-    pub fitted: Vec<[f64; 5]>,
-    /// The chosen fit's RMSE over the counted samples (V).
-    pub rmse_v: f64,
-}
-
-impl JointInputs {
-    /// The inputs of `d` and the chosen `fit` (its start the pull's
-    /// centre).
-    pub fn of(d: &JointData<'_>, fit: &JointFit) -> Self {
-        let l = Layout::new(fit.vary, d.knots.len());
-        let theta = unknowns(&fit.start, &l);
-        JointInputs {
-            record: d.record.clone(),
-            soc: d.soc.to_vec(),
-            ocv_v: d.soc.iter().map(|&z| d.ocv.model.table.ocv(z)).collect(),
-            counted: d.counted.to_vec(),
-            knots: d.knots.to_vec(),
-            start: (0..d.knots.len()).map(|j| knot(&theta, &l, j)).collect(),
-            smoothing: fit.smoothing,
-            vary: fit.vary,
-            fitted: (0..d.knots.len())
-                .map(|j| knot(&fit.theta, &l, j))
-                .collect(),
-            rmse_v: fit.rmse_v,
-        }
-    }
-
-    /// Writes `joint-record.csv` (`time_s,current_a,voltage_v,counted,soc,ocv_v`)
-    /// and `joint.json` (the knots, the start and the fitted knots as
-    /// `[ln R_i, ln R_ct, ln τ, α, ΔU]`, the penalty, the varying set, the
-    /// scales and bounds of the unknowns, the pull's weight relative to the
-    /// penalty's, the RMSE) into `dir`.
-    ///
-    /// # Errors
-    /// [`crate::ErrorKind::Io`] when a file cannot be written.
-    pub fn write(&self, dir: &std::path::Path) -> Result<()> {
-        let r = &self.record;
-        crate::io::write_csv(
-            &dir.join("joint-record.csv"),
-            &[
-                "time_s",
-                "current_a",
-                "voltage_v",
-                "counted",
-                "soc",
-                "ocv_v",
-            ],
-            (0..r.time.len()).map(|k| {
-                [
-                    r.time[k].to_string(),
-                    r.current[k].to_string(),
-                    r.voltage[k].to_string(),
-                    u8::from(self.counted[k]).to_string(),
-                    self.soc[k].to_string(),
-                    self.ocv_v[k].to_string(),
-                ]
-            }),
-        )?;
-        let doc = serde_json::json!({
-            "h": r.h,
-            "knots": self.knots,
-            "parameters": PARAMETERS,
-            "start": self.start,
-            "fitted": self.fitted,
-            "smoothing": self.smoothing,
-            "vary": self.vary,
-            "scale": SCALE,
-            "bounds": BOUNDS,
-            "pull": PULL,
-            "rmse_v": self.rmse_v,
-        });
-        let text = serde_json::to_string_pretty(&doc)
-            .map_err(|e| err!(Io, "cannot write joint.json: {e}"))?;
-        crate::io::write_atomic(&dir.join("joint.json"), |w| {
-            w.write_all(text.as_bytes())
-                .and_then(|_| w.write_all(b"\n"))
-                .map_err(|e| err!(Io, "cannot write joint.json: {e}"))
-        })
-    }
 }

@@ -329,14 +329,22 @@ fn joint_map(
     } else {
         &usable
     };
+    // The levels fitted with the Butler–Volmer term (`--model
+    // butler-volmer`): the joint fit shares one term over the knots.
+    let kinetic = from
+        .rows
+        .iter()
+        .all(|r| r.bv_a_v.is_some_and(|a| a > 0.0) && r.bv_i0_a.is_some_and(|i| i > 0.0));
     let start: Vec<CellParameters<f64>> = knots
         .iter()
         .map(|&z| {
             let mut c = from
                 .cell_at(z, record_t)
                 .unwrap_or_else(CellParameters::cell_18650);
-            c.bv_a = 0.0;
-            c.bv_i0 = 1.0;
+            if !(kinetic && c.is_butler_volmer()) {
+                c.bv_a = 0.0;
+                c.bv_i0 = 1.0;
+            }
             c
         })
         .collect();
@@ -413,8 +421,8 @@ fn joint_map(
                 r_ct: c.r_ct,
                 q: c.q,
                 alpha: c.alpha,
-                bv_a_v: None,
-                bv_i0_a: None,
+                bv_a_v: c.is_butler_volmer().then_some(c.bv_a),
+                bv_i0_a: c.is_butler_volmer().then_some(c.bv_i0),
                 ocv_offset_v: c.u_oc,
                 rmse_v: (err / near.len().max(1) as f64).sqrt(),
                 identifiable: why.is_empty(),

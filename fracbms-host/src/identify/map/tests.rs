@@ -554,3 +554,113 @@ fn the_pulses_of_one_soc_are_one_level_and_one_knot() {
     assert_eq!(one_level_per_soc(apart.clone()), apart);
     assert_eq!(level_knots(&apart).len(), 1);
 }
+
+/// With the Butler–Volmer term (`--model butler-volmer`) the knots share
+/// one term `(a, i₀)`, fitted with them: on a record of three pulse
+/// currents (2.5, 5 and 10 A) made with the term, the joint fit recovers
+/// it and fits to the noise, where the linear joint fit of the same record
+/// cannot.
+#[test]
+fn the_joint_fit_shares_one_butler_volmer_term() {
+    crate::worker::on_worker(|| {
+        joint_fit_shares_one_butler_volmer_term();
+        Ok::<_, crate::Error>(())
+    })
+    .unwrap();
+}
+
+fn joint_fit_shares_one_butler_volmer_term() {
+    let (a, i0) = (0.02, 3.0);
+    // One cell throughout (a cell switched per level is not a map model's
+    // blend in SOC: neither model would fit to the noise).
+    let cell = |_level: usize| CellParameters {
+        bv_a: a,
+        bv_i0: i0,
+        ..truth(1)
+    };
+    let mut seed = 777u64;
+    let mut noise = || {
+        seed = seed
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        ((seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5) * 0.5e-3 * 12f64.sqrt()
+    };
+    let (mut current, mut voltage, mut z) = (vec![0.0; 600], vec![], 0.95);
+    voltage.extend((0..600).map(|_| ocv_nmc::<f64>(z)));
+    for level in 0..3 {
+        let mut i = vec![0.0; 60];
+        for amp in [-10.0, 5.0, -5.0] {
+            i.extend([amp; 10]);
+            i.extend([0.0; 50]);
+        }
+        i.extend([-2.5; 360]);
+        i.extend([0.0; 600]);
+        let up = model_voltage(&cell(level), 1.0, &i).unwrap();
+        for (k, &ik) in i.iter().enumerate() {
+            z += ik / 3600.0 / CAP;
+            current.push(ik);
+            voltage.push(ocv_nmc::<f64>(z) + up[k]);
+        }
+    }
+    for v in &mut voltage {
+        *v += noise();
+    }
+    let n = current.len();
+    let rec = BatteryRecord {
+        time: (0..n).map(|k| k as f64).collect(),
+        current,
+        voltage,
+        h: 1.0,
+    };
+    let c = spec(Some(0.95)).resolve(Path::new("r"), &rec).unwrap();
+    let soc: Vec<f64> = counted_soc(&rec, &c, &[])
+        .iter()
+        .zip(&rec.current)
+        .map(|(z, i)| z + i / (3600.0 * CAP))
+        .collect();
+    let counted = vec![true; n];
+    let knots = [0.75, 0.85, 0.95];
+    let d = joint::JointData {
+        record: &rec,
+        soc: &soc,
+        ocv: &c,
+        counted: &counted,
+        knots: &knots,
+    };
+    // Every knot started linear-like: half its R_i as the term, i₀ 1 A.
+    let linear: Vec<CellParameters<f64>> = (0..3)
+        .map(|_| CellParameters {
+            r_i: 0.03,
+            r_ct: 0.02,
+            q: 400.0,
+            alpha: 0.8,
+            ..truth(0)
+        })
+        .collect();
+    let start: Vec<CellParameters<f64>> =
+        linear.iter().map(|c| c.with_butler_volmer(1.0)).collect();
+    let o = joint::JointOptions {
+        smoothing: 1e-7,
+        vary: [true; 5],
+        iterations: 60,
+    };
+    let fit = joint::joint_fit(&d, &start, &o).unwrap();
+    let without = joint::joint_fit(&d, &linear, &o).unwrap();
+    let c0 = fit.cells[0];
+    assert!(fit
+        .cells
+        .iter()
+        .all(|c| (c.bv_a, c.bv_i0) == (c0.bv_a, c0.bv_i0)));
+    assert!((c0.bv_a / a - 1.0).abs() < 0.05, "a {}", c0.bv_a);
+    assert!((c0.bv_i0 / i0 - 1.0).abs() < 0.05, "i0 {}", c0.bv_i0);
+    assert!(fit.rmse_v < 0.55e-3, "{}", fit.rmse_v);
+    assert!(
+        without.rmse_v > 2.0 * fit.rmse_v,
+        "{} vs {}",
+        without.rmse_v,
+        fit.rmse_v
+    );
+    assert!(without.cells.iter().all(|c| !c.is_butler_volmer()));
+    let inputs = joint::JointInputs::of(&d, &fit);
+    assert_eq!(inputs.butler_volmer, Some([c0.bv_a, c0.bv_i0]));
+}
