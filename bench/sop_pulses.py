@@ -178,13 +178,14 @@ def groups(ps, gap_s=GROUP_GAP_S):
     return out
 
 
-def record_map(host_sim, path, out, method, ocv=PAN_OCV, capacity_ah=CAPACITY_AH, min_rest=3000):
+def record_map(host_sim, path, out, method, ocv=PAN_OCV, capacity_ah=CAPACITY_AH, min_rest=3000,
+               model="linear"):
     """The record's own parameter map (bench/panasonic_chain.sh's settings,
     `--map-method method`; joint by default: its state of power is the
     closer of the two methods here, docs/bms-states.md)."""
     m = f"{out}/map.csv"
     subprocess.run([host_sim, "identify", "battery", "--input", path, "--ocv", ocv,
-                    "--capacity-ah", str(capacity_ah), "--min-rest", str(min_rest), "--model", "linear",
+                    "--capacity-ah", str(capacity_ah), "--min-rest", str(min_rest), "--model", model,
                     "--map-method", method, "--map-out", m], check=True,
                    stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     return m
@@ -213,7 +214,7 @@ def row_before(track, start):
     return np.searchsorted(tt, start - (tt[1] - tt[0]), side="right") - 1
 
 
-def acceptance(host_sim, out, map_method, online_args=()):
+def acceptance(host_sim, out, map_method, online_args=(), map_model="linear"):
     """Every pulse from each record's second pulse group on, with and
     without the record's own map as the prior, beside two baselines
     measured on the same pulses: the last pulse's drop at that duration
@@ -233,7 +234,7 @@ def acceptance(host_sim, out, map_method, online_args=()):
         g = groups(ps, gap_s)
         rec_out = record_dir(out, path)
         os.makedirs(rec_out, exist_ok=True)
-        mp = record_map(host_sim, path, rec_out, map_method, ocv_path, cap, min_rest)
+        mp = record_map(host_sim, path, rec_out, map_method, ocv_path, cap, min_rest, map_model)
         currents = sorted({round(c, 1) for _, c, _ in ps})
         # Baselines: per pulse and horizon, keyed by the pulse's index.
         naive, rc = {}, {}
@@ -323,13 +324,15 @@ def main():
                     "two baselines (issue 72)")
     ap.add_argument("--map-method", default="joint", choices=("joint", "levels"),
                     help="with --acceptance: how the record's own map is made (default joint)")
+    ap.add_argument("--map-model", default="linear", choices=("linear", "butler-volmer"),
+                    help="with --acceptance: the model the record's own map is fitted with (default linear)")
     ap.add_argument("--online-args", default="",
                     help="with --acceptance: more flags for every `online battery` run, "
                     "e.g. '--slow-memory-s 600'")
     a = ap.parse_args()
     os.makedirs(a.out, exist_ok=True)
     if a.acceptance:
-        acceptance(a.host_sim, a.out, a.map_method, a.online_args.split())
+        acceptance(a.host_sim, a.out, a.map_method, a.online_args.split(), a.map_model)
         return
     ps, (t, v) = pulses()
     if a.resistances:
