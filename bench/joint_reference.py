@@ -22,7 +22,10 @@ shared value; ``tau = R_ct Q``)::
          + L sum_{varying p, j = 1..K-2} ((th_p,j-1 - 2 th_p,j + th_p,j+1) / s_p)^2
          + pull L sum_i ((th_i - th0_i) / s_p(i))^2,      L = lambda * N_counted
 
-with ``w_j`` the hat weights of the knots (held beyond the end knots), I the
+(with ``--model butler-volmer``, plus ``a asinh(I(k) / i0)`` in ``v_hat``, its
+``ln a`` and ``ln i0`` two more unknowns shared by the knots, scale 1 in the
+pull, from ``joint.json``'s ``butler_volmer_start`` within
+``butler_volmer_bounds``), with ``w_j`` the hat weights of the knots (held beyond the end knots), I the
 current (NaN -> 0), ``y_j`` the unit branch (R_ct = 1) of knot j over the
 whole record from rest with full Grunwald-Letnikov memory, ``a = tau_j
 h^-alpha_j`` (``bench/reference_fit.py``'s ``cpe_branch`` with r_ct = 1,
@@ -89,9 +92,6 @@ class Problem:
         with open(os.path.join(folder, "joint.json")) as f:
             d = json.load(f)
         self.doc = d
-        if d.get("butler_volmer"):
-            sys.exit("this joint map shares a Butler-Volmer term (identify --model butler-volmer); "
-                     "the reference fits the linear joint map only")
         _, i, v, counted, soc, ocv = read_csv(
             os.path.join(folder, "joint-record.csv"),
             ["time_s", "current_a", "voltage_v", "counted", "soc", "ocv_v"],
@@ -130,13 +130,23 @@ class Problem:
         for p in range(5):
             self.first.append(at)
             at += k if self.vary[p] else 1
-        self.m = at
+        # With the Butler-Volmer term: ln a and ln i0 last, shared by the
+        # knots (scale 1 in the pull).
+        self.kin = at if d.get("butler_volmer") else None
+        self.m = at + (2 if self.kin is not None else 0)
         self.param = np.array([p for p in range(5) for _ in range(k if self.vary[p] else 1)])
         self.s = self.scale[self.param]
         self.lo = self.bounds[self.param, 0]
         self.hi = self.bounds[self.param, 1]
         self.theta0 = self.theta_of(np.asarray(d["start"], float))
         self.theta_ours = self.theta_of(np.asarray(d["fitted"], float))
+        if self.kin is not None:
+            kb = np.asarray(d["butler_volmer_bounds"], float)
+            self.s = np.concatenate([self.s, [1.0, 1.0]])
+            self.lo = np.concatenate([self.lo, kb[:, 0]])
+            self.hi = np.concatenate([self.hi, kb[:, 1]])
+            self.theta0 = np.concatenate([self.theta0, np.log(d["butler_volmer_start"])])
+            self.theta_ours = np.concatenate([self.theta_ours, np.log(d["butler_volmer"])])
         # Penalty rows (second differences / scale), as a dense matrix.
         rows = []
         for p in range(5):
@@ -156,9 +166,11 @@ class Problem:
         return self.first[p] + (j if self.vary[p] else 0)
 
     def theta_of(self, knots_params):
-        """theta from K lists (a shared parameter: the knots' mean, as ours)."""
-        th = np.zeros(self.m)
-        n = np.zeros(self.m)
+        """theta's knot part from K lists (a shared parameter: the knots'
+        mean, as ours)."""
+        m = self.kin if self.kin is not None else self.m
+        th = np.zeros(m)
+        n = np.zeros(m)
         for j in range(self.K):
             for p in range(5):
                 th[self.index(p, j)] += knots_params[j, p]
@@ -188,6 +200,9 @@ class Problem:
 
     def model(self, theta):
         vh = self.ocv.copy()
+        if self.kin is not None:
+            a, i0 = np.exp(theta[self.kin]), np.exp(theta[self.kin + 1])
+            vh += a * np.arcsinh(self.i / i0)
         for j, y in enumerate(self.branches(theta)):
             e = self.end[j]
             if e == 0:
@@ -210,6 +225,11 @@ class Problem:
         n = len(self.v)
         jd = np.zeros((n, self.m))
         ys = self.branches(theta)
+        if self.kin is not None:
+            a, i0 = np.exp(theta[self.kin]), np.exp(theta[self.kin + 1])
+            x = self.i / i0
+            jd[:, self.kin] = a * np.arcsinh(x)
+            jd[:, self.kin + 1] = -a * x / np.sqrt(1.0 + x * x)
         for j in range(self.K):
             e = self.end[j]
             if e == 0:
@@ -341,6 +361,11 @@ def main():
           f"lowers the cost by {100 * (1 - pb.parts(fits['reference from ours'])[1] / c_ours):.4f} %")
     print()
     print(knots_table(pb, pb.theta_ours, ref, "ours", "ref"))
+    if pb.kin is not None:
+        ao, io = np.exp(pb.theta_ours[pb.kin:pb.kin + 2])
+        ar, ir = np.exp(ref[pb.kin:pb.kin + 2])
+        print(f"\nButler-Volmer term: a {ao * 1e3:.3f} / {ar * 1e3:.3f} mV, "
+              f"i0 {io:.4f} / {ir:.4f} A (ours / ref)")
 
     chain = [float(x) for x in args.chain.split(",") if x.strip()]
     if chain:

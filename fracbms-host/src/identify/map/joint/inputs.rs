@@ -3,7 +3,9 @@
 //!
 //! It owns [`JointInputs`] and its files; it must not fit.
 
-use super::{knot, unknowns, JointData, JointFit, Layout, BOUNDS, PARAMETERS, PULL, SCALE};
+use super::{
+    knot, unknowns, JointData, JointFit, Layout, BOUNDS, KINETIC_BOUNDS, PARAMETERS, PULL, SCALE,
+};
 use crate::err;
 use crate::error::Result;
 use crate::io::BatteryRecord;
@@ -35,9 +37,11 @@ pub struct JointInputs {
     pub fitted: Vec<[f64; 5]>,
     /// The chosen fit's RMSE over the counted samples (V).
     pub rmse_v: f64,
-    /// The Butler–Volmer term `(a, i₀)` the knots share, fitted (none:
+    /// The Butler–Volmer term `[a, i₀]` the knots share, fitted (none:
     /// the linear model).
     pub butler_volmer: Option<[f64; 2]>,
+    /// The term's start `[a, i₀]`, the pull's centre.
+    pub butler_volmer_start: Option<[f64; 2]>,
 }
 
 impl JointInputs {
@@ -64,6 +68,7 @@ impl JointInputs {
                 .collect(),
             rmse_v: fit.rmse_v,
             butler_volmer: l.kinetic_of(&fit.theta).map(|(a, i0)| [a, i0]),
+            butler_volmer_start: l.kinetic_of(&theta).map(|(a, i0)| [a, i0]),
         }
     }
 
@@ -71,8 +76,9 @@ impl JointInputs {
     /// and `joint.json` (the knots, the start and the fitted knots as
     /// `[ln R_i, ln R_ct, ln τ, α, ΔU]`, the penalty, the varying set, the
     /// scales and bounds of the unknowns, the pull's weight relative to the
-    /// penalty's, the RMSE, and `butler_volmer`: the shared term's fitted
-    /// `[a, i₀]` or null) into `dir`.
+    /// penalty's, the RMSE, and `butler_volmer` and `butler_volmer_start`:
+    /// the shared term's fitted and start `[a, i₀]` or null, with
+    /// `butler_volmer_bounds`, those of `[ln a, ln i₀]`) into `dir`.
     ///
     /// # Errors
     /// [`crate::ErrorKind::Io`] when a file cannot be written.
@@ -112,6 +118,8 @@ impl JointInputs {
             "pull": PULL,
             "rmse_v": self.rmse_v,
             "butler_volmer": self.butler_volmer,
+            "butler_volmer_start": self.butler_volmer_start,
+            "butler_volmer_bounds": KINETIC_BOUNDS,
         });
         let text = serde_json::to_string_pretty(&doc)
             .map_err(|e| err!(Io, "cannot write joint.json: {e}"))?;
