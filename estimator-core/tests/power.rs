@@ -452,6 +452,33 @@ fn at_power_up_from_rest_a_first_pulse_is_fitted() {
     assert!((r_i / truth.r_i - 1.0).abs() < 0.05, "{r_i}");
 }
 
+/// Where [`gap_then_pulse`] stops logging (sample), for how long (s), how
+/// long it is logged at rest after the gap and how long its pulse runs.
+const GAP_AT: usize = 1100;
+const GAP_S: usize = 1500;
+const GAP_RESTED: usize = 5;
+const GAP_PULSE: usize = 10;
+
+/// A record of `truth` (noise seen until the pulse) that stops being
+/// logged at [`GAP_AT`], resumes at rest [`GAP_S`] samples later, and
+/// [`GAP_RESTED`] samples on takes a −5 A pulse of [`GAP_PULSE`]
+/// samples; and the state of power asked at that pulse.
+fn gap_then_pulse(truth: &CellParameters<f64>) -> (Vec<f64>, Vec<f64>, PowerSettings<f64>) {
+    let resume = GAP_AT + GAP_S;
+    let (mut i, _) = record(GAP_AT, 0.0, resume + GAP_RESTED + GAP_PULSE - GAP_AT);
+    for x in i.iter_mut().skip(resume + GAP_RESTED) {
+        *x = -5.0;
+    }
+    let v = noisy(truth_voltage(truth, &i), resume + GAP_RESTED);
+    let limits = PowerLimits {
+        voltage_min: 2.5,
+        voltage_max: 4.2,
+        current_limit: 50.0,
+    };
+    let power = PowerSettings::new(limits, &[GAP_PULSE as u32], Some(-5.0)).unwrap();
+    (i, v, power)
+}
+
 /// A state of power at every sample once every parameter has been
 /// published, with its basis: across a gap that resumes at rest (the
 /// window restarts, so no fit's polarization is carried; the rested
@@ -464,19 +491,8 @@ fn at_power_up_from_rest_a_first_pulse_is_fitted() {
 #[test]
 fn after_a_gap_at_rest_the_state_of_power_comes_from_what_is_held() {
     let truth = CellParameters::<f64>::cell_18650();
-    let (at, gap, rested, k) = (1100, 1500, 5, 10);
-    let resume = at + gap;
-    let (mut i, _) = record(at, 0.0, resume + rested + k - at);
-    for x in i.iter_mut().skip(resume + rested) {
-        *x = -5.0;
-    }
-    let v = noisy(truth_voltage(&truth, &i), resume + rested);
-    let limits = PowerLimits {
-        voltage_min: 2.5,
-        voltage_max: 4.2,
-        current_limit: 50.0,
-    };
-    let power = PowerSettings::new(limits, &[k as u32], Some(-5.0)).unwrap();
+    let (at, resume, rested, k) = (GAP_AT, GAP_AT + GAP_S, GAP_RESTED, GAP_PULSE);
+    let (i, v, power) = gap_then_pulse(&truth);
     let plain = OnlineSettings::new(1.0, 64, truth).with_ocv(nmc());
     let mut with_prior = plain;
     with_prior.battery.prior = Some(Prior::new(CellParameters {
@@ -615,19 +631,8 @@ fn a_butler_volmer_maps_term_is_its_state_of_power() {
         bv_i0: 2.0,
         ..CellParameters::cell_18650()
     };
-    let (at, gap, rested, k) = (1100, 1500, 5, 10);
-    let resume = at + gap;
-    let (mut i, _) = record(at, 0.0, resume + rested + k - at);
-    for x in i.iter_mut().skip(resume + rested) {
-        *x = -5.0;
-    }
-    let v = noisy(truth_voltage(&truth, &i), resume + rested);
-    let limits = PowerLimits {
-        voltage_min: 2.5,
-        voltage_max: 4.2,
-        current_limit: 50.0,
-    };
-    let power = PowerSettings::new(limits, &[k as u32], Some(-5.0)).unwrap();
+    let (at, resume, rested, k) = (GAP_AT, GAP_AT + GAP_S, GAP_RESTED, GAP_PULSE);
+    let (i, v, power) = gap_then_pulse(&truth);
     let mut s = OnlineSettings::new(1.0, 64, truth.linearized()).with_ocv(nmc());
     s.battery.prior = Some(Prior::new(truth));
     let mut est = Box::new(CellEstimator::<f64, 256, 64>::new(&s).unwrap());

@@ -29,6 +29,17 @@ fn spec(soc0: Option<f64>) -> OcvSpec {
     OcvSpec::new(HostOcvTable::new(&z, &v).unwrap(), CAP, soc0).unwrap()
 }
 
+/// Uniform noise of standard deviation 0.5 mV from `seed` (a 64-bit
+/// linear congruential generator).
+fn noise_of(mut seed: u64) -> impl FnMut() -> f64 {
+    move || {
+        seed = seed
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        ((seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5) * 0.5e-3 * 12f64.sqrt()
+    }
+}
+
 /// An HPPC-like record at 1 s: a 640 s rest, then per level 60 s of rest,
 /// ±5 A pulses of 10 s, a 0.25 A·h discharge and a 640 s rest, each level
 /// simulated from rest with its own cell; noise 0.5 mV.
@@ -36,13 +47,7 @@ fn hppc(levels: usize) -> BatteryRecord {
     let mut current = vec![0.0; 640];
     let mut voltage = vec![ocv_nmc::<f64>(0.95); 640];
     let mut z = 0.95;
-    let mut seed = 12345u64;
-    let mut noise = || {
-        seed = seed
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        ((seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5) * 0.5e-3 * 12f64.sqrt()
-    };
+    let mut noise = noise_of(12345);
     for v in &mut voltage {
         *v += noise();
     }
@@ -384,16 +389,36 @@ fn the_joint_fit_recovers_the_levels_and_holds_an_unseen_knot() {
     .unwrap();
 }
 
-fn joint_fit_recovers_the_levels() {
-    let rec = hppc(3);
-    let c = spec(Some(0.95)).resolve(Path::new("r"), &rec).unwrap();
-    let before = counted_soc(&rec, &c, &[]);
+/// The joint fit's view of a made record: its OCV (start SOC 0.95), the
+/// counted SOC before and after each sample's charge, every sample counted.
+fn joint_view(rec: &BatteryRecord) -> (crate::ocv::CellOcv, Vec<f64>, Vec<f64>, Vec<bool>) {
+    let c = spec(Some(0.95)).resolve(Path::new("r"), rec).unwrap();
+    let before = counted_soc(rec, &c, &[]);
     let soc: Vec<f64> = before
         .iter()
         .zip(&rec.current)
         .map(|(z, i)| z + i / (3600.0 * CAP))
         .collect();
     let counted = vec![true; rec.time.len()];
+    (c, before, soc, counted)
+}
+
+/// `k` start cells 30 % off the first level's cell everywhere.
+fn off_start(k: usize) -> Vec<CellParameters<f64>> {
+    (0..k)
+        .map(|_| CellParameters {
+            r_i: 0.03,
+            r_ct: 0.02,
+            q: 400.0,
+            alpha: 0.8,
+            ..truth(0)
+        })
+        .collect()
+}
+
+fn joint_fit_recovers_the_levels() {
+    let rec = hppc(3);
+    let (c, before, soc, counted) = joint_view(&rec);
     // Knots at the levels' SOCs (0.95, 0.85, 0.75) and one at 0.99 that
     // no sample reaches.
     let knots = [0.75, 0.85, 0.95, 0.99];
@@ -405,15 +430,7 @@ fn joint_fit_recovers_the_levels() {
         knots: &knots,
     };
     // A start 30 % off the truth everywhere.
-    let start: Vec<CellParameters<f64>> = (0..4)
-        .map(|_| CellParameters {
-            r_i: 0.03,
-            r_ct: 0.02,
-            q: 400.0,
-            alpha: 0.8,
-            ..truth(0)
-        })
-        .collect();
+    let start = off_start(4);
     let o = joint::JointOptions {
         smoothing: 1e-7,
         vary: [true; 5],
@@ -579,13 +596,7 @@ fn joint_fit_shares_one_butler_volmer_term() {
         bv_i0: i0,
         ..truth(1)
     };
-    let mut seed = 777u64;
-    let mut noise = || {
-        seed = seed
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        ((seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5) * 0.5e-3 * 12f64.sqrt()
-    };
+    let mut noise = noise_of(777);
     let (mut current, mut voltage, mut z) = (vec![0.0; 600], vec![], 0.95);
     voltage.extend((0..600).map(|_| ocv_nmc::<f64>(z)));
     for level in 0..3 {
@@ -613,13 +624,7 @@ fn joint_fit_shares_one_butler_volmer_term() {
         voltage,
         h: 1.0,
     };
-    let c = spec(Some(0.95)).resolve(Path::new("r"), &rec).unwrap();
-    let soc: Vec<f64> = counted_soc(&rec, &c, &[])
-        .iter()
-        .zip(&rec.current)
-        .map(|(z, i)| z + i / (3600.0 * CAP))
-        .collect();
-    let counted = vec![true; n];
+    let (c, _, soc, counted) = joint_view(&rec);
     let knots = [0.75, 0.85, 0.95];
     let d = joint::JointData {
         record: &rec,
@@ -628,16 +633,9 @@ fn joint_fit_shares_one_butler_volmer_term() {
         counted: &counted,
         knots: &knots,
     };
-    // Every knot started linear-like: half its R_i as the term, i₀ 1 A.
-    let linear: Vec<CellParameters<f64>> = (0..3)
-        .map(|_| CellParameters {
-            r_i: 0.03,
-            r_ct: 0.02,
-            q: 400.0,
-            alpha: 0.8,
-            ..truth(0)
-        })
-        .collect();
+    // Every knot started linear-like (then half its R_i as the term, i₀
+    // 1 A).
+    let linear = off_start(3);
     let start: Vec<CellParameters<f64>> =
         linear.iter().map(|c| c.with_butler_volmer(1.0)).collect();
     let o = joint::JointOptions {
