@@ -618,11 +618,12 @@ fn the_next_pulse_widens_the_state_of_power_by_what_it_missed() {
 
 /// A map fitted with the Butler–Volmer term (`identify battery --model
 /// butler-volmer --map-method joint`) as the prior of the linear online
-/// model: its `map` basis predicts with the map's `R_i` and its term as one
-/// set (the window's linear estimate has none), and from a rest that has
+/// model, which holds the prior's term and never fits it: its `map` basis
+/// predicts with the map's `R_i` and that term, from a rest that has
 /// emptied the window, whose largest current is then unknown (the term is
-/// the map's, fitted over its test's currents). The term is
-/// `a·asinh(5/i₀)` = 16.5 mV of the pulse's drop.
+/// the map's, fitted over its test's currents, not capped at the
+/// window's). The term is `a·asinh(5/i₀)` = 16.5 mV of the pulse's drop;
+/// with the term treated as the window's, the pulse was 5 mV off.
 #[test]
 fn a_butler_volmer_maps_term_is_its_state_of_power() {
     let truth = CellParameters::<f64> {

@@ -47,7 +47,7 @@ use super::power::{
 use super::tracker::{
     check_limits, CellState, CellWindow, CurrentHistory, OnlineSettings, SampleReport, WorkingArea,
 };
-use super::CellParameters;
+use super::{CellModel, CellParameters};
 use crate::error::Error;
 use crate::frac::GlWeights;
 use crate::real::Real;
@@ -346,13 +346,13 @@ fn check_cells<T: Real, const N: usize, const CELLS: usize, const P: usize>(
     check_limits(s)
 }
 
-/// True when `q`'s Butler–Volmer term is the map prior's: fitted over its
-/// test's currents, so the state of power neither caps its currents at
-/// the window's largest nor waits for the window to have seen one.
-fn maps_term<T: Real, const P: usize>(s: &OnlineSettings<T, P>, q: &CellParameters<T>) -> bool {
-    s.battery.prior.as_ref().is_some_and(|pr| {
-        pr.center.is_butler_volmer() && pr.center.bv_a == q.bv_a && pr.center.bv_i0 == q.bv_i0
-    })
+/// True when the model's Butler–Volmer term is held, not fitted by the
+/// window: the linear online model holds the start's term ([`CellModel`]),
+/// a Butler–Volmer prior's (a map fitted with the term over its test's
+/// currents). Its state of power then neither caps the currents at the
+/// window's largest nor waits for the window to have seen one.
+fn term_held<T: Real, const P: usize>(s: &OnlineSettings<T, P>) -> bool {
+    s.battery.model == CellModel::Linear
 }
 
 /// The median of `x` (sorted in place; the mean of the middle two for an
@@ -603,12 +603,13 @@ impl<T: Real, const N: usize, const MEM: usize, const CELLS: usize>
         // which a window at rest does not identify (on the measured
         // Panasonic cell the split reached ±32 mV and put the 2 s pulse
         // 47 % of its drop off at the 90th percentile; docs/bms-states.md).
-        // With the Butler–Volmer term, only while the tail knows the
-        // largest current of the window the estimate was fitted on (the
-        // term's state of power is capped there; a long rest has emptied
-        // the window itself).
+        // With a Butler–Volmer term the window fits, only while the tail
+        // knows the largest current of the window the estimate was fitted
+        // on (the term's state of power is capped there; a long rest has
+        // emptied the window itself); a term the linear model holds was
+        // not fitted there.
         let known = q.bv_a == T::zero()
-            || maps_term(s, q)
+            || term_held(s)
             || (p.is_some() && tail.model() == p && tail.largest_current() > T::zero());
         let rested = known.then(|| c.relaxed_voltage(s).zip(ocv)).flatten();
         if let Some((v, (m, z))) = rested {
@@ -683,9 +684,10 @@ impl<T: Real, const N: usize, const MEM: usize, const CELLS: usize>
     /// [`pulse_predictor`](Self::pulse_predictor) carries (at most
     /// [`PowerSettings::carry`] samples from the fit, or from a relaxed
     /// cell). `None` before every parameter has been published once, or
-    /// without a predictor. With the Butler–Volmer term, the currents are
-    /// capped at the largest the cell's window holds: the term is not
-    /// extrapolated. Each pulse voltage carries its standard deviation
+    /// without a predictor. With a Butler–Volmer term the window fits, the
+    /// currents are capped at the largest the cell's window holds: the
+    /// term is not extrapolated (a term the linear model holds, a
+    /// Butler–Volmer prior's, is not capped). Each pulse voltage carries its standard deviation
     /// from the set's spread ([`CellState::sop_spread`]) and what the
     /// cell's last pulse missed its prediction by ([`PulseCheck`]), and the
     /// currents keep [`PowerSettings::confidence`] of it inside the limits.
@@ -705,9 +707,10 @@ impl<T: Real, const N: usize, const MEM: usize, const CELLS: usize>
         // cycles, a 5C state of power from the extrapolated term took the
         // cell 165–262 mV below its limit within 30 s; docs/bms-states.md).
         let mut power = *power;
-        // A Butler–Volmer map's own term (the `map` basis) was fitted over
-        // its test's currents, not capped by the window's.
-        if c.window_estimate().is_some_and(|p| p.is_butler_volmer()) && !maps_term(s, &q) {
+        // A term the linear model holds (a Butler–Volmer prior's) was
+        // fitted over the prior's test's currents: not capped by the
+        // window's.
+        if c.window_estimate().is_some_and(|p| p.is_butler_volmer()) && !term_held(s) {
             // The window's largest current; from a long rest, which has
             // emptied the window, the one noted as the tail was carried
             // into the rest (`follow_polarization`).

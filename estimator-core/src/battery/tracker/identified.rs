@@ -553,19 +553,13 @@ impl<T: Real, const N: usize> CellState<T, N> {
             return Some((p, SopBasis::Window));
         }
         if let Some(c) = prior {
-            let mut q = CellParameters {
+            let q = CellParameters {
                 r_i: c.r_i,
                 r_ct: c.r_ct,
                 q: c.q,
                 alpha: c.alpha,
                 ..p
             };
-            // A Butler–Volmer map's term was fitted with its `R_i`, over
-            // its test's currents: the two are one set.
-            if c.is_butler_volmer() {
-                q.bv_a = c.bv_a;
-                q.bv_i0 = c.bv_i0;
-            }
             return Some((q, SopBasis::Map));
         }
         if named.iter().all(|(_, x)| x.value.is_some()) {
