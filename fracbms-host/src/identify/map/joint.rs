@@ -12,7 +12,10 @@
 //! from rest (the exact full-memory branch by FFT), the knots' voltages
 //! blended by the hat weights of the counted SOC, plus `OCV(SOC)`. The
 //! unknowns are `ln R_i, ln R_ct, ln τ, α, ΔU` per knot for a parameter
-//! that varies with SOC, one value for all knots for one that does not.
+//! that varies with SOC, one value for all knots for one that does not;
+//! with the Butler–Volmer term (every start cell has one: the levels were
+//! fitted with `--model butler-volmer`), `ln a` and `ln i₀` of one term
+//! `a·asinh(I/i₀)` shared by the knots, last.
 //! The cost is the sum of squared residuals over the measured samples plus
 //! `N·λ·Σ (second difference across knots / scale)²` (scales: 1 for the
 //! logarithms, 0.1 for α, 10 mV for ΔU), so a knot the data barely see
