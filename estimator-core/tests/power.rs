@@ -10,7 +10,7 @@ use estimator_core::battery::ocv::OcvModel;
 use estimator_core::battery::online::{CellEstimator, OnlineSettings, Status};
 use estimator_core::battery::pack::{PackEstimator, PackSettings};
 use estimator_core::battery::power::{
-    PowerLimits, PowerSettings, PulsePredictor, ResponseMiss, SopBasis,
+    ParameterSpread, PowerLimits, PowerSettings, PulsePredictor, ResponseMiss, SopBasis,
 };
 use estimator_core::battery::profile::{ocv_nmc, Profile};
 use estimator_core::battery::simulate::simulate;
@@ -657,4 +657,45 @@ fn a_butler_volmer_maps_term_is_its_state_of_power() {
     );
     assert!(term > 0.015);
     assert!((got - want).abs() < 0.003, "{got} vs {want}");
+    // The held term is a map value: its `ln a` and `ln i₀` have the map's
+    // bound, and the pulse voltage's σ carries the term's shift at the
+    // pulse's current (in quadrature with the rest).
+    let c = est.cell_state();
+    let (q, basis) = c.sop_parameters(&s).unwrap();
+    let bound = s.identify_factor.ln() / 1.96;
+    let spread = c.sop_spread(&s, basis, &q, ResponseMiss::NONE);
+    assert_eq!((spread.bv_a, spread.bv_i0), (bound, bound));
+    let none = ParameterSpread {
+        bv_a: 0.0,
+        bv_i0: 0.0,
+        ..spread
+    };
+    // (The σ is the pulse's own response moved: the polarization carried
+    // and the curve do not enter it.)
+    let w = GlWeights::<f64, 64>::new(q.alpha, 1.0, 64).unwrap();
+    let pred = PulsePredictor::<f64, 64, 101>::new(&q, &w, &[], None).unwrap();
+    let sd = |sp: &ParameterSpread<f64>| {
+        pred.power_with_spread(&power, sp).horizons()[0]
+            .uncertainty_v
+            .unwrap()
+    };
+    let by_a = term * (bound.exp() - 1.0);
+    let by_i0 = truth.bv_a * (5.0 / (truth.bv_i0 * bound.exp())).asinh() - term;
+    let kinetic = by_a.hypot(by_i0);
+    let (with, without) = (sd(&spread), sd(&none));
+    println!(
+        "sigma {:.2} mV with the term's spread, {:.2} mV without (its shift {:.2} mV)",
+        1e3 * with,
+        1e3 * without,
+        1e3 * kinetic
+    );
+    assert!(
+        (with - without.hypot(kinetic)).abs() < 1e-9,
+        "{with} {without} {kinetic}"
+    );
+    // The Butler–Volmer model fits its own term: not moved.
+    let mut fitted = s;
+    fitted.battery.model = CellModel::ButlerVolmer;
+    let own = c.sop_spread(&fitted, basis, &q, ResponseMiss::NONE);
+    assert_eq!((own.bv_a, own.bv_i0), (0.0, 0.0));
 }

@@ -532,9 +532,18 @@ impl<'a, T: Real, const MEM: usize, const P: usize> PulsePredictor<'a, T, MEM, P
             Some((self.shifts(horizons, longest, sp, &base)?, sp))
         });
         let conf = spread.map_or(T::zero(), |(_, c)| c);
+        // A held Butler–Volmer term's spread: its shift at each current.
+        let kinetic = shifts
+            .as_ref()
+            .is_some_and(|(_, sp)| spread::moves_kinetic(&self.p, sp));
         let sigma = |j: usize, i: T| {
             let (sh, sp) = shifts.as_ref()?;
-            Some(spread::sigma_at(*sh.get(j)?, sp.noise_v, i))
+            let k = if kinetic {
+                spread::kinetic_shift(&self.p, sp, i)
+            } else {
+                T::zero()
+            };
+            Some(spread::sigma_at(*sh.get(j)?, sp.noise_v, i, k))
         };
         let margin = |j: usize, i: T| sigma(j, i).map_or(T::zero(), |s| conf * s);
         let sure = T::lit(SURE_V);

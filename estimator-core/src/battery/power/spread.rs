@@ -15,7 +15,8 @@ use crate::real::Real;
 
 /// How far the parameters a state of power is predicted with may be from
 /// the cell's: one standard deviation of `ln R_i`, `ln R_ct`, `ln Q` and
-/// of α, and the voltage's own scatter about the model (V). A predicted
+/// of α (and of a held Butler–Volmer term's `ln a` and `ln i₀`), and the
+/// voltage's own scatter about the model (V). A predicted
 /// voltage's standard deviation is the model's answer to each parameter
 /// moved by its own (one at a time, added in quadrature with the scatter:
 /// the parameters' correlation is not known where the values came from
@@ -25,7 +26,8 @@ use crate::real::Real;
 /// ```
 /// use estimator_core::battery::power::{ParameterSpread, ResponseMiss};
 /// let s = ParameterSpread {
-///     r_i: 0.05, r_ct: 0.1, q: 0.1, alpha: 0.02, noise_v: 1e-3, response: ResponseMiss::NONE,
+///     r_i: 0.05, r_ct: 0.1, q: 0.1, alpha: 0.02, bv_a: 0.0, bv_i0: 0.0, noise_v: 1e-3,
+///     response: ResponseMiss::NONE,
 /// };
 /// assert!(s.is_valid());
 /// assert!(!ParameterSpread { noise_v: -1.0, ..s }.is_valid());
@@ -41,6 +43,13 @@ pub struct ParameterSpread<T> {
     pub q: T,
     /// Standard deviation of α.
     pub alpha: T,
+    /// Standard deviation of the Butler–Volmer term's `ln a` when the
+    /// term is held, not fitted by the window (a Butler–Volmer prior's
+    /// under the linear model, [`crate::battery::CellModel::Linear`]); 0:
+    /// not moved (no term, or the window's own fit of it).
+    pub bv_a: T,
+    /// Standard deviation of the held term's `ln i₀` (as [`Self::bv_a`]).
+    pub bv_i0: T,
     /// The measured voltage's scatter about the model (V): the fit's RMSE.
     pub noise_v: T,
     /// The relative miss of the last pulse the cell's state of power was
@@ -56,9 +65,17 @@ impl<T: Real> ParameterSpread<T> {
     /// and every miss of [`Self::response`] not negative or not known
     /// ([`ResponseMiss::is_valid`]).
     pub fn is_valid(&self) -> bool {
-        [self.r_i, self.r_ct, self.q, self.alpha, self.noise_v]
-            .iter()
-            .all(|x| x.is_finite() && *x >= T::zero())
+        [
+            self.r_i,
+            self.r_ct,
+            self.q,
+            self.alpha,
+            self.bv_a,
+            self.bv_i0,
+            self.noise_v,
+        ]
+        .iter()
+        .all(|x| x.is_finite() && *x >= T::zero())
             && self.response.is_valid()
     }
 }
@@ -86,7 +103,7 @@ impl<'a, T: Real, const MEM: usize, const P: usize> PulsePredictor<'a, T, MEM, P
     /// let limits = PowerLimits { voltage_min: 3.0, voltage_max: 4.2, current_limit: 100.0 };
     /// let s = PowerSettings::new(limits, &[10], Some(-5.0)).unwrap();
     /// let spread = ParameterSpread {
-    ///     r_i: 0.1, r_ct: 0.1, q: 0.1, alpha: 0.02, noise_v: 1e-3,
+    ///     r_i: 0.1, r_ct: 0.1, q: 0.1, alpha: 0.02, bv_a: 0.0, bv_i0: 0.0, noise_v: 1e-3,
     ///     response: estimator_core::battery::power::ResponseMiss::NONE,
     /// };
     /// let (plain, derated) = (cell.power(&s), cell.power_with_spread(&s, &spread));
@@ -160,7 +177,8 @@ impl<'a, T: Real, const MEM: usize, const P: usize> PulsePredictor<'a, T, MEM, P
         base: &[T; MAX_HORIZONS],
     ) -> Option<Shifts<T>> {
         let p = self.p;
-        // `R_i`: the static drop only (the kinetic term is not moved).
+        // `R_i`: the static drop only (a held kinetic term is moved apart,
+        // at the current itself: `kinetic_shift`).
         let dri = p.r_i * (spread.r_i.exp() - T::one());
         let mut out = [dri * dri; MAX_HORIZONS];
         // α moved up, or down where up leaves the model's range.
@@ -228,7 +246,36 @@ impl<'a, T: Real, const MEM: usize, const P: usize> PulsePredictor<'a, T, MEM, P
 }
 
 /// A horizon's pulse voltage's standard deviation at current `i`:
-/// `√(σ_v² + I²·B²)` with the horizon's `B²` ([`PulsePredictor::shifts`]).
-pub(super) fn sigma_at<T: Real>(b2: T, noise_v: T, i: T) -> T {
-    (noise_v * noise_v + i * i * b2).sqrt()
+/// `√(σ_v² + I²·B² + K²)` with the horizon's `B²`
+/// ([`PulsePredictor::shifts`]) and `K` a held Butler–Volmer term's shift
+/// at `i` ([`kinetic_shift`]; 0 without one).
+pub(super) fn sigma_at<T: Real>(b2: T, noise_v: T, i: T, k: T) -> T {
+    (noise_v * noise_v + i * i * b2 + k * k).sqrt()
+}
+
+/// Whether `spread` moves `p`'s Butler–Volmer term: `p` has one and
+/// [`ParameterSpread::bv_a`] or [`ParameterSpread::bv_i0`] is not 0.
+pub(super) fn moves_kinetic<T: Real>(p: &CellParameters<T>, spread: &ParameterSpread<T>) -> bool {
+    p.is_butler_volmer() && (spread.bv_a != T::zero() || spread.bv_i0 != T::zero())
+}
+
+/// The held Butler–Volmer term's shift (V) at current `i`: `a·asinh(I/i₀)`
+/// with `ln a` moved by [`ParameterSpread::bv_a`] and, apart, `ln i₀` by
+/// [`ParameterSpread::bv_i0`], the two shifts in quadrature (their
+/// correlation is not known: the term came from another record). The
+/// term's overpotential is not linear in the current, so it is not in the
+/// per-ampere `B²`.
+pub(super) fn kinetic_shift<T: Real>(
+    p: &CellParameters<T>,
+    spread: &ParameterSpread<T>,
+    i: T,
+) -> T {
+    let eta = p.kinetic_voltage(i);
+    let by_a = eta * (spread.bv_a.exp() - T::one());
+    let moved = CellParameters {
+        bv_i0: p.bv_i0 * spread.bv_i0.exp(),
+        ..*p
+    };
+    let by_i0 = moved.kinetic_voltage(i) - eta;
+    (by_a * by_a + by_i0 * by_i0).sqrt()
 }

@@ -313,11 +313,19 @@ fn the_responses_do_not_depend_on_the_length_asked() {
 /// quadrature with the scatter; the derated currents keep the voltage
 /// `confidence` standard deviations inside the limits at the horizon's
 /// end, and 0 derates nothing. Short (block) and long (chunked)
-/// horizons alike.
+/// horizons alike; linear, and with a Butler–Volmer term whose `ln a` and
+/// `ln i₀` are moved by their own spreads (the term's shift at the current
+/// itself; a linear cell has no term to move).
 #[test]
 fn the_derated_limits_keep_the_pulse_voltages_spread_inside() {
+    for bv in [false, true] {
+        derated_limits_keep_the_spread_inside(bv);
+    }
+}
+
+fn derated_limits_keep_the_spread_inside(bv: bool) {
     let m = table();
-    let (p, w) = cell(false);
+    let (p, w) = cell(bv);
     let (_, up) = truth(&p, 150, 0.0, 1, true);
     let p = CellParameters { u_oc: 0.0, ..p };
     let limits = PowerLimits {
@@ -330,6 +338,8 @@ fn the_derated_limits_keep_the_pulse_voltages_spread_inside() {
         r_ct: 0.2,
         q: 0.15,
         alpha: 0.03,
+        bv_a: 0.2,
+        bv_i0: 0.3,
         noise_v: 2e-3,
         response: ResponseMiss::NONE,
     };
@@ -355,6 +365,14 @@ fn the_derated_limits_keep_the_pulse_voltages_spread_inside() {
             },
             CellParameters {
                 alpha: p.alpha + spread.alpha,
+                ..p
+            },
+            CellParameters {
+                bv_a: p.bv_a * spread.bv_a.exp(),
+                ..p
+            },
+            CellParameters {
+                bv_i0: p.bv_i0 * spread.bv_i0.exp(),
                 ..p
             },
         ];
@@ -400,23 +418,28 @@ fn the_derated_limits_keep_the_pulse_voltages_spread_inside() {
             top <= limits.voltage_max + 1e-9 && top > limits.voltage_max - 1e-6,
             "{top}"
         );
-        // The last pulse's miss: the pulse's own response (its static drop
-        // and step response, not the open-circuit voltage's part) moved by
-        // that fraction of itself, in quadrature.
-        let missed = ParameterSpread {
-            response: ResponseMiss { miss: [0.3; 5] },
-            ..spread
-        };
-        let no_ocv = PulsePredictor::<f64, 64, 101>::new(&p, &w, &up[..150], None).unwrap();
-        let own_response = (no_ocv.pulse_voltage(pulse, k) - no_ocv.pulse_voltage(0.0, k)).abs();
-        let wide = base.power_with_spread(&s, &missed).horizons()[0];
-        let expect = (sd * sd + (0.3 * own_response).powi(2)).sqrt();
-        assert!(
-            (wide.uncertainty_v.unwrap() - expect).abs() < 1e-9,
-            "{:?} {expect}",
-            wide.uncertainty_v
-        );
-        assert!(wide.sop.discharge_a < d, "derated further");
+        // The last pulse's miss moves the linear response per ampere (R_i
+        // and the step response); a term's share is not in it.
+        if !bv {
+            // The pulse's own response (its static drop
+            // and step response, not the open-circuit voltage's part) moved by
+            // that fraction of itself, in quadrature.
+            let missed = ParameterSpread {
+                response: ResponseMiss { miss: [0.3; 5] },
+                ..spread
+            };
+            let no_ocv = PulsePredictor::<f64, 64, 101>::new(&p, &w, &up[..150], None).unwrap();
+            let own_response =
+                (no_ocv.pulse_voltage(pulse, k) - no_ocv.pulse_voltage(0.0, k)).abs();
+            let wide = base.power_with_spread(&s, &missed).horizons()[0];
+            let expect = (sd * sd + (0.3 * own_response).powi(2)).sqrt();
+            assert!(
+                (wide.uncertainty_v.unwrap() - expect).abs() < 1e-9,
+                "{:?} {expect}",
+                wide.uncertainty_v
+            );
+            assert!(wide.sop.discharge_a < d, "derated further");
+        }
         // A miss that is not a fraction is not a spread.
         let bad = ParameterSpread {
             response: ResponseMiss { miss: [-0.1; 5] },

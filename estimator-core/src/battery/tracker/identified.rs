@@ -34,7 +34,7 @@ use super::fusion::Slow;
 use super::*;
 use crate::battery::output_error::{FitInformation, COLUMNS};
 use crate::battery::power::{ParameterSpread, ResponseMiss, SopBasis};
-use crate::battery::CellParameters;
+use crate::battery::{CellModel, CellParameters};
 use crate::real::Real;
 
 /// Whether a published parameter comes from the data.
@@ -589,6 +589,13 @@ impl<T: Real, const N: usize> CellState<T, N> {
     /// - [`SopBasis::Stale`]: twice the bound (a value identified further
     ///   away than the state of charge it is held over).
     ///
+    /// A Butler–Volmer term the linear model holds (a Butler–Volmer
+    /// prior's, [`CellModel::Linear`]) is a map value whatever the basis:
+    /// its `ln a` and `ln i₀` have the bound of `R_i` each
+    /// ([`ParameterSpread::bv_a`]). Without it the derated limit of the
+    /// DFN LFP cell's map (Prada2013, where the term is most of the drop)
+    /// held 5 of its 9 pulses at 30 s (docs/bms-states.md).
+    ///
     /// Whatever the basis, `R_i`'s is widened in quadrature by what the
     /// model misses at a current step, seen without it: `|ln(R_step /
     /// R_model)|` of the last clean step ([`StepResistance::ohm`] against
@@ -659,11 +666,19 @@ impl<T: Real, const N: usize> CellState<T, N> {
                 sd[0] = (sd[0] * sd[0] + miss * miss).sqrt();
             }
         }
+        // A Butler–Volmer term the linear model holds is the prior's (a
+        // map's, fitted over another record): the map's bound, whatever
+        // the basis. The Butler–Volmer model's own term is the window's,
+        // and is not moved.
+        let held = s.battery.model == CellModel::Linear && p.is_butler_volmer();
+        let term = if held { bound[0] } else { T::zero() };
         ParameterSpread {
             r_i: sd[0],
             r_ct: sd[1],
             q: sd[2],
             alpha: sd[3],
+            bv_a: term,
+            bv_i0: term,
             noise_v: self.voltage_noise(),
             response,
         }
