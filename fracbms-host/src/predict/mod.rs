@@ -503,7 +503,8 @@ pub fn battery_file(input: &Path, out: &Path, o: &PredictOptions) -> Result<Pred
 /// [`battery_file`]; with one record its CSV goes to `out`; with `report`,
 /// the validation page of [`report::write`] and each record's CSV go into
 /// that folder; with neither, only the returned predictions (the CLI's
-/// `--json`).
+/// `--json`). Every record is read and run before any file is written, so
+/// a record that fails leaves none.
 ///
 /// # Errors
 /// As [`battery_file`]; [`crate::ErrorKind::Options`] for `out` with
@@ -527,22 +528,23 @@ pub fn battery_files(
     let model = read_model(&o.model)?;
     let spec = OcvSpec::from_options(&o.ocv)?;
     check_model_ocv(&model, spec.as_ref())?;
+    // Every record read and run before anything is written: a bad later
+    // --input leaves no file of the ones before it.
     let mut done = vec![];
     for input in inputs {
         let read = crate::cycler::read_record(input, &o.record)?;
         let p = run_model(input, &read, &model, spec.as_ref(), o.temperature_c)?;
-        if let Some(out) = out {
-            write_csv(out, &read.record, &p)?;
-        }
-        if let Some(dir) = report {
-            std::fs::create_dir_all(dir)
-                .map_err(|e| err!(Io, "cannot make {}: {e}", dir.display()))?;
-            let csv = dir.join(format!("{}.csv", report::stem(done.len() + 1, input)));
-            write_csv(&csv, &read.record, &p)?;
-        }
         done.push((read.record, p));
     }
+    if let (Some(out), Some((record, p))) = (out, done.first()) {
+        write_csv(out, record, p)?;
+    }
     if let Some(dir) = report {
+        std::fs::create_dir_all(dir).map_err(|e| err!(Io, "cannot make {}: {e}", dir.display()))?;
+        for (k, (input, (record, p))) in inputs.iter().zip(&done).enumerate() {
+            let csv = dir.join(format!("{}.csv", report::stem(k + 1, input)));
+            write_csv(&csv, record, p)?;
+        }
         let entries: Vec<report::Entry<'_>> = inputs
             .iter()
             .zip(&done)

@@ -255,6 +255,20 @@ fn the_report_validates_several_records() {
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(err.trim_end().lines().count(), 1, "{err}");
     assert!(err.contains("--report"), "{err}");
+    // A bad record after a good one: one line, and no file written.
+    let bad = tmp("report-bad.csv");
+    std::fs::write(&bad, "time_s,current_a\n0,1\n").unwrap();
+    let dir = tmp("report-dir-bad");
+    let _ = std::fs::remove_dir_all(&dir);
+    let mut a = vec!["predict", "battery", "--model", s(&fit)];
+    a.extend(["--input", s(&pulse), s(&bad), "--report", s(&dir)]);
+    a.extend(ocv);
+    let o = run(&a);
+    assert_eq!(o.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(err.trim_end().lines().count(), 1, "{err}");
+    assert!(err.contains("report-bad.csv"), "{err}");
+    assert!(!dir.exists(), "{}", dir.display());
 }
 
 /// A map of two temperatures predicts between them by Arrhenius (said in
