@@ -680,7 +680,7 @@ fn a_butler_volmer_maps_term_is_its_state_of_power() {
             .unwrap()
     };
     let by_a = term * (bound.exp() - 1.0);
-    let by_i0 = truth.bv_a * (5.0 / (truth.bv_i0 * bound.exp())).asinh() - term;
+    let by_i0 = truth.bv_a * (5.0 / (truth.bv_i0 * (-bound).exp())).asinh() - term;
     let kinetic = by_a.hypot(by_i0);
     let (with, without) = (sd(&spread), sd(&none));
     println!(

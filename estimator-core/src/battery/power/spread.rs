@@ -260,8 +260,9 @@ pub(super) fn moves_kinetic<T: Real>(p: &CellParameters<T>, spread: &ParameterSp
 }
 
 /// The held Butler–Volmer term's shift (V) at current `i`: `a·asinh(I/i₀)`
-/// with `ln a` moved by [`ParameterSpread::bv_a`] and, apart, `ln i₀` by
-/// [`ParameterSpread::bv_i0`], the two shifts in quadrature (their
+/// with `ln a` moved up by [`ParameterSpread::bv_a`] and, apart, `ln i₀`
+/// down by [`ParameterSpread::bv_i0`] (each the way that deepens the
+/// drop, as the resistances are moved), the two shifts in quadrature (their
 /// correlation is not known: the term came from another record). The
 /// term's overpotential is not linear in the current, so it is not in the
 /// per-ampere `B²`.
@@ -273,7 +274,7 @@ pub(super) fn kinetic_shift<T: Real>(
     let eta = p.kinetic_voltage(i);
     let by_a = eta * (spread.bv_a.exp() - T::one());
     let moved = CellParameters {
-        bv_i0: p.bv_i0 * spread.bv_i0.exp(),
+        bv_i0: p.bv_i0 * (-spread.bv_i0).exp(),
         ..*p
     };
     let by_i0 = moved.kinetic_voltage(i) - eta;

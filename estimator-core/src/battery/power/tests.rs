@@ -372,7 +372,7 @@ fn derated_limits_keep_the_spread_inside(bv: bool) {
                 ..p
             },
             CellParameters {
-                bv_i0: p.bv_i0 * spread.bv_i0.exp(),
+                bv_i0: p.bv_i0 * (-spread.bv_i0).exp(),
                 ..p
             },
         ];

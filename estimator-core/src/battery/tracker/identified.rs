@@ -592,9 +592,7 @@ impl<T: Real, const N: usize> CellState<T, N> {
     /// A Butler–Volmer term the linear model holds (a Butler–Volmer
     /// prior's, [`CellModel::Linear`]) is a map value whatever the basis:
     /// its `ln a` and `ln i₀` have the bound of `R_i` each
-    /// ([`ParameterSpread::bv_a`]). Without it the derated limit of the
-    /// DFN LFP cell's map (Prada2013, where the term is most of the drop)
-    /// held 5 of its 9 pulses at 30 s (docs/bms-states.md).
+    /// ([`ParameterSpread::bv_a`]; docs/state-of-power.md).
     ///
     /// Whatever the basis, `R_i`'s is widened in quadrature by what the
     /// model misses at a current step, seen without it: `|ln(R_step /
