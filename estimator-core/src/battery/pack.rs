@@ -47,7 +47,7 @@ use super::power::{
 use super::tracker::{
     check_limits, CellState, CellWindow, CurrentHistory, OnlineSettings, SampleReport, WorkingArea,
 };
-use super::{CellModel, CellParameters};
+use super::CellParameters;
 use crate::error::Error;
 use crate::frac::GlWeights;
 use crate::real::Real;
@@ -346,15 +346,6 @@ fn check_cells<T: Real, const N: usize, const CELLS: usize, const P: usize>(
     check_limits(s)
 }
 
-/// True when the model's Butler–Volmer term is held, not fitted by the
-/// window: the linear online model holds the start's term ([`CellModel`]),
-/// a Butler–Volmer prior's (a map fitted with the term over its test's
-/// currents). Its state of power then neither caps the currents at the
-/// window's largest nor waits for the window to have seen one.
-fn term_held<T: Real, const P: usize>(s: &OnlineSettings<T, P>) -> bool {
-    s.battery.model == CellModel::Linear
-}
-
 /// The median of `x` (sorted in place; the mean of the middle two for an
 /// even count). Insertion sort: a pack has at most a few hundred cells.
 fn median<T: Real>(x: &mut [T]) -> T {
@@ -609,7 +600,7 @@ impl<T: Real, const N: usize, const MEM: usize, const CELLS: usize>
         // emptied the window itself); a term the linear model holds was
         // not fitted there.
         let known = q.bv_a == T::zero()
-            || term_held(s)
+            || s.holds_kinetic_term()
             || (p.is_some() && tail.model() == p && tail.largest_current() > T::zero());
         let rested = known.then(|| c.relaxed_voltage(s).zip(ocv)).flatten();
         if let Some((v, (m, z))) = rested {
@@ -710,7 +701,7 @@ impl<T: Real, const N: usize, const MEM: usize, const CELLS: usize>
         // A term the linear model holds (a Butler–Volmer prior's) was
         // fitted over the prior's test's currents: not capped by the
         // window's.
-        if c.window_estimate().is_some_and(|p| p.is_butler_volmer()) && !term_held(s) {
+        if c.window_estimate().is_some_and(|p| p.is_butler_volmer()) && !s.holds_kinetic_term() {
             // The window's largest current; from a long rest, which has
             // emptied the window, the one noted as the tail was carried
             // into the rest (`follow_polarization`).

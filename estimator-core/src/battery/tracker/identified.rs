@@ -34,7 +34,7 @@ use super::fusion::Slow;
 use super::*;
 use crate::battery::output_error::{FitInformation, COLUMNS};
 use crate::battery::power::{ParameterSpread, ResponseMiss, SopBasis};
-use crate::battery::{CellModel, CellParameters};
+use crate::battery::CellParameters;
 use crate::real::Real;
 
 /// Whether a published parameter comes from the data.
@@ -590,8 +590,8 @@ impl<T: Real, const N: usize> CellState<T, N> {
     ///   away than the state of charge it is held over).
     ///
     /// A Butler–Volmer term the linear model holds (a Butler–Volmer
-    /// prior's, [`CellModel::Linear`]) is a map value whatever the basis:
-    /// its `ln a` and `ln i₀` have the bound of `R_i` each
+    /// prior's, [`OnlineSettings::holds_kinetic_term`]) is a map value
+    /// whatever the basis: its `ln a` and `ln i₀` have the bound of `R_i` each
     /// ([`ParameterSpread::bv_a`]; docs/state-of-power.md).
     ///
     /// Whatever the basis, `R_i`'s is widened in quadrature by what the
@@ -668,7 +668,7 @@ impl<T: Real, const N: usize> CellState<T, N> {
         // map's, fitted over another record): the map's bound, whatever
         // the basis. The Butler–Volmer model's own term is the window's,
         // and is not moved.
-        let held = s.battery.model == CellModel::Linear && p.is_butler_volmer();
+        let held = s.holds_kinetic_term() && p.is_butler_volmer();
         let term = if held { bound[0] } else { T::zero() };
         ParameterSpread {
             r_i: sd[0],

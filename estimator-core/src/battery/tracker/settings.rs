@@ -5,7 +5,7 @@
 use super::*;
 use crate::battery::ocv::OcvModel;
 use crate::battery::soc::SocSettings;
-use crate::battery::{BatterySettings, CellParameters, Start};
+use crate::battery::{BatterySettings, CellModel, CellParameters, Start};
 use crate::error::Error;
 use crate::real::Real;
 
@@ -243,6 +243,16 @@ impl<T: Real, const P: usize> OnlineSettings<T, P> {
             return Some(Status::SlowRelaxation);
         }
         None
+    }
+
+    /// Whether a Butler–Volmer term in the cell's parameters is held, not
+    /// fitted: the linear model ([`CellModel::Linear`]) never fits the
+    /// term, so one it carries is a prior's (a map fitted with the term
+    /// over its test's currents). A held term is not capped at the
+    /// window's largest current, needs no window that has seen one, and
+    /// its spread is the prior's bound.
+    pub fn holds_kinetic_term(&self) -> bool {
+        self.battery.model == CellModel::Linear
     }
 
     /// The longest relaxation a window's estimate may have because the
