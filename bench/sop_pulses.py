@@ -251,15 +251,24 @@ def acceptance(host_sim, out, map_method, online_args=(), map_model="linear"):
                     naive[(j, h)] = before - pd * cur / pc
                 prev[h] = (drops[h], cur)
         for variant, extra in (("none", []), ("own map", ["--prior", mp])):
-            tracks = {}
+            tracks, refused = {}, None
             for c in currents:
                 track = f"{rec_out}/pulse{c}-{'map' if extra else 'none'}.csv"
-                subprocess.run([host_sim, "online", "battery", "--input", path, "--ocv", ocv_path,
-                                "--capacity-ah", str(cap), "--pulse-current-a", str(c),
-                                "--horizons", ",".join(map(str, horizons)), "--window", "256",
-                                "--out", track] + extra + list(online_args),
-                               check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+                p = subprocess.run([host_sim, "online", "battery", "--input", path, "--ocv", ocv_path,
+                                    "--capacity-ah", str(cap), "--pulse-current-a", str(c),
+                                    "--horizons", ",".join(map(str, horizons)), "--window", "256",
+                                    "--out", track] + extra + list(online_args),
+                                   stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+                if p.returncode != 0 and extra:
+                    # A map none of whose rows can be a prior: its row says so.
+                    refused = p.stderr.strip().splitlines()[-1][:120]
+                    break
+                p.check_returncode()
                 tracks[c] = list(csv.DictReader(open(track)))
+            if refused:
+                for h in horizons:
+                    print(f"| {name} | {h} s | {variant} | — | — | — | refused: {refused} | — | — | — | — |")
+                continue
             for h in horizons:
                 ours, base, one_rc, basis, n = [], [], [], {}, 0
                 covered, sigmas = [], []

@@ -409,13 +409,18 @@ pub(super) fn battery(a: IdBatteryArgs) -> Result<()> {
         let rows = &m.map.rows;
         // Both over the same samples: the log's measured ones.
         let single = m.json(rec, &r.model_voltage).single_rmse_v;
+        // Without an identifiable row the map has no model to run.
+        let map_rmse = if m.rmse_v.is_finite() {
+            format!("map {:.2} mV", m.rmse_v * 1e3)
+        } else {
+            "map none (no identifiable level)".to_owned()
+        };
         println!(
-            "map: {} levels, SOC {:.3}–{:.3} ({} not identifiable); whole-record RMSE over the measured samples: map {:.2} mV, single fit {:.2} mV",
+            "map: {} levels, SOC {:.3}–{:.3} ({} not identifiable); whole-record RMSE over the measured samples: {map_rmse}, single fit {:.2} mV",
             rows.len(),
             rows[0].soc,
             rows[rows.len() - 1].soc,
             rows.iter().filter(|r| !r.identifiable).count(),
-            m.rmse_v * 1e3,
             single * 1e3
         );
         for why in &m.skipped {

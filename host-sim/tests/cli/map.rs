@@ -431,3 +431,82 @@ fn a_joint_map_with_given_flags() {
         assert!(err.contains(expect), "{err}");
     }
 }
+
+/// On the DFN's LFP HPPC record the Butler–Volmer term takes the whole
+/// instantaneous drop: the joint map's `R_i` sits at or just above the
+/// search's lower bound (10 µΩ) at every knot. A knot nearer the bound
+/// than its 95 % interval reaches is at the bound, not identifiable, and
+/// no face takes the map as a prior.
+#[test]
+fn a_knot_within_its_interval_of_a_bound_is_not_identifiable() {
+    let (map, json) = (tmp("bvmap-prada.csv"), tmp("bvmap-prada.json"));
+    let rec = data("pybamm/prada2013-hppc.csv");
+    let ocv = data("pybamm/prada2013-ocv.csv");
+    let o = run(&[
+        "identify",
+        "battery",
+        "--input",
+        s(&rec),
+        "--ocv",
+        s(&ocv),
+        "--capacity-ah",
+        "2.3034509907239076",
+        "--min-rest",
+        "250",
+        "--model",
+        "butler-volmer",
+        "--map-method",
+        "joint",
+        "--map-smoothing",
+        "1e-7",
+        "--map-vary",
+        "r_i,r_ct,du",
+        "--map-out",
+        s(&map),
+        "--json",
+        s(&json),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        stdout.contains("map none (no identifiable level)"),
+        "{stdout}"
+    );
+    let rows = read_json(&json)["map"]["levels"]
+        .as_array()
+        .unwrap()
+        .clone();
+    assert_eq!(rows.len(), 10);
+    let bound = (-11.5f64).exp();
+    let mut inside = 0;
+    for r in &rows {
+        let why = r["identifiable_reason"].as_str().unwrap();
+        assert_eq!(r["identifiable"], false, "{r}");
+        assert!(why.contains("R_i at a bound of the joint search"), "{r}");
+        // Above the bound by more than the search's tolerance, with an
+        // interval narrower than a factor 2: judged by its interval alone.
+        let r_i = r["r_i"].as_f64().unwrap();
+        if (r_i / bound).ln() > 1e-3 && !why.contains("too wide") {
+            inside += 1;
+        }
+    }
+    assert!(inside >= 3, "{rows:?}");
+    let o = run(&[
+        "online",
+        "battery",
+        "--input",
+        s(&rec),
+        "--ocv",
+        s(&ocv),
+        "--capacity-ah",
+        "2.3034509907239076",
+        "--prior",
+        s(&map),
+        "--out",
+        s(&tmp("bvmap-prada-track.csv")),
+    ]);
+    assert_eq!(o.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(err.trim_end().lines().count(), 1, "{err}");
+    assert!(err.contains("no level of the map can be a prior"), "{err}");
+}

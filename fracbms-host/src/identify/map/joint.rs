@@ -542,9 +542,14 @@ pub fn joint_fit(
                 }
             }
         }
+        // At a bound: on it, or nearer to it than the 95 % interval
+        // reaches (a value the data cannot tell from the bound, such as an
+        // `R_i` of 10 µΩ beside a Butler–Volmer term that takes the whole
+        // instantaneous drop).
         let k = knot(&theta, &l, j);
         for (p, name) in [(0, "R_i"), (1, "R_ct"), (2, "τ"), (3, "α")] {
-            if k[p] <= BOUNDS[p][0] + 1e-6 || k[p] >= BOUNDS[p][1] - 1e-6 {
+            let reach = half(var(p, p)).unwrap_or(0.0).max(1e-6);
+            if k[p] <= BOUNDS[p][0] + reach || k[p] >= BOUNDS[p][1] - reach {
                 why.push(format!("{name} at a bound of the joint search"));
             }
         }
