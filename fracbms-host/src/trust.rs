@@ -27,7 +27,9 @@
 //!   over time makes the rows worth fewer independent samples). Resistances
 //!   and Q are fitted in logarithms, so their intervals are
 //!   `p·exp(±1.96·k·se)`; α's is `α ± 1.96·k·se`. The fit is
-//!   `identifiable` when no reason against it holds (see [`assess`]).
+//!   `identifiable` when no reason against it holds (see [`assess`]). The
+//!   Butler–Volmer term's `a` and `i₀`, where fitted, get theirs the same
+//!   way, given but not judged ([`Confidence::term_separated`]).
 //!
 //! It does not fit anything itself: the fits are `crate::identify`'s.
 
@@ -395,6 +397,39 @@ pub struct Confidence {
     pub q: [f64; 2],
     /// 95 % interval of α.
     pub alpha: [f64; 2],
+    /// 95 % interval of the Butler–Volmer term's `a` (V); none without
+    /// the term.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub bv_a: Option<[f64; 2]>,
+    /// 95 % interval of the Butler–Volmer term's `i₀` (A); none without
+    /// the term.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub bv_i0: Option<[f64; 2]>,
+}
+
+impl Confidence {
+    /// The names of the parameters whose 95 % interval is wider than a
+    /// factor [`MAX_FACTOR`] either way, of R_i, R_ct and Q: what a fit or
+    /// a map row is judged by.
+    pub fn too_wide(&self) -> Vec<&'static str> {
+        [("R_i", self.r_i), ("R_ct", self.r_ct), ("Q", self.q)]
+            .into_iter()
+            .filter(|(_, [lo, hi])| hi / lo > MAX_FACTOR * MAX_FACTOR)
+            .map(|(name, _)| name)
+            .collect()
+    }
+
+    /// Whether the Butler–Volmer term's `a` and `i₀` are each known
+    /// within a factor [`MAX_FACTOR`] either way (`None` without the
+    /// term). Not part of the verdict: below the exchange current the
+    /// two trade along `a/i₀`, the term's slope at rest, which the data
+    /// can pin while neither alone is; a model run within the currents it
+    /// was fitted on is then as good, one run beyond them is not.
+    pub fn term_separated(&self) -> Option<bool> {
+        let [a, i0] = [self.bv_a?, self.bv_i0?];
+        let within = |[lo, hi]: [f64; 2]| hi / lo <= MAX_FACTOR * MAX_FACTOR;
+        Some(within(a) && within(i0))
+    }
 }
 
 /// What [`assess`] concluded.
@@ -419,7 +454,8 @@ pub struct Assessment {
 ///
 /// Reasons against: the information is singular or not available (no
 /// excitation, or the fit diverged); an interval of R_i, R_ct or Q wider
-/// than a factor [`MAX_FACTOR`] either way, or of α wider than
+/// than a factor [`MAX_FACTOR`] either way (the Butler–Volmer term's
+/// intervals are given, not judged: [`Confidence::term_separated`]), or of α wider than
 /// ±[`MAX_ALPHA_HALF_WIDTH`]; α at a bound of its search; a resistance
 /// collapsed to 0 (below 10⁻⁶ of the other); the current does not vary;
 /// the model explains less than [`MIN_EXPLAINED`] of the voltage's
@@ -471,11 +507,16 @@ pub fn assess(
         };
         let half = |j: usize| se[j].map(|e| Z95 * e * scale).filter(|h| h.is_finite());
         let log_interval = |p: f64, j: usize| half(j).map(|h| [p * (-h).exp(), p * h.exp()]);
+        // The term's columns (`ln a`, `ln i₀`), where it was fitted (not
+        // judged: none when not finite).
+        let term = |p: f64, j: usize| info.fitted[j].then(|| log_interval(p, j)).flatten();
         Some(Confidence {
             r_i: log_interval(cell.r_i, 0)?,
             r_ct: log_interval(cell.r_ct, 1)?,
             q: log_interval(cell.q, 2)?,
             alpha: half(3).map(|h| [cell.alpha - h, cell.alpha + h])?,
+            bv_a: term(cell.bv_a, 6),
+            bv_i0: term(cell.bv_i0, 7),
         })
     });
     match &confidence {
@@ -484,11 +525,7 @@ pub fn assess(
                 .to_owned(),
         ),
         Some(c) => {
-            let wide: Vec<&str> = [("R_i", c.r_i), ("R_ct", c.r_ct), ("Q", c.q)]
-                .into_iter()
-                .filter(|(_, [lo, hi])| hi / lo > MAX_FACTOR * MAX_FACTOR)
-                .map(|(name, _)| name)
-                .collect();
+            let wide = c.too_wide();
             if !wide.is_empty() {
                 reasons.push(format!(
                     "95 % intervals too wide: {} beyond a factor {MAX_FACTOR} either way",

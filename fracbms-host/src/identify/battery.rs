@@ -91,8 +91,9 @@ pub struct BatteryJson {
     pub identifiable: bool,
     /// Why not, one clause per reason (null when identifiable).
     pub identifiable_reason: Option<String>,
-    /// 95 % intervals `[lo, hi]` of `r_i`, `r_ct`, `q`, `alpha` (null when
-    /// the information matrix is singular).
+    /// 95 % intervals `[lo, hi]` of `r_i`, `r_ct`, `q`, `alpha`, and of
+    /// `bv_a`, `bv_i0` with the Butler–Volmer term (null when the
+    /// information matrix is singular).
     pub confidence: Option<trust::Confidence>,
     /// Lag-1 autocorrelation of the residuals over the accepted rows (the
     /// intervals are widened by `√((1+ρ)/(1−ρ))` for it).

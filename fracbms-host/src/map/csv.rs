@@ -30,9 +30,14 @@ fn bound(r: &MapRow, f: fn(&Confidence) -> [f64; 2], i: usize) -> String {
     opt(r.confidence.as_ref().map(|c| f(c)[i]))
 }
 
+/// An end of a Butler–Volmer interval (empty without the term).
+fn term_bound(r: &MapRow, f: fn(&Confidence) -> Option<[f64; 2]>, i: usize) -> String {
+    opt(r.confidence.as_ref().and_then(|c| f(c)).map(|x| x[i]))
+}
+
 /// The map's CSV, column by column, in order (the contract's eleven
 /// first).
-pub const MAP_CSV: [MapColumn; 23] = [
+pub const MAP_CSV: [MapColumn; 27] = [
     MapColumn {
         name: "temperature_c",
         cell: |r| opt(r.temperature_c),
@@ -125,11 +130,27 @@ pub const MAP_CSV: [MapColumn; 23] = [
         name: "identifiable_reason",
         cell: |r| r.identifiable_reason.clone().unwrap_or_default(),
     },
+    MapColumn {
+        name: "bv_a_lo",
+        cell: |r| term_bound(r, |c| c.bv_a, 0),
+    },
+    MapColumn {
+        name: "bv_a_hi",
+        cell: |r| term_bound(r, |c| c.bv_a, 1),
+    },
+    MapColumn {
+        name: "bv_i0_lo",
+        cell: |r| term_bound(r, |c| c.bv_i0, 0),
+    },
+    MapColumn {
+        name: "bv_i0_hi",
+        cell: |r| term_bound(r, |c| c.bv_i0, 1),
+    },
 ];
 
 /// The map's CSV headers, in order: [`MAP_CSV`]'s names.
-pub const MAP_COLUMNS: [&str; 23] = {
-    let mut out = [""; 23];
+pub const MAP_COLUMNS: [&str; 27] = {
+    let mut out = [""; 27];
     let mut i = 0;
     while i < out.len() {
         out[i] = MAP_CSV[i].name;
@@ -228,6 +249,8 @@ impl ParameterMap {
                     r_ct,
                     q,
                     alpha,
+                    bv_a: pair("bv_a_lo", "bv_a_hi")?,
+                    bv_i0: pair("bv_i0_lo", "bv_i0_hi")?,
                 }),
                 _ => None,
             };

@@ -97,7 +97,9 @@ pub struct MapRow {
     /// Why not (null when identifiable).
     #[serde(default)]
     pub identifiable_reason: Option<String>,
-    /// 95 % intervals (null when the information matrix is singular).
+    /// 95 % intervals (null when the information matrix is singular); the
+    /// Butler–Volmer term's with it (a joint map's: the shared term's, in
+    /// every row).
     #[serde(default)]
     pub confidence: Option<Confidence>,
     /// The part's first sample's time (s).

@@ -91,6 +91,8 @@ fn each_csv_column_is_its_named_field() {
             r_ct: [0.014, 0.018],
             q: [400.0, 560.0],
             alpha: [0.69, 0.73],
+            bv_a: Some([0.010, 0.014]),
+            bv_i0: Some([1.2, 1.9]),
         }),
         start_s: 10.0,
         end_s: 900.0,

@@ -381,8 +381,11 @@ pub(super) fn battery(a: IdBatteryArgs) -> Result<()> {
     );
     match &j.confidence {
         Some(c) => println!(
-            "95 % intervals: R_i [{:.6}, {:.6}] Ω, R_ct [{:.6}, {:.6}] Ω, Q [{:.4}, {:.4}], alpha [{:.4}, {:.4}] (residual lag-1 correlation {:.2})",
-            c.r_i[0], c.r_i[1], c.r_ct[0], c.r_ct[1], c.q[0], c.q[1], c.alpha[0], c.alpha[1],
+            "95 % intervals: R_i {} Ω, R_ct {} Ω, Q {}, alpha {} (residual lag-1 correlation {:.2})",
+            interval(c.r_i, 1.0, 6),
+            interval(c.r_ct, 1.0, 6),
+            interval(c.q, 1.0, 4),
+            interval(c.alpha, 1.0, 4),
             j.residual_lag1_correlation
         ),
         None => println!("95 % intervals: none (the information matrix is singular)"),
@@ -394,7 +397,27 @@ pub(super) fn battery(a: IdBatteryArgs) -> Result<()> {
         );
     }
     if let (Some(x), Some(i0)) = (j.bv_a_v, j.bv_i0_a) {
-        println!("Butler–Volmer: a = {:.3} mV, i0 = {i0:.4} A", x * 1e3);
+        // With its 95 % intervals where the fit has them.
+        let term = j
+            .confidence
+            .as_ref()
+            .and_then(|c| c.bv_a.zip(c.bv_i0))
+            .map(|(ca, ci)| {
+                format!(
+                    " (95 % intervals: a {} mV, i0 {} A)",
+                    interval(ca, 1e3, 3),
+                    interval(ci, 1.0, 4)
+                )
+            })
+            .unwrap_or_default();
+        println!("Butler–Volmer: a = {:.3} mV, i0 = {i0:.4} A{term}", x * 1e3);
+        if j.confidence.as_ref().and_then(|c| c.term_separated()) == Some(false) {
+            eprintln!(
+                "note: {}: the Butler–Volmer term's a and i0 are not each known within a factor 2 (they trade along a/i0, its slope at rest, {:.3} mΩ): the model holds within the record's currents, not beyond them",
+                a.input.display(),
+                x / i0 * 1e3
+            );
+        }
     }
     if let Some(c) = &j.model_choice {
         println!("model: {} ({})", c.chosen, c.reason);
@@ -585,4 +608,19 @@ fn summary_line(r: &FileSummary) -> String {
         ),
         _ => format!("{}: fitted", r.file),
     }
+}
+
+/// An interval `[lo, hi]` scaled by `scale`, each end with `decimals`
+/// places, or in exponent form from 10⁶ on (an interval of a parameter
+/// the data do not pin can reach 10²⁰⁰).
+fn interval([lo, hi]: [f64; 2], scale: f64, decimals: usize) -> String {
+    let end = |x: f64| {
+        let x = x * scale;
+        if x.is_finite() && x.abs() >= 1e6 {
+            format!("{x:.3e}")
+        } else {
+            format!("{x:.decimals$}")
+        }
+    };
+    format!("[{}, {}]", end(lo), end(hi))
 }

@@ -491,6 +491,24 @@ pub fn joint_fit(
     let cells: Vec<CellParameters<f64>> = (0..kn)
         .map(|j| cell_of(knot(&theta, &l, j), kinetic))
         .collect();
+    // The shared Butler–Volmer term's half-widths (`ln a`, `ln i₀`) and
+    // whether either lies within its interval of a bound of the search:
+    // every knot's, as the term is.
+    let term: Option<([Option<f64>; 2], bool)> = l.kinetic.map(|at| {
+        let half = |i: usize| {
+            cov.as_ref()
+                .map(|m| sigma2 * m[(at + i, at + i)])
+                .filter(|x| x.is_finite() && *x >= 0.0)
+                .map(|x| Z95 * x.sqrt())
+        };
+        let h = [half(0), half(1)];
+        let at_bound = (0..2).any(|i| {
+            let [lo, hi] = KINETIC_BOUNDS[i];
+            let reach = h[i].unwrap_or(0.0).max(1e-6);
+            theta[at + i] <= lo + reach || theta[at + i] >= hi - reach
+        });
+        (h, at_bound)
+    });
     let mut confidence = vec![];
     let mut reasons = vec![];
     for (j, c) in cells.iter().enumerate() {
@@ -505,6 +523,7 @@ pub fn joint_fit(
             (Some(a), Some(b), Some(ab)) => Some(a + b - 2.0 * ab),
             _ => None,
         };
+        let log_interval = |x: f64, h: f64| [x * (-h).exp(), x * h.exp()];
         let conf = (|| {
             let (hi, hc, hq, ha) = (
                 half(var(0, 0))?,
@@ -512,22 +531,28 @@ pub fn joint_fit(
                 half(var_q)?,
                 half(var(3, 3))?,
             );
+            // The term's, where the map has one.
+            let (bv_a, bv_i0) = match &term {
+                Some(([h_a, h_i0], _)) => (
+                    h_a.map(|h| log_interval(c.bv_a, h)),
+                    h_i0.map(|h| log_interval(c.bv_i0, h)),
+                ),
+                None => (None, None),
+            };
             Some(Confidence {
-                r_i: [c.r_i * (-hi).exp(), c.r_i * hi.exp()],
-                r_ct: [c.r_ct * (-hc).exp(), c.r_ct * hc.exp()],
-                q: [c.q * (-hq).exp(), c.q * hq.exp()],
+                r_i: log_interval(c.r_i, hi),
+                r_ct: log_interval(c.r_ct, hc),
+                q: log_interval(c.q, hq),
                 alpha: [c.alpha - ha, c.alpha + ha],
+                bv_a,
+                bv_i0,
             })
         })();
         let mut why = vec![];
         match &conf {
             None => why.push("the joint information matrix is singular".to_owned()),
             Some(cf) => {
-                let wide: Vec<&str> = [("R_i", cf.r_i), ("R_ct", cf.r_ct), ("Q", cf.q)]
-                    .into_iter()
-                    .filter(|(_, [lo, hi])| hi / lo > MAX_FACTOR * MAX_FACTOR)
-                    .map(|(n, _)| n)
-                    .collect();
+                let wide = cf.too_wide();
                 if !wide.is_empty() {
                     why.push(format!(
                         "95 % intervals too wide: {} beyond a factor {MAX_FACTOR} either way",
@@ -552,6 +577,9 @@ pub fn joint_fit(
             if k[p] <= BOUNDS[p][0] + reach || k[p] >= BOUNDS[p][1] - reach {
                 why.push(format!("{name} at a bound of the joint search"));
             }
+        }
+        if term.is_some_and(|(_, at_bound)| at_bound) {
+            why.push("the Butler–Volmer term at a bound of the joint search".to_owned());
         }
         confidence.push(conf);
         reasons.push(why);

@@ -660,6 +660,22 @@ fn joint_fit_shares_one_butler_volmer_term() {
         fit.rmse_v
     );
     assert!(without.cells.iter().all(|c| !c.is_butler_volmer()));
+    // The shared term's 95 % intervals, the same at every knot, hold the
+    // term the record was made with; the linear fit has none.
+    let term = |c: &Option<crate::trust::Confidence>| c.as_ref().map(|c| (c.bv_a, c.bv_i0));
+    let (ca, ci) = term(&fit.confidence[0]).unwrap();
+    let (ca, ci) = (ca.unwrap(), ci.unwrap());
+    assert!(ca[0] < a && a < ca[1], "a {a} in {ca:?}");
+    assert!(ci[0] < i0 && i0 < ci[1], "i0 {i0} in {ci:?}");
+    assert!(ca[1] / ca[0] < 1.5 && ci[1] / ci[0] < 1.5, "{ca:?} {ci:?}");
+    assert!(fit
+        .confidence
+        .iter()
+        .all(|c| term(c) == Some((Some(ca), Some(ci)))));
+    assert!(without
+        .confidence
+        .iter()
+        .all(|c| term(c) == Some((None, None))));
     let inputs = joint::JointInputs::of(&d, &fit);
     assert_eq!(inputs.butler_volmer, Some([c0.bv_a, c0.bv_i0]));
     // The map of the record with the levels fitted with the term: every
@@ -694,6 +710,35 @@ fn joint_fit_shares_one_butler_volmer_term() {
         if let (Some(a_map), Some(i0_map)) = term {
             assert!((a_map / a - 1.0).abs() < 0.1, "a {a_map}");
             assert!((i0_map / i0 - 1.0).abs() < 0.1, "i0 {i0_map}");
+        }
+        // Every row's intervals carry the term's exactly when it has one,
+        // and the CSV gives them back.
+        for r in rows {
+            let c = r.confidence.as_ref().unwrap();
+            assert_eq!(c.bv_a.is_some(), with_term, "{model:?} {c:?}");
+            assert_eq!(c.bv_i0.is_some(), with_term, "{model:?} {c:?}");
+        }
+        let csv = std::env::temp_dir().join(format!(
+            "fracbms-bv-map-{}-{with_term}.csv",
+            std::process::id()
+        ));
+        m.map.write_csv(&csv).unwrap();
+        let back = crate::map::ParameterMap::read_csv(&csv).unwrap();
+        let _ = std::fs::remove_file(&csv);
+        for (x, y) in back.rows.iter().zip(rows) {
+            let (cx, cy) = (
+                x.confidence.as_ref().unwrap(),
+                y.confidence.as_ref().unwrap(),
+            );
+            assert_eq!(
+                (cx.bv_a.is_some(), cx.bv_i0.is_some()),
+                (with_term, with_term)
+            );
+            for (u, v) in [(cx.bv_a, cy.bv_a), (cx.bv_i0, cy.bv_i0)] {
+                if let (Some(u), Some(v)) = (u, v) {
+                    assert!((u[0] / v[0] - 1.0).abs() < 1e-12 && (u[1] / v[1] - 1.0).abs() < 1e-12);
+                }
+            }
         }
     }
 }
