@@ -143,7 +143,7 @@ pub struct ManyOptions {
 /// order. An empty cell is a value the file does not have (a failed file's
 /// parameters, a linear fit's Butler–Volmer term, a record without an OCV
 /// table's SOC).
-pub const SUMMARY_HEADER: [&str; 39] = [
+pub const SUMMARY_HEADER: [&str; 43] = [
     "file",
     "status",
     "error_kind",
@@ -183,6 +183,10 @@ pub const SUMMARY_HEADER: [&str; 39] = [
     "map_rmse_v",
     "fit_s",
     "paper_start",
+    "bv_a_lo",
+    "bv_a_hi",
+    "bv_i0_lo",
+    "bv_i0_hi",
 ];
 
 /// One file's row of the summary: its fit, or why there is none.
@@ -275,6 +279,15 @@ pub struct FileSummary {
     /// `paper_start`: `used`, `outside_bounds`, `no_estimate`,
     /// `regression_failed`, `not_run`; empty with `--method paper`).
     pub paper_start: Option<&'static str>,
+    /// The Butler–Volmer term's `a`, 95 % interval, low end (V; given,
+    /// not judged: docs/trust.md).
+    pub bv_a_lo: Option<f64>,
+    /// The term's `a`, 95 % interval, high end (V).
+    pub bv_a_hi: Option<f64>,
+    /// The term's `i₀`, 95 % interval, low end (A).
+    pub bv_i0_lo: Option<f64>,
+    /// The term's `i₀`, 95 % interval, high end (A).
+    pub bv_i0_hi: Option<f64>,
 }
 
 fn cell(x: Option<f64>) -> String {
@@ -350,6 +363,10 @@ impl FileSummary {
             map_rmse_v: map.map(|m| m.rmse_v),
             fit_s,
             paper_start: j.paper_start,
+            bv_a_lo: c.and_then(|c| c.bv_a).map(|x| x[0]),
+            bv_a_hi: c.and_then(|c| c.bv_a).map(|x| x[1]),
+            bv_i0_lo: c.and_then(|c| c.bv_i0).map(|x| x[0]),
+            bv_i0_hi: c.and_then(|c| c.bv_i0).map(|x| x[1]),
         }
     }
 
@@ -399,6 +416,10 @@ impl FileSummary {
             cell(self.map_rmse_v),
             format!("{:.3}", self.fit_s),
             s(self.paper_start),
+            cell(self.bv_a_lo),
+            cell(self.bv_a_hi),
+            cell(self.bv_i0_lo),
+            cell(self.bv_i0_hi),
         ]
     }
 }

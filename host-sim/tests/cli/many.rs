@@ -124,6 +124,25 @@ fn a_directory_gives_one_row_per_file_and_a_bad_file_does_not_stop_the_others() 
         assert_eq!(hi, c["alpha"][1].as_f64().unwrap());
         assert_eq!(row["samples"], one["record"]["samples"].to_string());
         assert_eq!(row["paper_start"], one["paper_start"].as_str().unwrap());
+        // The Butler–Volmer term's intervals: the fit's, or empty for a
+        // linear fit.
+        for (key, col, end) in [
+            ("bv_a", "bv_a_lo", 0),
+            ("bv_a", "bv_a_hi", 1),
+            ("bv_i0", "bv_i0_lo", 0),
+            ("bv_i0", "bv_i0_hi", 1),
+        ] {
+            match c[key][end].as_f64() {
+                Some(x) => assert_eq!(row[col].parse::<f64>().unwrap(), x, "{name} {col}"),
+                None => assert_eq!(row[col], "", "{name} {col}"),
+            }
+        }
+        assert_eq!(
+            row["bv_a_lo"].is_empty(),
+            one["model"] == "linear",
+            "{name}: {}",
+            one["model"]
+        );
     }
     assert_eq!(rows[0]["paper_start"], "");
 }
