@@ -270,7 +270,8 @@ pub struct FileSummary {
     pub map_levels: Option<usize>,
     /// With a map: the levels not identifiable.
     pub map_not_identifiable: Option<usize>,
-    /// With a map: the map model's RMSE over the whole record (V).
+    /// With a map: the map model's RMSE over the whole record (V); none
+    /// when no level is identifiable.
     pub map_rmse_v: Option<f64>,
     /// Wall time of this file's read and fit (s); the only field that
     /// depends on the machine.
@@ -360,7 +361,8 @@ impl FileSummary {
             map_levels: map.map(|m| m.map.rows.len()),
             map_not_identifiable: map
                 .map(|m| m.map.rows.iter().filter(|r| !r.identifiable).count()),
-            map_rmse_v: map.map(|m| m.rmse_v),
+            // None without an identifiable level (no map model to run).
+            map_rmse_v: map.map(|m| m.rmse_v).filter(|x| x.is_finite()),
             fit_s,
             paper_start: j.paper_start,
             bv_a_lo: c.and_then(|c| c.bv_a).map(|x| x[0]),

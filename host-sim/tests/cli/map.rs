@@ -440,9 +440,10 @@ fn a_joint_map_with_given_flags() {
 #[test]
 fn a_knot_within_its_interval_of_a_bound_is_not_identifiable() {
     let (map, json) = (tmp("bvmap-prada.csv"), tmp("bvmap-prada.json"));
+    let summary = tmp("bvmap-prada-summary.csv");
     let rec = data("pybamm/prada2013-hppc.csv");
     let ocv = data("pybamm/prada2013-ocv.csv");
-    let o = run(&[
+    let args = [
         "identify",
         "battery",
         "--input",
@@ -465,13 +466,26 @@ fn a_knot_within_its_interval_of_a_bound_is_not_identifiable() {
         s(&map),
         "--json",
         s(&json),
-    ]);
+    ];
+    let o = run(&args);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let stdout = String::from_utf8_lossy(&o.stdout);
     assert!(
         stdout.contains("map none (no identifiable level)"),
         "{stdout}"
     );
+    // The same as a summary's row (`--summary-out`): ten levels, none
+    // identifiable, no map RMSE.
+    let mut with_summary = args.to_vec();
+    with_summary.extend(["--summary-out", s(&summary)]);
+    assert!(run(&with_summary).status.success());
+    let mut rd = csv::Reader::from_path(&summary).unwrap();
+    let h = rd.headers().unwrap().clone();
+    let row = rd.records().next().unwrap().unwrap();
+    let at = |name: &str| &row[h.iter().position(|x| x == name).unwrap()];
+    assert_eq!(at("map_levels"), "10");
+    assert_eq!(at("map_not_identifiable"), "10");
+    assert_eq!(at("map_rmse_v"), "");
     let rows = read_json(&json)["map"]["levels"]
         .as_array()
         .unwrap()
