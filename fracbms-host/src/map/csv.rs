@@ -32,7 +32,7 @@ fn bound(r: &MapRow, f: fn(&Confidence) -> [f64; 2], i: usize) -> String {
 
 /// An end of a Butler–Volmer interval (empty without the term).
 fn term_bound(r: &MapRow, f: fn(&Confidence) -> Option<[f64; 2]>, i: usize) -> String {
-    opt(r.confidence.as_ref().and_then(|c| f(c)).map(|x| x[i]))
+    opt(r.confidence.as_ref().and_then(f).map(|x| x[i]))
 }
 
 /// The map's CSV, column by column, in order (the contract's eleven
