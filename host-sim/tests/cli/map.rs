@@ -443,15 +443,18 @@ fn a_knot_within_its_interval_of_a_bound_is_not_identifiable() {
     let summary = tmp("bvmap-prada-summary.csv");
     let rec = data("pybamm/prada2013-hppc.csv");
     let ocv = data("pybamm/prada2013-ocv.csv");
-    let args = [
-        "identify",
-        "battery",
+    // The record, its OCV table and its capacity, as each command reads it.
+    let cell = [
         "--input",
         s(&rec),
         "--ocv",
         s(&ocv),
         "--capacity-ah",
         "2.3034509907239076",
+    ];
+    let mut args = vec!["identify", "battery"];
+    args.extend(cell);
+    args.extend([
         "--min-rest",
         "250",
         "--model",
@@ -466,7 +469,7 @@ fn a_knot_within_its_interval_of_a_bound_is_not_identifiable() {
         s(&map),
         "--json",
         s(&json),
-    ];
+    ]);
     let o = run(&args);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let stdout = String::from_utf8_lossy(&o.stdout);
@@ -476,7 +479,7 @@ fn a_knot_within_its_interval_of_a_bound_is_not_identifiable() {
     );
     // The same as a summary's row (`--summary-out`): ten levels, none
     // identifiable, no map RMSE.
-    let mut with_summary = args.to_vec();
+    let mut with_summary = args.clone();
     with_summary.extend(["--summary-out", s(&summary)]);
     assert!(run(&with_summary).status.success());
     let mut rd = csv::Reader::from_path(&summary).unwrap();
@@ -505,20 +508,11 @@ fn a_knot_within_its_interval_of_a_bound_is_not_identifiable() {
         }
     }
     assert!(inside >= 3, "{rows:?}");
-    let o = run(&[
-        "online",
-        "battery",
-        "--input",
-        s(&rec),
-        "--ocv",
-        s(&ocv),
-        "--capacity-ah",
-        "2.3034509907239076",
-        "--prior",
-        s(&map),
-        "--out",
-        s(&tmp("bvmap-prada-track.csv")),
-    ]);
+    let track = tmp("bvmap-prada-track.csv");
+    let mut online = vec!["online", "battery"];
+    online.extend(cell);
+    online.extend(["--prior", s(&map), "--out", s(&track)]);
+    let o = run(&online);
     assert_eq!(o.status.code(), Some(1));
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(err.trim_end().lines().count(), 1, "{err}");
