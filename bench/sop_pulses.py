@@ -259,7 +259,7 @@ def acceptance(host_sim, out, map_method, online_args=(), map_model="linear"):
                                     "--horizons", ",".join(map(str, horizons)), "--window", "256",
                                     "--out", track] + extra + list(online_args),
                                    stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
-                if p.returncode != 0 and extra:
+                if p.returncode != 0 and extra and "no level of the map can be a prior" in p.stderr:
                     # A map none of whose rows can be a prior: its row says so.
                     refused = p.stderr.strip().splitlines()[-1][:120]
                     break

@@ -508,8 +508,13 @@ pub fn assess(
         let half = |j: usize| se[j].map(|e| Z95 * e * scale).filter(|h| h.is_finite());
         let log_interval = |p: f64, j: usize| half(j).map(|h| [p * (-h).exp(), p * h.exp()]);
         // The term's columns (`ln a`, `ln i₀`), where it was fitted (not
-        // judged: none when not finite).
-        let term = |p: f64, j: usize| info.fitted[j].then(|| log_interval(p, j)).flatten();
+        // judged; none when an end is not finite, which JSON cannot hold).
+        let term = |p: f64, j: usize| {
+            info.fitted[j]
+                .then(|| log_interval(p, j))
+                .flatten()
+                .filter(|x| x.iter().all(|e| e.is_finite()))
+        };
         Some(Confidence {
             r_i: log_interval(cell.r_i, 0)?,
             r_ct: log_interval(cell.r_ct, 1)?,

@@ -491,23 +491,16 @@ pub fn joint_fit(
     let cells: Vec<CellParameters<f64>> = (0..kn)
         .map(|j| cell_of(knot(&theta, &l, j), kinetic))
         .collect();
-    // The shared Butler–Volmer term's half-widths (`ln a`, `ln i₀`) and
-    // whether either lies within its interval of a bound of the search:
-    // every knot's, as the term is.
-    let term: Option<([Option<f64>; 2], bool)> = l.kinetic.map(|at| {
+    // The shared Butler–Volmer term's half-widths (`ln a`, `ln i₀`): every
+    // knot's, as the term is; given, not judged.
+    let term: Option<[Option<f64>; 2]> = l.kinetic.map(|at| {
         let half = |i: usize| {
             cov.as_ref()
                 .map(|m| sigma2 * m[(at + i, at + i)])
                 .filter(|x| x.is_finite() && *x >= 0.0)
                 .map(|x| Z95 * x.sqrt())
         };
-        let h = [half(0), half(1)];
-        let at_bound = (0..2).any(|i| {
-            let [lo, hi] = KINETIC_BOUNDS[i];
-            let reach = h[i].unwrap_or(0.0).max(1e-6);
-            theta[at + i] <= lo + reach || theta[at + i] >= hi - reach
-        });
-        (h, at_bound)
+        [half(0), half(1)]
     });
     let mut confidence = vec![];
     let mut reasons = vec![];
@@ -533,9 +526,11 @@ pub fn joint_fit(
             );
             // The term's, where the map has one.
             let (bv_a, bv_i0) = match &term {
-                Some(([h_a, h_i0], _)) => (
-                    h_a.map(|h| log_interval(c.bv_a, h)),
-                    h_i0.map(|h| log_interval(c.bv_i0, h)),
+                Some([h_a, h_i0]) => (
+                    h_a.map(|h| log_interval(c.bv_a, h))
+                        .filter(|x| x.iter().all(|e| e.is_finite())),
+                    h_i0.map(|h| log_interval(c.bv_i0, h))
+                        .filter(|x| x.iter().all(|e| e.is_finite())),
                 ),
                 None => (None, None),
             };
@@ -577,9 +572,6 @@ pub fn joint_fit(
             if k[p] <= BOUNDS[p][0] + reach || k[p] >= BOUNDS[p][1] - reach {
                 why.push(format!("{name} at a bound of the joint search"));
             }
-        }
-        if term.is_some_and(|(_, at_bound)| at_bound) {
-            why.push("the Butler–Volmer term at a bound of the joint search".to_owned());
         }
         confidence.push(conf);
         reasons.push(why);

@@ -725,6 +725,7 @@ fn joint_fit_shares_one_butler_volmer_term() {
         m.map.write_csv(&csv).unwrap();
         let back = crate::map::ParameterMap::read_csv(&csv).unwrap();
         let _ = std::fs::remove_file(&csv);
+        assert_eq!(back.rows.len(), rows.len());
         for (x, y) in back.rows.iter().zip(rows) {
             let (cx, cy) = (
                 x.confidence.as_ref().unwrap(),
