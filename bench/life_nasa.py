@@ -19,6 +19,7 @@ measurements of the same aging.
 
     cargo build --release -p host-sim
     python3 bench/life_nasa.py [--host-sim target/release/host-sim] [--window 256] [--memory M] [--out target/life]
+        [--online-args "..."]
         [--data data/nasa-pcoe-b0005] [--voltage-min 2.7]
 
 `--data` is a folder laid out as `data/nasa-pcoe-b0005` (`metadata.csv`
@@ -30,6 +31,7 @@ dataset's description).
 import argparse
 import csv
 import os
+import shlex
 import shutil
 import statistics
 import subprocess
@@ -117,6 +119,8 @@ def main():
     ap.add_argument("--runs", type=int, default=3)
     ap.add_argument("--data", default="data/nasa-pcoe-b0005")
     ap.add_argument("--voltage-min", default="2.7")
+    ap.add_argument("--online-args", default="",
+                    help="more arguments for `online battery`, as one string (e.g. \"--start at-rest\")")
     a = ap.parse_args()
     data = a.data
     os.makedirs(a.out, exist_ok=True)
@@ -130,6 +134,7 @@ def main():
            "--out", os.path.join(a.out, "tracks"), "--life-out", life]
     if a.memory:
         cmd += ["--memory", a.memory]
+    cmd += shlex.split(a.online_args)
     pin = ["taskset", "-c", "0"] if shutil.which("taskset") else []
     secs = []
     for _ in range(a.runs):
