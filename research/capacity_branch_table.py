@@ -37,7 +37,7 @@ import scipy.io as sio
 
 sys.path.insert(0, os.path.dirname(__file__))
 from capacity_correlated_table import run  # noqa: E402
-from capacity_rest_pairs import HPPC, MEASURED_AH, OCV  # noqa: E402
+from capacity_rest_pairs import MEASURED_AH, OCV, rest_rows  # noqa: E402
 
 C20 = "data/panasonic-18650pf/05-08-17_13.26 C20 OCV Test_C20_25dC.mat"
 
@@ -48,25 +48,6 @@ def branch(t, i, v, mask, falling):
     q = np.cumsum(np.abs(ii) * np.diff(tt, prepend=tt[0])) / 3600
     s = q / q[-1]
     return (1 - s if falling else s), vv, q[-1]
-
-
-def rest_voltages():
-    m = sio.loadmat(HPPC)["meas"][0, 0]
-    t, i, v, ah = (m[k].ravel() for k in ("Time", "Current", "Voltage", "Ah"))
-    ends, start, last = [], None, None
-    for k in range(1, len(t)):
-        if abs(i[k]) < 0.06 and t[k] - t[k - 1] < 100:
-            start = t[k] if start is None else start
-            if t[k] - start >= 3600 and last != start:
-                ends.append(k)
-                last = start
-        else:
-            if start is not None and t[k - 1] - start >= 600 and last != start:
-                ends.append(k - 1)
-                last = start
-            start = None
-    vr = np.array([v[max(0, k - 15):k + 1].mean() for k in ends])
-    return t[ends], vr, ah[ends]
 
 
 def main():
@@ -85,7 +66,7 @@ def main():
         "each branch by its own count, mean": (grid, (dis + ch) / 2),
         "discharge branch + half-gap": (grid, dis + gap),
     }
-    tr, vr, q = rest_voltages()
+    tr, vr, q = rest_rows()
     for name, (sg, vg) in tables.items():
         z = np.interp(vr, vg, sg)
         slope = np.abs(np.interp(z, sg, np.gradient(vg, sg)))

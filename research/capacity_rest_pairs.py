@@ -33,8 +33,9 @@ MEASURED_AH = 2.995
 MIN_SPAN = 0.3
 
 
-def rests():
-    o = np.genfromtxt(OCV, delimiter=",", names=True)
+def rest_rows():
+    """Each rest's end time, its last 16 voltages' mean and the export's
+    `Ah` count at its end."""
     m = sio.loadmat(HPPC)["meas"][0, 0]
     t, i, v, ah = (m[k].ravel() for k in ("Time", "Current", "Voltage", "Ah"))
     ends, start, last = [], None, None
@@ -50,9 +51,15 @@ def rests():
                 last = start
             start = None
     vr = np.array([v[max(0, k - 15):k + 1].mean() for k in ends])
+    return t[ends], vr, ah[ends]
+
+
+def rests():
+    o = np.genfromtxt(OCV, delimiter=",", names=True)
+    t, vr, ah = rest_rows()
     z = np.interp(vr, o["ocv_v"], o["soc"])
     slope = np.abs(np.interp(z, o["soc"], np.gradient(o["ocv_v"], o["soc"])))
-    return t[ends], z, ah[ends], slope
+    return t, z, ah, slope
 
 
 def report(name, published):

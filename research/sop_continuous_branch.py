@@ -80,10 +80,12 @@ def main():
             deeper = r_ct * abs(cur) * (continuous - discrete)
             rows.append(((float(p) - measured) / abs(drop),
                          (float(p) - deeper - measured) / abs(drop)))
-        e = np.array(rows)
-        print(f"{h} s, {len(e)} pulses: median miss {np.median(e[:, 0]):+.1%} -> {np.median(e[:, 1]):+.1%}; "
-              f"median size {np.median(abs(e[:, 0])):.1%} -> {np.median(abs(e[:, 1])):.1%}; "
-              f"largest {abs(e[:, 0]).max():.1%} -> {abs(e[:, 1]).max():.1%}")
+        published, continuous = np.array(rows).T
+        print(f"{h} s, {len(rows)} pulses: " + "; ".join(
+            f"{what} {f(published):{fmt}} -> {f(continuous):{fmt}}"
+            for what, f, fmt in (("median miss", np.median, "+.1%"),
+                                 ("median size", lambda e: np.median(abs(e)), ".1%"),
+                                 ("largest", lambda e: abs(e).max(), ".1%"))))
 
 
 if __name__ == "__main__":
