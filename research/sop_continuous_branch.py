@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 # Research script (docs/research.md), not a benchmark.
 # Question: Is the Panasonic 2 s pulse predicted short of the measured drop (a median +3.0 % of it with the Butler-Volmer map) because the Grunwald-Letnikov recursion's first sample undershoots the branch's continuous step response?
-# Answer: in part: the continuous response (Mittag-Leffler) at the same parameters takes the 2 s median miss to +1.8 % and its median size from 3.6 % to 3.0 %, but the 10 s one from 2.5 % to 2.9 % (the map was fitted with the recursion); not built.
+# Answer: in part: the continuous response (Mittag-Leffler) at the same parameters takes the 2 s median miss to +1.8 % and its median size from 3.6 % to 3.0 %, but the 10 s median size from 2.5 % to 2.9 %, its median miss +1.4 -> +0.7 % (the map was fitted with the recursion); not built.
 """The state of power's pulse with the branch in continuous time (issue
 72; docs/research.md, "The state of power").
 
