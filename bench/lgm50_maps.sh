@@ -18,6 +18,7 @@
 #
 #   bash bench/lgm50_maps.sh [OUT]
 #   HOST_SIM=path/to/host-sim bash bench/lgm50_maps.sh [OUT]   # no build
+#   CAPACITY_AH=5 bash bench/lgm50_maps.sh [OUT]               # the nominal capacity
 set -euo pipefail
 cd "$(dirname "$0")/.."
 out="${1:-target/real-cells/lgm50-maps}"
@@ -39,8 +40,13 @@ with open(sys.argv[2], "w") as f:
     for s, v in zip(m["refSoC"], m["meanOCV"]):
         f.write(f"{s / 100},{v}\n")
 PY
+# The cell's capacity is the one its C/10 discharge at 25 °C measures
+# (`host-sim ocv` prints it: 4.9446 A·h), the charge scale of both tables;
+# CAPACITY_AH=5 runs everything at the nominal 5 A·h instead.
 $hs ocv --input $rate --table LGM50_5Ah_RateTest.T25.cRate_0p1C --columns $rcols --from low-rate \
-  --capacity-ah 5 --out "$out/ocv-c10.csv" > /dev/null 2>&1
+  ${CAPACITY_AH:+--capacity-ah $CAPACITY_AH} --out "$out/ocv-c10.csv" --json "$out/ocv-c10.json" > /dev/null 2>&1
+cap=$(python3 -c "import json,sys;print(json.load(open(sys.argv[1]))['capacity_ah'])" "$out/ocv-c10.json")
+echo "capacity: $cap A·h"
 
 for ocv in file c10; do
   o="$out/$ocv"
@@ -54,7 +60,7 @@ for ocv in file c10; do
       tag=$method-$T
       start=$(date +%s.%N)
       $hs identify battery --input $pulse --table "${tables%,}" --columns temperature=LogTemp001 \
-        --ocv "$out/ocv-$ocv.csv" --capacity-ah 5 --soc0 0.9 --model linear --temperature-c $T \
+        --ocv "$out/ocv-$ocv.csv" --capacity-ah $cap --soc0 0.9 --model linear --temperature-c $T \
         --map-method $method --map-out "$o/map-$tag.csv" --json "$o/fit-$tag.json" \
         --levels-out "$o/levels-$tag" > "$o/map-$tag.log" 2>&1
       took=$(python3 -c "import sys;print(f'{float(sys.argv[2]) - float(sys.argv[1]):.1f}')" "$start" "$(date +%s.%N)")
@@ -77,8 +83,8 @@ PY
     (cat "$o/map-$method-10.csv"; tail -n +2 "$o/map-$method-45.csv") > "$o/map-$method-10-45.csv"
   done
   echo
-  echo "| record | levels map | joint map | single fit | joint map / single fit | joint, 10+25+45 °C | joint, 10+45 °C | the discharge alone: joint / single |"
-  echo "|---|---|---|---|---|---|---|---|"
+  echo "| record | levels map | joint map | single fit | joint map / single fit | joint, 10+25+45 °C | its / single fit | joint, 10+45 °C | the discharge alone: joint / single |"
+  echo "|---|---|---|---|---|---|---|---|---|"
   for T in 25 10 45; do
     rates="0p5C 1C 2C"; [ $T = 45 ] && rates="0p5C 1C 1p5C"
     for r in $rates; do
@@ -86,11 +92,12 @@ PY
       for m in map-levels-$T.csv map-joint-$T.csv fit-joint-$T.json map-joint-all.csv map-joint-10-45.csv; do
         j="$o/rate-$T-$r-$m.json"
         $hs predict battery --model "$o/$m" --input $rate --table LGM50_5Ah_RateTest.T$T.cRate_$r \
-          --columns $rcols --ocv "$out/ocv-$ocv.csv" --capacity-ah 5 --soc0 1 --json "$j" \
+          --columns $rcols --ocv "$out/ocv-$ocv.csv" --capacity-ah $cap --soc0 1 --json "$j" \
           --out "${j%.json}.csv" > "$o/rate-$T-$r-$m.log" 2>&1 || { row+=("refused"); continue; }
         row+=("$(python3 -c "import json,sys;print(f\"{1e3*json.load(open(sys.argv[1]))['in_table']['rmse_v']:.1f}\")" "$j")")
       done
       ratio=$(python3 -c "import sys;print(f'{float(sys.argv[1]) / float(sys.argv[2]):.3f}')" "${row[1]}" "${row[2]}")
+      ratio_all=$(python3 -c "import sys;print(f'{float(sys.argv[1]) / float(sys.argv[2]):.3f}')" "${row[3]}" "${row[2]}")
       # The constant-current discharge alone (the measured samples under a
       # discharge current), as a BMS most needs it predicted.
       dis=$(python3 - "$o/rate-$T-$r-map-joint-$T.csv.csv" "$o/rate-$T-$r-fit-joint-$T.json.csv" <<'PY'
@@ -106,13 +113,13 @@ for f in sys.argv[1:]:
 print(f"{out[0]:.1f} / {out[1]:.1f}")
 PY
 )
-      echo "| $T °C ${r/p/.} | ${row[0]} | ${row[1]} | ${row[2]} | $ratio | ${row[3]} | ${row[4]} | $dis |"
+      echo "| $T °C ${r/p/.} | ${row[0]} | ${row[1]} | ${row[2]} | $ratio | ${row[3]} | $ratio_all | ${row[4]} | $dis |"
     done
   done
   # The middle temperature's pulse record from the outer two's joint map.
   tables=$(for s in 9 8 7 6 5 4 3 2 1; do printf "LGM50_5Ah_Pulse.T25.SoC$s.Cell1.data,"; done)
   $hs predict battery --model "$o/map-joint-10-45.csv" --input $pulse --table "${tables%,}" \
-    --columns temperature=LogTemp001 --ocv "$out/ocv-$ocv.csv" --capacity-ah 5 --soc0 0.9 \
+    --columns temperature=LogTemp001 --ocv "$out/ocv-$ocv.csv" --capacity-ah $cap --soc0 0.9 \
     --json "$o/pulse-25-from-10-45.json" > "$o/pulse-25-from-10-45.log" 2>&1
   python3 - "$o/pulse-25-from-10-45.json" "$o/fit-joint-25.json" <<'PY'
 import json, sys
