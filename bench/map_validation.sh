@@ -14,6 +14,7 @@
 #
 #   bash bench/map_validation.sh [OUT]
 #   HOST_SIM=path/to/host-sim bash bench/map_validation.sh [OUT]   # no build
+#   CAPACITY_AH=2.9974 bash bench/map_validation.sh [OUT]   # count with the C/20 test's capacity
 set -euo pipefail
 cd "$(dirname "$0")/.."
 out="${1:-target/map-validation}"
@@ -21,7 +22,7 @@ mkdir -p "$out"
 [ -n "${HOST_SIM:-}" ] || cargo build --release -q -p host-sim
 hs=${HOST_SIM:-target/release/host-sim}
 d=data/panasonic-18650pf
-cap=2.9
+cap=${CAPACITY_AH:-2.9}
 $hs ocv --input "$d/05-08-17_13.26 C20 OCV Test_C20_25dC.mat" --from low-rate --out "$out/ocv.csv" > /dev/null 2>&1
 ocv=(--ocv "$out/ocv.csv" --capacity-ah $cap)
 declare -A hppc=([25]="$d/03-11-17_08.47 25degC_5Pulse_HPPC_Pan18650PF.mat"
