@@ -19,7 +19,6 @@ the branch's drop over the pulse taken from its continuous step response,
 """
 
 import argparse
-import csv
 import math
 import os
 import sys
@@ -53,20 +52,14 @@ def main():
     ap.add_argument("--tracks", default="target/sop-bv")
     a = ap.parse_args()
     name = "Panasonic 25 degC HPPC"
-    path, _, _, gap_s, horizons, _ = S.RECORD_SPECS[name]
-    ps, (t, v) = S.pulses(path)
-    g = S.groups(ps, gap_s)
-    rec = S.record_dir(a.tracks, path)
-    tracks = {}
+    path, _, _, _, horizons, _ = S.RECORD_SPECS[name]
+    _, (t, v) = S.pulses(path)
+    rows_by_horizon = {h: [] for h in horizons}
+    for h, start, cur, r in S.rows_before_pulses(a.tracks, name, "map"):
+        rows_by_horizon[h].append((start, cur, r))
     for h in horizons:
         rows = []
-        for j, (start, cur, length) in enumerate(ps):
-            if g[j] == 0 or length < h:
-                continue
-            c = round(cur, 1)
-            if c not in tracks:
-                tracks[c] = list(csv.DictReader(open(f"{rec}/pulse{c}-map.csv")))
-            r = tracks[c][S.row_before(tracks[c], start)]
+        for start, cur, r in rows_by_horizon[h]:
             p = r[f"pulse_v_{h}s"]
             if not p:
                 continue

@@ -21,7 +21,6 @@ of `sop_uncertainty_v_{H}s` at the last sample before the pulse.
 """
 
 import argparse
-import csv
 import os
 import sys
 
@@ -39,28 +38,12 @@ def main():
     for variant in ("none", "map"):
         ratios = []
         for name in ("Panasonic 25 degC HPPC", "Panasonic 10 degC HPPC"):
-            path, _, _, gap, horizons, _ = S.RECORD_SPECS[name]
-            ps, _ = S.pulses(path)
-            g = S.groups(ps, gap)
-            sub = os.path.splitext(os.path.basename(path))[0][:14].replace(" ", "_")
-            cache = {}
-
-            def track(root, c):
-                if (root, c) not in cache:
-                    cache[(root, c)] = list(csv.DictReader(open(f"{root}/{sub}/pulse{c}-{variant}.csv")))
-                return cache[(root, c)]
-
-            for h in horizons:
-                for j, (start, cur, length) in enumerate(ps):
-                    if g[j] == 0 or length < h:
-                        continue
-                    c = round(cur, 1)
-                    old, new = track(a.old, c), track(a.new, c)
-                    tt = np.array([float(r["time_s"]) for r in old])
-                    k = np.searchsorted(tt, start - (tt[1] - tt[0]), side="right") - 1
-                    so, sn = old[k][f"sop_uncertainty_v_{h}s"], new[k][f"sop_uncertainty_v_{h}s"]
-                    if so and sn:
-                        ratios.append(float(sn) / float(so))
+            # The same pulses in the same order from both sets of tracks.
+            for (h, _, _, old), (_, _, _, new) in zip(S.rows_before_pulses(a.old, name, variant),
+                                                      S.rows_before_pulses(a.new, name, variant)):
+                so, sn = old[f"sop_uncertainty_v_{h}s"], new[f"sop_uncertainty_v_{h}s"]
+                if so and sn:
+                    ratios.append(float(sn) / float(so))
         r = np.array(ratios)
         print(f"prior {variant}: {len(r)} pulses; sigma with the check / without: median {np.median(r):.3f}, "
               f"90th percentile {np.percentile(r, 90):.2f}, 95th {np.percentile(r, 95):.2f}, "
