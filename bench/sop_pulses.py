@@ -214,24 +214,31 @@ def row_before(track, start):
     return np.searchsorted(tt, start - (tt[1] - tt[0]), side="right") - 1
 
 
-def rows_before_pulses(out, name, variant):
-    """Per horizon and pulse of the record `name` (a key of `RECORD_SPECS`)
-    from its second group on and at least a horizon long: `(h, start,
-    current, row)`, the row of its `--acceptance` track under `out` (without
-    a prior, `variant` "none", or with its own map, "map") that the pulse's
-    state of power is read from. Each track is read once."""
+def pulses_judged(name):
+    """Per horizon, the pulses of the record `name` (a key of
+    `RECORD_SPECS`) the acceptance judges: from its second group on and at
+    least a horizon long, as `(h, start, current)`."""
     path, _, _, gap_s, horizons, _ = RECORD_SPECS[name]
     ps, _ = pulses(path)
     g = groups(ps, gap_s)
-    tracks = {}
     for h in horizons:
         for j, (start, cur, length) in enumerate(ps):
-            if g[j] == 0 or length < h:
-                continue
-            c = round(cur, 1)
-            if c not in tracks:
-                tracks[c] = pulse_track(out, path, cur, variant)
-            yield h, start, cur, tracks[c][row_before(tracks[c], start)]
+            if g[j] != 0 and length >= h:
+                yield h, start, cur
+
+
+def rows_before_pulses(out, name, variant):
+    """Per pulse of `pulses_judged(name)`: `(h, start, current, row)`, the
+    row of the record's `--acceptance` track under `out` (without a prior,
+    `variant` "none", or with its own map, "map") that the pulse's state of
+    power is read from. Each track is read once."""
+    path = RECORD_SPECS[name][0]
+    tracks = {}
+    for h, start, cur in pulses_judged(name):
+        c = round(cur, 1)
+        if c not in tracks:
+            tracks[c] = pulse_track(out, path, cur, variant)
+        yield h, start, cur, tracks[c][row_before(tracks[c], start)]
 
 
 def acceptance(host_sim, out, map_method, online_args=(), map_model="linear"):

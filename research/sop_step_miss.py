@@ -52,44 +52,40 @@ def pulses():
     running mean squares by weight)."""
     weights = (0.05, 0.1, 0.2, 0.5)
     out = []
-    for name, (path, _, _, gap_s, horizons, _) in sp.RECORD_SPECS.items():
+    for name, (path, *_) in sp.RECORD_SPECS.items():
         if not name.startswith("Panasonic"):
             continue
-        ps, (t, v) = sp.pulses(path)
+        _, (t, v) = sp.pulses(path)
         traw, iraw, _ = sp.read(path)
-        g = sp.groups(ps, gap_s)
-        rec = f"target/sop/{os.path.splitext(os.path.basename(path))[0][:14].replace(' ', '_')}"
+        rec = sp.record_dir("target/sop", path)
         cache = {}
-        for h in horizons:
-            for j, (start, cur, length) in enumerate(ps):
-                if g[j] == 0 or length < h:
-                    continue
-                c = round(cur, 1)
-                if c not in cache:
-                    tr = list(csv.DictReader(open(f"{rec}/pulse{c}-none.csv")))
-                    tt = np.array([f(r["time_s"]) for r in tr])
-                    so = np.array([f(r["step_resistance_ohm"]) for r in tr])
-                    ri = np.array([f(r["r_i"]) for r in tr])
-                    ii = np.interp(tt, traw, iraw)
-                    steps, ms, m = [], np.zeros((len(tr), len(weights))), np.zeros(len(weights))
-                    for k in range(1, len(tr)):
-                        if np.isfinite(so[k]) and so[k] != so[k - 1] and ri[k - 1] > 0:
-                            miss = math.log(so[k] / ri[k - 1])
-                            steps.append((k, abs(ii[k] - ii[k - 1]), miss))
-                            m = (1 - np.array(weights)) * m + np.array(weights) * miss**2
-                        ms[k] = m
-                    cache[c] = (tr, tt, so, ri, steps, ms)
-                tr, tt, so, ri, steps, ms = cache[c]
-                k = np.searchsorted(tt, start - (tt[1] - tt[0]), side="right") - 1
-                p, sd = f(tr[k][f"pulse_v_{h}s"]), f(tr[k][f"sop_uncertainty_v_{h}s"])
-                if not (np.isfinite(p) and np.isfinite(sd)):
-                    continue
-                octave = math.floor(math.log2(abs(cur)))
-                same = [mi for (kk, di, mi) in steps
-                        if kk <= k and di > 0 and math.floor(math.log2(di)) == octave]
-                last = math.log(so[k] / ri[k]) ** 2 if np.isfinite(so[k]) and ri[k] > 0 else 0.0
-                out.append((c, h, np.interp(start + h, t, v), p, sd, ri[k] * abs(cur), last,
-                            same[-1] ** 2 if same else 0.0, dict(zip(weights, ms[k]))))
+        for h, start, cur in sp.pulses_judged(name):
+            c = round(cur, 1)
+            if c not in cache:
+                tr = list(csv.DictReader(open(f"{rec}/pulse{c}-none.csv")))
+                tt = np.array([f(r["time_s"]) for r in tr])
+                so = np.array([f(r["step_resistance_ohm"]) for r in tr])
+                ri = np.array([f(r["r_i"]) for r in tr])
+                ii = np.interp(tt, traw, iraw)
+                steps, ms, m = [], np.zeros((len(tr), len(weights))), np.zeros(len(weights))
+                for k in range(1, len(tr)):
+                    if np.isfinite(so[k]) and so[k] != so[k - 1] and ri[k - 1] > 0:
+                        miss = math.log(so[k] / ri[k - 1])
+                        steps.append((k, abs(ii[k] - ii[k - 1]), miss))
+                        m = (1 - np.array(weights)) * m + np.array(weights) * miss**2
+                    ms[k] = m
+                cache[c] = (tr, tt, so, ri, steps, ms)
+            tr, tt, so, ri, steps, ms = cache[c]
+            k = np.searchsorted(tt, start - (tt[1] - tt[0]), side="right") - 1
+            p, sd = f(tr[k][f"pulse_v_{h}s"]), f(tr[k][f"sop_uncertainty_v_{h}s"])
+            if not (np.isfinite(p) and np.isfinite(sd)):
+                continue
+            octave = math.floor(math.log2(abs(cur)))
+            same = [mi for (kk, di, mi) in steps
+                    if kk <= k and di > 0 and math.floor(math.log2(di)) == octave]
+            last = math.log(so[k] / ri[k]) ** 2 if np.isfinite(so[k]) and ri[k] > 0 else 0.0
+            out.append((c, h, np.interp(start + h, t, v), p, sd, ri[k] * abs(cur), last,
+                        same[-1] ** 2 if same else 0.0, dict(zip(weights, ms[k]))))
     return out
 
 
