@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 # Research script (docs/research.md), not a benchmark.
 # Question: Would a spread of the map's parameters taken from its own leave-one-level-out miss (how far a knot's value moves when its level is not seen) derate the state of power enough to cover the measured pulses (issue 72: >= 95 % above pulse_v - 2 sigma), where the fixed bound ln 2/1.96 covers 100 % with sigma a third of the drop?
-# Answer: yes on the pooled measured pulses: the spreads are 0.20-0.79 of the bound, and with them the own-map pulses end above pulse_v - 2 sigma at 215 of 221 (97.3 %; 10 degC alone 94.3 % and 93.9 %) with sigma 10-14 % of the drop, against 100 % and 31-38 % with the bound; not built yet.
+# Answer: yes on the pooled measured pulses: the spreads are 0.20-0.79 of the bound, and with them the own-map pulses end above pulse_v - 2 sigma at 215 of 221 (97.3 %; 10 degC alone 94.3 % and 93.9 %) with sigma 10-14 % of the drop, against 100 % and 31-38 % with the bound; not built.
 """The joint map's parameters with each level left out, against the map's
 own (issue 72; docs/research.md, "The state of power").
 
