@@ -39,7 +39,8 @@ def rmse_in_table(host_sim, model, ocv, temperature, rate, capacity):
              "--ocv", ocv, "--capacity-ah", f"{capacity}", "--soc0", "1", "--json", out],
             check=True, capture_output=True,
         )
-        return 1e3 * json.load(open(out))["in_table"]["rmse_v"]
+        with open(out) as f:
+            return 1e3 * json.load(f)["in_table"]["rmse_v"]
 
 
 def main():
@@ -52,6 +53,9 @@ def main():
     d = os.path.join(a.maps, a.ocv)
     ocv = os.path.join(a.maps, f"ocv-{a.ocv}.csv")
     joined = os.path.join(d, "map-joint-all.csv")
+    # The capacity the maps and fits were made at (the bench's OUT says).
+    with open(os.path.join(a.maps, "ocv-c10.json")) as f:
+        print(f"maps made at {json.load(f)['capacity_ah']:.4f} A·h\n")
     print("| capacity (A·h) | " + " | ".join(f"{t} °C {r.replace('p', '.')}" for t, r in RECORDS)
           + " | largest ratio |")
     print("|---" * (len(RECORDS) + 2) + "|")
