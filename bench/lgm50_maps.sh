@@ -88,16 +88,18 @@ PY
   for T in 25 10 45; do
     rates="0p5C 1C 2C"; [ $T = 45 ] && rates="0p5C 1C 1p5C"
     for r in $rates; do
-      row=()
+      row=(); raw=()
       for m in map-levels-$T.csv map-joint-$T.csv fit-joint-$T.json map-joint-all.csv map-joint-10-45.csv; do
         j="$o/rate-$T-$r-$m.json"
         $hs predict battery --model "$o/$m" --input $rate --table LGM50_5Ah_RateTest.T$T.cRate_$r \
           --columns $rcols --ocv "$out/ocv-$ocv.csv" --capacity-ah $cap --soc0 1 --json "$j" \
-          --out "${j%.json}.csv" > "$o/rate-$T-$r-$m.log" 2>&1 || { row+=("refused"); continue; }
-        row+=("$(python3 -c "import json,sys;print(f\"{1e3*json.load(open(sys.argv[1]))['in_table']['rmse_v']:.1f}\")" "$j")")
+          --out "${j%.json}.csv" > "$o/rate-$T-$r-$m.log" 2>&1 || { row+=("refused"); raw+=(nan); continue; }
+        raw+=("$(python3 -c "import json,sys;print(json.load(open(sys.argv[1]))['in_table']['rmse_v'])" "$j")")
+        row+=("$(python3 -c "import sys;print(f'{1e3 * float(sys.argv[1]):.1f}')" "${raw[-1]}")")
       done
-      ratio=$(python3 -c "import sys;print(f'{float(sys.argv[1]) / float(sys.argv[2]):.3f}')" "${row[1]}" "${row[2]}")
-      ratio_all=$(python3 -c "import sys;print(f'{float(sys.argv[1]) / float(sys.argv[2]):.3f}')" "${row[3]}" "${row[2]}")
+      # The ratios from the RMSEs as the JSON has them, not as printed.
+      ratio=$(python3 -c "import sys;print(f'{float(sys.argv[1]) / float(sys.argv[2]):.3f}')" "${raw[1]}" "${raw[2]}")
+      ratio_all=$(python3 -c "import sys;print(f'{float(sys.argv[1]) / float(sys.argv[2]):.3f}')" "${raw[3]}" "${raw[2]}")
       # The constant-current discharge alone (the measured samples under a
       # discharge current), as a BMS most needs it predicted.
       dis=$(python3 - "$o/rate-$T-$r-map-joint-$T.csv.csv" "$o/rate-$T-$r-fit-joint-$T.json.csv" <<'PY'
