@@ -241,19 +241,24 @@ def rows_before_pulses(out, name, variant):
         yield h, start, cur, tracks[c][row_before(tracks[c], start)]
 
 
-def acceptance(host_sim, out, map_method, online_args=(), map_model="linear"):
+def acceptance(host_sim, out, map_method, online_args=(), map_model="linear", worst=0):
     """Every pulse from each record's second pulse group on, with and
     without the record's own map as the prior, beside two baselines
     measured on the same pulses: the last pulse's drop at that duration
     again (scaled by the currents' ratio, the Panasonic test changes the
     current from pulse to pulse) and a 1 RC model fitted to the 1800 s
-    before the pulse (the last pulse and its rest)."""
+    before the pulse (the last pulse and its rest). With `worst`, each
+    row's that many largest misses follow the table, signed: positive
+    where the prediction lies above the measured voltage (the drop
+    underpredicted)."""
     print("| record | horizon | prior | pulses | with a value | basis (window/map/held/stale) "
           "| ours: median / worst % of the drop | measured above pulse_v - 2 sigma "
           "| median sigma, % of the drop | last drop again | 1 RC on the last pulse |")
     print("|---|---|---|---|---|---|---|---|---|---|---|")
     # The derating's check pooled over the measured records, per prior.
     pooled = {}
+    # Per row of the table, its pulses' misses for `worst`.
+    misses = []
     for name, (path, ocv_path, cap, gap_s, horizons, min_rest) in RECORD_SPECS.items():
         ocv = ocv_table(ocv_path)
         ps, (t, v) = pulses(path)
@@ -298,6 +303,7 @@ def acceptance(host_sim, out, map_method, online_args=(), map_model="linear"):
                 continue
             for h in horizons:
                 ours, base, one_rc, basis, n = [], [], [], {}, 0
+                signed = []
                 covered, sigmas = [], []
                 for j, (start, cur, length) in enumerate(ps):
                     if g[j] == 0 or length < h:
@@ -313,6 +319,8 @@ def acceptance(host_sim, out, map_method, online_args=(), map_model="linear"):
                     b = tr[k].get("sop_basis", "")
                     if p:
                         ours.append(abs(float(p) - measured) / drop)
+                        signed.append(((float(p) - measured) / drop, start, cur,
+                                       tr[k].get("soc_coulomb", "")))
                         basis[b] = basis.get(b, 0) + 1
                         # The derated limit's check: a discharge pulse
                         # ends no lower than its prediction less 2 sigma.
@@ -337,10 +345,18 @@ def acceptance(host_sim, out, map_method, online_args=(), map_model="linear"):
                 sg = pct(np.median(sigmas)) if sigmas else "none"
                 print(f"| {name} | {h} s | {variant} | {n} | {len(ours)} | {bs} | {mw(ours)} "
                       f"| {cov} | {sg} | {mw(base)} | {mw(one_rc)} |")
+                misses.append((f"{name}, {h} s, {variant}", signed))
     print()
     for variant, c in pooled.items():
         print(f"measured records, prior {variant}: {sum(c)} of {len(c)} pulses end above "
               f"pulse_v - {CONFIDENCE:g} sigma ({pct(np.mean(c))} %)")
+    if worst > 0:
+        print(f"\nThe {worst} largest misses of each row, % of the drop (+: the drop underpredicted):")
+        for row, m in misses:
+            top = sorted(m, key=lambda x: -abs(x[0]))[:worst]
+            soc = lambda x: f"SOC {float(x):.3f}" if x else "SOC -"
+            print(f"{row}: " + "; ".join(f"{100 * e:+.1f} at {start:.0f} s, {cur:.2f} A, {soc(sc)}"
+                                        for e, start, cur, sc in top))
 
 
 def main():
@@ -362,13 +378,15 @@ def main():
                     help="with --acceptance: how the record's own map is made (default joint)")
     ap.add_argument("--map-model", default="linear", choices=("linear", "butler-volmer"),
                     help="with --acceptance: the model the record's own map is fitted with (default linear)")
+    ap.add_argument("--worst", type=int, default=0, metavar="N",
+                    help="with --acceptance: also list each row's N largest misses, signed")
     ap.add_argument("--online-args", default="",
                     help="with --acceptance: more flags for every `online battery` run, "
                     "e.g. '--slow-memory-s 600'")
     a = ap.parse_args()
     os.makedirs(a.out, exist_ok=True)
     if a.acceptance:
-        acceptance(a.host_sim, a.out, a.map_method, a.online_args.split(), a.map_model)
+        acceptance(a.host_sim, a.out, a.map_method, a.online_args.split(), a.map_model, a.worst)
         return
     ps, (t, v) = pulses()
     if a.resistances:
