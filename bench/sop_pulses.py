@@ -33,6 +33,7 @@ least 0.2 (below it the cell's resistance climbs within a level).
                                                  # the Panasonic tests at 25 and 10 degC (2 s,
                                                  # 10 s) and the DFN HPPC records of
                                                  # data/pybamm (10 s, 30 s)
+    python3 bench/sop_pulses.py --acceptance --worst 8   # and each row's 8 largest misses
 """
 
 import argparse
