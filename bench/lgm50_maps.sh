@@ -94,8 +94,8 @@ PY
         $hs predict battery --model "$o/$m" --input $rate --table LGM50_5Ah_RateTest.T$T.cRate_$r \
           --columns $rcols --ocv "$out/ocv-$ocv.csv" --capacity-ah $cap --soc0 1 --json "$j" \
           --out "${j%.json}.csv" > "$o/rate-$T-$r-$m.log" 2>&1 || { row+=("refused"); raw+=(nan); continue; }
-        raw+=("$(python3 -c "import json,sys;print(json.load(open(sys.argv[1]))['in_table']['rmse_v'])" "$j")")
-        row+=("$(python3 -c "import sys;print(f'{1e3 * float(sys.argv[1]):.1f}')" "${raw[-1]}")")
+        read -r x shown < <(python3 -c "import json,sys;x=json.load(open(sys.argv[1]))['in_table']['rmse_v'];print(x, f'{1e3*x:.1f}')" "$j")
+        raw+=("$x"); row+=("$shown")
       done
       # The ratios from the RMSEs as the JSON has them, not as printed.
       ratio=$(python3 -c "import sys;print(f'{float(sys.argv[1]) / float(sys.argv[2]):.3f}')" "${raw[1]}" "${raw[2]}")

@@ -319,9 +319,9 @@ def acceptance(host_sim, out, map_method, online_args=(), map_model="linear", wo
                     p = tr[k][f"pulse_v_{h}s"]
                     b = tr[k].get("sop_basis", "")
                     if p:
-                        ours.append(abs(float(p) - measured) / drop)
-                        signed.append(((float(p) - measured) / drop, start, cur,
-                                       tr[k].get("soc_coulomb", "")))
+                        miss = (float(p) - measured) / drop
+                        ours.append(abs(miss))
+                        signed.append((miss, start, cur, tr[k].get("soc_coulomb", "")))
                         basis[b] = basis.get(b, 0) + 1
                         # The derated limit's check: a discharge pulse
                         # ends no lower than its prediction less 2 sigma.
@@ -353,9 +353,9 @@ def acceptance(host_sim, out, map_method, online_args=(), map_model="linear", wo
               f"pulse_v - {CONFIDENCE:g} sigma ({pct(np.mean(c))} %)")
     if worst > 0:
         print(f"\nThe {worst} largest misses of each row, % of the drop (+: the drop underpredicted):")
+        soc = lambda x: f"SOC {float(x):.3f}" if x else "SOC -"
         for row, m in misses:
             top = sorted(m, key=lambda x: -abs(x[0]))[:worst]
-            soc = lambda x: f"SOC {float(x):.3f}" if x else "SOC -"
             print(f"{row}: " + "; ".join(f"{100 * e:+.1f} at {start:.0f} s, {cur:.2f} A, {soc(sc)}"
                                         for e, start, cur, sc in top))
 
