@@ -7,7 +7,9 @@
 //!
 //! ## Tour
 //! * [`frac`] — Grünwald–Letnikov fractional differences `Δ^α` with short
-//!   (truncated) memory, and their derivative with respect to the order.
+//!   (truncated) memory, and their derivative with respect to the order;
+//!   who computes their tap sums over many rows ([`frac::TapSums`]: the
+//!   direct kernels, or a host's by FFT).
 //! * [`window`] — the sliding data window (`O(1)` push, NaN rejection).
 //! * [`model`] — the identification model of eq. (4): orders, basis
 //!   functions, a simulator.

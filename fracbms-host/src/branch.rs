@@ -26,7 +26,8 @@
 //! three transforms a solution instead of four. Below [`DIRECT_TAPS`] taps
 //! the direct recursion is cheaper and is used instead. This module owns
 //! the transforms only; the model, the search and the weights are
-//! `estimator-core`'s.
+//! `estimator-core`'s. The paper regression's tap sums by the same
+//! transforms are its submodule's ([`FftSums`]).
 //!
 //! ```
 //! use estimator_core::battery::branch::{BranchSolver, GlRecursion};
@@ -56,7 +57,9 @@ use realfft::num_complex::Complex;
 use realfft::RealFftPlanner;
 
 mod circle;
+mod sums;
 use circle::{sin_cos_half_pi, Circle};
+pub use sums::{FftSums, SUMS_DIRECT_ROWS, SUMS_DIRECT_TAPS};
 
 /// The transform planner (it keeps the plans of the sizes used).
 type Planner = RealFftPlanner<f64>;
@@ -136,11 +139,16 @@ impl fmt::Debug for FftBranch {
 }
 
 /// The smallest transform that holds the linear convolution of two
-/// sequences of `n` values: even, with no prime factor above 5 (a
+/// sequences of `n` values: [`fast_size`] of `2n`.
+fn transform_size(n: usize) -> usize {
+    fast_size(2 * n)
+}
+
+/// The least even size at or above `want` with no prime factor above 5 (a
 /// mixed-radix transform of such a size costs about what the power of two
 /// does per point, and it is up to a third shorter).
-fn transform_size(n: usize) -> usize {
-    let want = (2 * n).max(2);
+fn fast_size(want: usize) -> usize {
+    let want = want.max(2);
     let mut best = want.next_power_of_two();
     let mut p3 = 1;
     while p3 < best {

@@ -24,10 +24,12 @@ use crate::real::Real;
 use core::ops::Range;
 
 mod kernels;
+mod tap_sums;
 #[cfg(test)]
 use kernels::{block_sums, block_sums8, block_sums_lanes, block_sums_pair, block_sums_pair_lanes};
 use kernels::{block_sums2, sum_block};
 pub(crate) use kernels::{row_block, row_block_pair, BLOCK, ROW_BLOCK, SUM_ROWS};
+pub use tap_sums::{DirectSums, TapSums};
 
 /// Grünwald–Letnikov weights `w_j(α)` and `∂w_j/∂α` for `j < len ≤ MEM`,
 /// together with the scale `h^(−α)`.

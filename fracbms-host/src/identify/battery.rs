@@ -8,7 +8,7 @@ use super::model_choice::{choose_model, ModelChoice};
 use super::refine::{refine_best, stop_reason_name, LoggedWindow, Refinement};
 pub use super::starts::{most_excited, rough_starts, START_REGRESSION_ROWS};
 use super::{table_row, BatteryMethod, HistoryEntry, ModelRequest, BAT_MEM, MAX_BATTERY_ROWS};
-use crate::branch::FftBranch;
+use crate::branch::{FftBranch, FftSums};
 use crate::error::Result;
 use crate::{bail, err, io, trust};
 use estimator_core::battery::output_error::{AtBounds, FitInformation};
@@ -359,8 +359,8 @@ fn battery_run_sized<const N: usize, const MEM: usize>(
         voltage: &rec.voltage,
     };
     let sg = BatterySettings::new(rec.h, mem);
-    let mut gi =
-        crate::worker::boxed(|| PaperRegressionGi::<f64, N, MEM>::new(&sg, 0.5)).map_err(ctx)?;
+    let mut gi = crate::worker::boxed(|| PaperRegressionGi::<f64, N, MEM, FftSums>::new(&sg, 0.5))
+        .map_err(ctx)?;
     let mut history = Vec::new();
     let mut track = Vec::new();
     let mut converged = false;

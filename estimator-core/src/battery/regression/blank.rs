@@ -7,10 +7,10 @@
 use super::{PaperRegressionGi, PaperRegressionState, P0};
 use crate::battery::BatterySettings;
 use crate::error::Error;
-use crate::frac::GlWeights;
+use crate::frac::{DirectSums, GlWeights};
 use crate::real::Real;
 
-impl<T: Real, const N: usize, const MEM: usize> PaperRegressionGi<T, N, MEM> {
+impl<T: Real, const N: usize, const MEM: usize> PaperRegressionGi<T, N, MEM, DirectSums> {
     /// Every array 0, the weights [`GlWeights::BLANK`]: not an estimator
     /// until [`init`](Self::init).
     pub(crate) const BLANK: Self = Self {
@@ -31,6 +31,7 @@ impl<T: Real, const N: usize, const MEM: usize> PaperRegressionGi<T, N, MEM> {
         res: [T::ZERO; N],
         n: 0,
         stamp: None,
+        sums: DirectSums,
     };
 
     /// Makes this estimator, whatever it held, the one

@@ -46,7 +46,7 @@
 
 use super::{current_std, BatterySettings, CellParameters};
 use crate::error::Error;
-use crate::frac::GlWeights;
+use crate::frac::{DirectSums, GlWeights, TapSums};
 use crate::gi::{Iteration, OrderStep, P0};
 use crate::real::{dot, norm, Real};
 use crate::window::Window;
@@ -118,7 +118,9 @@ fn cell_from_theta_with<T: Real, const MEM: usize>(
 }
 
 /// The paper's 2S-OP-GI on the battery regression, over a window of
-/// capacity `N` with memory capacity `MEM`.
+/// capacity `N` with memory capacity `MEM`. Its fractional differences are
+/// tap sums over the window's rows, computed by `S` ([`TapSums`]): the
+/// direct kernels by default, an `O(N log N)` host's over a whole record.
 ///
 /// ```
 /// use estimator_core::battery::{regression::PaperRegressionGi, BatterySettings};
@@ -137,7 +139,7 @@ fn cell_from_theta_with<T: Real, const MEM: usize>(
 /// assert_eq!((it.k, it.rows), (1, 64 - 15));
 /// ```
 #[derive(Clone, Debug)]
-pub struct PaperRegressionGi<T, const N: usize, const MEM: usize> {
+pub struct PaperRegressionGi<T, const N: usize, const MEM: usize, S = DirectSums> {
     theta: [T; 4],
     k: u32,
     w: GlWeights<T, MEM>,
@@ -166,6 +168,8 @@ pub struct PaperRegressionGi<T, const N: usize, const MEM: usize> {
     res: [T; N],
     n: usize,
     stamp: Option<(u32, usize, T)>,
+    /// Who computes the tap sums (no state for the direct ones).
+    sums: S,
 }
 
 /// The part of [`PaperRegressionGi`] a cell keeps between iterations
@@ -179,7 +183,7 @@ pub struct PaperRegressionState<T> {
     vref: Option<T>,
 }
 
-impl<T: Real, const N: usize, const MEM: usize> PaperRegressionGi<T, N, MEM> {
+impl<T: Real, const N: usize, const MEM: usize, S: TapSums<T>> PaperRegressionGi<T, N, MEM, S> {
     /// A new estimator with the paper's initial values `θ̂₀ = 1/p₀` and the
     /// initial order `alpha0`.
     ///
@@ -209,6 +213,7 @@ impl<T: Real, const N: usize, const MEM: usize> PaperRegressionGi<T, N, MEM> {
             res: [T::ZERO; N],
             n: 0,
             stamp: None,
+            sums: S::default(),
         })
     }
 
@@ -416,12 +421,19 @@ impl<T: Real, const N: usize, const MEM: usize> PaperRegressionGi<T, N, MEM> {
     fn regressors(&mut self) {
         let rows = self.rows();
         let Self {
-            w, i, v, di, hv, n, ..
+            w,
+            i,
+            v,
+            di,
+            hv,
+            n,
+            sums,
+            ..
         } = self;
         let n = (*n).min(N);
         let (g, v) = (w.scale(), &v[..n]);
-        w.for_each_difference_pair(&i[..n], v, rows, |l, d, dv| {
-            store_regressors(di, hv, v, g, l, d, dv);
+        sums.pair(w.weights(), &i[..n], v, rows, |l, a, b| {
+            store_regressors(di, hv, v, g, l, g * a, g * b);
         });
         self.derivatives = false;
     }
@@ -444,12 +456,13 @@ impl<T: Real, const N: usize, const MEM: usize> PaperRegressionGi<T, N, MEM> {
             ddi,
             dhv,
             n,
+            sums,
             ..
         } = self;
-        let ln_h = w.ln_h();
+        let (s, ln_h) = (w.scale(), w.ln_h());
         let n = (*n).min(N);
-        w.for_each_weight_derivative_pair(&i[..n], &v[..n], rows, |l, a, b| {
-            store_derivatives(ddi, dhv, di, hv, ln_h, l, a, b);
+        sums.pair(w.weight_derivatives(), &i[..n], &v[..n], rows, |l, a, b| {
+            store_derivatives(ddi, dhv, di, hv, ln_h, l, s * a, s * b);
         });
         self.derivatives = true;
     }
@@ -492,14 +505,16 @@ impl<T: Real, const N: usize, const MEM: usize> PaperRegressionGi<T, N, MEM> {
                 trial_di: z,
                 res,
                 n,
+                sums,
                 ..
             } = self;
-            let ln_h = w.ln_h();
+            let (s, ln_h) = (w.scale(), w.ln_h());
             let n = (*n).min(N);
             for ((z, &i), &v) in z.iter_mut().zip(i.iter()).zip(v.iter()).take(n) {
                 *z = th[1] * i - th[2] * v;
             }
-            w.for_each_weight_derivative(&z[..n], rows, |l, a| {
+            sums.single(w.weight_derivatives(), &z[..n], rows, |l, a| {
+                let a = s * a;
                 // (l is a row: l < n ≤ N.)
                 if let (Some(&dl), Some(&hl), Some(&rl)) = (di.get(l), hv.get(l), res.get(l)) {
                     let d = a - ln_h * (th[1] * dl - th[2] * hl) - shift;
@@ -581,8 +596,10 @@ impl<T: Real, const N: usize, const MEM: usize> PaperRegressionGi<T, N, MEM> {
             self.res[l] = th[1] * self.i[l] - th[2] * self.v[l];
         }
         let mut c = T::zero();
+        let rows = self.rows();
         let (i, v, z) = (&self.i, &self.v, &self.res[..n]);
-        w.for_each_difference(z, self.rows(), |l, dz| {
+        self.sums.single(w.weights(), z, rows, |l, dz| {
+            let dz = g * dz;
             // (l is a row: l < n ≤ N.)
             if let (Some(&vl), Some(&il)) = (v.get(l), i.get(l)) {
                 let r = vl - th[0] * il - th[2] * g * vl - b - dz;
@@ -610,12 +627,14 @@ impl<T: Real, const N: usize, const MEM: usize> PaperRegressionGi<T, N, MEM> {
             trial_di,
             trial_hv,
             n,
+            sums,
             ..
         } = self;
         let n = (*n).min(N);
         let (g, i, v) = (w.scale(), &i[..n], &v[..n]);
         let mut c = T::zero();
-        w.for_each_difference_pair(i, v, rows, |l, d, dv| {
+        sums.pair(w.weights(), i, v, rows, |l, d, dv| {
+            let (d, dv) = (g * d, g * dv);
             // (l is a row: l < n ≤ N.)
             let (Some(&vl), Some(&il), Some(tdi), Some(thv)) =
                 (v.get(l), i.get(l), trial_di.get_mut(l), trial_hv.get_mut(l))
