@@ -1,8 +1,11 @@
 //! Host cost of whole-record fits with the full memory (issue 34,
 //! docs/performance.md): one refinement from one start to convergence, on
 //! records of 1 000, 8 000 and 50 000 rows at 1 s, the constant-phase branch
-//! solved by FFT ([`fracbms_host::branch`]); and one branch solve (a
-//! simulation) by FFT against the direct recursion.
+//! solved by FFT ([`fracbms_host::branch`]); one branch solve (a
+//! simulation) by FFT against the direct recursion; and the paper
+//! regression's tap sums of one weight set against two sequences (its
+//! regressors at one order) by FFT against the direct kernels, where
+//! `SUMS_DIRECT_TAPS` and `SUMS_DIRECT_ROWS` put the crossover.
 //!
 //! The records: pulses of −5..5 A lasting 5–200 s, rests between half of
 //! them, through the 18650 cell of `CellParameters::cell_18650` with the
@@ -15,8 +18,8 @@
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
 use estimator_core::battery::branch::{BranchSolver, GlRecursion};
 use estimator_core::battery::CellParameters;
-use estimator_core::frac::GlWeights;
-use fracbms_host::branch::FftBranch;
+use estimator_core::frac::{DirectSums, GlWeights, TapSums};
+use fracbms_host::branch::{FftBranch, FftSums};
 use fracbms_host::identify::battery::rough_starts;
 use fracbms_host::identify::refine::refine_from_start;
 use rand::{Rng, SeedableRng};
@@ -97,5 +100,44 @@ fn branch(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, fits, branch);
+fn tap_sums(c: &mut Criterion) {
+    let mut g = c.benchmark_group("tap_sums_pair");
+    g.sample_size(20);
+    for (n, m) in [
+        (1024, 256),
+        (2048, 32),
+        (2048, 64),
+        (2048, 256),
+        (8000, 256),
+    ] {
+        let (i, v) = record(n, false);
+        // A new order at every call (its weights computed on both sides):
+        // the weights' spectrum is taken each time, as at each of the
+        // regression's order steps; the sequences' are kept.
+        let mut w = GlWeights::<f64, 256>::new(0.6, 1.0, m).unwrap();
+        let mut out = vec![0.0; n];
+        let id = format!("{n}_rows_{m}_taps");
+        let mut k = 0u32;
+        let mut step = move |w: &mut GlWeights<f64, 256>| {
+            k = (k + 1) % 1000;
+            w.set_order(0.6 + 1e-6 * f64::from(k)).unwrap();
+        };
+        g.bench_with_input(BenchmarkId::new("direct", &id), &n, |b, _| {
+            b.iter(|| {
+                step(&mut w);
+                DirectSums.pair(w.weights(), &i, &v, m - 1..n, |l, a, c| out[l] = a + c)
+            })
+        });
+        let mut fft = FftSums::default();
+        g.bench_with_input(BenchmarkId::new("fft", &id), &n, |b, _| {
+            b.iter(|| {
+                step(&mut w);
+                fft.pair(w.weights(), &i, &v, m - 1..n, |l, a, c| out[l] = a + c)
+            })
+        });
+    }
+    g.finish();
+}
+
+criterion_group!(benches, fits, branch, tap_sums);
 criterion_main!(benches);
