@@ -6,7 +6,7 @@
 //! when `a < M − 1`, the samples before it zero), read from its `M − 1`-th
 //! value on. On a real FFT of a size at least the stretch's length plus
 //! `M − 1` nothing wraps, so the values are the direct kernels' up to
-//! rounding (about 1e−15 of the largest term; test
+//! rounding (within 1e−13 of the largest sum; test
 //! `fft_sums_are_the_direct_sums`). The regression asks, at each
 //! iteration, for the sums of a few weight sets (the order's, a trial
 //! order's, their derivatives) against the same two sequences, the current
