@@ -28,9 +28,13 @@ whole command on the export itself beside them.
 
 Both print the free-run RMSE; the ratio of times is ours over theirs in the
 same run: one start against one start, and the whole command against the
-one start of the reference. One core: run it alone (``taskset -c 0`` is
-used when present). On the measured record each of the three runs
-``--repeat`` times (default 5), in turn, and the medians are quoted.
+one start of the reference. One core for all three: ours under ``taskset
+-c 0`` (when present), the reference in this process, pinned to the same
+core and with OpenBLAS on one thread (set before numpy loads; left
+unpinned on a 2-core machine its two BLAS threads made the same start
+1.6-1.8 s where pinned it took 1.4 s). Run it alone. On the measured
+record each of the three runs ``--repeat`` times (default 5), in turn,
+and the medians are quoted.
 
     cargo build --release -p host-sim
     cargo build --release -p fracbms-host --example refine_once
@@ -47,8 +51,15 @@ import subprocess
 import sys
 import time
 
-import numpy as np
-from scipy.optimize import least_squares
+# The reference on one core, as ours: OpenBLAS's threads are fixed when
+# numpy loads, so this comes first.
+for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
+if hasattr(os, "sched_setaffinity") and shutil.which("taskset"):
+    os.sched_setaffinity(0, {0})
+
+import numpy as np  # noqa: E402
+from scipy.optimize import least_squares  # noqa: E402
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from reference_fit import bv, cpe_branch  # noqa: E402
