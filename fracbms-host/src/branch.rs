@@ -120,7 +120,7 @@ pub struct FftBranch {
     /// The spectra of the last drives of
     /// [`FftBranch::unit_branch_with_derivatives`] (a joint fit's knots
     /// each run to their own end: one per end), most recent last.
-    drives: Vec<Spectrum>,
+    drives: KeptSpectra,
 }
 
 impl Clone for FftBranch {
@@ -479,9 +479,9 @@ impl FftBranch {
         let t = &mut self.t;
         // The current's spectrum is kept (a fit drives every branch with
         // the same current), and so is ℓ's.
-        let drive = kept(&mut self.drives, t, current, size);
+        let drive = self.drives.at(t, current, size, KEPT_DRIVES);
         let spec = &mut self.spec;
-        product(&drive.hat, &self.inverse.hat, spec);
+        product(self.drives.hat(drive), &self.inverse.hat, spec);
         t.backward(spec, size, &mut y);
         y.truncate(n);
         t.convolve(&y, &self.inverse.hat, size, spec, &mut d_tau);
@@ -528,25 +528,51 @@ impl FftBranch {
 /// How many drives' spectra [`FftBranch`] keeps.
 const KEPT_DRIVES: usize = 32;
 
-/// The spectrum of `x` at `size` from `kept` (computed and kept when it is
-/// not there; the oldest is dropped beyond [`KEPT_DRIVES`]).
-fn kept<'a>(
-    kept: &'a mut Vec<Spectrum>,
-    t: &mut Transforms,
-    x: &[f64],
-    size: usize,
-) -> &'a Spectrum {
-    let at = kept.iter().position(|s| s.size == size && s.of == x);
-    let at = at.unwrap_or_else(|| {
-        if kept.len() >= KEPT_DRIVES {
-            kept.remove(0);
+/// Spectra kept by the values they are of, the least recently used given
+/// up beyond a capacity: the drives of [`FftBranch`], the sequences and
+/// weights of [`FftSums`].
+#[derive(Default)]
+struct KeptSpectra {
+    /// Each spectrum, and when it was last asked for (a count of calls).
+    kept: Vec<(Spectrum, u64)>,
+    calls: u64,
+}
+
+impl KeptSpectra {
+    /// The index of the spectrum of `x` at `size`, taken now unless kept
+    /// (in the place of the least recently used when `capacity` are). An
+    /// index stays valid until more than `capacity − 1` other sequences
+    /// have been asked for since.
+    fn at(&mut self, t: &mut Transforms, x: &[f64], size: usize, capacity: usize) -> usize {
+        self.calls += 1;
+        let now = self.calls;
+        if let Some(k) = self
+            .kept
+            .iter()
+            .position(|(s, _)| s.size == size && !s.stale && s.of == x)
+        {
+            self.kept[k].1 = now;
+            return k;
         }
-        let mut s = Spectrum::default();
+        let k = if self.kept.len() < capacity.max(1) {
+            self.kept.push((Spectrum::default(), now));
+            self.kept.len() - 1
+        } else {
+            (0..self.kept.len())
+                .min_by_key(|&k| self.kept[k].1)
+                .unwrap_or(0)
+        };
+        let (s, used) = &mut self.kept[k];
         s.keep(t, x, size);
-        kept.push(s);
-        kept.len() - 1
-    });
-    &kept[at]
+        s.stale = false;
+        *used = now;
+        k
+    }
+
+    /// The spectrum at `k` (an index [`at`](Self::at) gave).
+    fn hat(&self, k: usize) -> &[Complex<f64>] {
+        &self.kept[k].0.hat
+    }
 }
 
 /// `c` with `x = c·of` to within [`PROPORTION_ROUNDINGS`] of each value,

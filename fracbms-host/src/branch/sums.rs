@@ -37,7 +37,7 @@ use std::ops::Range;
 use estimator_core::frac::{DirectSums, TapSums};
 use realfft::num_complex::Complex;
 
-use super::{fast_size, Spectrum, Transforms};
+use super::{fast_size, KeptSpectra, Transforms};
 
 /// Below this many taps the direct kernels are used. A pair of sums over
 /// 2 048 rows takes them 22 µs with 64 taps and 78 µs with 256, the
@@ -60,9 +60,7 @@ const KEPT_SPECTRA: usize = 8;
 #[derive(Default)]
 pub struct FftSums {
     t: Transforms,
-    /// Kept spectra, and when each was last used (a count of lookups).
-    kept: Vec<(Spectrum, u64)>,
-    uses: u64,
+    kept: KeptSpectra,
     spec: Vec<Complex<f64>>,
     out: Vec<f64>,
     /// The first sequence's sums of a pair while the second's are taken.
@@ -78,7 +76,7 @@ impl Clone for FftSums {
 impl fmt::Debug for FftSums {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.debug_struct("FftSums")
-            .field("kept", &self.kept.len())
+            .field("kept", &self.kept.kept.len())
             .finish_non_exhaustive()
     }
 }
@@ -101,40 +99,10 @@ fn plan(w: &[f64], xs: &[&[f64]], rows: &Range<usize>, end: usize) -> Option<(us
 }
 
 impl FftSums {
-    /// The index in `kept` of the spectrum of `x` at `size`, taken now
-    /// unless kept (in the place of the one least recently used).
-    fn spectrum(&mut self, x: &[f64], size: usize) -> usize {
-        self.uses += 1;
-        let now = self.uses;
-        if let Some(k) = self
-            .kept
-            .iter()
-            .position(|(s, _)| s.size == size && !s.stale && s.of == x)
-        {
-            self.kept[k].1 = now;
-            return k;
-        }
-        let k = if self.kept.len() < KEPT_SPECTRA {
-            self.kept.push((Spectrum::default(), now));
-            self.kept.len() - 1
-        } else {
-            // The least recently used; never one of this call's (they
-            // were used later than the others, and more are kept).
-            (0..self.kept.len())
-                .min_by_key(|&k| self.kept[k].1)
-                .unwrap_or(0)
-        };
-        let (s, used) = &mut self.kept[k];
-        s.keep(&mut self.t, x, size);
-        s.stale = false;
-        *used = now;
-        k
-    }
-
     /// The sums of the kept weights `kw` against the kept sequence `kx`
     /// (both at `size`) into `out`: the convolution's values from index 0.
     fn convolve_kept(&mut self, kw: usize, kx: usize, size: usize) {
-        let (w, x) = (&self.kept[kw].0.hat, &self.kept[kx].0.hat);
+        let (w, x) = (self.kept.hat(kw), self.kept.hat(kx));
         self.spec.clear();
         self.spec.extend(w.iter().zip(x).map(|(a, b)| a * b));
         self.t.backward(&mut self.spec, size, &mut self.out);
@@ -147,8 +115,8 @@ impl TapSums<f64> for FftSums {
         let Some((from, size)) = plan(w, &[x], &rows, end) else {
             return DirectSums.single(w, x, rows, f);
         };
-        let kw = self.spectrum(w, size);
-        let kx = self.spectrum(&x[from..end], size);
+        let kw = self.kept.at(&mut self.t, w, size, KEPT_SPECTRA);
+        let kx = self.kept.at(&mut self.t, &x[from..end], size, KEPT_SPECTRA);
         self.convolve_kept(kw, kx, size);
         for l in rows.start..end {
             f(l, self.out[l - from]);
@@ -167,9 +135,9 @@ impl TapSums<f64> for FftSums {
         let Some((from, size)) = plan(w, &[x, y], &rows, end) else {
             return DirectSums.pair(w, x, y, rows, f);
         };
-        let kw = self.spectrum(w, size);
-        let kx = self.spectrum(&x[from..end], size);
-        let ky = self.spectrum(&y[from..end], size);
+        let kw = self.kept.at(&mut self.t, w, size, KEPT_SPECTRA);
+        let kx = self.kept.at(&mut self.t, &x[from..end], size, KEPT_SPECTRA);
+        let ky = self.kept.at(&mut self.t, &y[from..end], size, KEPT_SPECTRA);
         self.convolve_kept(kw, kx, size);
         std::mem::swap(&mut self.out, &mut self.other);
         self.convolve_kept(kw, ky, size);
