@@ -30,9 +30,9 @@ Both print the free-run RMSE; the ratio of times is ours over theirs in the
 same run: one start against one start, and the whole command against the
 one start of the reference. One core for all three: ours under ``taskset
 -c 0`` (when present), the reference in this process, pinned to the same
-core and with OpenBLAS on one thread (set before numpy loads; left
-unpinned on a 2-core machine its two BLAS threads made the same start
-1.6-1.8 s where pinned it took 1.4 s). Run it alone. On the measured
+core and with OpenBLAS on one thread (set before numpy loads;
+``--reference-unpinned`` leaves OpenBLAS's threads to the machine, to
+see what that does to the reference). Run it alone. On the measured
 record each of the three runs ``--repeat`` times (default 5), in turn,
 and the medians are quoted.
 
@@ -40,6 +40,7 @@ and the medians are quoted.
     cargo build --release -p fracbms-host --example refine_once
     python3 bench/scaling.py [--rows 1000,8000,50000,200000] [--out target/scaling]
         [--host-sim target/release/host-sim] [--models linear,butler-volmer] [--repeat 5]
+        [--reference-unpinned]
 """
 
 import argparse
@@ -52,11 +53,12 @@ import sys
 import time
 
 # The reference on one core, as ours: OpenBLAS's threads are fixed when
-# numpy loads, so this comes first.
-for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
-    os.environ.setdefault(_var, "1")
-if hasattr(os, "sched_setaffinity") and shutil.which("taskset"):
-    os.sched_setaffinity(0, {0})
+# numpy loads, so this comes first (before the arguments are parsed).
+if "--reference-unpinned" not in sys.argv:
+    for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+        os.environ.setdefault(_var, "1")
+    if hasattr(os, "sched_setaffinity") and shutil.which("taskset"):
+        os.sched_setaffinity(0, {0})
 
 import numpy as np  # noqa: E402
 from scipy.optimize import least_squares  # noqa: E402
@@ -238,6 +240,9 @@ def main():
                     help="runs of each fit on the measured record; the median time is quoted")
     ap.add_argument("--no-measured", action="store_true",
                     help="leave out the measured record (the Panasonic HPPC test)")
+    ap.add_argument("--reference-unpinned", action="store_true",
+                    help="OpenBLAS's threads left to the machine (read before numpy "
+                    "loads; the script's own thread still on core 0)")
     a = ap.parse_args()
     os.makedirs(a.out, exist_ok=True)
     if shutil.which("taskset"):
