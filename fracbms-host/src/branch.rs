@@ -46,6 +46,7 @@
 //! assert!(worst < 1e-11);
 //! ```
 
+use std::cell::RefCell;
 use std::fmt;
 use std::ops::Range;
 use std::sync::Arc;
@@ -61,8 +62,13 @@ mod sums;
 use circle::{sin_cos_half_pi, Circle};
 pub use sums::{FftSums, SUMS_DIRECT_ROWS, SUMS_DIRECT_TAPS};
 
-/// The transform planner (it keeps the plans of the sizes used).
-type Planner = RealFftPlanner<f64>;
+thread_local! {
+    /// The transform planner of this thread, shared by every
+    /// [`Transforms`]: it keeps the plans of the sizes used, so the starts
+    /// of a fit and its sums plan each size once (a plan of 2¹⁹ points
+    /// computes and stores its twiddles: megabytes of fresh pages).
+    static PLANNER: RefCell<RealFftPlanner<f64>> = RefCell::new(RealFftPlanner::new());
+}
 
 /// Below this many taps (`min(M, N)`) the direct recursion is used: it is
 /// cheaper than three transforms there.
@@ -172,7 +178,6 @@ fn fast_size(want: usize) -> usize {
 /// a third of a fit's time before they were kept).
 #[derive(Default)]
 struct Transforms {
-    planner: Planner,
     /// The real input of a forward transform (clobbered by it).
     real: Vec<f64>,
     /// The transforms' own scratch.
@@ -183,7 +188,7 @@ impl Transforms {
     /// The spectrum of `x` zero-padded to `size` (a size of [`transform_size`]), into
     /// `out`.
     fn forward(&mut self, x: &[f64], size: usize, out: &mut Vec<Complex<f64>>) {
-        let fft = self.planner.plan_fft_forward(size);
+        let fft = PLANNER.with(|p| p.borrow_mut().plan_fft_forward(size));
         self.real.clear();
         let k = x.len().min(size);
         self.real.extend_from_slice(&x[..k]);
@@ -198,7 +203,7 @@ impl Transforms {
     /// The sequence of spectrum `spec` (of size `size`, clobbered),
     /// normalized, into `out`.
     fn backward(&mut self, spec: &mut [Complex<f64>], size: usize, out: &mut Vec<f64>) {
-        let fft = self.planner.plan_fft_inverse(size);
+        let fft = PLANNER.with(|p| p.borrow_mut().plan_fft_inverse(size));
         out.resize(size, 0.0);
         // The products of real sequences' spectra are real at 0 and at the
         // Nyquist bin up to rounding; the transform takes them real.

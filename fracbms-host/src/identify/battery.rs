@@ -245,6 +245,119 @@ pub fn filled(v: &[f64]) -> Vec<f64> {
     out
 }
 
+/// One run of the paper's regression over a record's rows: as the
+/// paper's method over all of them, as the refinement's start over its
+/// most excited stretch.
+struct RegressionRun<'a> {
+    path: &'a Path,
+    current: &'a [f64],
+    /// The voltage with every sample filled (the regression needs one at
+    /// each).
+    measured: &'a [f64],
+    settings: &'a BatterySettings<f64>,
+    iterations: u32,
+    method: BatteryMethod,
+    print_table: bool,
+}
+
+/// What the paper's regression left.
+struct PaperRun {
+    history: Vec<HistoryEntry>,
+    /// Its estimate after each iteration.
+    track: Vec<Option<CellParameters<f64>>>,
+    converged: bool,
+    /// Why it stopped before its iterations, as the refinement's start
+    /// (which then starts from the data alone).
+    failed: Option<String>,
+    /// Its last estimate, when physical.
+    estimate: Option<CellParameters<f64>>,
+}
+
+impl RegressionRun<'_> {
+    /// Runs the regression on `rows` with a window of `NR` rows and
+    /// memories up to `MEM`: the refinement's start holds no more than its
+    /// stretch (on a 200 000-row record 0.7 MB instead of 23 MB, every
+    /// page of which was touched).
+    #[inline(never)]
+    fn run<const NR: usize, const MEM: usize>(
+        &self,
+        rows: std::ops::Range<usize>,
+    ) -> Result<PaperRun> {
+        let path = self.path;
+        let ctx = |e: estimator_core::Error| err!(Estimator, "{}: {e}", path.display());
+        let Ok(mut win) = crate::worker::boxed(|| {
+            Ok::<_, std::convert::Infallible>(SampleWindow::<f64, NR>::new())
+        });
+        for (&i, &v) in self.current[rows.clone()]
+            .iter()
+            .zip(&self.measured[rows])
+        {
+            win.push(i, v).map_err(ctx)?;
+        }
+        let sg = self.settings;
+        let mut gi = crate::worker::boxed(|| {
+            PaperRegressionGi::<f64, NR, MEM, FftSums>::new(sg, 0.5)
+        })
+        .map_err(ctx)?;
+        let mut out = PaperRun {
+            history: Vec::new(),
+            track: Vec::new(),
+            converged: false,
+            failed: None,
+            estimate: None,
+        };
+        if self.print_table {
+            println!(
+                "{:>5} {:>10} {:>10} {:>10} {:>8} {:>9} {:>12}",
+                "k", "R_i", "R_ct", "Q", "alpha", "U_oc", "cost"
+            );
+        }
+        // As the refinement's start the regression is one start of several:
+        // when it fails (its rows past the memory carry no excitation, or a
+        // non-finite value), the refinement starts from the data alone.
+        // The note goes with the result (`start_note`), for the face to show:
+        // when the refinement fails as well, its error is the one line.
+        for _ in 0..self.iterations {
+            let it = match gi.iterate(sg, &*win) {
+                Ok(it) => it,
+                Err(e) if self.method == BatteryMethod::Refined => {
+                    out.failed = Some(format!(
+                        "2S-OP-GI stopped after {} iterations ({e}); the refinement starts from the data alone",
+                        out.history.len()
+                    ));
+                    break;
+                }
+                Err(e) => return Err(ctx(e)),
+            };
+            out.history.push(HistoryEntry {
+                k: it.k,
+                alpha: it.alpha,
+                cost: it.cost,
+            });
+            let cell = gi.cell();
+            out.track.push(cell);
+            out.converged = it.converged;
+            if self.print_table && (table_row(it.k) || it.converged) {
+                match cell {
+                    Some(c) => println!(
+                        "{:>5} {:>10.6} {:>10.6} {:>10.3} {:>8.4} {:>9.5} {:>12.5e}",
+                        it.k, c.r_i, c.r_ct, c.q, c.alpha, c.u_oc, it.cost
+                    ),
+                    None => println!(
+                        "{:>5} {:>10} {:>10} {:>10} {:>8.4} {:>9} {:>12.5e}",
+                        it.k, "-", "-", "-", it.alpha, "-", it.cost
+                    ),
+                }
+            }
+            if it.converged {
+                break;
+            }
+        }
+        out.estimate = gi.cell();
+        Ok(out)
+    }
+}
+
 /// Identifies a battery record (`method` paper or refined), printing the
 /// 2S-OP-GI table of estimates versus k when `print_table` is set.
 pub fn battery_run(
@@ -342,82 +455,46 @@ fn battery_run_sized<const N: usize, const MEM: usize>(
     // The regression needs a voltage at every sample; the refinement
     // leaves the unobserved ones (NaN) out.
     let measured = filled(&rec.voltage);
-    let Ok(mut win) =
-        crate::worker::boxed(|| Ok::<_, std::convert::Infallible>(SampleWindow::<f64, N>::new()));
-    // As the refinement's start, the regression runs on the record's most
-    // excited stretch (its cost grows with the rows times the memory);
-    // as the paper's method, on the whole record.
-    let rows = match method {
-        BatteryMethod::Paper => 0..n,
-        BatteryMethod::Refined => most_excited(&rec.current, &rec.voltage, START_REGRESSION_ROWS),
-    };
-    for (&i, &v) in rec.current[rows.clone()].iter().zip(&measured[rows]) {
-        win.push(i, v).map_err(ctx)?;
-    }
     let logged = LoggedWindow {
         current: &rec.current,
         voltage: &rec.voltage,
     };
     let sg = BatterySettings::new(rec.h, mem);
-    let mut gi = crate::worker::boxed(|| PaperRegressionGi::<f64, N, MEM, FftSums>::new(&sg, 0.5))
-        .map_err(ctx)?;
-    let mut history = Vec::new();
-    let mut track = Vec::new();
-    let mut converged = false;
-    let mut stop = None;
-    let mut stop_reason = None;
-    if print_table {
-        println!(
-            "{:>5} {:>10} {:>10} {:>10} {:>8} {:>9} {:>12}",
-            "k", "R_i", "R_ct", "Q", "alpha", "U_oc", "cost"
-        );
-    }
     // A warm start needs no regression to start from.
     let warm = refine.start.filter(|_| method == BatteryMethod::Refined);
     let paper_iterations = if warm.is_some() { 0 } else { iterations };
-    // As the refinement's start the regression is one start of several:
-    // when it fails (its rows past the memory carry no excitation, or a
-    // non-finite value), the refinement starts from the data alone.
-    // The note goes with the result (`start_note`), for the face to show:
-    // when the refinement fails as well, its error is the one line.
-    let mut regression_failed = None;
+    // As the refinement's start, the regression runs on the record's most
+    // excited stretch (its cost grows with the rows times the memory),
+    // sized to that stretch; as the paper's method, on the whole record.
+    let regression = RegressionRun {
+        path,
+        current: &rec.current,
+        measured: &measured,
+        settings: &sg,
+        iterations: paper_iterations,
+        method,
+        print_table,
+    };
+    let PaperRun {
+        history,
+        track,
+        mut converged,
+        failed: regression_failed,
+        estimate,
+    } = match method {
+        BatteryMethod::Refined if N > START_REGRESSION_ROWS => {
+            let rows = most_excited(&rec.current, &rec.voltage, START_REGRESSION_ROWS);
+            regression.run::<START_REGRESSION_ROWS, MEM>(rows)?
+        }
+        BatteryMethod::Refined => {
+            let rows = most_excited(&rec.current, &rec.voltage, START_REGRESSION_ROWS);
+            regression.run::<N, MEM>(rows)?
+        }
+        BatteryMethod::Paper => regression.run::<N, MEM>(0..n)?,
+    };
+    let mut stop = None;
+    let mut stop_reason = None;
     let mut paper_start = None;
-    for _ in 0..paper_iterations {
-        let it = match gi.iterate(&sg, &*win) {
-            Ok(it) => it,
-            Err(e) if method == BatteryMethod::Refined => {
-                regression_failed = Some(format!(
-                    "2S-OP-GI stopped after {} iterations ({e}); the refinement starts from the data alone",
-                    history.len()
-                ));
-                break;
-            }
-            Err(e) => return Err(ctx(e)),
-        };
-        history.push(HistoryEntry {
-            k: it.k,
-            alpha: it.alpha,
-            cost: it.cost,
-        });
-        let cell = gi.cell();
-        track.push(cell);
-        converged = it.converged;
-        if print_table && (table_row(it.k) || it.converged) {
-            match cell {
-                Some(c) => println!(
-                    "{:>5} {:>10.6} {:>10.6} {:>10.3} {:>8.4} {:>9.5} {:>12.5e}",
-                    it.k, c.r_i, c.r_ct, c.q, c.alpha, c.u_oc, it.cost
-                ),
-                None => println!(
-                    "{:>5} {:>10} {:>10} {:>10} {:>8.4} {:>9} {:>12.5e}",
-                    it.k, "-", "-", "-", it.alpha, "-", it.cost
-                ),
-            }
-        }
-        if it.converged {
-            break;
-        }
-    }
     let mut iters = history.len() as u32;
     let mut choice = None;
     if method == BatteryMethod::Paper && refine.model == ModelRequest::ButlerVolmer {
@@ -428,7 +505,7 @@ fn battery_run_sized<const N: usize, const MEM: usize>(
     }
     let (cell, rmse_v, information, alpha_bounds) = match method {
         BatteryMethod::Paper => {
-            let cell = gi.cell().ok_or_else(|| {
+            let cell = estimate.ok_or_else(|| {
                 err!(
                     Data,
                     "{}: 2S-OP-GI has no physical estimate after {iters} iterations (try more --iterations, or --method refined)",
@@ -462,7 +539,6 @@ fn battery_run_sized<const N: usize, const MEM: usize>(
             // at 10 °C, SOC 0.2: 36 mV from the even split, 3.4 mV from the
             // charge-transfer one; docs/measured-cells.md). A start whose
             // search fails is passed over; the fit fails only when all do.
-            let estimate = gi.cell();
             let used = match (&warm, &regression_failed, &estimate) {
                 (Some(_), _, _) => "not_run",
                 (None, Some(_), _) => "regression_failed",
