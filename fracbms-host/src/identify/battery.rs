@@ -288,17 +288,13 @@ impl RegressionRun<'_> {
         let Ok(mut win) = crate::worker::boxed(|| {
             Ok::<_, std::convert::Infallible>(SampleWindow::<f64, NR>::new())
         });
-        for (&i, &v) in self.current[rows.clone()]
-            .iter()
-            .zip(&self.measured[rows])
-        {
+        for (&i, &v) in self.current[rows.clone()].iter().zip(&self.measured[rows]) {
             win.push(i, v).map_err(ctx)?;
         }
         let sg = self.settings;
-        let mut gi = crate::worker::boxed(|| {
-            PaperRegressionGi::<f64, NR, MEM, FftSums>::new(sg, 0.5)
-        })
-        .map_err(ctx)?;
+        let mut gi =
+            crate::worker::boxed(|| PaperRegressionGi::<f64, NR, MEM, FftSums>::new(sg, 0.5))
+                .map_err(ctx)?;
         let mut out = PaperRun {
             history: Vec::new(),
             track: Vec::new(),
