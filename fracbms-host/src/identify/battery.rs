@@ -1,20 +1,19 @@
 //! `identify battery`: the paper's §6.2 regression (2S-OP-GI) over a whole
-//! record, the output-error refinement from it, the Butler–Volmer choice
+//! record (run by `super::paper`), the output-error refinement from it, the Butler–Volmer choice
 //! ([`super::model_choice`]), the OCV curve's overpotential, and the
 //! screening and verdict of [`crate::trust`]. The estimators are
 //! `estimator-core`'s; this module drives them in `f64` and reports.
 
 use super::model_choice::{choose_model, ModelChoice};
+use super::paper::{PaperRun, RegressionRun};
 use super::refine::{refine_best, stop_reason_name, LoggedWindow, Refinement};
 pub use super::starts::{most_excited, rough_starts, START_REGRESSION_ROWS};
-use super::{table_row, BatteryMethod, HistoryEntry, ModelRequest, BAT_MEM, MAX_BATTERY_ROWS};
-use crate::branch::{FftBranch, FftSums};
+use super::{BatteryMethod, HistoryEntry, ModelRequest, BAT_MEM, MAX_BATTERY_ROWS};
+use crate::branch::FftBranch;
 use crate::error::Result;
 use crate::{bail, err, io, trust};
 use estimator_core::battery::output_error::{AtBounds, FitInformation};
-use estimator_core::battery::regression::PaperRegressionGi;
 use estimator_core::battery::{BatterySettings, CellModel, CellParameters};
-use estimator_core::window::SampleWindow;
 use serde::Serialize;
 use std::path::Path;
 
@@ -243,115 +242,6 @@ pub fn filled(v: &[f64]) -> Vec<f64> {
         l = end.unwrap_or(out.len());
     }
     out
-}
-
-/// One run of the paper's regression over a record's rows: as the
-/// paper's method over all of them, as the refinement's start over its
-/// most excited stretch.
-struct RegressionRun<'a> {
-    path: &'a Path,
-    current: &'a [f64],
-    /// The voltage with every sample filled (the regression needs one at
-    /// each).
-    measured: &'a [f64],
-    settings: &'a BatterySettings<f64>,
-    iterations: u32,
-    method: BatteryMethod,
-    print_table: bool,
-}
-
-/// What the paper's regression left.
-struct PaperRun {
-    history: Vec<HistoryEntry>,
-    /// Its estimate after each iteration.
-    track: Vec<Option<CellParameters<f64>>>,
-    converged: bool,
-    /// Why it stopped before its iterations, as the refinement's start
-    /// (which then starts from the data alone).
-    failed: Option<String>,
-    /// Its last estimate, when physical.
-    estimate: Option<CellParameters<f64>>,
-}
-
-impl RegressionRun<'_> {
-    /// Runs the regression on `rows` with a window of `NR` rows and
-    /// memories up to `MEM`: the refinement's start holds no more than its
-    /// stretch (on a 200 000-row record 0.7 MB instead of 23 MB, every
-    /// page of which was touched).
-    #[inline(never)]
-    fn run<const NR: usize, const MEM: usize>(
-        &self,
-        rows: std::ops::Range<usize>,
-    ) -> Result<PaperRun> {
-        let path = self.path;
-        let ctx = |e: estimator_core::Error| err!(Estimator, "{}: {e}", path.display());
-        let Ok(mut win) = crate::worker::boxed(|| {
-            Ok::<_, std::convert::Infallible>(SampleWindow::<f64, NR>::new())
-        });
-        for (&i, &v) in self.current[rows.clone()].iter().zip(&self.measured[rows]) {
-            win.push(i, v).map_err(ctx)?;
-        }
-        let sg = self.settings;
-        let mut gi =
-            crate::worker::boxed(|| PaperRegressionGi::<f64, NR, MEM, FftSums>::new(sg, 0.5))
-                .map_err(ctx)?;
-        let mut out = PaperRun {
-            history: Vec::new(),
-            track: Vec::new(),
-            converged: false,
-            failed: None,
-            estimate: None,
-        };
-        if self.print_table {
-            println!(
-                "{:>5} {:>10} {:>10} {:>10} {:>8} {:>9} {:>12}",
-                "k", "R_i", "R_ct", "Q", "alpha", "U_oc", "cost"
-            );
-        }
-        // As the refinement's start the regression is one start of several:
-        // when it fails (its rows past the memory carry no excitation, or a
-        // non-finite value), the refinement starts from the data alone.
-        // The note goes with the result (`start_note`), for the face to show:
-        // when the refinement fails as well, its error is the one line.
-        for _ in 0..self.iterations {
-            let it = match gi.iterate(sg, &*win) {
-                Ok(it) => it,
-                Err(e) if self.method == BatteryMethod::Refined => {
-                    out.failed = Some(format!(
-                        "2S-OP-GI stopped after {} iterations ({e}); the refinement starts from the data alone",
-                        out.history.len()
-                    ));
-                    break;
-                }
-                Err(e) => return Err(ctx(e)),
-            };
-            out.history.push(HistoryEntry {
-                k: it.k,
-                alpha: it.alpha,
-                cost: it.cost,
-            });
-            let cell = gi.cell();
-            out.track.push(cell);
-            out.converged = it.converged;
-            if self.print_table && (table_row(it.k) || it.converged) {
-                match cell {
-                    Some(c) => println!(
-                        "{:>5} {:>10.6} {:>10.6} {:>10.3} {:>8.4} {:>9.5} {:>12.5e}",
-                        it.k, c.r_i, c.r_ct, c.q, c.alpha, c.u_oc, it.cost
-                    ),
-                    None => println!(
-                        "{:>5} {:>10} {:>10} {:>10} {:>8.4} {:>9} {:>12.5e}",
-                        it.k, "-", "-", "-", it.alpha, "-", it.cost
-                    ),
-                }
-            }
-            if it.converged {
-                break;
-            }
-        }
-        out.estimate = gi.cell();
-        Ok(out)
-    }
 }
 
 /// Identifies a battery record (`method` paper or refined), printing the

@@ -1,7 +1,8 @@
 //! Whole-record identification: the Hammerstein system of eq. (4)
 //! ([`hammerstein`]) and the battery cell of §6.2 ([`battery`], with the
-//! Butler–Volmer choice in [`model_choice`], the whole-record refinement
-//! in [`refine`] and its starts from the data in [`starts`]); a record
+//! Butler–Volmer choice in [`model_choice`], the paper's regression as it
+//! runs there in `paper`, the whole-record refinement in [`refine`] and
+//! its starts from the data in [`starts`]); a record
 //! read from a file or arrays and fitted ([`record`]), many files at once
 //! ([`many`]), maps ([`map`]).
 //!
@@ -16,6 +17,7 @@ pub mod hammerstein;
 pub mod many;
 pub mod map;
 pub mod model_choice;
+mod paper;
 pub mod record;
 pub mod refine;
 pub mod starts;
