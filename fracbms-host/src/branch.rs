@@ -6,24 +6,33 @@
 //! a history `x[..warm]` is `x = g ∗ f` over the rows `l ≥ warm`, with
 //! `g = 1/d` the power series of the inverse (its first `N` coefficients)
 //! and `f = drive − a·(w ∗ x_history)`. With the whole memory, `w` is the
-//! series of `(1 − z)^α` and `g` that of `1/(1 + a·(1 − z)^α)`: evaluated
-//! on a circle just inside the unit circle and transformed back (two
-//! transforms); with a shorter memory, by Newton's iteration
-//! `g ← g + g·(1 − d·g)` on FFTs of doubling size (about ten). Every
-//! convolution is a real FFT of a size at least `2N` with no prime factor
-//! above 5 ([`realfft`]), so none wraps: the values are those of the
-//! direct recursion ([`estimator_core::battery::branch::GlRecursion`]) to
-//! about 1e−11 of the largest value (tests: within 1e−9, to 65 536 rows,
-//! `a` from 1e−4 to 1e4). From rest, the history sums `w ∗ x` the
+//! series of `(1 − z)^α` and `g` that of `1/(1 + a·(1 − z)^α)`, known in
+//! closed form on a circle of radius `r` just inside the unit circle
+//! (`r^S = 1e−9`, `S` the transform size): a solution from rest is the
+//! drive's series there (`f_k·r^k` transformed) times `g`'s, transformed
+//! back and unscaled by `r^{−k}`, one transform for `g` where taking its
+//! coefficients and their spectrum took two more; the solution's terms
+//! from `S` on fold in times `r^S`, and the rounding is unscaled by at
+//! most `r^{−S/2}`. A history, a pair of drives or the unit branch convolve
+//! with `g`'s coefficients instead (taken from the circle when first
+//! needed); with a shorter memory they come from Newton's iteration
+//! `g ← g + g·(1 − d·g)` on FFTs of doubling size (about ten transforms).
+//! Every transform has a size `S` at least `2N` with no prime factor
+//! above 5 ([`realfft`]), so no convolution wraps: the values are those
+//! of the direct recursion
+//! ([`estimator_core::battery::branch::GlRecursion`]) to within 1e−9 of
+//! the largest value (tests, to 65 536 rows, `a` from 1e−4 to 1e4; below
+//! 1e−11 in the example). From rest, the history sums `w ∗ x` the
 //! refinement reads come from the recursion itself, `x + a·(w ∗ x) =
-//! drive`, with no transform.
+//! drive`, with no transform, and the sensitivities' sums are taken on the
+//! circle too, where `ln(1 − z)` is known (three transforms).
 //!
 //! The spectra of `w`, `∂w/∂α` and `g` are kept while the order, `a` and
 //! the window are unchanged (one refinement iteration changes them once
 //! per trial); `w`'s is taken only when a history or a derivative needs
 //! it. From rest, a drive that is a multiple of the last one (a fit's
 //! `R_ct·I` at each `R_ct` it tries) takes that one's spectrum, scaled:
-//! three transforms a solution instead of four. Below [`DIRECT_TAPS`] taps
+//! one transform a solution. Below [`DIRECT_TAPS`] taps
 //! the direct recursion is cheaper and is used instead. This module owns
 //! the transforms only; the model, the search and the weights are
 //! `estimator-core`'s. The paper regression's tap sums by the same
@@ -112,8 +121,13 @@ pub struct FftBranch {
     inverse: Spectrum,
     inverse_key: Option<(u64, usize)>,
     /// The circle `g` is evaluated on where `w` is the whole
-    /// Grünwald–Letnikov series ([`FftBranch::gl_inverse`]).
+    /// Grünwald–Letnikov series ([`FftBranch::eval_circle`]).
     circle: Arc<Circle>,
+    /// `g` at the circle's points, `G(z_j)`, when `w` is the whole
+    /// Grünwald–Letnikov series (else empty): the solutions and sums from
+    /// rest are taken there, and `inverse`'s spectrum (then `stale`) from
+    /// it only when another path needs it.
+    g_circle: Vec<Complex<f64>>,
     /// The spectrum of `ℓ`, the series of `ln(1 − z)` (`−1/k` from
     /// `k = 1`), to the rows of the last unit branch.
     log_series: Spectrum,
@@ -123,6 +137,9 @@ pub struct FftBranch {
     rest_drive: Spectrum,
     /// Where the kept drive's largest value is (the scale is read there).
     rest_peak: usize,
+    /// The kept drive's spectrum is taken on the circle (`x_k·r^k`), not
+    /// on the unit circle.
+    rest_on_circle: bool,
     /// The spectra of the last drives of
     /// [`FftBranch::unit_branch_with_derivatives`] (a joint fit's knots
     /// each run to their own end: one per end), most recent last.
@@ -200,6 +217,27 @@ impl Transforms {
         let _ = fft.process_with_scratch(&mut self.real, out, &mut self.scratch);
     }
 
+    /// The spectrum of `x_k·r^k` (`ln r` given) zero-padded to `size`, into
+    /// `out`: `x`'s power series at the points of the [`Circle`] of that
+    /// size and radius.
+    fn forward_scaled(&mut self, x: &[f64], ln_r: f64, size: usize, out: &mut Vec<Complex<f64>>) {
+        let fft = PLANNER.with(|p| p.borrow_mut().plan_fft_forward(size));
+        self.real.clear();
+        let k = x.len().min(size);
+        let r = ln_r.exp();
+        let mut scale = 1.0;
+        self.real.extend(x[..k].iter().map(|&v| {
+            let s = v * scale;
+            scale *= r;
+            s
+        }));
+        self.real.resize(size, 0.0);
+        out.resize(size / 2 + 1, Complex::default());
+        self.scratch
+            .resize(fft.get_scratch_len(), Complex::default());
+        let _ = fft.process_with_scratch(&mut self.real, out, &mut self.scratch);
+    }
+
     /// The sequence of spectrum `spec` (of size `size`, clobbered),
     /// normalized, into `out`.
     fn backward(&mut self, spec: &mut [Complex<f64>], size: usize, out: &mut Vec<f64>) {
@@ -268,22 +306,50 @@ impl FftBranch {
             self.inverse_key = None;
         }
         if self.inverse_key != Some((a.to_bits(), n)) {
-            let g = match gl_order(taps, n) {
-                Some(alpha) => self.gl_inverse(alpha, a, n, size),
+            match gl_order(taps, n) {
+                Some(alpha) => {
+                    self.eval_circle(alpha, a, size);
+                    self.inverse.stale = true;
+                }
                 None => {
                     let d: Vec<f64> = taps
                         .iter()
                         .enumerate()
                         .map(|(j, &wj)| a * wj + if j == 0 { 1.0 } else { 0.0 })
                         .collect();
-                    self.inverse_series(&d, n)
+                    let g = self.inverse_series(&d, n);
+                    self.t.forward(&g, size, &mut self.inverse.hat);
+                    self.g_circle.clear();
+                    self.inverse.stale = false;
                 }
-            };
-            self.t.forward(&g, size, &mut self.inverse.hat);
+            }
             self.inverse.size = size;
             self.inverse_key = Some((a.to_bits(), n));
         }
         size
+    }
+
+    /// Whether `g` is held on the circle (the whole memory).
+    fn on_circle(&self) -> bool {
+        !self.g_circle.is_empty()
+    }
+
+    /// The spectrum of `g` (its first `n` terms, `n` the rows prepared) on
+    /// the unit circle, taken now from the circle's values if it was not:
+    /// `G(z_j)` transformed back, unscaled by `r^{−k}` and transformed.
+    fn inverse_hat(&mut self, n: usize) {
+        if !self.inverse.stale {
+            return;
+        }
+        let size = self.inverse.size;
+        self.spec.clear();
+        self.spec.extend_from_slice(&self.g_circle);
+        let mut g = Vec::with_capacity(size);
+        self.t.backward(&mut self.spec, size, &mut g);
+        g.truncate(n);
+        unscale(&mut g, self.circle.ln_r);
+        self.t.forward(&g, size, &mut self.inverse.hat);
+        self.inverse.stale = false;
     }
 
     /// The spectrum of the weights last prepared, taken now if it was not.
@@ -295,23 +361,19 @@ impl FftBranch {
         }
     }
 
-    /// The first `n` coefficients of `g = 1/(1 + a·(1 − z)^α)`, the
-    /// inverse series of `δ + a·w` when `w` is the Grünwald–Letnikov
-    /// series of order α to `n` terms: the function evaluated on the
-    /// [`Circle`] of transform size `size` (`≥ 2n`), transformed back and
-    /// unscaled by `r^{−k}`. Two transforms where Newton's iteration takes
-    /// about ten; within about 1e−11 of the largest coefficient (the
-    /// folding of the terms from `size` on, and the rounding unscaled).
-    fn gl_inverse(&mut self, alpha: f64, a: f64, n: usize, size: usize) -> Vec<f64> {
-        // As many points as the transform size (`≥ 2n`): at most half of
-        // the coefficients are kept, so the rounding is unscaled by at most
-        // `r^{−N/2}`.
-        let points = size;
-        if self.circle.size != points {
-            self.circle = Circle::of(points);
+    /// `g = 1/(1 + a·(1 − z)^α)`, the inverse series of `δ + a·w` when `w`
+    /// is the Grünwald–Letnikov series of order α to all `n` terms, at the
+    /// points of the [`Circle`] of transform size `size` (`≥ 2n`), into
+    /// `g_circle`: no transform. A product with a sequence's spectrum
+    /// there (`x_k·r^k` transformed) transformed back and unscaled by
+    /// `r^{−k}` is the convolution with `g` ([`Self::solve_on_circle`]),
+    /// the terms from `size` on folded in times `r^{size}`.
+    fn eval_circle(&mut self, alpha: f64, a: f64, size: usize) {
+        if self.circle.size != size {
+            self.circle = Circle::of(size);
         }
         let c = &*self.circle;
-        let spec = &mut self.spec;
+        let spec = &mut self.g_circle;
         spec.clear();
         // (1 + a·(1 − z)^α)⁻¹ with (1 − z)^α = |1 − z|^α·e^{iα·arg}: the
         // moduli first (libm's exp), then the rest without a call.
@@ -333,19 +395,15 @@ impl FftBranch {
                 *v = (Complex::new(1.0, 0.0) + Complex::new(v.re * cs, v.re * sn)).inv();
             }
         }
-        let ln_r = c.ln_r;
-        let mut g = Vec::with_capacity(points);
-        self.t.backward(spec, points, &mut g);
-        g.truncate(n);
-        // r^{−k}, a product from 1 (its rounding grows as k·ε, far below
-        // the folding).
-        let up = (-ln_r).exp();
-        let mut scale = 1.0;
-        for gk in &mut g {
-            *gk *= scale;
-            scale *= up;
-        }
-        g
+    }
+
+    /// `spec` (a product of spectra on the circle, clobbered) transformed
+    /// back and unscaled by `r^{−k}`: its first `n` values into `out`.
+    fn back_from_circle(&mut self, size: usize, n: usize, out: &mut [f64]) {
+        self.t.backward(&mut self.spec, size, &mut self.y);
+        self.y.truncate(n);
+        unscale(&mut self.y, self.circle.ln_r);
+        out[..n].copy_from_slice(&self.y);
     }
 
     /// The first `n` coefficients of the power series `1/d` (`d[0] ≠ 0`),
@@ -388,24 +446,38 @@ impl FftBranch {
     /// drive's times `g`'s, into `spec`: the drive's is the kept drive's
     /// scaled when `fx` is a multiple of it, else transformed (and kept).
     fn rest_solution_hat(&mut self, size: usize) {
+        let circle = self.on_circle();
+        let ln_r = circle.then(|| self.circle.ln_r);
         let kept = &mut self.rest_drive;
         let c = match proportion(&kept.of, self.rest_peak, &self.fx) {
-            Some(c) if kept.size == size => c,
+            Some(c) if kept.size == size && self.rest_on_circle == circle => c,
             _ => {
-                kept.keep(&mut self.t, &self.fx, size);
+                match ln_r {
+                    Some(l) => {
+                        self.t.forward_scaled(&self.fx, l, size, &mut kept.hat);
+                        kept.of.clear();
+                        kept.of.extend_from_slice(&self.fx);
+                        kept.size = size;
+                    }
+                    None => {
+                        kept.keep(&mut self.t, &self.fx, size);
+                    }
+                }
+                self.rest_on_circle = circle;
                 self.rest_peak = (0..kept.of.len())
                     .max_by(|&i, &j| kept.of[i].abs().total_cmp(&kept.of[j].abs()))
                     .unwrap_or(0);
                 1.0
             }
         };
+        let g = if circle {
+            &self.g_circle
+        } else {
+            &self.inverse.hat
+        };
         self.spec.clear();
-        self.spec.extend(
-            kept.hat
-                .iter()
-                .zip(&self.inverse.hat)
-                .map(|(&f, &g)| f * g * c),
-        );
+        self.spec
+            .extend(kept.hat.iter().zip(g).map(|(&f, &g)| f * g * c));
     }
 
     /// Solves the recursion for the drive in `f` (rows `warm..`; zero
@@ -414,10 +486,15 @@ impl FftBranch {
         let n = x.len();
         if warm == 0 && !pair {
             self.rest_solution_hat(size);
-            self.t.backward(&mut self.spec, size, &mut self.y);
-            x.copy_from_slice(&self.y[..n]);
+            if self.on_circle() {
+                self.back_from_circle(size, n, x);
+            } else {
+                self.t.backward(&mut self.spec, size, &mut self.y);
+                x.copy_from_slice(&self.y[..n]);
+            }
             return;
         }
+        self.inverse_hat(n);
         if warm > 0 {
             self.weights_hat();
         }
@@ -480,6 +557,7 @@ impl FftBranch {
         fill_weights(alpha, &mut w, &mut dw);
         let a = (ln_tau - alpha * h.ln()).exp();
         let size = self.prepare(&w, a, n);
+        self.inverse_hat(n);
         let (mut y, mut d_tau, mut d_alpha) = (vec![], vec![], vec![]);
         let t = &mut self.t;
         // The current's spectrum is kept (a fit drives every branch with
@@ -635,6 +713,18 @@ fn gl_order(taps: &[f64], n: usize) -> Option<f64> {
         .then_some(alpha)
 }
 
+/// `x_k·r^{−k}` (`ln r` given) for each `k`: a sequence taken back from
+/// the circle. `r^{−k}` is a product from 1 (its rounding grows as `k·ε`,
+/// far below the folding).
+fn unscale(x: &mut [f64], ln_r: f64) {
+    let up = (-ln_r).exp();
+    let mut scale = 1.0;
+    for v in x {
+        *v *= scale;
+        scale *= up;
+    }
+}
+
 /// `buf` as `n` zeros.
 fn zeroed(buf: &mut Vec<f64>, n: usize) {
     buf.clear();
@@ -746,22 +836,32 @@ impl BranchSolver<f64> for FftBranch {
         }
         let size = self.prepare(w, a, n);
         // y = g ∗ E = (x − g ∗ x)/a, from E = (R_ct·I − x)/a and
-        // x = g ∗ (R_ct·I).
-        self.t
-            .convolve(x, &self.inverse.hat, size, &mut self.spec, &mut self.y);
+        // x = g ∗ (R_ct·I); z = ℓ ∗ y. On the circle (the whole memory,
+        // which `gl_order` checked) y's spectrum is x's times `(1 − G)/a`
+        // and ℓ's is `ln(1 − z_j)`: three transforms and no series.
+        let ln_r = self.circle.ln_r;
+        let mut xh = std::mem::take(&mut self.series_hat);
+        self.t.forward_scaled(x, ln_r, size, &mut xh);
+        self.spec.clear();
+        self.spec
+            .extend(xh.iter().zip(&self.g_circle).map(|(&f, &g)| f * g));
+        self.t.backward(&mut self.spec, size, &mut self.y);
+        self.y.truncate(n);
+        unscale(&mut self.y, ln_r);
         let ia = 1.0 / a;
         for ((yl, &xl), &gx) in y.iter_mut().zip(x).zip(&self.y) {
             *yl = (xl - gx) * ia;
         }
-        self.log_series_hat(n, size);
-        self.t.convolve(
-            &y[..n],
-            &self.log_series.hat,
-            size,
-            &mut self.spec,
-            &mut self.y,
+        let c = &*self.circle;
+        self.spec.clear();
+        self.spec.extend(
+            xh.iter()
+                .zip(&self.g_circle)
+                .zip(c.ln_modulus.iter().zip(&c.arg))
+                .map(|((&f, &g), (&lm, &ar))| (f - f * g) * ia * Complex::new(lm, ar)),
         );
-        z[..n].copy_from_slice(&self.y[..n]);
+        self.series_hat = xh;
+        self.back_from_circle(size, n, z);
         true
     }
 
