@@ -32,9 +32,9 @@ one start of the reference. One core for all three: ours under ``taskset
 -c 0`` (when present), the reference in this process, pinned to the same
 core and with OpenBLAS on one thread (set before numpy loads;
 ``--reference-unpinned`` leaves OpenBLAS's threads to the machine, to
-see what that does to the reference). Run it alone. On the measured
-record each of the three runs ``--repeat`` times (default 5), in turn,
-and the medians are quoted.
+see what that does to the reference). Run it alone. On every record
+each of the three runs ``--repeat`` times (default 5), in turn, and the
+medians are quoted (about 3 minutes).
 
     cargo build --release -p host-sim
     cargo build --release -p fracbms-host --example refine_once
@@ -237,7 +237,7 @@ def main():
     ap.add_argument("--skip-reference-above", type=int, default=10**9,
                     help="rows above which the scipy reference is not run")
     ap.add_argument("--repeat", type=int, default=5,
-                    help="runs of each fit on the measured record; the median time is quoted")
+                    help="runs of each fit on each record, in turn; the median time is quoted")
     ap.add_argument("--no-measured", action="store_true",
                     help="leave out the measured record (the Panasonic HPPC test)")
     ap.add_argument("--reference-unpinned", action="store_true",
@@ -258,10 +258,19 @@ def main():
             t = np.arange(n) * H
             np.savetxt(path, np.column_stack([t, i, v]), delimiter=",",
                        header="time_s,current_a,voltage_v", comments="", fmt="%.9g")
-            one = one_start(a.refine_once, path, model)
-            t_ours, rmse_ours, j = ours(a.host_sim, path, model, path + ".json")
-            if n <= a.skip_reference_above:
-                t_ref, rmse_ref, res = reference(i, v, kinetic)
+            # Each of the three fits `--repeat` times, in turn; medians.
+            ones, commands, refs = [], [], []
+            for _ in range(max(1, a.repeat)):
+                ones.append(one_start(a.refine_once, path, model))
+                commands.append(ours(a.host_sim, path, model, path + ".json"))
+                if n <= a.skip_reference_above:
+                    refs.append(reference(i, v, kinetic))
+            one = dict(ones[0], seconds=float(np.median([o["seconds"] for o in ones])))
+            _, rmse_ours, j = commands[0]
+            t_ours = float(np.median([c[0] for c in commands]))
+            if refs:
+                _, rmse_ref, res = refs[0]
+                t_ref = float(np.median([f[0] for f in refs]))
                 alpha_ref = res.x[3]
                 r1 = f"{t_ref / one['seconds']:.1f}×"
                 r2 = f"{t_ref / t_ours:.1f}×"
