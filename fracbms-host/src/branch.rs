@@ -366,7 +366,7 @@ impl FftBranch {
     /// points of the [`Circle`] of transform size `size` (`≥ 2n`), into
     /// `g_circle`: no transform. A product with a sequence's spectrum
     /// there (`x_k·r^k` transformed) transformed back and unscaled by
-    /// `r^{−k}` is the convolution with `g` ([`Self::solve_on_circle`]),
+    /// `r^{−k}` is the convolution with `g` ([`Self::back_from_circle`]),
     /// the terms from `size` on folded in times `r^{size}`.
     fn eval_circle(&mut self, alpha: f64, a: f64, size: usize) {
         if self.circle.size != size {
@@ -702,7 +702,7 @@ fn direct(n: usize, m: usize) -> bool {
 /// The order α of `taps` when they are the first `n` Grünwald–Letnikov
 /// weights of order α (`w₀ = 1`, `w₁ = −α`, `w₂ = w₁·(1 − (α + 1)/2)`), all
 /// `n` of them (the whole memory): then `δ + a·w` is `1 + a·(1 − z)^α` to
-/// `n` terms ([`FftBranch::gl_inverse`]).
+/// `n` terms ([`FftBranch::eval_circle`]).
 fn gl_order(taps: &[f64], n: usize) -> Option<f64> {
     if taps.len() < n.max(3) || taps[0] != 1.0 {
         return None;

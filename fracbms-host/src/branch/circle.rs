@@ -120,7 +120,8 @@ pub(super) fn sin_cos_half_pi(x: f64) -> (f64, f64) {
     (sin_ax.copysign(x), cos_x)
 }
 
-/// `r^N` of [`Circle`]: how much of the series' terms from `N` on folds
-/// onto the first `N` (it also scales the rounding of the `k`-th term by
-/// at most `r^{−N/2}`, 3·10⁴, since at most the first `N/2` are kept).
+/// `r^N` of [`Circle`]: how much of a series' terms from `N` on folds
+/// onto the first `N` (`g`'s, or a solution's from rest taken on the
+/// circle; it also scales the rounding of the `k`-th term by at most
+/// `r^{−N/2}`, 3·10⁴, since at most the first `N/2` are kept).
 pub(super) const CIRCLE_FOLD: f64 = 1e-9;

@@ -13,14 +13,13 @@ fn drive(l: usize) -> f64 {
     [3.0, 0.0, -2.5, 0.0, 1.0][phase] + 1e-4 * (l % 13) as f64
 }
 
-/// Largest absolute difference over the largest absolute value.
 /// A rounding of the transforms (`ε` of the largest value) unscaled from
-/// the circle by `r^{−N/2}` (`N` the transform size, at least twice the
+/// the circle by `r^{−S/2}` (`S` the transform size, at least twice the
 /// rows): how far two solutions from rest that round differently may lie
 /// apart (7·10⁻¹², relative to the largest value).
 const UNSCALED_ROUNDING: f64 = f64::EPSILON / CIRCLE_FOLD_SQRT;
 
-/// `√(r^N)`.
+/// `√(r^S)`.
 const CIRCLE_FOLD_SQRT: f64 = 3.162_277_660_168_379_4e-5;
 
 #[test]
@@ -28,6 +27,7 @@ fn the_fold_constant_is_its_square_root() {
     assert!((CIRCLE_FOLD_SQRT * CIRCLE_FOLD_SQRT / super::circle::CIRCLE_FOLD - 1.0).abs() < 1e-15);
 }
 
+/// Largest absolute difference over the largest absolute value.
 fn relative(a: &[f64], b: &[f64]) -> f64 {
     let scale = a.iter().fold(0.0f64, |m, v| m.max(v.abs()));
     let worst = a
