@@ -55,7 +55,6 @@
 //! assert!(worst < 1e-11);
 //! ```
 
-use std::cell::RefCell;
 use std::fmt;
 use std::ops::Range;
 use std::sync::Arc;
@@ -64,20 +63,13 @@ use estimator_core::battery::branch::{BranchSolver, GlRecursion};
 use estimator_core::battery::CellParameters;
 use estimator_core::frac::{fill_weights, GlWeights};
 use realfft::num_complex::Complex;
-use realfft::RealFftPlanner;
 
 mod circle;
 mod sums;
+mod transforms;
 use circle::{sin_cos_half_pi, Circle};
 pub use sums::{FftSums, SUMS_DIRECT_ROWS, SUMS_DIRECT_TAPS};
-
-thread_local! {
-    /// The transform planner of this thread, shared by every
-    /// [`Transforms`]: it keeps the plans of the sizes used, so the starts
-    /// of a fit and its sums plan each size once (a plan of 2¹⁹ points
-    /// computes and stores its twiddles: megabytes of fresh pages).
-    static PLANNER: RefCell<RealFftPlanner<f64>> = RefCell::new(RealFftPlanner::new());
-}
+use transforms::{product, proportion, transform_size, KeptSpectra, Spectrum, Transforms};
 
 /// Below this many taps (`min(M, N)`) the direct recursion is used: it is
 /// cheaper than three transforms there.
@@ -88,17 +80,6 @@ pub const DIRECT_TAPS: usize = 128;
 /// rounding, which `1/a` scales) instead of a convolution of `x` with the
 /// weights.
 const RECURSION_SUM_MIN_A: f64 = 0.1;
-
-/// Spectra of one sequence at one transform size, and the sequence they
-/// are of (the key: a spectrum is reused only for the same values).
-#[derive(Default)]
-struct Spectrum {
-    of: Vec<f64>,
-    size: usize,
-    hat: Vec<Complex<f64>>,
-    /// `hat` is not yet `of`'s (it is taken when first needed).
-    stale: bool,
-}
 
 /// The FFT solver of the constant-phase recursion (see the module docs).
 /// It holds transform plans and the spectra of the last weights; a clone
@@ -158,134 +139,6 @@ impl fmt::Debug for FftBranch {
             .field("size", &self.weights.size)
             .field("taps", &self.weights.of.len())
             .finish_non_exhaustive()
-    }
-}
-
-/// The smallest transform that holds the linear convolution of two
-/// sequences of `n` values: [`fast_size`] of `2n`.
-fn transform_size(n: usize) -> usize {
-    fast_size(2 * n)
-}
-
-/// The least even size at or above `want` with no prime factor above 5 (a
-/// mixed-radix transform of such a size costs about what the power of two
-/// does per point, and it is up to a third shorter).
-fn fast_size(want: usize) -> usize {
-    let want = want.max(2);
-    let mut best = want.next_power_of_two();
-    let mut p3 = 1;
-    while p3 < best {
-        let mut p35 = p3;
-        while p35 < best {
-            // The least 2^k·p35 at or above `want` (k ≥ 1).
-            let mut m = 2 * p35;
-            while m < want {
-                m *= 2;
-            }
-            best = best.min(m);
-            p35 *= 5;
-        }
-        p3 *= 3;
-    }
-    best
-}
-
-/// The transforms and their working buffers, kept between calls (a large
-/// buffer allocated anew is a fresh mapping whose pages the kernel clears:
-/// a third of a fit's time before they were kept).
-#[derive(Default)]
-struct Transforms {
-    /// The real input of a forward transform (clobbered by it).
-    real: Vec<f64>,
-    /// The transforms' own scratch.
-    scratch: Vec<Complex<f64>>,
-}
-
-impl Transforms {
-    /// The spectrum of `x` zero-padded to `size` (a size of [`transform_size`]), into
-    /// `out`.
-    fn forward(&mut self, x: &[f64], size: usize, out: &mut Vec<Complex<f64>>) {
-        let fft = PLANNER.with(|p| p.borrow_mut().plan_fft_forward(size));
-        self.real.clear();
-        let k = x.len().min(size);
-        self.real.extend_from_slice(&x[..k]);
-        self.real.resize(size, 0.0);
-        out.resize(size / 2 + 1, Complex::default());
-        self.scratch
-            .resize(fft.get_scratch_len(), Complex::default());
-        // The lengths are the plan's own: no error is possible.
-        let _ = fft.process_with_scratch(&mut self.real, out, &mut self.scratch);
-    }
-
-    /// The spectrum of `x_k·r^k` (`ln r` given) zero-padded to `size`, into
-    /// `out`: `x`'s power series at the points of the [`Circle`] of that
-    /// size and radius.
-    fn forward_scaled(&mut self, x: &[f64], ln_r: f64, size: usize, out: &mut Vec<Complex<f64>>) {
-        let fft = PLANNER.with(|p| p.borrow_mut().plan_fft_forward(size));
-        self.real.clear();
-        let k = x.len().min(size);
-        let r = ln_r.exp();
-        let mut scale = 1.0;
-        self.real.extend(x[..k].iter().map(|&v| {
-            let s = v * scale;
-            scale *= r;
-            s
-        }));
-        self.real.resize(size, 0.0);
-        out.resize(size / 2 + 1, Complex::default());
-        self.scratch
-            .resize(fft.get_scratch_len(), Complex::default());
-        let _ = fft.process_with_scratch(&mut self.real, out, &mut self.scratch);
-    }
-
-    /// The sequence of spectrum `spec` (of size `size`, clobbered),
-    /// normalized, into `out`.
-    fn backward(&mut self, spec: &mut [Complex<f64>], size: usize, out: &mut Vec<f64>) {
-        let fft = PLANNER.with(|p| p.borrow_mut().plan_fft_inverse(size));
-        out.resize(size, 0.0);
-        // The products of real sequences' spectra are real at 0 and at the
-        // Nyquist bin up to rounding; the transform takes them real.
-        if let Some(c) = spec.first_mut() {
-            c.im = 0.0;
-        }
-        if let Some(c) = spec.last_mut() {
-            c.im = 0.0;
-        }
-        self.scratch
-            .resize(fft.get_scratch_len(), Complex::default());
-        let _ = fft.process_with_scratch(spec, out, &mut self.scratch);
-        let s = 1.0 / size as f64;
-        out.iter_mut().for_each(|v| *v *= s);
-    }
-
-    /// `x ∗ k` over its first `size` values (cyclic), with `k`'s spectrum
-    /// `k_hat` at that size, into `out` (`spec` is working space).
-    fn convolve(
-        &mut self,
-        x: &[f64],
-        k_hat: &[Complex<f64>],
-        size: usize,
-        spec: &mut Vec<Complex<f64>>,
-        out: &mut Vec<f64>,
-    ) {
-        self.forward(x, size, spec);
-        spec.iter_mut().zip(k_hat).for_each(|(a, b)| *a *= b);
-        self.backward(spec, size, out);
-    }
-}
-
-impl Spectrum {
-    /// Keeps the spectrum of `x` at `size` (recomputed when `x` or the
-    /// size changed); true when it was recomputed.
-    fn keep(&mut self, t: &mut Transforms, x: &[f64], size: usize) -> bool {
-        if self.size == size && self.of == x {
-            return false;
-        }
-        t.forward(x, size, &mut self.hat);
-        self.of.clear();
-        self.of.extend_from_slice(x);
-        self.size = size;
-        true
     }
 }
 
@@ -610,88 +463,6 @@ impl FftBranch {
 
 /// How many drives' spectra [`FftBranch`] keeps.
 const KEPT_DRIVES: usize = 32;
-
-/// Spectra kept by the values they are of, the least recently used given
-/// up beyond a capacity: the drives of [`FftBranch`], the sequences and
-/// weights of [`FftSums`].
-#[derive(Default)]
-struct KeptSpectra {
-    /// Each spectrum, and when it was last asked for (a count of calls).
-    kept: Vec<(Spectrum, u64)>,
-    calls: u64,
-}
-
-impl KeptSpectra {
-    /// The index of the spectrum of `x` at `size`, taken now unless kept
-    /// (in the place of the least recently used when `capacity` are). An
-    /// index stays valid until more than `capacity − 1` other sequences
-    /// have been asked for since.
-    fn at(&mut self, t: &mut Transforms, x: &[f64], size: usize, capacity: usize) -> usize {
-        self.calls += 1;
-        let now = self.calls;
-        if let Some(k) = self
-            .kept
-            .iter()
-            .position(|(s, _)| s.size == size && !s.stale && s.of == x)
-        {
-            self.kept[k].1 = now;
-            return k;
-        }
-        let k = if self.kept.len() < capacity.max(1) {
-            self.kept.push((Spectrum::default(), now));
-            self.kept.len() - 1
-        } else {
-            (0..self.kept.len())
-                .min_by_key(|&k| self.kept[k].1)
-                .unwrap_or(0)
-        };
-        let (s, used) = &mut self.kept[k];
-        s.keep(t, x, size);
-        s.stale = false;
-        *used = now;
-        k
-    }
-
-    /// The spectrum at `k` (an index [`at`](Self::at) gave).
-    fn hat(&self, k: usize) -> &[Complex<f64>] {
-        &self.kept[k].0.hat
-    }
-}
-
-/// `c` with `x = c·of` to within [`PROPORTION_ROUNDINGS`] of each value,
-/// so that `c` times `of`'s spectrum is `x`'s to the transform's own
-/// rounding, read at `of[peak]` (its largest value); `None` when `x` is no
-/// such multiple (another length, a NaN, a value off the line), or `of` is
-/// empty or zero there.
-fn proportion(of: &[f64], peak: usize, x: &[f64]) -> Option<f64> {
-    if of.len() != x.len() {
-        return None;
-    }
-    let c = x.get(peak)? / of.get(peak)?;
-    if !c.is_finite() {
-        return None;
-    }
-    let tol = PROPORTION_ROUNDINGS * f64::EPSILON;
-    // Every value checked (no early exit: the loop vectorizes).
-    of.iter()
-        .zip(x)
-        .fold(true, |ok, (&o, &v)| {
-            ok & ((v - c * o).abs() <= tol * v.abs())
-        })
-        .then_some(c)
-}
-
-/// How many roundings (of `f64::EPSILON`, relative) a value of a drive may
-/// lie off the kept drive times its scale and still take the kept
-/// spectrum: `R_ct·I` against `R_ct'·I` is off by at most four (each
-/// product, the scale's quotient and its product).
-const PROPORTION_ROUNDINGS: f64 = 8.0;
-
-/// The product of two spectra of one size, into `out`.
-fn product(a: &[Complex<f64>], b: &[Complex<f64>], out: &mut Vec<Complex<f64>>) {
-    out.clear();
-    out.extend(a.iter().zip(b).map(|(x, y)| x * y));
-}
 
 /// True when the direct recursion is the cheaper way for `n` rows and `m`
 /// taps.

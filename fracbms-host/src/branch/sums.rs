@@ -37,7 +37,7 @@ use std::ops::Range;
 use estimator_core::frac::{DirectSums, TapSums};
 use realfft::num_complex::Complex;
 
-use super::{fast_size, KeptSpectra, Transforms};
+use super::transforms::{fast_size, KeptSpectra, Transforms};
 
 /// Below this many taps the direct kernels are used. A pair of sums over
 /// 2 048 rows takes them 22 µs with 64 taps and 78 µs with 256, the
@@ -76,7 +76,7 @@ impl Clone for FftSums {
 impl fmt::Debug for FftSums {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.debug_struct("FftSums")
-            .field("kept", &self.kept.kept.len())
+            .field("kept", &self.kept.len())
             .finish_non_exhaustive()
     }
 }
