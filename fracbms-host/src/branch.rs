@@ -35,8 +35,10 @@
 //! one transform a solution. Below [`DIRECT_TAPS`] taps
 //! the direct recursion is cheaper and is used instead. This module owns
 //! the transforms only; the model, the search and the weights are
-//! `estimator-core`'s. The paper regression's tap sums by the same
-//! transforms are its submodule's ([`FftSums`]).
+//! `estimator-core`'s. The transforms themselves, their sizes and the
+//! spectra kept by value are the `transforms` submodule's, the circle's
+//! points the `circle` one's, and the paper regression's tap sums by the
+//! same transforms the `sums` one's ([`FftSums`]).
 //!
 //! ```
 //! use estimator_core::battery::branch::{BranchSolver, GlRecursion};
