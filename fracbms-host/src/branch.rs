@@ -308,12 +308,7 @@ impl FftBranch {
             Some(c) if kept.size == size && self.rest_on_circle == circle => c,
             _ => {
                 match ln_r {
-                    Some(l) => {
-                        self.t.forward_scaled(&self.fx, l, size, &mut kept.hat);
-                        kept.of.clear();
-                        kept.of.extend_from_slice(&self.fx);
-                        kept.size = size;
-                    }
+                    Some(l) => kept.keep_scaled(&mut self.t, &self.fx, l, size),
                     None => {
                         kept.keep(&mut self.t, &self.fx, size);
                     }

@@ -73,21 +73,14 @@ impl Transforms {
     /// The spectrum of `x` zero-padded to `size` (a size of [`transform_size`]), into
     /// `out`.
     pub(super) fn forward(&mut self, x: &[f64], size: usize, out: &mut Vec<Complex<f64>>) {
-        let fft = PLANNER.with(|p| p.borrow_mut().plan_fft_forward(size));
         self.real.clear();
-        let k = x.len().min(size);
-        self.real.extend_from_slice(&x[..k]);
-        self.real.resize(size, 0.0);
-        out.resize(size / 2 + 1, Complex::default());
-        self.scratch
-            .resize(fft.get_scratch_len(), Complex::default());
-        // The lengths are the plan's own: no error is possible.
-        let _ = fft.process_with_scratch(&mut self.real, out, &mut self.scratch);
+        self.real.extend_from_slice(&x[..x.len().min(size)]);
+        self.transform_real(size, out);
     }
 
     /// The spectrum of `x_k·r^k` (`ln r` given) zero-padded to `size`, into
-    /// `out`: `x`'s power series at the points of the [`Circle`] of that
-    /// size and radius.
+    /// `out`: `x`'s power series at the points of the circle of that size
+    /// and radius.
     pub(super) fn forward_scaled(
         &mut self,
         x: &[f64],
@@ -95,20 +88,25 @@ impl Transforms {
         size: usize,
         out: &mut Vec<Complex<f64>>,
     ) {
-        let fft = PLANNER.with(|p| p.borrow_mut().plan_fft_forward(size));
-        self.real.clear();
-        let k = x.len().min(size);
         let r = ln_r.exp();
         let mut scale = 1.0;
-        self.real.extend(x[..k].iter().map(|&v| {
+        self.real.clear();
+        self.real.extend(x[..x.len().min(size)].iter().map(|&v| {
             let s = v * scale;
             scale *= r;
             s
         }));
+        self.transform_real(size, out);
+    }
+
+    /// The spectrum of `real` (clobbered) zero-padded to `size`, into `out`.
+    fn transform_real(&mut self, size: usize, out: &mut Vec<Complex<f64>>) {
+        let fft = PLANNER.with(|p| p.borrow_mut().plan_fft_forward(size));
         self.real.resize(size, 0.0);
         out.resize(size / 2 + 1, Complex::default());
         self.scratch
             .resize(fft.get_scratch_len(), Complex::default());
+        // The lengths are the plan's own: no error is possible.
         let _ = fft.process_with_scratch(&mut self.real, out, &mut self.scratch);
     }
 
@@ -160,6 +158,15 @@ impl Spectrum {
         self.of.extend_from_slice(x);
         self.size = size;
         true
+    }
+
+    /// Keeps the spectrum of `x_k·r^k` at `size` (`ln r` given), as the
+    /// spectrum of `x` on the circle ([`Transforms::forward_scaled`]).
+    pub(super) fn keep_scaled(&mut self, t: &mut Transforms, x: &[f64], ln_r: f64, size: usize) {
+        t.forward_scaled(x, ln_r, size, &mut self.hat);
+        self.of.clear();
+        self.of.extend_from_slice(x);
+        self.size = size;
     }
 }
 
