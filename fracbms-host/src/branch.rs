@@ -69,6 +69,7 @@ use realfft::num_complex::Complex;
 mod circle;
 mod sums;
 mod transforms;
+mod working;
 use circle::{sin_cos_half_pi, Circle};
 pub use sums::{FftSums, SUMS_DIRECT_ROWS, SUMS_DIRECT_TAPS};
 use transforms::{product, proportion, transform_size, KeptSpectra, Spectrum, Transforms};
@@ -84,12 +85,14 @@ pub const DIRECT_TAPS: usize = 128;
 const RECURSION_SUM_MIN_A: f64 = 0.1;
 
 /// The FFT solver of the constant-phase recursion (see the module docs).
-/// It holds transform plans and the spectra of the last weights; a clone
-/// starts with none (they are a cache).
+/// It holds the spectra of the last weights; a clone starts with none
+/// (they are a cache). Its working buffers are its thread's
+/// (`working::Working`) while one of its calls runs.
 #[derive(Default)]
 pub struct FftBranch {
     t: Transforms,
-    /// Working spectra and sequences.
+    /// Working spectra and sequences (the thread's `working::Working`
+    /// while a call runs, empty between calls).
     spec: Vec<Complex<f64>>,
     fx: Vec<f64>,
     fy: Vec<f64>,
@@ -127,6 +130,8 @@ pub struct FftBranch {
     /// [`FftBranch::unit_branch_with_derivatives`] (a joint fit's knots
     /// each run to their own end: one per end), most recent last.
     drives: KeptSpectra,
+    /// A call holds the thread's working buffers (`FftBranch::working`).
+    in_call: bool,
 }
 
 impl Clone for FftBranch {
@@ -402,6 +407,18 @@ impl FftBranch {
         h: f64,
         current: &[f64],
     ) -> [Vec<f64>; 3] {
+        self.working(|b| b.unit_branch_working(ln_tau, alpha, h, current))
+    }
+
+    /// [`Self::unit_branch_with_derivatives`] with the working buffers in
+    /// place.
+    fn unit_branch_working(
+        &mut self,
+        ln_tau: f64,
+        alpha: f64,
+        h: f64,
+        current: &[f64],
+    ) -> [Vec<f64>; 3] {
         let n = current.len();
         let (mut w, mut dw) = (vec![0.0; n], vec![0.0; n]);
         fill_weights(alpha, &mut w, &mut dw);
@@ -507,30 +524,9 @@ impl BranchSolver<f64> for FftBranch {
         warm: usize,
         x: &mut [f64],
         drive: impl FnMut(usize) -> f64,
-        mut seen: impl FnMut(usize, f64, f64),
+        seen: impl FnMut(usize, f64, f64),
     ) {
-        let n = x.len();
-        if warm >= n || direct(n, w.len()) {
-            return GlRecursion.filter(w, a, warm, x, drive, seen);
-        }
-        let size = self.solve_drive(w, a, warm, x, drive);
-        if warm == 0 && a >= RECURSION_SUM_MIN_A {
-            // E = w ∗ x from the recursion itself, `x + a·E = drive`: no
-            // transform (`fx` still holds the drive: nothing was taken
-            // off it for a history).
-            let ia = 1.0 / a;
-            for (l, (&xl, &f)) in x.iter().zip(&self.fx).enumerate() {
-                seen(l, xl, (f - xl) * ia - xl);
-            }
-            return;
-        }
-        // E = w ∗ x, and H = E − x (w₀ = 1).
-        self.weights_hat();
-        self.t
-            .convolve(x, &self.weights.hat, size, &mut self.spec, &mut self.y);
-        for (l, (&xl, &e)) in x.iter().zip(&self.y).enumerate().skip(warm) {
-            seen(l, xl, e - xl);
-        }
+        self.working(|b| b.filter_working(w, a, warm, x, drive, seen));
     }
 
     fn filter_with_free(
@@ -561,6 +557,80 @@ impl BranchSolver<f64> for FftBranch {
         x: &mut [f64],
         drive: impl FnMut(usize) -> f64,
     ) {
+        self.working(|b| b.solve_working(w, a, warm, x, drive));
+    }
+
+    fn filter_pair(
+        &mut self,
+        w: &[f64],
+        a: f64,
+        warm: usize,
+        x: &mut [f64],
+        y: &mut [f64],
+        drive: impl FnMut(usize) -> (f64, f64),
+    ) {
+        self.working(|b| b.filter_pair_working(w, a, warm, x, y, drive));
+    }
+
+    fn rest_sums(&mut self, w: &[f64], a: f64, x: &[f64], y: &mut [f64], z: &mut [f64]) -> bool {
+        self.working(|b| b.rest_sums_working(w, a, x, y, z))
+    }
+
+    fn weight_derivative<const MEM: usize>(
+        &mut self,
+        gl: &GlWeights<f64, MEM>,
+        x: &[f64],
+        rows: Range<usize>,
+        f: impl FnMut(usize, f64),
+    ) {
+        self.working(|b| b.weight_derivative_working(gl, x, rows, f));
+    }
+}
+
+/// The [`BranchSolver`] calls, run with the thread's working buffers in
+/// place (`FftBranch::working`).
+impl FftBranch {
+    fn filter_working(
+        &mut self,
+        w: &[f64],
+        a: f64,
+        warm: usize,
+        x: &mut [f64],
+        drive: impl FnMut(usize) -> f64,
+        mut seen: impl FnMut(usize, f64, f64),
+    ) {
+        let n = x.len();
+        if warm >= n || direct(n, w.len()) {
+            return GlRecursion.filter(w, a, warm, x, drive, seen);
+        }
+        let size = self.solve_drive(w, a, warm, x, drive);
+        if warm == 0 && a >= RECURSION_SUM_MIN_A {
+            // E = w ∗ x from the recursion itself, `x + a·E = drive`: no
+            // transform (`fx` still holds the drive: nothing was taken
+            // off it for a history).
+            let ia = 1.0 / a;
+            for (l, (&xl, &f)) in x.iter().zip(&self.fx).enumerate() {
+                seen(l, xl, (f - xl) * ia - xl);
+            }
+            return;
+        }
+        // E = w ∗ x, and H = E − x (w₀ = 1).
+        self.weights_hat();
+        self.t
+            .convolve(x, &self.weights.hat, size, &mut self.spec, &mut self.y);
+        for (l, (&xl, &e)) in x.iter().zip(&self.y).enumerate().skip(warm) {
+            seen(l, xl, e - xl);
+        }
+    }
+
+    fn solve_working(
+        &mut self,
+        w: &[f64],
+        a: f64,
+        warm: usize,
+        x: &mut [f64],
+        drive: impl FnMut(usize) -> f64,
+    ) {
         let n = x.len();
         if warm >= n || direct(n, w.len()) {
             return GlRecursion.solve(w, a, warm, x, drive);
@@ -568,7 +638,7 @@ impl BranchSolver<f64> for FftBranch {
         self.solve_drive(w, a, warm, x, drive);
     }
 
-    fn filter_pair(
+    fn filter_pair_working(
         &mut self,
         w: &[f64],
         a: f64,
@@ -592,7 +662,14 @@ impl BranchSolver<f64> for FftBranch {
         self.solve_into(a, warm, y, true, size);
     }
 
-    fn rest_sums(&mut self, w: &[f64], a: f64, x: &[f64], y: &mut [f64], z: &mut [f64]) -> bool {
+    fn rest_sums_working(
+        &mut self,
+        w: &[f64],
+        a: f64,
+        x: &[f64],
+        y: &mut [f64],
+        z: &mut [f64],
+    ) -> bool {
         let n = x.len();
         if y.len() < n
             || z.len() < n
@@ -633,7 +710,7 @@ impl BranchSolver<f64> for FftBranch {
         true
     }
 
-    fn weight_derivative<const MEM: usize>(
+    fn weight_derivative_working<const MEM: usize>(
         &mut self,
         gl: &GlWeights<f64, MEM>,
         x: &[f64],

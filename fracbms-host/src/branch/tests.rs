@@ -447,3 +447,60 @@ fn fft_sums_are_the_direct_sums() {
     x[1000] = f64::NAN;
     check(w.weights(), &x, 255..2000);
 }
+
+/// Solvers of one thread share its working buffers ([`working`]): two of
+/// them called in turn, each with its own weights, drives and history,
+/// give bit for bit what each gives called alone, and a solver used inside
+/// another's drive (a nested call) as well.
+#[test]
+fn solvers_sharing_a_threads_buffers_give_what_each_gives_alone() {
+    const N: usize = 3000;
+    let (wa, wb) = (
+        GlWeights::<f64, N>::new(0.6, 1.0, N).unwrap(),
+        GlWeights::<f64, N>::new(0.85, 0.5, N).unwrap(),
+    );
+    let alone = |w: &GlWeights<f64, N>, a: f64, warm: usize, k: f64| {
+        let mut s = FftBranch::default();
+        let mut runs = Vec::new();
+        for r in 0..3 {
+            let mut x: Vec<f64> = (0..N)
+                .map(|l| if l < warm { 0.01 * drive(l) } else { 0.0 })
+                .collect();
+            s.solve(w.weights(), a, warm, &mut x, |l| {
+                k * (r + 1) as f64 * drive(l)
+            });
+            runs.push(x);
+        }
+        runs
+    };
+    let (ra, rb) = (alone(&wa, 2.0, 0, 1.0), alone(&wb, 0.3, 400, -0.5));
+    let (mut sa, mut sb) = (FftBranch::default(), FftBranch::default());
+    for r in 0..3 {
+        let mut xa = vec![0.0; N];
+        let mut xb: Vec<f64> = (0..N)
+            .map(|l| if l < 400 { 0.01 * drive(l) } else { 0.0 })
+            .collect();
+        sa.solve(wa.weights(), 2.0, 0, &mut xa, |l| (r + 1) as f64 * drive(l));
+        sb.solve(wb.weights(), 0.3, 400, &mut xb, |l| {
+            -0.5 * (r + 1) as f64 * drive(l)
+        });
+        assert_eq!(xa, ra[r], "first solver, run {r}");
+        assert_eq!(xb, rb[r], "second solver, run {r}");
+    }
+    // A solver called inside another's call runs on buffers of its own.
+    let mut inner_done = false;
+    let mut xa = vec![0.0; N];
+    let mut inner = FftBranch::default();
+    sa.solve(wa.weights(), 2.0, 0, &mut xa, |l| {
+        if !inner_done {
+            inner_done = true;
+            let mut xb: Vec<f64> = (0..N)
+                .map(|l| if l < 400 { 0.01 * drive(l) } else { 0.0 })
+                .collect();
+            inner.solve(wb.weights(), 0.3, 400, &mut xb, |l| -0.5 * drive(l));
+            assert_eq!(xb, rb[0], "nested solver");
+        }
+        drive(l)
+    });
+    assert_eq!(xa, ra[0], "the outer solver, with a call inside its drive");
+}
