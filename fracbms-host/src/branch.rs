@@ -72,7 +72,7 @@ mod transforms;
 mod working;
 use circle::{sin_cos_half_pi, Circle};
 pub use sums::{FftSums, SUMS_DIRECT_ROWS, SUMS_DIRECT_TAPS};
-use transforms::{product, proportion, transform_size, KeptSpectra, Spectrum, Transforms};
+use transforms::{product, proportion, transform_size, KeptSpectra, Spectrum};
 
 /// Below this many taps (`min(M, N)`) the direct recursion is used: it is
 /// cheaper than three transforms there.
@@ -87,17 +87,12 @@ const RECURSION_SUM_MIN_A: f64 = 0.1;
 /// The FFT solver of the constant-phase recursion (see the module docs).
 /// It holds the spectra of the last weights; a clone starts with none
 /// (they are a cache). Its working buffers are its thread's
-/// (`working::Working`) while one of its calls runs.
+/// ([`working::Working`]) while one of its calls runs.
 #[derive(Default)]
 pub struct FftBranch {
-    t: Transforms,
-    /// Working spectra and sequences (the thread's `working::Working`
-    /// while a call runs, empty between calls).
-    spec: Vec<Complex<f64>>,
-    fx: Vec<f64>,
-    fy: Vec<f64>,
-    y: Vec<f64>,
-    series_hat: Vec<Complex<f64>>,
+    /// The working buffers: the thread's ([`working::Working`]) while a
+    /// call runs, empty between calls.
+    work: working::Working,
     /// The spectrum of the weights `w`.
     weights: Spectrum,
     /// The spectrum of the weights' order derivatives `∂w/∂α`.
@@ -178,7 +173,7 @@ impl FftBranch {
                         .map(|(j, &wj)| a * wj + if j == 0 { 1.0 } else { 0.0 })
                         .collect();
                     let g = self.inverse_series(&d, n);
-                    self.t.forward(&g, size, &mut self.inverse.hat);
+                    self.work.t.forward(&g, size, &mut self.inverse.hat);
                     self.g_circle.clear();
                     self.inverse.stale = false;
                 }
@@ -202,13 +197,13 @@ impl FftBranch {
             return;
         }
         let size = self.inverse.size;
-        self.spec.clear();
-        self.spec.extend_from_slice(&self.g_circle);
+        self.work.spec.clear();
+        self.work.spec.extend_from_slice(&self.g_circle);
         let mut g = Vec::with_capacity(size);
-        self.t.backward(&mut self.spec, size, &mut g);
+        self.work.t.backward(&mut self.work.spec, size, &mut g);
         g.truncate(n);
         unscale(&mut g, self.circle.ln_r);
-        self.t.forward(&g, size, &mut self.inverse.hat);
+        self.work.t.forward(&g, size, &mut self.inverse.hat);
         self.inverse.stale = false;
     }
 
@@ -216,7 +211,7 @@ impl FftBranch {
     fn weights_hat(&mut self) {
         let wt = &mut self.weights;
         if wt.stale {
-            self.t.forward(&wt.of, wt.size, &mut wt.hat);
+            self.work.t.forward(&wt.of, wt.size, &mut wt.hat);
             wt.stale = false;
         }
     }
@@ -260,10 +255,12 @@ impl FftBranch {
     /// `spec` (a product of spectra on the circle, clobbered) transformed
     /// back and unscaled by `r^{−k}`: its first `n` values into `out`.
     fn back_from_circle(&mut self, size: usize, n: usize, out: &mut [f64]) {
-        self.t.backward(&mut self.spec, size, &mut self.y);
-        self.y.truncate(n);
-        unscale(&mut self.y, self.circle.ln_r);
-        out[..n].copy_from_slice(&self.y);
+        self.work
+            .t
+            .backward(&mut self.work.spec, size, &mut self.work.y);
+        self.work.y.truncate(n);
+        unscale(&mut self.work.y, self.circle.ln_r);
+        out[..n].copy_from_slice(&self.work.y);
     }
 
     /// The first `n` coefficients of the power series `1/d` (`d[0] ≠ 0`),
@@ -275,30 +272,32 @@ impl FftBranch {
         let mut g = vec![1.0 / d[0]];
         g.reserve(n);
         let (mut g_hat, mut r) = (
-            std::mem::take(&mut self.series_hat),
-            std::mem::take(&mut self.fy),
+            std::mem::take(&mut self.work.series_hat),
+            std::mem::take(&mut self.work.fy),
         );
         let mut k = 1;
         while k < n {
             let k2 = (2 * k).min(n);
             let size = 2 * k;
-            self.t.forward(&g, size, &mut g_hat);
+            self.work.t.forward(&g, size, &mut g_hat);
             let dk = &d[..k2.min(d.len())];
-            self.t
-                .convolve(dk, &g_hat, size, &mut self.spec, &mut self.y);
+            self.work
+                .t
+                .convolve(dk, &g_hat, size, &mut self.work.spec, &mut self.work.y);
             r.clear();
             r.resize(size, 0.0);
-            for (rj, &y) in r[k..k2].iter_mut().zip(&self.y[k..k2]) {
+            for (rj, &y) in r[k..k2].iter_mut().zip(&self.work.y[k..k2]) {
                 *rj = -y;
             }
-            self.t
-                .convolve(&r, &g_hat, size, &mut self.spec, &mut self.y);
-            g.extend_from_slice(&self.y[k..k2]);
+            self.work
+                .t
+                .convolve(&r, &g_hat, size, &mut self.work.spec, &mut self.work.y);
+            g.extend_from_slice(&self.work.y[k..k2]);
             k = k2;
         }
         g.truncate(n);
-        self.series_hat = g_hat;
-        self.fy = r;
+        self.work.series_hat = g_hat;
+        self.work.fy = r;
         g
     }
 
@@ -309,13 +308,13 @@ impl FftBranch {
         let circle = self.on_circle();
         let ln_r = circle.then(|| self.circle.ln_r);
         let kept = &mut self.rest_drive;
-        let c = match proportion(&kept.of, self.rest_peak, &self.fx) {
+        let c = match proportion(&kept.of, self.rest_peak, &self.work.fx) {
             Some(c) if kept.size == size && self.rest_on_circle == circle => c,
             _ => {
                 match ln_r {
-                    Some(l) => kept.keep_scaled(&mut self.t, &self.fx, l, size),
+                    Some(l) => kept.keep_scaled(&mut self.work.t, &self.work.fx, l, size),
                     None => {
-                        kept.keep(&mut self.t, &self.fx, size);
+                        kept.keep(&mut self.work.t, &self.work.fx, size);
                     }
                 }
                 self.rest_on_circle = circle;
@@ -330,8 +329,9 @@ impl FftBranch {
         } else {
             &self.inverse.hat
         };
-        self.spec.clear();
-        self.spec
+        self.work.spec.clear();
+        self.work
+            .spec
             .extend(kept.hat.iter().zip(g).map(|(&f, &g)| f * g * c));
     }
 
@@ -344,8 +344,10 @@ impl FftBranch {
             if self.on_circle() {
                 self.back_from_circle(size, n, x);
             } else {
-                self.t.backward(&mut self.spec, size, &mut self.y);
-                x.copy_from_slice(&self.y[..n]);
+                self.work
+                    .t
+                    .backward(&mut self.work.spec, size, &mut self.work.y);
+                x.copy_from_slice(&self.work.y[..n]);
             }
             return;
         }
@@ -353,18 +355,32 @@ impl FftBranch {
         if warm > 0 {
             self.weights_hat();
         }
-        let f = if pair { &mut self.fy } else { &mut self.fx };
+        let f = if pair {
+            &mut self.work.fy
+        } else {
+            &mut self.work.fx
+        };
         if warm > 0 {
-            let past = &mut self.y;
-            self.t
-                .convolve(&x[..warm], &self.weights.hat, size, &mut self.spec, past);
+            let past = &mut self.work.y;
+            self.work.t.convolve(
+                &x[..warm],
+                &self.weights.hat,
+                size,
+                &mut self.work.spec,
+                past,
+            );
             for l in warm..n {
                 f[l] -= a * past[l];
             }
         }
-        self.t
-            .convolve(f, &self.inverse.hat, size, &mut self.spec, &mut self.y);
-        x[warm..n].copy_from_slice(&self.y[warm..n]);
+        self.work.t.convolve(
+            f,
+            &self.inverse.hat,
+            size,
+            &mut self.work.spec,
+            &mut self.work.y,
+        );
+        x[warm..n].copy_from_slice(&self.work.y[warm..n]);
     }
 
     /// The recursion for `drive` (rows `warm..`) from the history
@@ -379,8 +395,8 @@ impl FftBranch {
     ) -> usize {
         let n = x.len();
         let size = self.prepare(w, a, n);
-        zeroed(&mut self.fx, n);
-        for (l, fl) in self.fx.iter_mut().enumerate().skip(warm) {
+        zeroed(&mut self.work.fx, n);
+        for (l, fl) in self.work.fx.iter_mut().enumerate().skip(warm) {
             *fl = drive(l);
         }
         self.solve_into(a, warm, x, false, size);
@@ -407,45 +423,35 @@ impl FftBranch {
         h: f64,
         current: &[f64],
     ) -> [Vec<f64>; 3] {
-        self.working(|b| b.unit_branch_working(ln_tau, alpha, h, current))
-    }
-
-    /// [`Self::unit_branch_with_derivatives`] with the working buffers in
-    /// place.
-    fn unit_branch_working(
-        &mut self,
-        ln_tau: f64,
-        alpha: f64,
-        h: f64,
-        current: &[f64],
-    ) -> [Vec<f64>; 3] {
-        let n = current.len();
-        let (mut w, mut dw) = (vec![0.0; n], vec![0.0; n]);
-        fill_weights(alpha, &mut w, &mut dw);
-        let a = (ln_tau - alpha * h.ln()).exp();
-        let size = self.prepare(&w, a, n);
-        self.inverse_hat(n);
-        let (mut y, mut d_tau, mut d_alpha) = (vec![], vec![], vec![]);
-        let t = &mut self.t;
-        // The current's spectrum is kept (a fit drives every branch with
-        // the same current), and so is ℓ's.
-        let drive = self.drives.at(t, current, size, KEPT_DRIVES);
-        let spec = &mut self.spec;
-        product(self.drives.hat(drive), &self.inverse.hat, spec);
-        t.backward(spec, size, &mut y);
-        y.truncate(n);
-        t.convolve(&y, &self.inverse.hat, size, spec, &mut d_tau);
-        d_tau.truncate(n);
-        d_tau.iter_mut().zip(&y).for_each(|(d, &yl)| *d -= yl);
-        self.log_series_hat(n, size);
-        let (t, spec) = (&mut self.t, &mut self.spec);
-        t.convolve(&d_tau, &self.log_series.hat, size, spec, &mut d_alpha);
-        d_alpha.truncate(n);
-        let ln_h = h.ln();
-        for (x, &dt) in d_alpha.iter_mut().zip(&d_tau) {
-            *x -= ln_h * dt;
-        }
-        [y, d_tau, d_alpha]
+        self.working(|b| {
+            let n = current.len();
+            let (mut w, mut dw) = (vec![0.0; n], vec![0.0; n]);
+            fill_weights(alpha, &mut w, &mut dw);
+            let a = (ln_tau - alpha * h.ln()).exp();
+            let size = b.prepare(&w, a, n);
+            b.inverse_hat(n);
+            let (mut y, mut d_tau, mut d_alpha) = (vec![], vec![], vec![]);
+            let t = &mut b.work.t;
+            // The current's spectrum is kept (a fit drives every branch with
+            // the same current), and so is ℓ's.
+            let drive = b.drives.at(t, current, size, KEPT_DRIVES);
+            let spec = &mut b.work.spec;
+            product(b.drives.hat(drive), &b.inverse.hat, spec);
+            t.backward(spec, size, &mut y);
+            y.truncate(n);
+            t.convolve(&y, &b.inverse.hat, size, spec, &mut d_tau);
+            d_tau.truncate(n);
+            d_tau.iter_mut().zip(&y).for_each(|(d, &yl)| *d -= yl);
+            b.log_series_hat(n, size);
+            let (t, spec) = (&mut b.work.t, &mut b.work.spec);
+            t.convolve(&d_tau, &b.log_series.hat, size, spec, &mut d_alpha);
+            d_alpha.truncate(n);
+            let ln_h = h.ln();
+            for (x, &dt) in d_alpha.iter_mut().zip(&d_tau) {
+                *x -= ln_h * dt;
+            }
+            [y, d_tau, d_alpha]
+        })
     }
 
     /// The spectrum of `ℓ` (the series of `ln(1 − z)`, `−1/k` from
@@ -455,7 +461,7 @@ impl FftBranch {
             let l: Vec<f64> = (0..n)
                 .map(|k| if k == 0 { 0.0 } else { -1.0 / k as f64 })
                 .collect();
-            self.log_series.keep(&mut self.t, &l, size);
+            self.log_series.keep(&mut self.work.t, &l, size);
         }
     }
 
@@ -524,9 +530,33 @@ impl BranchSolver<f64> for FftBranch {
         warm: usize,
         x: &mut [f64],
         drive: impl FnMut(usize) -> f64,
-        seen: impl FnMut(usize, f64, f64),
+        mut seen: impl FnMut(usize, f64, f64),
     ) {
-        self.working(|b| b.filter_working(w, a, warm, x, drive, seen));
+        self.working(|b| {
+            let n = x.len();
+            if warm >= n || direct(n, w.len()) {
+                return GlRecursion.filter(w, a, warm, x, drive, seen);
+            }
+            let size = b.solve_drive(w, a, warm, x, drive);
+            if warm == 0 && a >= RECURSION_SUM_MIN_A {
+                // E = w ∗ x from the recursion itself, `x + a·E = drive`: no
+                // transform (`fx` still holds the drive: nothing was taken
+                // off it for a history).
+                let ia = 1.0 / a;
+                for (l, (&xl, &f)) in x.iter().zip(&b.work.fx).enumerate() {
+                    seen(l, xl, (f - xl) * ia - xl);
+                }
+                return;
+            }
+            // E = w ∗ x, and H = E − x (w₀ = 1).
+            b.weights_hat();
+            b.work
+                .t
+                .convolve(x, &b.weights.hat, size, &mut b.work.spec, &mut b.work.y);
+            for (l, (&xl, &e)) in x.iter().zip(&b.work.y).enumerate().skip(warm) {
+                seen(l, xl, e - xl);
+            }
+        });
     }
 
     fn filter_with_free(
@@ -557,7 +587,13 @@ impl BranchSolver<f64> for FftBranch {
         x: &mut [f64],
         drive: impl FnMut(usize) -> f64,
     ) {
-        self.working(|b| b.solve_working(w, a, warm, x, drive));
+        self.working(|b| {
+            let n = x.len();
+            if warm >= n || direct(n, w.len()) {
+                return GlRecursion.solve(w, a, warm, x, drive);
+            }
+            b.solve_drive(w, a, warm, x, drive);
+        });
     }
 
     fn filter_pair(
@@ -567,13 +603,67 @@ impl BranchSolver<f64> for FftBranch {
         warm: usize,
         x: &mut [f64],
         y: &mut [f64],
-        drive: impl FnMut(usize) -> (f64, f64),
+        mut drive: impl FnMut(usize) -> (f64, f64),
     ) {
-        self.working(|b| b.filter_pair_working(w, a, warm, x, y, drive));
+        self.working(|b| {
+            let n = x.len().min(y.len());
+            let (x, y) = (&mut x[..n], &mut y[..n]);
+            if warm >= n || direct(n, w.len()) {
+                return GlRecursion.filter_pair(w, a, warm, x, y, drive);
+            }
+            let size = b.prepare(w, a, n);
+            zeroed(&mut b.work.fx, n);
+            zeroed(&mut b.work.fy, n);
+            for l in warm..n {
+                (b.work.fx[l], b.work.fy[l]) = drive(l);
+            }
+            b.solve_into(a, warm, x, false, size);
+            b.solve_into(a, warm, y, true, size);
+        });
     }
 
     fn rest_sums(&mut self, w: &[f64], a: f64, x: &[f64], y: &mut [f64], z: &mut [f64]) -> bool {
-        self.working(|b| b.rest_sums_working(w, a, x, y, z))
+        self.working(|b| {
+            let n = x.len();
+            if y.len() < n
+                || z.len() < n
+                || direct(n, w.len())
+                || a < RECURSION_SUM_MIN_A
+                || gl_order(&w[..w.len().min(n)], n).is_none()
+            {
+                return false;
+            }
+            let size = b.prepare(w, a, n);
+            // y = g ∗ E = (x − g ∗ x)/a, from E = (R_ct·I − x)/a and
+            // x = g ∗ (R_ct·I); z = ℓ ∗ y. On the circle (the whole memory,
+            // which `gl_order` checked) y's spectrum is x's times `(1 − G)/a`
+            // and ℓ's is `ln(1 − z_j)`: three transforms and no series.
+            let ln_r = b.circle.ln_r;
+            let mut xh = std::mem::take(&mut b.work.series_hat);
+            b.work.t.forward_scaled(x, ln_r, size, &mut xh);
+            b.work.spec.clear();
+            b.work
+                .spec
+                .extend(xh.iter().zip(&b.g_circle).map(|(&f, &g)| f * g));
+            b.work.t.backward(&mut b.work.spec, size, &mut b.work.y);
+            b.work.y.truncate(n);
+            unscale(&mut b.work.y, ln_r);
+            let ia = 1.0 / a;
+            for ((yl, &xl), &gx) in y.iter_mut().zip(x).zip(&b.work.y) {
+                *yl = (xl - gx) * ia;
+            }
+            let c = &*b.circle;
+            b.work.spec.clear();
+            b.work.spec.extend(
+                xh.iter()
+                    .zip(&b.g_circle)
+                    .zip(c.ln_modulus.iter().zip(&c.arg))
+                    .map(|((&f, &g), (&lm, &ar))| (f - f * g) * ia * Complex::new(lm, ar)),
+            );
+            b.work.series_hat = xh;
+            b.back_from_circle(size, n, z);
+            true
+        })
     }
 
     fn weight_derivative<const MEM: usize>(
@@ -581,156 +671,25 @@ impl BranchSolver<f64> for FftBranch {
         gl: &GlWeights<f64, MEM>,
         x: &[f64],
         rows: Range<usize>,
-        f: impl FnMut(usize, f64),
-    ) {
-        self.working(|b| b.weight_derivative_working(gl, x, rows, f));
-    }
-}
-
-/// The [`BranchSolver`] calls, run with the thread's working buffers in
-/// place (`FftBranch::working`).
-impl FftBranch {
-    fn filter_working(
-        &mut self,
-        w: &[f64],
-        a: f64,
-        warm: usize,
-        x: &mut [f64],
-        drive: impl FnMut(usize) -> f64,
-        mut seen: impl FnMut(usize, f64, f64),
-    ) {
-        let n = x.len();
-        if warm >= n || direct(n, w.len()) {
-            return GlRecursion.filter(w, a, warm, x, drive, seen);
-        }
-        let size = self.solve_drive(w, a, warm, x, drive);
-        if warm == 0 && a >= RECURSION_SUM_MIN_A {
-            // E = w ∗ x from the recursion itself, `x + a·E = drive`: no
-            // transform (`fx` still holds the drive: nothing was taken
-            // off it for a history).
-            let ia = 1.0 / a;
-            for (l, (&xl, &f)) in x.iter().zip(&self.fx).enumerate() {
-                seen(l, xl, (f - xl) * ia - xl);
-            }
-            return;
-        }
-        // E = w ∗ x, and H = E − x (w₀ = 1).
-        self.weights_hat();
-        self.t
-            .convolve(x, &self.weights.hat, size, &mut self.spec, &mut self.y);
-        for (l, (&xl, &e)) in x.iter().zip(&self.y).enumerate().skip(warm) {
-            seen(l, xl, e - xl);
-        }
-    }
-
-    fn solve_working(
-        &mut self,
-        w: &[f64],
-        a: f64,
-        warm: usize,
-        x: &mut [f64],
-        drive: impl FnMut(usize) -> f64,
-    ) {
-        let n = x.len();
-        if warm >= n || direct(n, w.len()) {
-            return GlRecursion.solve(w, a, warm, x, drive);
-        }
-        self.solve_drive(w, a, warm, x, drive);
-    }
-
-    fn filter_pair_working(
-        &mut self,
-        w: &[f64],
-        a: f64,
-        warm: usize,
-        x: &mut [f64],
-        y: &mut [f64],
-        mut drive: impl FnMut(usize) -> (f64, f64),
-    ) {
-        let n = x.len().min(y.len());
-        let (x, y) = (&mut x[..n], &mut y[..n]);
-        if warm >= n || direct(n, w.len()) {
-            return GlRecursion.filter_pair(w, a, warm, x, y, drive);
-        }
-        let size = self.prepare(w, a, n);
-        zeroed(&mut self.fx, n);
-        zeroed(&mut self.fy, n);
-        for l in warm..n {
-            (self.fx[l], self.fy[l]) = drive(l);
-        }
-        self.solve_into(a, warm, x, false, size);
-        self.solve_into(a, warm, y, true, size);
-    }
-
-    fn rest_sums_working(
-        &mut self,
-        w: &[f64],
-        a: f64,
-        x: &[f64],
-        y: &mut [f64],
-        z: &mut [f64],
-    ) -> bool {
-        let n = x.len();
-        if y.len() < n
-            || z.len() < n
-            || direct(n, w.len())
-            || a < RECURSION_SUM_MIN_A
-            || gl_order(&w[..w.len().min(n)], n).is_none()
-        {
-            return false;
-        }
-        let size = self.prepare(w, a, n);
-        // y = g ∗ E = (x − g ∗ x)/a, from E = (R_ct·I − x)/a and
-        // x = g ∗ (R_ct·I); z = ℓ ∗ y. On the circle (the whole memory,
-        // which `gl_order` checked) y's spectrum is x's times `(1 − G)/a`
-        // and ℓ's is `ln(1 − z_j)`: three transforms and no series.
-        let ln_r = self.circle.ln_r;
-        let mut xh = std::mem::take(&mut self.series_hat);
-        self.t.forward_scaled(x, ln_r, size, &mut xh);
-        self.spec.clear();
-        self.spec
-            .extend(xh.iter().zip(&self.g_circle).map(|(&f, &g)| f * g));
-        self.t.backward(&mut self.spec, size, &mut self.y);
-        self.y.truncate(n);
-        unscale(&mut self.y, ln_r);
-        let ia = 1.0 / a;
-        for ((yl, &xl), &gx) in y.iter_mut().zip(x).zip(&self.y) {
-            *yl = (xl - gx) * ia;
-        }
-        let c = &*self.circle;
-        self.spec.clear();
-        self.spec.extend(
-            xh.iter()
-                .zip(&self.g_circle)
-                .zip(c.ln_modulus.iter().zip(&c.arg))
-                .map(|((&f, &g), (&lm, &ar))| (f - f * g) * ia * Complex::new(lm, ar)),
-        );
-        self.series_hat = xh;
-        self.back_from_circle(size, n, z);
-        true
-    }
-
-    fn weight_derivative_working<const MEM: usize>(
-        &mut self,
-        gl: &GlWeights<f64, MEM>,
-        x: &[f64],
-        rows: Range<usize>,
         mut f: impl FnMut(usize, f64),
     ) {
-        let n = x.len();
-        if direct(n, gl.len()) {
-            return gl.for_each_weight_derivative(x, rows, f);
-        }
-        let size = transform_size(n);
-        let dw = gl.weight_derivatives();
-        self.derivatives
-            .keep(&mut self.t, &dw[..dw.len().min(n)], size);
-        self.t
-            .convolve(x, &self.derivatives.hat, size, &mut self.spec, &mut self.y);
-        let s = gl.scale();
-        for l in rows.start..rows.end.min(n) {
-            f(l, s * self.y[l]);
-        }
+        self.working(|b| {
+            let n = x.len();
+            if direct(n, gl.len()) {
+                return gl.for_each_weight_derivative(x, rows, f);
+            }
+            let size = transform_size(n);
+            let dw = gl.weight_derivatives();
+            b.derivatives
+                .keep(&mut b.work.t, &dw[..dw.len().min(n)], size);
+            b.work
+                .t
+                .convolve(x, &b.derivatives.hat, size, &mut b.work.spec, &mut b.work.y);
+            let s = gl.scale();
+            for l in rows.start..rows.end.min(n) {
+                f(l, s * b.work.y[l]);
+            }
+        });
     }
 }
 

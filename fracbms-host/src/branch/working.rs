@@ -18,12 +18,12 @@ use super::FftBranch;
 /// 13 MB, touched once instead of once a start.
 #[derive(Default)]
 pub(super) struct Working {
-    t: Transforms,
-    spec: Vec<Complex<f64>>,
-    fx: Vec<f64>,
-    fy: Vec<f64>,
-    y: Vec<f64>,
-    series_hat: Vec<Complex<f64>>,
+    pub(super) t: Transforms,
+    pub(super) spec: Vec<Complex<f64>>,
+    pub(super) fx: Vec<f64>,
+    pub(super) fy: Vec<f64>,
+    pub(super) y: Vec<f64>,
+    pub(super) series_hat: Vec<Complex<f64>>,
 }
 
 thread_local! {
@@ -32,9 +32,8 @@ thread_local! {
 }
 
 impl FftBranch {
-    /// Runs `f` with the thread's [`Working`] buffers in this solver's
-    /// working fields (a call inside another keeps them), and gives them
-    /// back after.
+    /// Runs `f` with the thread's [`Working`] buffers as this solver's (a
+    /// call inside another keeps them), and gives them back after.
     pub(super) fn working<R>(&mut self, f: impl FnOnce(&mut Self) -> R) -> R {
         if self.in_call {
             return f(self);
@@ -47,19 +46,14 @@ impl FftBranch {
         r
     }
 
-    /// Exchanges the working fields with the thread's [`Working`].
+    /// Exchanges the solver's working buffers with the thread's.
     fn swap_working(&mut self) {
         WORKING.with(|c| {
             // A thread's buffers are borrowed only here, never across a
             // call: the borrow cannot fail, but if it did the solver
             // would keep its own.
             if let Ok(mut w) = c.try_borrow_mut() {
-                std::mem::swap(&mut self.t, &mut w.t);
-                std::mem::swap(&mut self.spec, &mut w.spec);
-                std::mem::swap(&mut self.fx, &mut w.fx);
-                std::mem::swap(&mut self.fy, &mut w.fy);
-                std::mem::swap(&mut self.y, &mut w.y);
-                std::mem::swap(&mut self.series_hat, &mut w.series_hat);
+                std::mem::swap(&mut self.work, &mut *w);
             }
         });
     }
