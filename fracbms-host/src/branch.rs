@@ -37,8 +37,9 @@
 //! the transforms only; the model, the search and the weights are
 //! `estimator-core`'s. The transforms themselves, their sizes and the
 //! spectra kept by value are the `transforms` submodule's, the circle's
-//! points the `circle` one's, and the paper regression's tap sums by the
-//! same transforms the `sums` one's ([`FftSums`]).
+//! points the `circle` one's, the working buffers a thread's solvers share
+//! the `working` one's, and the paper regression's tap sums by the same
+//! transforms the `sums` one's ([`FftSums`]).
 //!
 //! ```
 //! use estimator_core::battery::branch::{BranchSolver, GlRecursion};
