@@ -88,10 +88,10 @@ const RECURSION_SUM_MIN_A: f64 = 0.1;
 /// The FFT solver of the constant-phase recursion (see the module docs).
 /// It holds the spectra of the last weights; a clone starts with none
 /// (they are a cache). Its working buffers are its thread's
-/// ([`working::Working`]) while one of its calls runs.
+/// (`working::Working`) while one of its calls runs.
 #[derive(Default)]
 pub struct FftBranch {
-    /// The working buffers: the thread's ([`working::Working`]) while a
+    /// The working buffers: the thread's (`working::Working`) while a
     /// call runs, empty between calls.
     work: working::Working,
     /// The spectrum of the weights `w`.
