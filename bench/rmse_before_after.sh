@@ -14,6 +14,12 @@ mkdir -p "$out"
 d=data/lg-m50; pulse=$d/LGM50_5Ah_Pulse.mat
 lgocv=target/real-cells/lgm50/ocv.csv; panocv=target/real-cells/panasonic/ocv.csv
 hppc="data/panasonic-18650pf/03-11-17_08.47 25degC_5Pulse_HPPC_Pan18650PF.mat"
+for t in "$lgocv" "$panocv"; do
+  if [ ! -f "$t" ]; then
+    echo "rmse_before_after.sh: $t is missing: run bash bench/lgm50_chain.sh && bash bench/panasonic_chain.sh first" >&2
+    exit 1
+  fi
+done
 declare -A cells=([25]=Cell1 [10]=Cell13 [45]=Cell7)
 for which in old new; do
   hs=${!which}
