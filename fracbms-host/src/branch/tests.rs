@@ -37,6 +37,14 @@ fn relative(a: &[f64], b: &[f64]) -> f64 {
     worst / scale
 }
 
+/// `n` samples of a solution's history: its first `warm` a scaled
+/// [`drive`], the rest zero (to be solved).
+fn history(n: usize, warm: usize) -> Vec<f64> {
+    (0..n)
+        .map(|l| if l < warm { 0.01 * drive(l) } else { 0.0 })
+        .collect()
+}
+
 /// One solver's run: `x`, `E`, the pair, the order derivative's sums.
 type Run<'a> = dyn FnMut(&mut [f64], &mut [f64], &mut [f64], &mut [f64], &mut [f64]) + 'a;
 
@@ -45,9 +53,7 @@ type Run<'a> = dyn FnMut(&mut [f64], &mut [f64], &mut [f64], &mut [f64], &mut [f
 /// worst relative difference over every output.
 fn compare<const MEM: usize>(n: usize, m: usize, alpha: f64, a: f64, warm: usize) -> f64 {
     let w = GlWeights::<f64, MEM>::new(alpha, 0.5, m).unwrap();
-    let history: Vec<f64> = (0..n)
-        .map(|l| if l < warm { 0.01 * drive(l) } else { 0.0 })
-        .collect();
+    let history = history(n, warm);
     let run = |solver: &mut Run| {
         let (mut x, mut e, mut p, mut q, mut d) = (
             history.clone(),
@@ -463,9 +469,7 @@ fn solvers_sharing_a_threads_buffers_give_what_each_gives_alone() {
         let mut s = FftBranch::default();
         let mut runs = Vec::new();
         for r in 0..3 {
-            let mut x: Vec<f64> = (0..N)
-                .map(|l| if l < warm { 0.01 * drive(l) } else { 0.0 })
-                .collect();
+            let mut x = history(N, warm);
             s.solve(w.weights(), a, warm, &mut x, |l| {
                 k * (r + 1) as f64 * drive(l)
             });
@@ -477,9 +481,7 @@ fn solvers_sharing_a_threads_buffers_give_what_each_gives_alone() {
     let (mut sa, mut sb) = (FftBranch::default(), FftBranch::default());
     for r in 0..3 {
         let mut xa = vec![0.0; N];
-        let mut xb: Vec<f64> = (0..N)
-            .map(|l| if l < 400 { 0.01 * drive(l) } else { 0.0 })
-            .collect();
+        let mut xb = history(N, 400);
         sa.solve(wa.weights(), 2.0, 0, &mut xa, |l| (r + 1) as f64 * drive(l));
         sb.solve(wb.weights(), 0.3, 400, &mut xb, |l| {
             -0.5 * (r + 1) as f64 * drive(l)
@@ -494,9 +496,7 @@ fn solvers_sharing_a_threads_buffers_give_what_each_gives_alone() {
     sa.solve(wa.weights(), 2.0, 0, &mut xa, |l| {
         if !inner_done {
             inner_done = true;
-            let mut xb: Vec<f64> = (0..N)
-                .map(|l| if l < 400 { 0.01 * drive(l) } else { 0.0 })
-                .collect();
+            let mut xb = history(N, 400);
             inner.solve(wb.weights(), 0.3, 400, &mut xb, |l| -0.5 * drive(l));
             assert_eq!(xb, rb[0], "nested solver");
         }

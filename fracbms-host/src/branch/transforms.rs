@@ -60,7 +60,8 @@ pub(super) fn fast_size(want: usize) -> usize {
 
 /// The transforms and their working buffers, kept between calls (a large
 /// buffer allocated anew is a fresh mapping whose pages the kernel clears:
-/// a third of a fit's time before they were kept).
+/// a third of a fit's time before they were kept); an `FftBranch`'s are
+/// its thread's (`super::working`).
 #[derive(Default)]
 pub(super) struct Transforms {
     /// The real input of a forward transform (clobbered by it).
