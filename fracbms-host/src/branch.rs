@@ -71,7 +71,7 @@ mod circle;
 mod sums;
 mod transforms;
 mod working;
-use circle::{sin_cos_half_pi, Circle};
+use circle::Circle;
 pub use sums::{FftSums, SUMS_DIRECT_ROWS, SUMS_DIRECT_TAPS};
 use transforms::{product, proportion, transform_size, KeptSpectra, Spectrum};
 
@@ -231,25 +231,14 @@ impl FftBranch {
         let c = &*self.circle;
         let spec = &mut self.g_circle;
         spec.clear();
-        // (1 + a·(1 − z)^α)⁻¹ with (1 − z)^α = |1 − z|^α·e^{iα·arg}: the
-        // moduli first (libm's exp), then the rest without a call.
-        spec.extend(
-            c.ln_modulus
-                .iter()
-                .map(|&l| Complex::new(a * (alpha * l).exp(), 0.0)),
-        );
         if alpha.abs() <= 1.0 {
-            for (v, &t) in spec.iter_mut().zip(&c.arg) {
-                let (sn, cs) = sin_cos_half_pi(alpha * t);
-                let (re, im) = (1.0 + v.re * cs, v.re * sn);
-                let d = 1.0 / (re * re + im * im);
-                *v = Complex::new(re * d, -im * d);
-            }
+            c.inverse_at_points(alpha, a, spec);
         } else {
-            for (v, &t) in spec.iter_mut().zip(&c.arg) {
+            spec.extend(c.ln_modulus.iter().zip(&c.arg).map(|(&l, &t)| {
+                let m = a * (alpha * l).exp();
                 let (sn, cs) = (alpha * t).sin_cos();
-                *v = (Complex::new(1.0, 0.0) + Complex::new(v.re * cs, v.re * sn)).inv();
-            }
+                (Complex::new(1.0, 0.0) + Complex::new(m * cs, m * sn)).inv()
+            }));
         }
     }
 
