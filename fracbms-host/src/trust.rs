@@ -259,17 +259,21 @@ impl Screened {
     }
 }
 
-/// The median of `v` (sorted in place); NaN for no data.
+/// The median of `v` (reordered in place); NaN for no data.
 fn median(v: &mut [f64]) -> f64 {
     if v.is_empty() {
         return f64::NAN;
     }
-    v.sort_by(f64::total_cmp);
+    // The value a sort would put in the middle, found without sorting
+    // (O(n): on a 200 000-row record the sort was 2 % of the command), and
+    // for an even count the largest below it.
     let n = v.len();
+    let (below, &mut mid, _) = v.select_nth_unstable_by(n / 2, f64::total_cmp);
     if n % 2 == 1 {
-        v[n / 2]
+        mid
     } else {
-        (v[n / 2 - 1] + v[n / 2]) / 2.0
+        let low = below.iter().copied().max_by(f64::total_cmp).unwrap_or(mid);
+        (low + mid) / 2.0
     }
 }
 
@@ -605,6 +609,37 @@ impl Limits {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The median is the middle of the sorted values (the mean of the two
+    /// middle ones for an even count), to the bit, with ties, signed zeros
+    /// and every count from 1 to 40.
+    #[test]
+    fn the_median_is_the_sorted_middle() {
+        let mut x = 0x2545_f491_4f6c_dd1du64;
+        for n in 1..=40usize {
+            for _ in 0..20 {
+                let v: Vec<f64> = (0..n)
+                    .map(|_| {
+                        x ^= x << 13;
+                        x ^= x >> 7;
+                        x ^= x << 17;
+                        // Few distinct values, so ties are common.
+                        [(x % 9) as f64 - 4.0, -0.0, 0.0, 0.1][(x >> 40) as usize % 4]
+                    })
+                    .collect();
+                let mut sorted = v.clone();
+                sorted.sort_by(f64::total_cmp);
+                let want = if n % 2 == 1 {
+                    sorted[n / 2]
+                } else {
+                    (sorted[n / 2 - 1] + sorted[n / 2]) / 2.0
+                };
+                let got = median(&mut v.clone());
+                assert_eq!(got.to_bits(), want.to_bits(), "{v:?}");
+            }
+        }
+        assert!(median(&mut []).is_nan());
+    }
 
     /// An isolated spike and short bursts (one of 2 rows at the record's
     /// start) are rejected; a run of rows the model misses alike (longer than
