@@ -156,8 +156,8 @@ pub(super) fn exp_series(x: f64) -> f64 {
     const SHIFTER: f64 = 6_755_399_441_055_744.0;
     /// `ln 2 = LN2_HI + LN2_LO`, `LN2_HI` with its last 21 bits zero, so
     /// `k·LN2_HI` is exact for `|k| < 2²¹` (fdlibm's split).
-    const LN2_HI: f64 = 6.931_471_803_691_238_164_9e-1;
-    const LN2_LO: f64 = 1.908_214_929_270_587_700_02e-10;
+    const LN2_HI: f64 = 6.931_471_803_691_238e-1;
+    const LN2_LO: f64 = 1.908_214_929_270_587_7e-10;
     let t = x * std::f64::consts::LOG2_E + SHIFTER;
     let k = t - SHIFTER;
     let r = (x - k * LN2_HI) - k * LN2_LO;
