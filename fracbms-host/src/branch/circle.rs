@@ -66,9 +66,7 @@ impl Circle {
             }
         })
     }
-}
 
-impl Circle {
     /// `1/(1 + a·(1 − z_j)^α)` at every point, for `|α| ≤ 1`, appended to
     /// `out`: `(1 − z)^α = |1 − z|^α·e^{iα·arg}` with the modulus from
     /// [`exp_series`] and the rest from [`sin_cos_half_pi`] (`|α·arg| <
