@@ -4,6 +4,12 @@
 //! window sized to those rows, with its history and table of estimates
 //! ([`PaperRun`]).
 //!
+//! As the start, each iteration solves θ by least squares at the current
+//! order ([`PaperRegressionGi::iterate_projected`]) instead of 2S-OP-GI's
+//! one gradient step: it reaches the regression's minimum in about a dozen
+//! iterations, where 2S-OP-GI's 50 stop part of the way there and were
+//! half of `identify battery` on an 8 000-row record (docs/performance.md).
+//!
 //! It owns that loop; it must not choose the stretch
 //! ([`super::starts::most_excited`]) nor refine ([`super::refine`]).
 
@@ -85,7 +91,12 @@ impl RegressionRun<'_> {
         // The note goes with the result (`start_note`), for the face to show:
         // when the refinement fails as well, its error is the one line.
         for _ in 0..self.iterations {
-            let it = match gi.iterate(sg, &*win) {
+            let step = if self.method == BatteryMethod::Refined {
+                gi.iterate_projected(sg, &*win)
+            } else {
+                gi.iterate(sg, &*win)
+            };
+            let it = match step {
                 Ok(it) => it,
                 Err(e) if self.method == BatteryMethod::Refined => {
                     out.failed = Some(format!(

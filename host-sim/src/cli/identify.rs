@@ -98,9 +98,10 @@ pub struct IdBatteryArgs {
     /// the whole record (full memory).
     #[arg(long)]
     pub memory: Option<usize>,
-    /// Iterations of 2S-OP-GI (paper method, or the start of the
-    /// refinement: then on the record's most excited 8 192 rows when it is
-    /// longer).
+    /// Most iterations of the paper regression: 2S-OP-GI's under the
+    /// paper method; as the refinement's start, θ solved by least squares
+    /// at each order (it stops when converged, in about a dozen), on the
+    /// record's most excited 8 192 rows when it is longer.
     #[arg(long, default_value_t = 50)]
     pub iterations: u32,
     /// Memory of the refinement (default: the whole record; give the
