@@ -6,7 +6,7 @@
 
 use super::model_choice::{choose_model, ModelChoice};
 use super::paper::{PaperRun, RegressionRun};
-use super::refine::{refine_best, stop_reason_name, LoggedWindow, Pace, Refinement};
+use super::refine::{refine_best, stop_reason_name, LoggedWindow, Refinement};
 pub use super::starts::{most_excited, rough_starts, START_REGRESSION_ROWS};
 use super::{BatteryMethod, HistoryEntry, ModelRequest, BAT_MEM, MAX_BATTERY_ROWS};
 use crate::branch::FftBranch;
@@ -443,8 +443,7 @@ fn battery_run_sized<const N: usize, const MEM: usize>(
                     .chain(rough_starts(&rec.current, &measured))
                     .collect(),
             };
-            let (mut lin, run) =
-                refine_best::<N>(&so, &starts, &logged, Pace::Patient).map_err(ctx)?;
+            let (mut lin, run) = refine_best::<N>(&so, &starts, &logged).map_err(ctx)?;
             iters += run;
             let bounds = [so.alpha_min, so.alpha_max];
             if refine.model == ModelRequest::Linear {

@@ -3,7 +3,7 @@
 //! (current beyond i₀, a's 95 % interval away from 0, the other
 //! parameters identified, a lower BIC), with the reason in one sentence.
 
-use super::refine::{refine_best, Fit, Pace};
+use super::refine::{refine_best, Fit};
 use super::ModelRequest;
 use estimator_core::battery::output_error::COLUMN_NAMES;
 use estimator_core::battery::{BatterySettings, CellModel};
@@ -75,7 +75,7 @@ pub(super) fn choose_model<const N: usize>(
     // A start that does not run (e.g. not excited) is passed over; the
     // linear fit ran on the same window, so one of them does.
     let starts = [0.1, 0.3, 1.0].map(|f| lin.cell.with_butler_volmer(f * i_max));
-    let (mut bv, iterations) = refine_best::<N>(&sb, &starts, win, Pace::Quick)?;
+    let (mut bv, iterations) = refine_best::<N>(&sb, &starts, win)?;
     bv.iterations = iterations;
     let info_bv = bv.oe.information(&sb, win)?;
     let mut lin_oe = lin.oe.clone();

@@ -137,65 +137,22 @@ pub const SETTLED: f64 = 1e-3;
 pub const BEHIND: f64 = 0.01;
 
 /// A start behind a settled one is given up when its gap to it is more
-/// than this many times what its last iteration gained ([`Pace::Quick`])
-/// or its last two gained ([`Pace::Patient`]).
+/// than this many times what its last iteration gained: at its pace it
+/// would need more iterations than that to come level.
 pub const PACE: f64 = 2.0;
-
-/// … and, at [`Pace::Patient`], more than it would gain in this many
-/// iterations, its gains shrinking as its last two did (or holding, if
-/// they grew).
-pub const HORIZON: i32 = 20;
-
-/// How readily `refine_best`'s pace rule gives up a start behind a
-/// settled one.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(super) enum Pace {
-    /// When its gap is more than [`PACE`] times its last iteration's gain:
-    /// for starts near one another (the Butler–Volmer starts, all from one
-    /// linear fit), which end within rounding of one another or are given
-    /// up.
-    Quick,
-    /// When neither estimate of what it still has to gain closes its gap:
-    /// [`PACE`] times its last two iterations' gain, and its last gain `g₁`
-    /// summed over [`HORIZON`] iterations shrinking by `ρ = g₁/g₂` each
-    /// (`g₂` the gain before it; `ρ` at most 1). For starts in different
-    /// basins (the regression's and the rough ones): a Gauss–Newton search
-    /// can slow down for an iteration or several and then speed up again,
-    /// and the quick rule gave up two measured pulses' starts that went
-    /// on to win (docs/performance.md).
-    Patient,
-}
 
 /// Whether a start is given up behind another (`refine_best`'s pace
 /// rule): `leader` is the other's RMSE, its RMSE before its last iteration
-/// and whether it has converged; `follower` the start's RMSE and its RMSEs
-/// before its last and its last two iterations. The leader has settled
-/// (converged, or its last iteration gained less than [`SETTLED`] of its
-/// RMSE) and the follower is more than [`BEHIND`] above it, at a pace that
-/// does not close the gap ([`Pace`]). A NaN (fewer iterations) is never
-/// behind, nor settled.
-fn falls_behind(leader: (f64, f64, bool), follower: (f64, f64, f64), pace: Pace) -> bool {
-    let ((a, a_was, done), (b, b1, b2)) = (leader, follower);
+/// and whether it has converged; `follower` the start's RMSE and its RMSE
+/// before its last iteration. The leader has settled (converged, or its
+/// last iteration gained less than [`SETTLED`] of its RMSE), the follower
+/// is more than [`BEHIND`] above it, and its gap is more than [`PACE`]
+/// times its own last gain. A NaN (no iteration yet) is never behind, nor
+/// settled.
+fn falls_behind(leader: (f64, f64, bool), follower: (f64, f64)) -> bool {
+    let ((a, a_was, done), (b, b_was)) = (leader, follower);
     let settled = done || a_was - a < SETTLED * a_was;
-    let (g1, g2) = (b1 - b, b2 - b1);
-    let gap = b - a;
-    let slow = match pace {
-        Pace::Quick => gap > PACE * g1,
-        Pace::Patient => {
-            let ahead = if g1 <= 0.0 {
-                0.0
-            } else {
-                let rho = if g2 > g1 { g1 / g2 } else { 1.0 };
-                if rho < 1.0 {
-                    g1 * rho * (1.0 - rho.powi(HORIZON)) / (1.0 - rho)
-                } else {
-                    g1 * f64::from(HORIZON)
-                }
-            };
-            gap > PACE * (g1 + g2) && gap > ahead
-        }
-    };
-    settled && b > a * (1.0 + BEHIND) && slow
+    settled && b > a * (1.0 + BEHIND) && b - a > PACE * (b_was - b)
 }
 
 /// The best of whole-record refinements from `starts`, run side by side an
@@ -204,11 +161,12 @@ fn falls_behind(leader: (f64, f64, bool), follower: (f64, f64, f64), pace: Pace)
 ///   cost (or the same cost, an earlier start), since both are descending
 ///   into one basin;
 /// * or when another has settled ([`SETTLED`]) at an RMSE more than
-///   [`BEHIND`] below its own, and its pace does not close the gap
-///   ([`Pace`]). A Gauss–Newton search lowers its cost by less at each
-///   step as it nears a minimum, so such a start is still far behind a
-///   minimum already in hand when it ends (docs/performance.md measures
-///   the rule on the 41 measured-cell fits of `bench/rmse_before_after.sh`).
+///   [`BEHIND`] below its own, and its gap to that one is more than
+///   [`PACE`] times what its own last iteration gained. A Gauss–Newton
+///   search lowers its cost by less at each step as it nears a minimum, so
+///   such a start is still far behind a minimum already in hand when it
+///   ends. The 41 measured-cell fits of `bench/rmse_before_after.sh`
+///   end at 1.000000× their RMSE without this rule.
 ///
 /// The others run until converged or [`MAX_REFINE_ITERATIONS`]. The best
 /// by RMSE is returned (strictly better by more than rounding: an earlier
@@ -218,7 +176,6 @@ pub(super) fn refine_best<const N: usize>(
     s: &BatterySettings<f64>,
     starts: &[CellParameters<f64>],
     win: &impl Window<f64>,
-    pace: Pace,
 ) -> std::result::Result<(Fit<N>, u32), estimator_core::Error> {
     #[derive(PartialEq)]
     enum Lane {
@@ -247,21 +204,17 @@ pub(super) fn refine_best<const N: usize>(
         }
     }
     let mut total = 0;
-    // Each start's RMSE before its last iteration and before the one
-    // before it (NaN while it has run fewer).
+    // Each start's RMSE before its last iteration (NaN before its first).
     let mut before = vec![f64::NAN; fits.len()];
-    let mut before2 = vec![f64::NAN; fits.len()];
     for _ in 0..MAX_REFINE_ITERATIONS {
         if !fits.iter().any(|(_, l)| *l == Lane::Running) {
             break;
         }
-        for (((f, lane), was), was2) in fits
+        for ((f, lane), was) in fits
             .iter_mut()
             .zip(before.iter_mut())
-            .zip(before2.iter_mut())
-            .filter(|(((_, l), _), _)| *l == Lane::Running)
+            .filter(|((_, l), _)| *l == Lane::Running)
         {
-            *was2 = *was;
             *was = f.rmse;
             match f.oe.iterate(s, win) {
                 Ok(st) => {
@@ -298,8 +251,7 @@ pub(super) fn refine_best<const N: usize>(
                     && matches!(fits[i].1, Lane::Running | Lane::Done)
                     && falls_behind(
                         (fits[i].0.rmse, before[i], fits[i].1 == Lane::Done),
-                        (fits[j].0.rmse, before[j], before2[j]),
-                        pace,
+                        (fits[j].0.rmse, before[j]),
                     )
             });
             if ahead || behind {
@@ -624,7 +576,7 @@ mod tests {
             .collect();
         let best_alone = alone.iter().map(|f| f.rmse).fold(f64::INFINITY, f64::min);
         let spent_alone: u32 = alone.iter().map(|f| f.iterations).sum();
-        let (raced, spent) = refine_best::<N>(&s, &starts, &*win, Pace::Patient).unwrap();
+        let (raced, spent) = refine_best::<N>(&s, &starts, &*win).unwrap();
         assert!(
             (raced.rmse / best_alone - 1.0).abs() < 1e-7,
             "{} vs {best_alone}",
@@ -638,109 +590,35 @@ mod tests {
     }
 
     /// The pace rule gives up a start only behind a settled one, more than
-    /// `BEHIND` above it, and closing too slowly to come level: at either
-    /// estimate of its pace when patient, at its last gain when quick.
+    /// `BEHIND` above it, and closing too slowly to come level within
+    /// `PACE` iterations at its last iteration's gain.
     #[test]
     fn a_start_is_given_up_only_when_it_cannot_catch_up() {
         let settled = (1.0e-3, 1.0e-3 * (1.0 + SETTLED / 2.0), false);
         // 10 % behind, gaining 1 % of the gap an iteration: given up.
-        let slow = (1.1e-3, 1.1e-3 + 1e-6, 1.1e-3 + 2e-6);
-        assert!(falls_behind(settled, slow, Pace::Patient));
+        assert!(falls_behind(settled, (1.1e-3, 1.1e-3 + 1e-6)));
         // Converged counts as settled whatever its last gain.
-        assert!(falls_behind((1.0e-3, 2.0e-3, true), slow, Pace::Patient));
-        // Gaining more than half the gap in its last two iterations: kept.
-        assert!(!falls_behind(
-            settled,
-            (1.1e-3, 1.1e-3 + 2e-5, 1.1e-3 + 5.2e-5),
-            Pace::Patient
-        ));
-        // Gaining a twentieth of the gap an iteration, steadily: kept.
-        assert!(!falls_behind(
-            settled,
-            (1.1e-3, 1.1e-3 + 5.1e-6, 1.1e-3 + 1.02e-5),
-            Pace::Patient
-        ));
-        // … but not when its gains halve each iteration.
         assert!(falls_behind(
-            settled,
-            (1.1e-3, 1.1e-3 + 5.1e-6, 1.1e-3 + 1.53e-5),
-            Pace::Patient
+            (1.0e-3, 2.0e-3, true),
+            (1.1e-3, 1.1e-3 + 1e-6)
         ));
+        // Gaining more than half the gap an iteration: kept.
+        assert!(!falls_behind(settled, (1.1e-3, 1.1e-3 + 6e-5)));
         // Within BEHIND of the leader: kept, however slow.
-        let near = 1.0e-3 * (1.0 + BEHIND / 2.0);
-        assert!(!falls_behind(settled, (near, near, near), Pace::Patient));
+        assert!(!falls_behind(
+            settled,
+            (1.0e-3 * (1.0 + BEHIND / 2.0), 1.1e-3)
+        ));
         // A leader still descending (by 1 % at its last iteration): kept.
-        assert!(!falls_behind((1.0e-3, 1.01e-3, false), slow, Pace::Patient));
-        // Before either's first iteration, or the follower's second: never.
         assert!(!falls_behind(
-            (1.0e-3, f64::NAN, false),
-            slow,
-            Pace::Patient
+            (1.0e-3, 1.01e-3, false),
+            (1.1e-3, 1.1e-3 + 1e-6)
         ));
-        assert!(!falls_behind(
-            settled,
-            (1.1e-3, f64::NAN, f64::NAN),
-            Pace::Patient
-        ));
-        assert!(!falls_behind(
-            settled,
-            (1.1e-3, 1.1e-3, f64::NAN),
-            Pace::Patient
-        ));
+        // Before either's first iteration: never.
+        assert!(!falls_behind((1.0e-3, f64::NAN, false), (1.1e-3, 1.1e-3)));
+        assert!(!falls_behind(settled, (1.1e-3, f64::NAN)));
         // Ahead of the leader: never.
-        assert!(!falls_behind(
-            settled,
-            (0.9e-3, 0.9e-3, 0.9e-3),
-            Pace::Patient
-        ));
-        // Stalled or climbing: given up.
-        assert!(falls_behind(
-            settled,
-            (1.1e-3, 1.09e-3, 1.1e-3),
-            Pace::Patient
-        ));
-        // Two measured LG M50 pulses (docs/performance.md), each a start
-        // that its last gain alone, or its shrinking gains alone, would
-        // give up, and that goes on to win. At 10 °C, SOC 0.7: 23.71,
-        // 6.53, 5.40 mV behind a leader settled at 1.81 mV; it ends at
-        // 0.83 mV.
-        let leader = (1.8056e-3, 1.8056e-3, false);
-        assert!(!falls_behind(
-            leader,
-            (5.4014e-3, 6.5256e-3, 23.7071e-3),
-            Pace::Patient
-        ));
-        // At 25 °C, SOC 0.7: 1.4533, 1.4004, 1.3546 mV behind 1.1372 mV;
-        // it ends at 0.686 mV.
-        let leader = (1.1372e-3, 1.1381e-3, false);
-        assert!(!falls_behind(
-            leader,
-            (1.3546e-3, 1.4004e-3, 1.4533e-3),
-            Pace::Patient
-        ));
-        // The quick rule gives up both, and judges by the last gain alone.
-        assert!(falls_behind(
-            leader,
-            (1.3546e-3, 1.4004e-3, 1.4533e-3),
-            Pace::Quick
-        ));
-        let leader = (1.8056e-3, 1.8056e-3, false);
-        assert!(falls_behind(
-            leader,
-            (5.4014e-3, 6.5256e-3, 23.7071e-3),
-            Pace::Quick
-        ));
-        assert!(falls_behind(
-            settled,
-            (1.1e-3, 1.1e-3 + 1e-6, f64::NAN),
-            Pace::Quick
-        ));
-        assert!(!falls_behind(
-            settled,
-            (1.1e-3, 1.1e-3 + 6e-5, f64::NAN),
-            Pace::Quick
-        ));
-        assert!(!falls_behind(settled, (near, 2.0e-3, 2.0e-3), Pace::Quick));
+        assert!(!falls_behind(settled, (0.9e-3, 0.9e-3)));
     }
 
     /// A start the refinement refuses is passed over; when every start is
@@ -753,11 +631,11 @@ mod tests {
             r_i: f64::NAN,
             ..truth
         };
-        let (fit, _) = refine_best::<N>(&s, &[bad, truth], &*win, Pace::Patient).unwrap();
+        let (fit, _) = refine_best::<N>(&s, &[bad, truth], &*win).unwrap();
         let alone = refine_fit::<N>(&s, truth, &*win).unwrap();
         assert_eq!(fit.rmse, alone.rmse);
-        assert!(refine_best::<N>(&s, &[bad], &*win, Pace::Quick).is_err());
-        assert!(refine_best::<N>(&s, &[], &*win, Pace::Quick).is_err());
+        assert!(refine_best::<N>(&s, &[bad], &*win).is_err());
+        assert!(refine_best::<N>(&s, &[], &*win).is_err());
     }
 
     /// The cost tolerance ends the search where a step would lower the cost
