@@ -4,15 +4,17 @@
 //! window sized to those rows, with its history and table of estimates
 //! ([`PaperRun`]).
 //!
-//! As the start, each iteration solves θ by least squares at the current
-//! order ([`PaperRegressionGi::iterate_projected`]) instead of 2S-OP-GI's
-//! one gradient step: it reaches the regression's minimum in about a dozen
+//! As the start on [`PROJECTED_START_ROWS`] rows or more, each iteration
+//! solves θ by least squares at the current order
+//! ([`PaperRegressionGi::iterate_projected`]) instead of 2S-OP-GI's one
+//! gradient step: it reaches the regression's minimum in about a dozen
 //! iterations, where 2S-OP-GI's 50 stop part of the way there and were
 //! half of `identify battery` on an 8 000-row record (docs/performance.md).
 //!
 //! It owns that loop; it must not choose the stretch
 //! ([`super::starts::most_excited`]) nor refine ([`super::refine`]).
 
+use super::starts::{PROJECTED_START_ROWS, PROJECTED_START_TOLERANCE};
 use super::{table_row, BatteryMethod, HistoryEntry};
 use crate::branch::FftSums;
 use crate::err;
@@ -62,13 +64,25 @@ impl RegressionRun<'_> {
     ) -> Result<PaperRun> {
         let path = self.path;
         let ctx = |e: estimator_core::Error| err!(Estimator, "{}: {e}", path.display());
+        let projected = self.method == BatteryMethod::Refined && rows.len() >= PROJECTED_START_ROWS;
         let Ok(mut win) = crate::worker::boxed(|| {
             Ok::<_, std::convert::Infallible>(SampleWindow::<f64, NR>::new())
         });
         for (&i, &v) in self.current[rows.clone()].iter().zip(&self.measured[rows]) {
             win.push(i, v).map_err(ctx)?;
         }
-        let sg = self.settings;
+        // As a start the projected regression stops once an iteration moves
+        // θ and α by less than `PROJECTED_START_TOLERANCE`: the refinement
+        // takes it from there.
+        let start_settings = BatterySettings {
+            epsilon: PROJECTED_START_TOLERANCE,
+            ..*self.settings
+        };
+        let sg = if projected {
+            &start_settings
+        } else {
+            self.settings
+        };
         let mut gi =
             crate::worker::boxed(|| PaperRegressionGi::<f64, NR, MEM, FftSums>::new(sg, 0.5))
                 .map_err(ctx)?;
@@ -91,7 +105,7 @@ impl RegressionRun<'_> {
         // The note goes with the result (`start_note`), for the face to show:
         // when the refinement fails as well, its error is the one line.
         for _ in 0..self.iterations {
-            let step = if self.method == BatteryMethod::Refined {
+            let step = if projected {
                 gi.iterate_projected(sg, &*win)
             } else {
                 gi.iterate(sg, &*win)

@@ -99,9 +99,10 @@ pub struct IdBatteryArgs {
     #[arg(long)]
     pub memory: Option<usize>,
     /// Most iterations of the paper regression: 2S-OP-GI's under the
-    /// paper method; as the refinement's start, θ solved by least squares
-    /// at each order (it stops when converged, in about a dozen), on the
-    /// record's most excited 8 192 rows when it is longer.
+    /// paper method and as the refinement's start on fewer than 4 096
+    /// rows; from 4 096 rows the start's solves θ by least squares at each
+    /// order (it stops when converged, in about a dozen), on the record's
+    /// most excited 8 192 rows when it is longer.
     #[arg(long, default_value_t = 50)]
     pub iterations: u32,
     /// Memory of the refinement (default: the whole record; give the
