@@ -1,12 +1,13 @@
 //! The paper's regression as the start of a whole-record fit: on a record
 //! longer than [`START_REGRESSION_ROWS`] it runs on the most excited
-//! stretch only, and the fit still ends at the cell.
+//! stretch only, and the fit still ends at the cell; from
+//! [`PROJECTED_START_ROWS`] rows it is the projected regression.
 
 use std::path::Path;
 
 use estimator_core::battery::CellParameters;
 use fracbms_host::identify::battery::{
-    battery_run, model_voltage, most_excited, START_REGRESSION_ROWS,
+    battery_run, model_voltage, most_excited, PROJECTED_START_ROWS, START_REGRESSION_ROWS,
 };
 use fracbms_host::identify::BatteryMethod;
 use fracbms_host::io::BatteryRecord;
@@ -106,4 +107,57 @@ fn a_long_record_is_fitted_to_its_cell_from_a_stretch_started_regression() {
         );
     }
     assert!(j.rmse_v < 1e-6, "{}", j.rmse_v);
+}
+
+/// From [`PROJECTED_START_ROWS`] rows the refinement's start is the
+/// projected regression, converged in a few iterations; below them, and
+/// under the paper's method, 2S-OP-GI runs its iterations. Both starts
+/// end at the same fit.
+#[test]
+fn the_start_is_projected_from_its_row_count() {
+    let cell = CellParameters {
+        r_i: 0.02,
+        r_ct: 0.03,
+        q: 400.0,
+        alpha: 0.7,
+        u_oc: 3.7,
+        bv_a: 0.0,
+        bv_i0: 1.0,
+    };
+    let run = |n: usize, method: BatteryMethod| {
+        let current = pulses(n, 100, 3.0);
+        let voltage = model_voltage(&cell, 1.0, &current).unwrap();
+        let rec = BatteryRecord {
+            time: (0..n).map(|k| k as f64).collect(),
+            current,
+            voltage,
+            h: 1.0,
+        };
+        on_worker(|| battery_run(Path::new("made"), &rec, method, None, 50, false))
+            .unwrap()
+            .json
+    };
+    let long = run(PROJECTED_START_ROWS, BatteryMethod::Refined);
+    let short = run(PROJECTED_START_ROWS - 1, BatteryMethod::Refined);
+    let paper = run(PROJECTED_START_ROWS, BatteryMethod::Paper);
+    assert!(
+        long.history.len() < 20,
+        "{} projected iterations",
+        long.history.len()
+    );
+    assert_eq!(short.history.len(), 50);
+    assert_eq!(paper.history.len(), 50);
+    for j in [&long, &short] {
+        assert!((j.r_ct / cell.r_ct - 1.0).abs() < 1e-3, "{}", j.r_ct);
+        assert!(j.rmse_v < 1e-6, "{}", j.rmse_v);
+    }
+    // The projected start is nearer the regression's minimum: its last
+    // cost is below 2S-OP-GI's after 50 iterations on the same rows.
+    let last = |j: &fracbms_host::identify::battery::BatteryJson| j.history.last().unwrap().cost;
+    assert!(
+        last(&long) < last(&paper),
+        "{} vs {}",
+        last(&long),
+        last(&paper)
+    );
 }

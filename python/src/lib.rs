@@ -190,7 +190,10 @@ fn ocv_spec(
 /// model : {"auto", "linear", "butler-volmer"}
 ///     The cell model (`"paper"` fits the linear model).
 /// iterations : int
-///     Iterations of 2S-OP-GI (the paper method, or the refinement's start).
+///     Most iterations of the paper regression: 2S-OP-GI's (the paper
+///     method, or the refinement's start on fewer than 4 096 rows); from
+///     4 096 rows the start's, θ solved by least squares at each order,
+///     stops when converged.
 /// memory : int, optional
 ///     Memory M of the paper regression (default 256).
 /// map : bool

@@ -7,7 +7,10 @@
 use super::model_choice::{choose_model, ModelChoice};
 use super::paper::{PaperRun, RegressionRun};
 use super::refine::{refine_best, stop_reason_name, LoggedWindow, Refinement};
-pub use super::starts::{most_excited, rough_starts, START_REGRESSION_ROWS};
+pub use super::starts::{
+    most_excited, rough_starts, PROJECTED_START_ROWS, PROJECTED_START_TOLERANCE,
+    START_REGRESSION_ROWS,
+};
 use super::{BatteryMethod, HistoryEntry, ModelRequest, BAT_MEM, MAX_BATTERY_ROWS};
 use crate::branch::FftBranch;
 use crate::error::Result;

@@ -1,5 +1,6 @@
 //! Tests of the §6.2 regression and its 2S-OP-GI iteration.
 
+use super::projected::solve3;
 use super::*;
 use crate::window::SampleWindow;
 
