@@ -28,6 +28,30 @@ fn pulses(n: usize, rest: usize, amp: f64) -> Vec<f64> {
         .collect()
 }
 
+/// The made records' cell.
+fn made_cell() -> CellParameters<f64> {
+    CellParameters {
+        r_i: 0.02,
+        r_ct: 0.03,
+        q: 400.0,
+        alpha: 0.7,
+        u_oc: 3.7,
+        bv_a: 0.0,
+        bv_i0: 1.0,
+    }
+}
+
+/// `cell`'s voltage under `current`, one row a second.
+fn made_record(cell: &CellParameters<f64>, current: Vec<f64>) -> BatteryRecord {
+    let voltage = model_voltage(cell, 1.0, &current).unwrap();
+    BatteryRecord {
+        time: (0..current.len()).map(|k| k as f64).collect(),
+        current,
+        voltage,
+        h: 1.0,
+    }
+}
+
 #[test]
 fn the_most_excited_stretch_is_where_the_pulses_are() {
     let i = pulses(20_000, 15_000, 2.0);
@@ -65,24 +89,9 @@ fn a_stretch_mostly_unobserved_is_passed_over() {
 
 #[test]
 fn a_long_record_is_fitted_to_its_cell_from_a_stretch_started_regression() {
-    let cell = CellParameters {
-        r_i: 0.02,
-        r_ct: 0.03,
-        q: 400.0,
-        alpha: 0.7,
-        u_oc: 3.7,
-        bv_a: 0.0,
-        bv_i0: 1.0,
-    };
+    let cell = made_cell();
     let n = 2 * START_REGRESSION_ROWS + 4_000;
-    let current = pulses(n, n - 6_000, 3.0);
-    let voltage = model_voltage(&cell, 1.0, &current).unwrap();
-    let rec = BatteryRecord {
-        time: (0..n).map(|k| k as f64).collect(),
-        current,
-        voltage,
-        h: 1.0,
-    };
+    let rec = made_record(&cell, pulses(n, n - 6_000, 3.0));
     let r = on_worker(|| {
         battery_run(
             Path::new("made"),
@@ -115,24 +124,9 @@ fn a_long_record_is_fitted_to_its_cell_from_a_stretch_started_regression() {
 /// end at the same fit.
 #[test]
 fn the_start_is_projected_from_its_row_count() {
-    let cell = CellParameters {
-        r_i: 0.02,
-        r_ct: 0.03,
-        q: 400.0,
-        alpha: 0.7,
-        u_oc: 3.7,
-        bv_a: 0.0,
-        bv_i0: 1.0,
-    };
+    let cell = made_cell();
     let run = |n: usize, method: BatteryMethod| {
-        let current = pulses(n, 100, 3.0);
-        let voltage = model_voltage(&cell, 1.0, &current).unwrap();
-        let rec = BatteryRecord {
-            time: (0..n).map(|k| k as f64).collect(),
-            current,
-            voltage,
-            h: 1.0,
-        };
+        let rec = made_record(&cell, pulses(n, 100, 3.0));
         on_worker(|| battery_run(Path::new("made"), &rec, method, None, 50, false))
             .unwrap()
             .json

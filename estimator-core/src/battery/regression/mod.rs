@@ -688,50 +688,30 @@ impl<T: Real, const N: usize, const MEM: usize, S: TapSums<T>> PaperRegressionGi
             // could not show it, so it is not run: none at all
             // (`BelowRounding`), or no further halving.
             let noise = T::epsilon() * cost * T::lit(rows.len() as f64).sqrt();
-            let decrease = |delta: T| dr * delta - dd * delta * delta / T::lit(2.0);
-            if !(dd > T::zero() && dr.is_finite()) || dr.is_zero() {
-                OrderStep::Flat
-            } else {
-                let step = (dr / dd).max(-s.max_order_step).min(s.max_order_step);
-                let mut t = T::one();
-                let mut out = OrderStep::NoDecrease;
-                for halvings in 0..=s.max_halvings {
-                    let trial = s.clamp_alpha(alpha0 + t * step);
-                    if trial == alpha0 {
-                        break;
-                    }
-                    let m = decrease(trial - alpha0);
-                    if m.is_nan() || m <= noise {
-                        if halvings == 0 {
-                            out = OrderStep::BelowRounding;
-                        }
-                        break;
-                    }
-                    // The full step is usually accepted: its trial computes
-                    // the regressors there at once. A halved step's trial
-                    // computes only the residual, and the regressors on
-                    // acceptance.
-                    let c = if halvings == 0 {
-                        self.trial_cost_with_regressors(trial)?
-                    } else {
-                        self.trial_cost(trial)?
-                    };
-                    if c.is_finite() && c < cost {
-                        if halvings == 0 {
-                            self.accept_trial_regressors(trial)?;
-                        } else {
-                            self.w.set_order(trial)?;
-                            self.regressors();
-                        }
-                        self.stamp = Some((win.version(), win.len(), trial));
-                        cost = c;
-                        out = OrderStep::Accepted { halvings };
-                        break;
-                    }
-                    t = t / T::lit(2.0);
+            let stamp = (win.version(), win.len());
+            order_search(s, alpha0, dd, dr, noise, |trial, halvings| {
+                // The full step is usually accepted: its trial computes
+                // the regressors there at once. A halved step's trial
+                // computes only the residual, and the regressors on
+                // acceptance.
+                let c = if halvings == 0 {
+                    self.trial_cost_with_regressors(trial)?
+                } else {
+                    self.trial_cost(trial)?
+                };
+                if !(c.is_finite() && c < cost) {
+                    return Ok(false);
                 }
-                out
-            }
+                if halvings == 0 {
+                    self.accept_trial_regressors(trial)?;
+                } else {
+                    self.w.set_order(trial)?;
+                    self.regressors();
+                }
+                self.stamp = Some((stamp.0, stamp.1, trial));
+                cost = c;
+                Ok(true)
+            })?
         };
         self.order_moves = if matches!(order_step, OrderStep::Accepted { .. }) {
             self.order_moves.saturating_add(1)
@@ -763,6 +743,47 @@ impl<T: Real, const N: usize, const MEM: usize, S: TapSums<T>> PaperRegressionGi
             rows: rows.len(),
         })
     }
+}
+
+/// The order stage's safeguarded Gauss–Newton search from `alpha0`, with
+/// `dd`, `dr` the model of the cost along α: `cost(α₀ + δ) ≈ cost − dr·δ +
+/// ½·dd·δ²` predicts a decrease of `dr·δ − ½·dd·δ²` for a step δ. A trial
+/// whose predicted decrease is below the rounding error of the cost
+/// (`noise`, about ε·cost·√rows) could not show it, so it is not run: none
+/// at all (`BelowRounding`), or no further halving. `trial(α, halvings)`
+/// runs one and says whether it was accepted (and taken over).
+fn order_search<T: Real>(
+    s: &BatterySettings<T>,
+    alpha0: T,
+    dd: T,
+    dr: T,
+    noise: T,
+    mut trial: impl FnMut(T, u8) -> Result<bool, Error>,
+) -> Result<OrderStep, Error> {
+    if !(dd > T::zero() && dr.is_finite()) || dr.is_zero() {
+        return Ok(OrderStep::Flat);
+    }
+    let decrease = |delta: T| dr * delta - dd * delta * delta / T::lit(2.0);
+    let step = (dr / dd).max(-s.max_order_step).min(s.max_order_step);
+    let mut t = T::one();
+    for halvings in 0..=s.max_halvings {
+        let alpha = s.clamp_alpha(alpha0 + t * step);
+        if alpha == alpha0 {
+            break;
+        }
+        let m = decrease(alpha - alpha0);
+        if m.is_nan() || m <= noise {
+            if halvings == 0 {
+                return Ok(OrderStep::BelowRounding);
+            }
+            break;
+        }
+        if trial(alpha, halvings)? {
+            return Ok(OrderStep::Accepted { halvings });
+        }
+        t = t / T::lit(2.0);
+    }
+    Ok(OrderStep::NoDecrease)
 }
 
 /// How an iteration moves θ before its order stage.

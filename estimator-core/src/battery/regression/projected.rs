@@ -4,7 +4,7 @@
 //! regressors; the order stage writes the trial regressors and takes them
 //! over on acceptance, as 2S-OP-GI's does (`trial`).
 
-use super::PaperRegressionGi;
+use super::{order_search, PaperRegressionGi};
 use crate::battery::BatterySettings;
 use crate::error::Error;
 use crate::frac::TapSums;
@@ -104,43 +104,24 @@ impl<T: Real, const N: usize, const MEM: usize, S: TapSums<T>> PaperRegressionGi
             return Ok((OrderStep::Flat, fit.cost));
         };
         let perp = dd - sd * sd / m - (g[0] * y[0] + g[1] * y[1] + g[2] * y[2]);
-        let cost = fit.cost;
-        if !(perp > T::zero() && dr.is_finite()) || dr.is_zero() {
-            return Ok((OrderStep::Flat, cost));
-        }
+        let mut cost = fit.cost;
         let noise = T::epsilon() * cost * m.sqrt();
-        let decrease = |delta: T| dr * delta - perp * delta * delta / T::lit(2.0);
-        let alpha0 = self.w.alpha();
-        let step = (dr / perp).max(-s.max_order_step).min(s.max_order_step);
-        let mut t = T::one();
-        for halvings in 0..=s.max_halvings {
-            let trial = s.clamp_alpha(alpha0 + t * step);
-            if trial == alpha0 {
-                break;
-            }
-            let pm = decrease(trial - alpha0);
-            if pm.is_nan() || pm <= noise {
-                let out = if halvings == 0 {
-                    OrderStep::BelowRounding
-                } else {
-                    OrderStep::NoDecrease
-                };
-                return Ok((out, cost));
-            }
+        let step = order_search(s, self.w.alpha(), perp, dr, noise, |trial, _| {
             self.trial_cost_with_regressors(trial)?;
             let mut w = self.w.clone();
             w.set_order(trial)?;
             let (k, _) = Self::unit_history(&w);
-            if let Some(p) = self.project(&self.trial_di, &self.trial_hv, k) {
-                if p.cost < cost {
+            match self.project(&self.trial_di, &self.trial_hv, k) {
+                Some(p) if p.cost < cost => {
                     self.accept_trial_regressors(trial)?;
                     self.theta = p.theta;
-                    return Ok((OrderStep::Accepted { halvings }, p.cost));
+                    cost = p.cost;
+                    Ok(true)
                 }
+                _ => Ok(false),
             }
-            t = t / T::lit(2.0);
-        }
-        Ok((OrderStep::NoDecrease, cost))
+        })?;
+        Ok((step, cost))
     }
 }
 
