@@ -54,6 +54,7 @@ use crate::gi::{Iteration, OrderStep, P0};
 use crate::real::{dot, norm, Real};
 use crate::window::Window;
 use rows::{slide_one, store_derivatives, store_regressors};
+use trial::order_search;
 
 /// Fewest regression rows an iteration accepts (four parameters and α).
 pub const MIN_ROWS: usize = 8;
@@ -743,47 +744,6 @@ impl<T: Real, const N: usize, const MEM: usize, S: TapSums<T>> PaperRegressionGi
             rows: rows.len(),
         })
     }
-}
-
-/// The order stage's safeguarded Gauss–Newton search from `alpha0`, with
-/// `dd`, `dr` the model of the cost along α: `cost(α₀ + δ) ≈ cost − dr·δ +
-/// ½·dd·δ²` predicts a decrease of `dr·δ − ½·dd·δ²` for a step δ. A trial
-/// whose predicted decrease is below the rounding error of the cost
-/// (`noise`, about ε·cost·√rows) could not show it, so it is not run: none
-/// at all (`BelowRounding`), or no further halving. `trial(α, halvings)`
-/// runs one and says whether it was accepted (and taken over).
-fn order_search<T: Real>(
-    s: &BatterySettings<T>,
-    alpha0: T,
-    dd: T,
-    dr: T,
-    noise: T,
-    mut trial: impl FnMut(T, u8) -> Result<bool, Error>,
-) -> Result<OrderStep, Error> {
-    if !(dd > T::zero() && dr.is_finite()) || dr.is_zero() {
-        return Ok(OrderStep::Flat);
-    }
-    let decrease = |delta: T| dr * delta - dd * delta * delta / T::lit(2.0);
-    let step = (dr / dd).max(-s.max_order_step).min(s.max_order_step);
-    let mut t = T::one();
-    for halvings in 0..=s.max_halvings {
-        let alpha = s.clamp_alpha(alpha0 + t * step);
-        if alpha == alpha0 {
-            break;
-        }
-        let m = decrease(alpha - alpha0);
-        if m.is_nan() || m <= noise {
-            if halvings == 0 {
-                return Ok(OrderStep::BelowRounding);
-            }
-            break;
-        }
-        if trial(alpha, halvings)? {
-            return Ok(OrderStep::Accepted { halvings });
-        }
-        t = t / T::lit(2.0);
-    }
-    Ok(OrderStep::NoDecrease)
 }
 
 /// How an iteration moves θ before its order stage.

@@ -4,7 +4,8 @@
 //! regressors; the order stage writes the trial regressors and takes them
 //! over on acceptance, as 2S-OP-GI's does (`trial`).
 
-use super::{order_search, PaperRegressionGi};
+use super::trial::order_search;
+use super::PaperRegressionGi;
 use crate::battery::BatterySettings;
 use crate::error::Error;
 use crate::frac::TapSums;

@@ -1,12 +1,15 @@
-//! The order stage's trials: the regression's cost at a trial order, with
-//! or without its regressors there, and their taking over on acceptance.
+//! The order stage's search ([`order_search`]) and its trials: the
+//! regression's cost at a trial order, with or without its regressors
+//! there, and their taking over on acceptance.
 //! They read the loaded window and θ, and write only the trial regressors
 //! and the residual buffer; the order itself changes only in
 //! `accept_trial_regressors`.
 
 use super::PaperRegressionGi;
+use crate::battery::BatterySettings;
 use crate::error::Error;
 use crate::frac::TapSums;
+use crate::gi::OrderStep;
 use crate::real::Real;
 
 impl<T: Real, const N: usize, const MEM: usize, S: TapSums<T>> PaperRegressionGi<T, N, MEM, S> {
@@ -97,4 +100,45 @@ impl<T: Real, const N: usize, const MEM: usize, S: TapSums<T>> PaperRegressionGi
         self.derivatives = false;
         Ok(())
     }
+}
+
+/// The order stage's safeguarded Gauss–Newton search from `alpha0`, with
+/// `dd`, `dr` the model of the cost along α: `cost(α₀ + δ) ≈ cost − dr·δ +
+/// ½·dd·δ²` predicts a decrease of `dr·δ − ½·dd·δ²` for a step δ. A trial
+/// whose predicted decrease is below the rounding error of the cost
+/// (`noise`, about ε·cost·√rows) could not show it, so it is not run: none
+/// at all (`BelowRounding`), or no further halving. `trial(α, halvings)`
+/// runs one and says whether it was accepted (and taken over).
+pub(super) fn order_search<T: Real>(
+    s: &BatterySettings<T>,
+    alpha0: T,
+    dd: T,
+    dr: T,
+    noise: T,
+    mut trial: impl FnMut(T, u8) -> Result<bool, Error>,
+) -> Result<OrderStep, Error> {
+    if !(dd > T::zero() && dr.is_finite()) || dr.is_zero() {
+        return Ok(OrderStep::Flat);
+    }
+    let decrease = |delta: T| dr * delta - dd * delta * delta / T::lit(2.0);
+    let step = (dr / dd).max(-s.max_order_step).min(s.max_order_step);
+    let mut t = T::one();
+    for halvings in 0..=s.max_halvings {
+        let alpha = s.clamp_alpha(alpha0 + t * step);
+        if alpha == alpha0 {
+            break;
+        }
+        let m = decrease(alpha - alpha0);
+        if m.is_nan() || m <= noise {
+            if halvings == 0 {
+                return Ok(OrderStep::BelowRounding);
+            }
+            break;
+        }
+        if trial(alpha, halvings)? {
+            return Ok(OrderStep::Accepted { halvings });
+        }
+        t = t / T::lit(2.0);
+    }
+    Ok(OrderStep::NoDecrease)
 }
