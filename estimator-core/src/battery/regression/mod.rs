@@ -682,12 +682,8 @@ impl<T: Real, const N: usize, const MEM: usize, S: TapSums<T>> PaperRegressionGi
             step
         } else {
             let (dd, dr) = self.order_gradient(vref, dk);
-            // The Gauss–Newton model of the cost along α,
-            // `cost(α₀ + δ) ≈ cost − dr·δ + ½·dd·δ²`, predicts a decrease of
-            // `dr·δ − ½·dd·δ²` for a step δ. A trial whose predicted decrease
-            // is below the rounding error of the cost (about ε·cost·√rows)
-            // could not show it, so it is not run: none at all
-            // (`BelowRounding`), or no further halving.
+            // The cost's rounding error, below which no trial is run
+            // (`order_search`).
             let noise = T::epsilon() * cost * T::lit(rows.len() as f64).sqrt();
             let stamp = (win.version(), win.len());
             order_search(s, alpha0, dd, dr, noise, |trial, halvings| {
@@ -696,7 +692,7 @@ impl<T: Real, const N: usize, const MEM: usize, S: TapSums<T>> PaperRegressionGi
                 // computes only the residual, and the regressors on
                 // acceptance.
                 let c = if halvings == 0 {
-                    self.trial_cost_with_regressors(trial)?
+                    self.trial_cost_with_regressors(trial)?.0
                 } else {
                     self.trial_cost(trial)?
                 };

@@ -108,10 +108,7 @@ impl<T: Real, const N: usize, const MEM: usize, S: TapSums<T>> PaperRegressionGi
         let mut cost = fit.cost;
         let noise = T::epsilon() * cost * m.sqrt();
         let step = order_search(s, self.w.alpha(), perp, dr, noise, |trial, _| {
-            self.trial_cost_with_regressors(trial)?;
-            let mut w = self.w.clone();
-            w.set_order(trial)?;
-            let (k, _) = Self::unit_history(&w);
+            let (_, k) = self.trial_cost_with_regressors(trial)?;
             match self.project(&self.trial_di, &self.trial_hv, k) {
                 Some(p) if p.cost < cost => {
                     self.accept_trial_regressors(trial)?;

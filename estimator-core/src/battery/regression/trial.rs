@@ -52,10 +52,10 @@ impl<T: Real, const N: usize, const MEM: usize, S: TapSums<T>> PaperRegressionGi
 
     /// ½Σ residual² at a trial order, computing the regressors there into
     /// `trial_di`/`trial_hv` (taken over by [`Self::accept_trial_regressors`]
-    /// if the trial is accepted). Costs two fractional differences per row
-    /// where [`Self::trial_cost`] costs one, but saves recomputing the
-    /// regressors on acceptance.
-    pub(super) fn trial_cost_with_regressors(&mut self, alpha: T) -> Result<T, Error> {
+    /// if the trial is accepted), and the unit history `k` there. Costs two
+    /// fractional differences per row where [`Self::trial_cost`] costs one,
+    /// but saves recomputing the regressors on acceptance.
+    pub(super) fn trial_cost_with_regressors(&mut self, alpha: T) -> Result<(T, T), Error> {
         let mut w = self.w.clone();
         w.set_order(alpha)?;
         let th = self.theta;
@@ -88,7 +88,7 @@ impl<T: Real, const N: usize, const MEM: usize, S: TapSums<T>> PaperRegressionGi
             let r = vl - (th[0] * il + th[1] * d - th[2] * hv + b);
             c = c + r * r;
         });
-        Ok(c / T::lit(2.0))
+        Ok((c / T::lit(2.0), k))
     }
 
     /// Makes the regressors of the last [`Self::trial_cost_with_regressors`]
