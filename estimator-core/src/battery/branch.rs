@@ -117,6 +117,17 @@ pub trait BranchSolver<T: Real>: Default {
         let _ = (w, a, x, y, z);
         false
     }
+
+    /// Makes this solver compute what a new one
+    /// ([`Default::default`]) would, from its next call: a refinement
+    /// started again in place
+    /// ([`OutputErrorRefinement::init`](super::output_error::OutputErrorRefinement::init))
+    /// resets its solver. A solver that keeps buffers (a cache of spectra)
+    /// may keep their allocations and forget their contents; the default
+    /// is a new solver.
+    fn reset(&mut self) {
+        *self = Self::default();
+    }
 }
 
 /// The direct solver: the recursion row by row (in blocks through the

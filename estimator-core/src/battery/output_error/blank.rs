@@ -61,22 +61,35 @@ impl<T: Real, const N: usize, const MEM: usize, K: BranchSolver<T>>
     OutputErrorRefinement<T, N, MEM, K>
 {
     /// Makes this refinement, whatever it held, the one
-    /// [`new`](Self::new)`(s, start)` returns, in place.
+    /// [`new`](Self::new)`(s, start)` returns, in place: a refinement
+    /// done with (a start given up, a fit whose estimate is taken) is
+    /// started again without building another, so its arrays are written
+    /// where they are instead of being built and moved.
+    ///
+    /// ```
+    /// use estimator_core::battery::branch::GlRecursion;
+    /// use estimator_core::battery::output_error::OutputErrorRefinement;
+    /// use estimator_core::battery::{BatterySettings, CellParameters};
+    ///
+    /// let s = BatterySettings::new(1.0, 64);
+    /// let cell = CellParameters::cell_18650();
+    /// let mut oe = OutputErrorRefinement::<f64, 64, 64, GlRecursion>::new(&s, cell)?;
+    /// let again = CellParameters { alpha: 0.6, ..cell };
+    /// oe.init(&s, again)?;
+    /// assert_eq!(oe.cell(), again);
+    /// # Ok::<(), estimator_core::Error>(())
+    /// ```
     ///
     /// # Errors
     /// As [`new`](Self::new); on error nothing changes.
-    pub(crate) fn init(
-        &mut self,
-        s: &BatterySettings<T>,
-        start: CellParameters<T>,
-    ) -> Result<(), Error> {
+    pub fn init(&mut self, s: &BatterySettings<T>, start: CellParameters<T>) -> Result<(), Error> {
         s.check::<MEM>()?;
         if !start.is_physical() || start.alpha < s.alpha_min || start.alpha > s.alpha_max {
             return Err(Error::BadSetting);
         }
         self.w.reset(start.alpha, s.h, s.memory)?;
         self.p = start;
-        self.solver = K::default();
+        self.solver.reset();
         self.lambda = T::lit(LAMBDA0);
         self.k = 0;
         for sim in &mut self.sims {

@@ -92,6 +92,63 @@ fn a_restarted_window_forgets_the_earlier_one() {
     }
 }
 
+/// A refinement done with and started again in place
+/// ([`OutputErrorRefinement::init`], with other settings and another
+/// start) computes exactly what a new one does, iteration by iteration,
+/// on the window it last ran on and on another.
+#[test]
+fn an_initialised_refinement_repeats_a_new_one() {
+    const N: usize = 80;
+    let (current, v) = noisy_record(2 * N);
+    let s = BatterySettings {
+        model: CellModel::ButlerVolmer,
+        ocv_slope: true,
+        ..BatterySettings::new(1.0, 24)
+    };
+    let mut win = SampleWindow::<f64, N>::new();
+    for l in 0..N + 20 {
+        win.push(current[l], v[l]).unwrap();
+    }
+    let cell = CellParameters::<f64>::cell_18650();
+    let mut used =
+        OutputErrorRefinement::<f64, N, 24>::new(&s, cell.with_butler_volmer(1.0)).unwrap();
+    for _ in 0..4 {
+        used.iterate(&s, &win).unwrap();
+    }
+    assert!(used.warm > 0 && used.k > 0, "a refinement that has run");
+    assert!(used.kinetic_kept > 0, "with its kinetic voltages kept");
+    let sb = BatterySettings {
+        ocv_slope: false,
+        ..s
+    };
+    let start = CellParameters {
+        alpha: 0.6,
+        r_ct: 1.5 * cell.r_ct,
+        ..cell.with_butler_volmer(2.0)
+    };
+    let bad = CellParameters { r_i: -1.0, ..start };
+    let before = used.state();
+    assert_eq!(used.init(&sb, bad), Err(Error::BadSetting));
+    assert_eq!(used.state(), before, "a refused start changes nothing");
+    for other_window in [false, true] {
+        if other_window {
+            win.clear();
+            for l in N + 20..2 * N {
+                win.push(current[l], v[l]).unwrap();
+            }
+        }
+        used.init(&sb, start).unwrap();
+        let mut new = OutputErrorRefinement::<f64, N, 24>::new(&sb, start).unwrap();
+        assert_eq!(used.state(), new.state());
+        for _ in 0..4 {
+            assert_eq!(used.iterate(&sb, &win), new.iterate(&sb, &win));
+            assert_eq!(used.state(), new.state());
+        }
+        let (a, b) = (used.information(&sb, &win), new.information(&sb, &win));
+        assert_eq!(a.map(|i| i.bic()), b.map(|i| i.bic()));
+    }
+}
+
 /// An iteration that stops on the last iteration's Jacobian (no new
 /// sensitivities) stops at a minimum: the exact Levenberg–Marquardt step
 /// from there leaves a Bates–Watts relative offset
