@@ -6,7 +6,7 @@
 
 use super::model_choice::{choose_model, ModelChoice};
 use super::paper::{PaperRun, RegressionRun};
-use super::refine::{refine_best, stop_reason_name, LoggedWindow, Refinement};
+use super::refine::{refine_best, stop_reason_name, LoggedWindow, Refinement, Spares};
 pub use super::starts::{
     most_excited, rough_starts, PROJECTED_START_ROWS, PROJECTED_START_TOLERANCE,
     START_REGRESSION_ROWS,
@@ -446,7 +446,11 @@ fn battery_run_sized<const N: usize, const MEM: usize>(
                     .chain(rough_starts(&rec.current, &measured))
                     .collect(),
             };
-            let (mut lin, run) = refine_best::<N>(&so, &starts, &logged).map_err(ctx)?;
+            // The linear race's refinements given back serve the
+            // Butler–Volmer race.
+            let mut spares = Spares::new();
+            let (mut lin, run) =
+                refine_best::<N>(&so, &starts, &logged, &mut spares).map_err(ctx)?;
             iters += run;
             let bounds = [so.alpha_min, so.alpha_max];
             if refine.model == ModelRequest::Linear {
@@ -456,23 +460,15 @@ fn battery_run_sized<const N: usize, const MEM: usize>(
                 let info = lin.oe.information(&so, &logged).ok();
                 (lin.cell, Some(lin.rmse), info, bounds)
             } else {
-                let (mut fit, why) =
-                    choose_model(&so, &lin, &logged, &rec.current, refine.model).map_err(ctx)?;
+                let (fit, why) =
+                    choose_model(&so, lin, &logged, &rec.current, refine.model, &mut spares)
+                        .map_err(ctx)?;
                 iters += fit.iterations;
                 converged = fit.converged;
                 stop = Some(fit.stop.as_str());
                 stop_reason = Some(stop_reason_name(fit.stop, fit.reason));
                 choice = Some(why);
-                let sf = BatterySettings {
-                    model: if fit.cell.is_butler_volmer() {
-                        CellModel::ButlerVolmer
-                    } else {
-                        CellModel::Linear
-                    },
-                    ..so
-                };
-                let info = fit.oe.information(&sf, &logged).ok();
-                (fit.cell, Some(fit.rmse), info, bounds)
+                (fit.cell, Some(fit.rmse), Some(fit.information), bounds)
             }
         }
     };

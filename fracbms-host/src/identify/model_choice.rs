@@ -3,9 +3,10 @@
 //! (current beyond i₀, a's 95 % interval away from 0, the other
 //! parameters identified, a lower BIC), with the reason in one sentence.
 
-use super::refine::{refine_best, Fit};
+use super::refine::{refine_best, Fit, FitStop, Spares};
 use super::ModelRequest;
-use estimator_core::battery::output_error::COLUMN_NAMES;
+use estimator_core::battery::output_error::{FitInformation, StopReason, COLUMN_NAMES};
+use estimator_core::battery::CellParameters;
 use estimator_core::battery::{BatterySettings, CellModel};
 use estimator_core::window::Window;
 use serde::Serialize;
@@ -57,29 +58,67 @@ pub const AUTO_MIN_CURRENT_OVER_I0: f64 = 1.0;
 /// e; so `a`'s interval is away from 0)…
 pub const AUTO_Z: f64 = 1.96;
 
+/// The fit `--model auto` (or `butler-volmer`) publishes: how it ended,
+/// and its information at the estimate (for its intervals).
+pub(super) struct ChosenFit {
+    /// The estimate.
+    pub(super) cell: CellParameters<f64>,
+    /// Free-run RMSE over the record (V).
+    pub(super) rmse: f64,
+    /// The Butler–Volmer race's iterations, all starts.
+    pub(super) iterations: u32,
+    /// Whether it converged.
+    pub(super) converged: bool,
+    /// How it ended.
+    pub(super) stop: FitStop,
+    /// Why its last iteration reported a minimum.
+    pub(super) reason: Option<StopReason>,
+    /// The information of the output-error criterion at the estimate, in
+    /// the chosen model.
+    pub(super) information: FitInformation<f64>,
+}
+
+impl ChosenFit {
+    fn of<const N: usize>(f: &Fit<N>, iterations: u32, information: FitInformation<f64>) -> Self {
+        Self {
+            cell: f.cell,
+            rmse: f.rmse,
+            iterations,
+            converged: f.converged,
+            stop: f.stop,
+            reason: f.reason,
+            information,
+        }
+    }
+}
+
 /// The Butler–Volmer fit from the linear one `lin` (the best of starts
 /// with i₀ at 0.1, 0.3 and 1 times the largest current), and the model
 /// `requested` (`butler-volmer` or `auto`) publishes, with the reason.
+/// The linear fit's information is taken first, and its refinement then
+/// serves a Butler–Volmer start (from `spares`, with the linear race's
+/// others).
 pub(super) fn choose_model<const N: usize>(
     s: &BatterySettings<f64>,
-    lin: &Fit<N>,
+    mut lin: Fit<N>,
     win: &impl Window<f64>,
     current: &[f64],
     requested: ModelRequest,
-) -> std::result::Result<(Fit<N>, ModelChoice), estimator_core::Error> {
+    spares: &mut Spares<N>,
+) -> std::result::Result<(ChosenFit, ModelChoice), estimator_core::Error> {
     let sb = BatterySettings {
         model: CellModel::ButlerVolmer,
         ..*s
     };
+    let info_lin = lin.oe.information(s, win)?;
     let i_max = current.iter().fold(0.0f64, |m, i| m.max(i.abs())).max(1e-6);
     // A start that does not run (e.g. not excited) is passed over; the
     // linear fit ran on the same window, so one of them does.
     let starts = [0.1, 0.3, 1.0].map(|f| lin.cell.with_butler_volmer(f * i_max));
-    let (mut bv, iterations) = refine_best::<N>(&sb, &starts, win)?;
-    bv.iterations = iterations;
+    let mut lin_fit = ChosenFit::of(&lin, 0, info_lin);
+    spares.keep(lin.oe);
+    let (mut bv, iterations) = refine_best::<N>(&sb, &starts, win, spares)?;
     let info_bv = bv.oe.information(&sb, win)?;
-    let mut lin_oe = lin.oe.clone();
-    let info_lin = lin_oe.information(s, win)?;
     let ses = info_bv.standard_errors();
     let se = ses[6];
     let p = bv.cell;
@@ -91,7 +130,7 @@ pub(super) fn choose_model<const N: usize>(
         },
         chosen: CellModel::ButlerVolmer.as_str(),
         reason: String::new(),
-        rmse_linear_v: lin.rmse,
+        rmse_linear_v: lin_fit.rmse,
         rmse_butler_volmer_v: bv.rmse,
         bic_linear: info_lin.bic(),
         bic_butler_volmer: info_bv.bic(),
@@ -111,7 +150,7 @@ pub(super) fn choose_model<const N: usize>(
     };
     if requested == ModelRequest::ButlerVolmer {
         choice.reason = "asked for (--model butler-volmer)".into();
-        return Ok((bv, choice));
+        return Ok((ChosenFit::of(&bv, iterations, info_bv), choice));
     }
     let mut against = Vec::new();
     // (NaN counts against it.)
@@ -162,19 +201,11 @@ pub(super) fn choose_model<const N: usize>(
             info_bv.bic(),
             info_lin.bic()
         );
-        Ok((bv, choice))
+        Ok((ChosenFit::of(&bv, iterations, info_bv), choice))
     } else {
         choice.chosen = CellModel::Linear.as_str();
         choice.reason = format!("linear: {}", against.join("; "));
-        let lin = Fit {
-            oe: lin_oe,
-            cell: lin.cell,
-            rmse: lin.rmse,
-            iterations: bv.iterations,
-            converged: lin.converged,
-            stop: lin.stop,
-            reason: lin.reason,
-        };
-        Ok((lin, choice))
+        lin_fit.iterations = iterations;
+        Ok((lin_fit, choice))
     }
 }

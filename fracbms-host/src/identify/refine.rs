@@ -73,6 +73,45 @@ pub(super) struct Fit<const N: usize> {
     pub(super) reason: Option<StopReason>,
 }
 
+/// Refinements a fit is done with (starts given up, a fit whose estimate
+/// was taken), kept to be started again in place
+/// ([`OutputErrorRefinement::init`]) by the fit's next race. A new
+/// refinement is built on the stack and moved to a heap block whose pages
+/// the kernel must first clear, tens of MB each on a long record; one
+/// taken from here is written where it is, and starts exactly as a new
+/// one would.
+pub(super) struct Spares<const N: usize>(Vec<Box<Refinement<N>>>);
+
+impl<const N: usize> Spares<N> {
+    /// None kept yet.
+    pub(super) fn new() -> Self {
+        Self(Vec::new())
+    }
+
+    /// A refinement from `start`: a spare started again, or a new one.
+    pub(super) fn start(
+        &mut self,
+        s: &BatterySettings<f64>,
+        start: CellParameters<f64>,
+    ) -> std::result::Result<Box<Refinement<N>>, estimator_core::Error> {
+        match self.0.pop() {
+            Some(mut oe) => match oe.init(s, start) {
+                Ok(()) => Ok(oe),
+                Err(e) => {
+                    self.0.push(oe);
+                    Err(e)
+                }
+            },
+            None => crate::worker::boxed(|| Refinement::<N>::new(s, start)),
+        }
+    }
+
+    /// Keeps `oe` for a later start.
+    pub(super) fn keep(&mut self, oe: Box<Refinement<N>>) {
+        self.0.push(oe);
+    }
+}
+
 /// Refines `start` over the window until converged or
 /// [`MAX_REFINE_ITERATIONS`] have run.
 pub(super) fn refine_fit<const N: usize>(
@@ -172,10 +211,13 @@ fn falls_behind(leader: (f64, f64, bool), follower: (f64, f64)) -> bool {
 /// by RMSE is returned (strictly better by more than rounding: an earlier
 /// start wins a tie) with the iterations of all; a start whose search
 /// fails is passed over, and the last failure is returned when all do.
+/// Each start's refinement is taken from `spares`, and every one but the
+/// best's goes back to it.
 pub(super) fn refine_best<const N: usize>(
     s: &BatterySettings<f64>,
     starts: &[CellParameters<f64>],
     win: &impl Window<f64>,
+    spares: &mut Spares<N>,
 ) -> std::result::Result<(Fit<N>, u32), estimator_core::Error> {
     #[derive(PartialEq)]
     enum Lane {
@@ -187,7 +229,7 @@ pub(super) fn refine_best<const N: usize>(
     let mut fits: Vec<(Fit<N>, Lane)> = Vec::with_capacity(starts.len());
     let mut failed = None;
     for &start in starts {
-        match crate::worker::boxed(|| Refinement::<N>::new(s, start)) {
+        match spares.start(s, start) {
             Ok(oe) => fits.push((
                 Fit {
                     cell: oe.cell(),
@@ -262,10 +304,13 @@ pub(super) fn refine_best<const N: usize>(
     let mut best: Option<Fit<N>> = None;
     for (f, lane) in fits {
         if lane == Lane::Failed || !f.rmse.is_finite() {
-            continue;
-        }
-        if best.as_ref().is_none_or(|b| f.rmse < b.rmse * (1.0 - 1e-9)) {
-            best = Some(f);
+            spares.keep(f.oe);
+        } else if best.as_ref().is_none_or(|b| f.rmse < b.rmse * (1.0 - 1e-9)) {
+            if let Some(b) = best.replace(f) {
+                spares.keep(b.oe);
+            }
+        } else {
+            spares.keep(f.oe);
         }
     }
     match (best, failed) {
@@ -576,7 +621,7 @@ mod tests {
             .collect();
         let best_alone = alone.iter().map(|f| f.rmse).fold(f64::INFINITY, f64::min);
         let spent_alone: u32 = alone.iter().map(|f| f.iterations).sum();
-        let (raced, spent) = refine_best::<N>(&s, &starts, &*win).unwrap();
+        let (raced, spent) = refine_best::<N>(&s, &starts, &*win, &mut Spares::new()).unwrap();
         assert!(
             (raced.rmse / best_alone - 1.0).abs() < 1e-7,
             "{} vs {best_alone}",
@@ -587,6 +632,52 @@ mod tests {
             spent < spent_alone,
             "{spent} iterations raced, {spent_alone} alone"
         );
+    }
+
+    /// A race run on the refinements another race gave back (a linear one,
+    /// as the Butler–Volmer race of `identify battery` runs on those of
+    /// the linear race) ends exactly where it ends on new ones, and gives
+    /// back all but its best.
+    #[test]
+    fn a_race_on_spares_ends_where_one_on_new_refinements_does() {
+        let (truth, win) = pulses();
+        let s = BatterySettings {
+            cost_tolerance: WHOLE_RECORD_COST_TOLERANCE,
+            ..BatterySettings::new(1.0, N)
+        };
+        let starts = [
+            CellParameters {
+                r_i: 0.01,
+                r_ct: 0.01,
+                q: 300.0,
+                alpha: 0.7,
+                ..truth
+            },
+            CellParameters {
+                r_i: 0.004,
+                r_ct: 0.03,
+                q: 1500.0,
+                alpha: 0.9,
+                ..truth
+            },
+            truth,
+        ];
+        let mut spares = Spares::new();
+        let (lin, _) = refine_best::<N>(&s, &starts, &*win, &mut spares).unwrap();
+        assert_eq!(spares.0.len(), starts.len() - 1);
+        let sb = BatterySettings {
+            model: CellModel::ButlerVolmer,
+            ..s
+        };
+        let bv_starts = [0.5, 2.0, 8.0].map(|i0| lin.cell.with_butler_volmer(i0));
+        spares.keep(lin.oe);
+        let (reused, spent) = refine_best::<N>(&sb, &bv_starts, &*win, &mut spares).unwrap();
+        assert_eq!(spares.0.len(), bv_starts.len() - 1);
+        let (new, spent_new) =
+            refine_best::<N>(&sb, &bv_starts, &*win, &mut Spares::new()).unwrap();
+        assert_eq!(reused.cell, new.cell);
+        assert_eq!(reused.rmse.to_bits(), new.rmse.to_bits());
+        assert_eq!((reused.iterations, spent), (new.iterations, spent_new));
     }
 
     /// The pace rule gives up a start only behind a settled one, more than
@@ -631,11 +722,11 @@ mod tests {
             r_i: f64::NAN,
             ..truth
         };
-        let (fit, _) = refine_best::<N>(&s, &[bad, truth], &*win).unwrap();
+        let (fit, _) = refine_best::<N>(&s, &[bad, truth], &*win, &mut Spares::new()).unwrap();
         let alone = refine_fit::<N>(&s, truth, &*win).unwrap();
         assert_eq!(fit.rmse, alone.rmse);
-        assert!(refine_best::<N>(&s, &[bad], &*win).is_err());
-        assert!(refine_best::<N>(&s, &[], &*win).is_err());
+        assert!(refine_best::<N>(&s, &[bad], &*win, &mut Spares::new()).is_err());
+        assert!(refine_best::<N>(&s, &[], &*win, &mut Spares::new()).is_err());
     }
 
     /// The cost tolerance ends the search where a step would lower the cost
