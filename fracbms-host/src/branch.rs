@@ -513,6 +513,29 @@ fn zeroed(buf: &mut Vec<f64>, n: usize) {
 }
 
 impl BranchSolver<f64> for FftBranch {
+    /// Forgets every kept spectrum, as a new solver has none, but keeps
+    /// the buffers' allocations: a refinement started again in place
+    /// (`identify battery`'s Butler–Volmer starts run on the linear race's
+    /// refinements) then writes its spectra where the last ones were
+    /// instead of into fresh pages. The circle is kept: it depends on the
+    /// transform size alone ([`Circle::of`]).
+    fn reset(&mut self) {
+        for s in [
+            &mut self.weights,
+            &mut self.derivatives,
+            &mut self.inverse,
+            &mut self.log_series,
+            &mut self.rest_drive,
+        ] {
+            s.forget();
+        }
+        self.inverse_key = None;
+        self.g_circle.clear();
+        self.rest_peak = 0;
+        self.rest_on_circle = false;
+        self.drives = KeptSpectra::default();
+    }
+
     fn filter(
         &mut self,
         w: &[f64],

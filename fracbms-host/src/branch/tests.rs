@@ -421,6 +421,50 @@ fn a_drive_proportional_to_the_last_takes_its_spectrum_and_the_same_values() {
     assert_eq!(kept.rest_drive.of[1001], other(1001));
 }
 
+/// A solver reset after use (`BranchSolver::reset`, as a refinement
+/// started again in place resets it) gives what a new one does, bit for
+/// bit, though its drive, weights and inverse were kept: a drive
+/// proportional to the forgotten one is transformed, not scaled; and it
+/// keeps its buffers' allocations.
+#[test]
+fn a_reset_solver_computes_what_a_new_one_does() {
+    const N: usize = 3000;
+    let w = GlWeights::<f64, N>::new(0.7, 1.0, N).unwrap();
+    let u = GlWeights::<f64, N>::new(0.55, 1.0, N).unwrap();
+    let run = |b: &mut FftBranch, w: &GlWeights<f64, N>, scale: f64| {
+        let (mut x, mut e) = (vec![0.0; N], vec![0.0; N]);
+        b.filter(
+            w.weights(),
+            2.0,
+            0,
+            &mut x,
+            |l| scale * drive(l),
+            |l, xl, h| e[l] = xl + h,
+        );
+        let (mut y, mut z) = (vec![0.0; N], vec![0.0; N]);
+        assert!(b.rest_sums(w.weights(), 2.0, &x, &mut y, &mut z));
+        [x, e, y, z]
+    };
+    let mut used = FftBranch::default();
+    run(&mut used, &w, 0.031);
+    let capacity = used.rest_drive.hat.capacity();
+    assert!(capacity > 0 && !used.rest_drive.of.is_empty());
+    used.reset();
+    assert!(used.rest_drive.of.is_empty() && used.inverse_key.is_none());
+    assert_eq!(
+        used.rest_drive.hat.capacity(),
+        capacity,
+        "the allocation is kept"
+    );
+    for (weights, scale) in [(&w, 0.0457), (&u, 0.0457)] {
+        assert_eq!(
+            run(&mut used, weights, scale),
+            run(&mut FftBranch::default(), weights, scale)
+        );
+        used.reset();
+    }
+}
+
 #[test]
 fn proportion_is_a_multiple_within_a_few_roundings_or_none() {
     let d: Vec<f64> = (0..500).map(drive).collect();

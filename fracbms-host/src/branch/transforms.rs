@@ -148,6 +148,15 @@ impl Transforms {
 }
 
 impl Spectrum {
+    /// Forgets the sequence and its spectrum (as [`Default`] has none),
+    /// keeping the buffers' allocations.
+    pub(super) fn forget(&mut self) {
+        self.of.clear();
+        self.size = 0;
+        self.hat.clear();
+        self.stale = false;
+    }
+
     /// Keeps the spectrum of `x` at `size` (recomputed when `x` or the
     /// size changed); true when it was recomputed.
     pub(super) fn keep(&mut self, t: &mut Transforms, x: &[f64], size: usize) -> bool {
