@@ -518,7 +518,7 @@ impl BranchSolver<f64> for FftBranch {
     /// (`identify battery`'s Butler–Volmer starts run on the linear race's
     /// refinements) then writes its spectra where the last ones were
     /// instead of into fresh pages. The circle is kept: it depends on the
-    /// transform size alone ([`Circle::of`]).
+    /// transform size alone (`Circle::of`).
     fn reset(&mut self) {
         for s in [
             &mut self.weights,

@@ -6,7 +6,7 @@
 
 use super::model_choice::{choose_model, ModelChoice};
 use super::paper::{PaperRun, RegressionRun};
-use super::refine::{refine_best, stop_reason_name, LoggedWindow, Refinement, Spares};
+use super::refine::{refine_best, stop_reason_name, FitStop, LoggedWindow, Refinement, Spares};
 pub use super::starts::{
     most_excited, rough_starts, PROJECTED_START_ROWS, PROJECTED_START_TOLERANCE,
     START_REGRESSION_ROWS,
@@ -460,15 +460,16 @@ fn battery_run_sized<const N: usize, const MEM: usize>(
                 let info = lin.oe.information(&so, &logged).ok();
                 (lin.cell, Some(lin.rmse), info, bounds)
             } else {
-                let (fit, why) =
+                let (chosen, why) =
                     choose_model(&so, lin, &logged, &rec.current, refine.model, &mut spares)
                         .map_err(ctx)?;
+                let fit = chosen.fit;
                 iters += fit.iterations;
-                converged = fit.converged;
+                converged = fit.stop == FitStop::Converged;
                 stop = Some(fit.stop.as_str());
                 stop_reason = Some(stop_reason_name(fit.stop, fit.reason));
                 choice = Some(why);
-                (fit.cell, Some(fit.rmse), Some(fit.information), bounds)
+                (fit.cell, Some(fit.rmse_v), Some(chosen.information), bounds)
             }
         }
     };

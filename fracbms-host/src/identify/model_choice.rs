@@ -3,10 +3,9 @@
 //! (current beyond i₀, a's 95 % interval away from 0, the other
 //! parameters identified, a lower BIC), with the reason in one sentence.
 
-use super::refine::{refine_best, Fit, FitStop, Spares};
+use super::refine::{refine_best, Fit, SingleFit, Spares};
 use super::ModelRequest;
-use estimator_core::battery::output_error::{FitInformation, StopReason, COLUMN_NAMES};
-use estimator_core::battery::CellParameters;
+use estimator_core::battery::output_error::{FitInformation, COLUMN_NAMES};
 use estimator_core::battery::{BatterySettings, CellModel};
 use estimator_core::window::Window;
 use serde::Serialize;
@@ -58,38 +57,14 @@ pub const AUTO_MIN_CURRENT_OVER_I0: f64 = 1.0;
 /// e; so `a`'s interval is away from 0)…
 pub const AUTO_Z: f64 = 1.96;
 
-/// The fit `--model auto` (or `butler-volmer`) publishes: how it ended,
-/// and its information at the estimate (for its intervals).
+/// The fit `--model auto` (or `butler-volmer`) publishes, and its
+/// information at the estimate in the chosen model (for its intervals).
 pub(super) struct ChosenFit {
-    /// The estimate.
-    pub(super) cell: CellParameters<f64>,
-    /// Free-run RMSE over the record (V).
-    pub(super) rmse: f64,
-    /// The Butler–Volmer race's iterations, all starts.
-    pub(super) iterations: u32,
-    /// Whether it converged.
-    pub(super) converged: bool,
-    /// How it ended.
-    pub(super) stop: FitStop,
-    /// Why its last iteration reported a minimum.
-    pub(super) reason: Option<StopReason>,
-    /// The information of the output-error criterion at the estimate, in
-    /// the chosen model.
+    /// How it ended; its iterations are the Butler–Volmer race's, all
+    /// starts.
+    pub(super) fit: SingleFit,
+    /// The information of the output-error criterion at the estimate.
     pub(super) information: FitInformation<f64>,
-}
-
-impl ChosenFit {
-    fn of<const N: usize>(f: &Fit<N>, iterations: u32, information: FitInformation<f64>) -> Self {
-        Self {
-            cell: f.cell,
-            rmse: f.rmse,
-            iterations,
-            converged: f.converged,
-            stop: f.stop,
-            reason: f.reason,
-            information,
-        }
-    }
 }
 
 /// The Butler–Volmer fit from the linear one `lin` (the best of starts
@@ -115,10 +90,17 @@ pub(super) fn choose_model<const N: usize>(
     // A start that does not run (e.g. not excited) is passed over; the
     // linear fit ran on the same window, so one of them does.
     let starts = [0.1, 0.3, 1.0].map(|f| lin.cell.with_butler_volmer(f * i_max));
-    let mut lin_fit = ChosenFit::of(&lin, 0, info_lin);
+    let lin_fit = lin.single();
     spares.keep(lin.oe);
     let (mut bv, iterations) = refine_best::<N>(&sb, &starts, win, spares)?;
     let info_bv = bv.oe.information(&sb, win)?;
+    let bv_chosen = ChosenFit {
+        fit: SingleFit {
+            iterations,
+            ..bv.single()
+        },
+        information: info_bv,
+    };
     let ses = info_bv.standard_errors();
     let se = ses[6];
     let p = bv.cell;
@@ -130,7 +112,7 @@ pub(super) fn choose_model<const N: usize>(
         },
         chosen: CellModel::ButlerVolmer.as_str(),
         reason: String::new(),
-        rmse_linear_v: lin_fit.rmse,
+        rmse_linear_v: lin_fit.rmse_v,
         rmse_butler_volmer_v: bv.rmse,
         bic_linear: info_lin.bic(),
         bic_butler_volmer: info_bv.bic(),
@@ -150,7 +132,7 @@ pub(super) fn choose_model<const N: usize>(
     };
     if requested == ModelRequest::ButlerVolmer {
         choice.reason = "asked for (--model butler-volmer)".into();
-        return Ok((ChosenFit::of(&bv, iterations, info_bv), choice));
+        return Ok((bv_chosen, choice));
     }
     let mut against = Vec::new();
     // (NaN counts against it.)
@@ -201,11 +183,20 @@ pub(super) fn choose_model<const N: usize>(
             info_bv.bic(),
             info_lin.bic()
         );
-        Ok((ChosenFit::of(&bv, iterations, info_bv), choice))
+        Ok((bv_chosen, choice))
     } else {
         choice.chosen = CellModel::Linear.as_str();
         choice.reason = format!("linear: {}", against.join("; "));
-        lin_fit.iterations = iterations;
-        Ok((lin_fit, choice))
+        let fit = SingleFit {
+            iterations,
+            ..lin_fit
+        };
+        Ok((
+            ChosenFit {
+                fit,
+                information: info_lin,
+            },
+            choice,
+        ))
     }
 }

@@ -73,6 +73,19 @@ pub(super) struct Fit<const N: usize> {
     pub(super) reason: Option<StopReason>,
 }
 
+impl<const N: usize> Fit<N> {
+    /// How it ended, without its refinement.
+    pub(super) fn single(&self) -> SingleFit {
+        SingleFit {
+            cell: self.cell,
+            rmse_v: self.rmse,
+            iterations: self.iterations,
+            stop: self.stop,
+            reason: self.reason,
+        }
+    }
+}
+
 /// Refinements a fit is done with (starts given up, a fit whose estimate
 /// was taken), kept to be started again in place
 /// ([`OutputErrorRefinement::init`]) by the fit's next race. A new
@@ -391,13 +404,7 @@ pub fn refine_from_start(
             ..BatterySettings::new(h, i.len().min(v.len()).max(1))
         };
         let f = refine_fit::<N>(&s, start, &win).map_err(ctx)?;
-        Ok(SingleFit {
-            cell: f.cell,
-            rmse_v: f.rmse,
-            iterations: f.iterations,
-            stop: f.stop,
-            reason: f.reason,
-        })
+        Ok(f.single())
     }
     match i.len().min(v.len()) {
         0..=1024 => sized::<1024>(h, i, v, start),
@@ -587,6 +594,35 @@ mod tests {
         (truth, win)
     }
 
+    /// The settings of a whole-record fit of [`pulses`]' record.
+    fn whole_record() -> BatterySettings<f64> {
+        BatterySettings {
+            cost_tolerance: WHOLE_RECORD_COST_TOLERANCE,
+            ..BatterySettings::new(1.0, N)
+        }
+    }
+
+    /// Two starts away from `truth` that descend into its basin on
+    /// [`pulses`]' record.
+    fn two_starts(truth: &CellParameters<f64>) -> [CellParameters<f64>; 2] {
+        [
+            CellParameters {
+                r_i: 0.01,
+                r_ct: 0.01,
+                q: 300.0,
+                alpha: 0.7,
+                ..*truth
+            },
+            CellParameters {
+                r_i: 0.004,
+                r_ct: 0.03,
+                q: 1500.0,
+                alpha: 0.9,
+                ..*truth
+            },
+        ]
+    }
+
     /// Two starts descending into one basin are run as one: the race gives
     /// the second up once it is within `SAME_BASIN` of the first at a higher
     /// cost, ends where the better of the two run alone ends (to 1e−7 of
@@ -595,26 +631,8 @@ mod tests {
     #[test]
     fn starts_in_one_basin_are_run_as_one() {
         let (truth, win) = pulses();
-        let s = BatterySettings {
-            cost_tolerance: WHOLE_RECORD_COST_TOLERANCE,
-            ..BatterySettings::new(1.0, N)
-        };
-        let starts = [
-            CellParameters {
-                r_i: 0.01,
-                r_ct: 0.01,
-                q: 300.0,
-                alpha: 0.7,
-                ..truth
-            },
-            CellParameters {
-                r_i: 0.004,
-                r_ct: 0.03,
-                q: 1500.0,
-                alpha: 0.9,
-                ..truth
-            },
-        ];
+        let s = whole_record();
+        let starts = two_starts(&truth);
         let alone: Vec<Fit<N>> = starts
             .iter()
             .map(|&p| refine_fit::<N>(&s, p, &*win).unwrap())
@@ -641,27 +659,9 @@ mod tests {
     #[test]
     fn a_race_on_spares_ends_where_one_on_new_refinements_does() {
         let (truth, win) = pulses();
-        let s = BatterySettings {
-            cost_tolerance: WHOLE_RECORD_COST_TOLERANCE,
-            ..BatterySettings::new(1.0, N)
-        };
-        let starts = [
-            CellParameters {
-                r_i: 0.01,
-                r_ct: 0.01,
-                q: 300.0,
-                alpha: 0.7,
-                ..truth
-            },
-            CellParameters {
-                r_i: 0.004,
-                r_ct: 0.03,
-                q: 1500.0,
-                alpha: 0.9,
-                ..truth
-            },
-            truth,
-        ];
+        let s = whole_record();
+        let [a, b] = two_starts(&truth);
+        let starts = [a, b, truth];
         let mut spares = Spares::new();
         let (lin, _) = refine_best::<N>(&s, &starts, &*win, &mut spares).unwrap();
         assert_eq!(spares.0.len(), starts.len() - 1);
