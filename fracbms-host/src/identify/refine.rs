@@ -1,7 +1,8 @@
 //! Whole-record refinement: one start refined over a logged record until
 //! it converges (`refine_fit`, [`refine_from_start`]), several raced an
-//! iteration at a time with the best kept (`refine_best`), and how each
-//! ended ([`FitStop`]).
+//! iteration at a time with the best kept (`refine_best`), the
+//! refinements a race gives back kept for the next (`Spares`), and how
+//! each ended ([`FitStop`]).
 //!
 //! This module owns the race's rules ([`SAME_BASIN`], [`SETTLED`],
 //! [`BEHIND`], [`PACE`]) and the window a logged record makes
