@@ -326,6 +326,26 @@ pub(super) fn place_starts(
     c: &ColumnChoice,
     path: &Path,
 ) -> Result<(RawRows, StepReport)> {
+    if raw.extra.step.is_none() && raw.extra.step_time.is_none() && keep.len() == raw.time.len() {
+        // Every row kept (`keep` increases) and no step known: no start is
+        // put in, and the rows are returned as they are.
+        let report = StepReport {
+            starts_from: if mode == StepsMode::Ignore {
+                "ignored"
+            } else {
+                "rows"
+            },
+            step_column: c.step.as_ref().map(|c| c.header.clone()),
+            step_time_column: c.step_time.as_ref().map(|c| c.header.clone()),
+            ..StepReport::default()
+        };
+        let extra = Extra {
+            charge: raw.extra.charge,
+            discharge_charge: raw.extra.discharge_charge,
+            ..Extra::default()
+        };
+        return Ok((RawRows { extra, ..raw }, report));
+    }
     let switch = match mode {
         StepsMode::Auto | StepsMode::Count => switch_rows(&raw, keep),
         StepsMode::Ignore => vec![false; keep.len()],
@@ -350,16 +370,18 @@ pub(super) fn place_starts(
         switch_rows: switch.iter().filter(|&&s| s).count(),
         ..StepReport::default()
     };
+    // A row a kept row, and one more a step start put in.
+    let column = || Vec::with_capacity(keep.len());
     let mut out = RawRows {
-        time: vec![],
-        current: vec![],
-        voltage: vec![],
-        temperature: raw.temperature.as_ref().map(|_| vec![]),
-        rows: vec![],
+        time: column(),
+        current: column(),
+        voltage: column(),
+        temperature: raw.temperature.as_ref().map(|_| column()),
+        rows: Vec::with_capacity(keep.len()),
         clock_time: raw.clock_time,
         extra: Extra {
-            charge: raw.extra.charge.as_ref().map(|_| vec![]),
-            discharge_charge: raw.extra.discharge_charge.as_ref().map(|_| vec![]),
+            charge: raw.extra.charge.as_ref().map(|_| column()),
+            discharge_charge: raw.extra.discharge_charge.as_ref().map(|_| column()),
             ..Extra::default()
         },
     };

@@ -25,6 +25,26 @@ fn our_uniform_records_read_exactly_as_before() {
 }
 
 #[test]
+fn cells_padded_with_white_space_and_crlf_lines_read_as_plain_ones() {
+    let plain = "time_s,current_a,voltage_v\n0,1.25,3.7\n1,-2.5,3.6\n2,0.1,3.65\n";
+    let padded =
+        "time_s,current_a,voltage_v\r\n 0 ,\t1.25, 3.7\r\n1 , -2.5\t,3.6 \r\n  2,0.1,3.65\t\r\n";
+    let a = read(plain, &RecordOptions::default()).unwrap();
+    let b = read(padded, &RecordOptions::default()).unwrap();
+    assert_eq!(a.record.time, b.record.time);
+    assert_eq!(a.record.current, b.record.current);
+    assert_eq!(a.record.voltage, b.record.voltage);
+    assert_eq!(b.record.current, vec![1.25, -2.5, 0.1]);
+    assert_eq!(b.report.rows_read, 3);
+    // A cell of white space alone is not a number.
+    let blank = "time_s,current_a,voltage_v\n0,1.25,3.7\n1, \t ,3.6\n";
+    assert_eq!(
+        message(blank, &RecordOptions::default()),
+        "log.csv: row 3, column `current_a`: `` is not a number"
+    );
+}
+
+#[test]
 fn units_and_sign_are_converted_and_said() {
     let text = "Time [min],Current [mA],Voltage [mV],Temperature [K]\n\
                 0,0,3700,298.15\n0.5,1000,3650,298.65\n1,1000,3640,\n";

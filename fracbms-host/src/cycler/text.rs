@@ -143,18 +143,23 @@ pub(super) fn read_rows(
     sign: CurrentSign,
 ) -> Result<RawRows> {
     let mut lines = LineCounter::new(data);
+    // Each cell read is trimmed of ASCII white space where it is read (the
+    // reader's own trimming builds every row anew).
     let mut rdr = csv::ReaderBuilder::new()
         .has_headers(false)
         .delimiter(delimiter)
         .flexible(true)
-        .trim(csv::Trim::All)
         .from_reader(data);
+    // The columns hold a row per line at most: made that long at once, not
+    // grown by copies.
+    let lines_in = data.iter().filter(|&&b| b == b'\n').count() + 1;
+    let column = || Vec::with_capacity(lines_in);
     let mut out = RawRows {
-        time: Vec::new(),
-        current: Vec::new(),
-        voltage: Vec::new(),
-        temperature: c.temperature.as_ref().map(|_| Vec::new()),
-        rows: Vec::new(),
+        time: column(),
+        current: column(),
+        voltage: column(),
+        temperature: c.temperature.as_ref().map(|_| column()),
+        rows: Vec::with_capacity(lines_in),
         clock_time: false,
         extra: super::steps::Extra::of(c),
     };
@@ -172,7 +177,7 @@ pub(super) fn read_rows(
             ),
         };
         let cell = |ch: &Chosen| -> Result<&str> {
-            let b = rec.get(ch.index).ok_or_else(|| {
+            let b = rec.get(ch.index).map(<[u8]>::trim_ascii).ok_or_else(|| {
                 err!(
                     Data,
                     "{}: row {row}: {} cells; column `{}` is cell {}",
