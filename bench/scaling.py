@@ -16,28 +16,40 @@ term ``a asinh(I/i0)``, and 1 mV of Gaussian noise. Each record is fitted
   linear|butler-volmer`` (reading, the paper's regression for a start,
   every refinement start, the Butler-Volmer starts and the choice, the
   intervals, the JSON), timed as a process;
+* by ours, the whole fit in this process: the Python package's
+  ``fracbms.identify_battery(time_s, current_a, voltage_v, model=...)``, the
+  same fit as the command on the same arrays the reference takes (the
+  record put on its period, every start, the choice, the intervals, the
+  dict), timed as the reference is, in this process; left out (``—``) when
+  ``fracbms`` is not installed (``pip install ./python``);
 * by the reference: one ``scipy.optimize.least_squares`` fit of the same
   model (the branch by FFT, ``reference_fit.cpe_branch``, O(n log n)) from
   one start, the rough even split ours also tries (alpha 0.7, tau^alpha =
   5 s^alpha, R_i = R_ct = R/2 with R the slope of V on I, U_oc the line's
   intercept: ``rough_starts``), parameters in logarithms as ours.
 
-Then the same three on a measured record (``measured``: the Panasonic HPPC
-export's overpotential, as ``identify battery --ocv`` fitted it), with the
-whole command on the export itself beside them.
+Then ours, one start, the whole command and the reference on a measured
+record (``measured``: the Panasonic HPPC export's overpotential, as
+``identify battery --ocv`` fitted it), with the whole command on the
+export itself beside them (the Python face has no ``--voltage-min``, and
+the overpotential lies below its plausible-voltage floor).
 
-Both print the free-run RMSE; the ratio of times is ours over theirs in the
-same run: one start against one start, and the whole command against the
-one start of the reference. One core for all three: ours under ``taskset
--c 0`` (when present), the reference in this process, pinned to the same
+Each prints the free-run RMSE; the ratio of times is theirs over ours in
+the same run: one start against one start, and the whole command and the
+whole fit in this process against the one start of the reference. The
+command also starts a process and reads the CSV, and its memory is new to
+it on every run, where the reference's and the in-process fit's are the
+warm process's. One core for all: ours under ``taskset -c 0`` (when
+present), the reference and the Python face in this process, pinned to the same
 core and with OpenBLAS on one thread (set before numpy loads;
 ``--reference-unpinned`` leaves OpenBLAS's threads to the machine, to
 see what that does to the reference). Run it alone. On every record
-each of the three runs ``--repeat`` times (default 5), in turn, and the
-medians are quoted (about 3 minutes).
+each fit runs ``--repeat`` times (default 5), in turn, and the medians
+are quoted (about 4 minutes).
 
     cargo build --release -p host-sim
     cargo build --release -p fracbms-host --example refine_once
+    pip install ./python      # for the fit in this process (optional)
     python3 bench/scaling.py [--rows 1000,8000,50000,200000] [--out target/scaling]
         [--host-sim target/release/host-sim] [--models linear,butler-volmer] [--repeat 5]
         [--reference-unpinned]
@@ -227,6 +239,19 @@ def measured(a):
                 rmse_ours_v=rmse_ours, rmse_reference_v=rmse_ref)
 
 
+def in_process(rows, model):
+    """The whole fit in this process through the Python package, on the
+    columns of the command's CSV (``rows``: time, current, voltage, as
+    written); (seconds, rmse) or None without ``fracbms``."""
+    try:
+        import fracbms
+    except ImportError:
+        return None
+    t0 = time.perf_counter()
+    r = fracbms.identify_battery(rows[:, 0], rows[:, 1], rows[:, 2], model=model)
+    return time.perf_counter() - t0, r["rmse_v"]
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--rows", default="1000,8000,50000,200000")
@@ -247,8 +272,8 @@ def main():
     os.makedirs(a.out, exist_ok=True)
     if shutil.which("taskset"):
         os.sched_setaffinity(0, {0})
-    print("| rows | model | ours, one start (s) | scipy, one start (s) | ours faster | ours, whole command (s) | ours faster | RMSE ours, one start / whole / ref. (mV) | α ours / ref. |")
-    print("|---|---|---|---|---|---|---|---|---|")
+    print("| rows | model | ours, one start (s) | scipy, one start (s) | ours faster | ours, whole command (s) | ours faster | ours, whole fit in this process (s) | ours faster | RMSE ours, one start / whole / ref. (mV) | α ours / ref. |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
     rows = []
     for n in (int(x) for x in a.rows.split(",")):
         for model in a.models.split(","):
@@ -258,13 +283,19 @@ def main():
             t = np.arange(n) * H
             np.savetxt(path, np.column_stack([t, i, v]), delimiter=",",
                        header="time_s,current_a,voltage_v", comments="", fmt="%.9g")
-            # Each of the three fits `--repeat` times, in turn; medians.
-            ones, commands, refs = [], [], []
+            written = np.loadtxt(path, delimiter=",", skiprows=1)
+            # Each of the four fits `--repeat` times, in turn; medians.
+            ones, commands, refs, inside = [], [], [], []
             for _ in range(max(1, a.repeat)):
                 ones.append(one_start(a.refine_once, path, model))
                 commands.append(ours(a.host_sim, path, model, path + ".json"))
+                inside.append(in_process(written, model))
                 if n <= a.skip_reference_above:
                     refs.append(reference(i, v, kinetic))
+            t_in = None if inside[0] is None else float(np.median([f[0] for f in inside]))
+            if t_in is not None and abs(inside[0][1] / commands[0][1] - 1.0) > 1e-9:
+                raise SystemExit(f"{path}: the fit in this process ends at RMSE {inside[0][1]} V, "
+                                 f"the command at {commands[0][1]} V")
             one = dict(ones[0], seconds=float(np.median([o["seconds"] for o in ones])))
             _, rmse_ours, j = commands[0]
             t_ours = float(np.median([c[0] for c in commands]))
@@ -274,16 +305,20 @@ def main():
                 alpha_ref = res.x[3]
                 r1 = f"{t_ref / one['seconds']:.1f}×"
                 r2 = f"{t_ref / t_ours:.1f}×"
+                r3 = "—" if t_in is None else f"{t_ref / t_in:.1f}×"
                 ref_s, ref_r = f"{t_ref:.3f}", f"{1e3 * rmse_ref:.4f}"
                 al = f"{j['alpha']:.4f} / {alpha_ref:.4f}"
             else:
                 t_ref = rmse_ref = None
-                r1 = r2 = ref_s = ref_r = "—"
+                r1 = r2 = r3 = ref_s = ref_r = "—"
                 al = f"{j['alpha']:.4f} / —"
+            s_in = "—" if t_in is None else f"{t_in:.2f}"
             print(f"| {n} | {model} | {one['seconds']:.3f} | {ref_s} | {r1} | {t_ours:.2f} | {r2} | "
+                  f"{s_in} | {r3} | "
                   f"{1e3 * one['rmse_v']:.4f} / {1e3 * rmse_ours:.4f} / {ref_r} | {al} |", flush=True)
             rows.append(dict(rows=n, model=model, ours_one_start_s=one["seconds"],
                              ours_one_start_iterations=one["iterations"], ours_command_s=t_ours,
+                             ours_in_process_s=t_in,
                              reference_s=t_ref, reference_nfev=None if t_ref is None else int(res.nfev),
                              rmse_one_start_v=one["rmse_v"], rmse_ours_v=rmse_ours,
                              rmse_reference_v=rmse_ref))
