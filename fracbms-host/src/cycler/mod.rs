@@ -375,15 +375,10 @@ pub fn part_of(
 /// the column (and, for a missing or ambiguous column, the header found);
 /// [`crate::ErrorKind::Options`] for a period that is not positive.
 pub fn read_record(path: &Path, o: &RecordOptions) -> Result<CyclerRecord> {
-    let mut file =
+    let file =
         std::fs::File::open(path).io_context(|| format!("{}: cannot open", path.display()))?;
-    check_options(o)?;
-    // Read whole into a buffer of the file's length (not grown by copies).
-    let size = file.metadata().map_or(0, |m| m.len() as usize);
-    let mut bytes = Vec::with_capacity(size.saturating_add(1));
-    file.read_to_end(&mut bytes)
-        .io_context(|| format!("{}: cannot read", path.display()))?;
-    record_from_bytes(&bytes, path, o)
+    // A file reads whole into a buffer of its length (`File::read_to_end`).
+    read_record_from(file, path, o)
 }
 
 /// [`read_record`] on any reader; `path` only names the data in the
@@ -398,16 +393,11 @@ pub fn read_record_from(
     reader
         .read_to_end(&mut bytes)
         .io_context(|| format!("{}: cannot read", path.display()))?;
-    record_from_bytes(&bytes, path, o)
-}
-
-/// [`read_record_from`] on the bytes read (the options checked).
-fn record_from_bytes(bytes: &[u8], path: &Path, o: &RecordOptions) -> Result<CyclerRecord> {
     if bytes.starts_with(mat::MAGIC) {
-        return mat::read(bytes, path, o);
+        return mat::read(&bytes, path, o);
     }
-    text::refuse_binary(bytes, path)?;
-    let (header_row, start, delimiter, choice) = text::find_header(bytes, path, &o.columns)?;
+    text::refuse_binary(&bytes, path)?;
+    let (header_row, start, delimiter, choice) = text::find_header(&bytes, path, &o.columns)?;
     let raw = text::read_rows(
         &bytes[start..],
         header_row,
