@@ -370,7 +370,7 @@ pub(super) fn place_starts(
         switch_rows: switch.iter().filter(|&&s| s).count(),
         ..StepReport::default()
     };
-    // A row a kept row, and one more a step start put in.
+    // A row for each kept row (a step start put in grows them by one).
     let column = || Vec::with_capacity(keep.len());
     let mut out = RawRows {
         time: column(),
