@@ -454,7 +454,7 @@ fn battery_run_sized<const N: usize, const MEM: usize>(
             iters += run;
             let bounds = [so.alpha_min, so.alpha_max];
             if refine.model == ModelRequest::Linear {
-                converged = lin.converged;
+                converged = lin.converged();
                 stop = Some(lin.stop.as_str());
                 stop_reason = Some(stop_reason_name(lin.stop, lin.reason));
                 let info = lin.oe.information(&so, &logged).ok();

@@ -68,13 +68,17 @@ pub(super) struct Fit<const N: usize> {
     pub(super) cell: CellParameters<f64>,
     pub(super) rmse: f64,
     pub(super) iterations: u32,
-    pub(super) converged: bool,
     pub(super) stop: FitStop,
     /// Why the last iteration reported a minimum (None at the limit).
     pub(super) reason: Option<StopReason>,
 }
 
 impl<const N: usize> Fit<N> {
+    /// Whether it converged (not at the iteration limit).
+    pub(super) fn converged(&self) -> bool {
+        self.stop == FitStop::Converged
+    }
+
     /// How it ended, without its refinement.
     pub(super) fn single(&self) -> SingleFit {
         SingleFit {
@@ -152,7 +156,6 @@ pub(super) fn refine_fit<const N: usize>(
         oe,
         rmse,
         iterations,
-        converged: stop == FitStop::Converged,
         stop,
         reason,
     })
@@ -250,7 +253,6 @@ pub(super) fn refine_best<const N: usize>(
                     oe,
                     rmse: f64::NAN,
                     iterations: 0,
-                    converged: false,
                     stop: FitStop::IterationLimit,
                     reason: None,
                 },
@@ -279,7 +281,6 @@ pub(super) fn refine_best<const N: usize>(
                     f.rmse = st.rmse;
                     f.cell = f.oe.cell();
                     if st.converged {
-                        f.converged = true;
                         f.stop = FitStop::Converged;
                         f.reason = st.stop;
                         *lane = Lane::Done;
@@ -646,7 +647,7 @@ mod tests {
             "{} vs {best_alone}",
             raced.rmse
         );
-        assert!(raced.converged);
+        assert!(raced.converged());
         assert!(
             spent < spent_alone,
             "{spent} iterations raced, {spent_alone} alone"
@@ -751,7 +752,7 @@ mod tests {
         };
         let a = refine_fit::<N>(&exact, start, &*win).unwrap();
         let b = refine_fit::<N>(&loose, start, &*win).unwrap();
-        assert!(b.converged && a.converged);
+        assert!(b.converged() && a.converged());
         assert!(
             b.iterations < a.iterations,
             "{} vs {}",
