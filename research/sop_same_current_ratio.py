@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 # Research script (docs/research.md), not a benchmark.
 # Question: Does scaling each state-of-power prediction by the miss of the last pulse at the same current (measured over predicted drop, at the same horizon) predict the next pulse better, where the last pulse of any current within 2x did not?
-# Answer: the medians fall to 1.1-4.7 % of the drop on every record with a value (with the map below both baselines' on every row), the derating as published still covers 213 of 221 measured pulses, but the worst stays (with the map 8.4-32.5 % on the measured tests: the pulses below SOC 0.05 and the second level's first ones); it needs each current's signed miss at each duration kept per cell. Not built.
+# Answer: the medians fall to 1.1-4.7 % of the drop on every row where a pulse of the same current came before (all but the LFP DFN record's without a prior) (with the map below both baselines' on every row), the derating as published still covers 213 of 221 measured pulses, but the worst stays (with the map 8.4-32.5 % on the measured tests: the pulses below SOC 0.05 and the second level's first ones); it needs each current's signed miss at each duration kept per cell. Not built.
 """The state of power's pulse voltage corrected by the miss of the last
 pulse at the same current, emulated on the tracks that `python3
 bench/sop_pulses.py --acceptance` leaves (issue 72; docs/research.md,
