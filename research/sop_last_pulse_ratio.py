@@ -38,6 +38,11 @@ sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "bench"))
 import sop_pulses as sp  # noqa: E402
 
 
+def mw(x):
+    """Median / worst of the fractions `x`, in %."""
+    return f"{100 * np.median(x):.1f} / {100 * np.max(x):.1f}" if x else "none"
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--out", default="target/sop")
@@ -90,9 +95,6 @@ def main():
                 worst.sort(key=lambda x: -abs(x[0]))
                 big = "; ".join(f"{100 * m:+.1f} at {s:.0f} s, {cur:.2f} A, SOC {float(z):.3f}"
                                 for m, s, cur, z in worst[:3])
-
-                def mw(x):
-                    return f"{100 * np.median(x):.1f} / {100 * np.max(x):.1f}" if x else "none"
 
                 print(f"| {name} | {'own map' if variant == 'map' else 'none'} | {h} s | {mw(ours)} "
                       f"| {mw(corrected)} | {n} | {big} |")
