@@ -11,7 +11,7 @@ and 10 degC, second level on), without a prior and with the record's own
 map; error as a fraction of the pulse's measured drop, and the share of
 pulses that end above the prediction less 2 sigma.
 
-    python3 bench/sop_pulses.py --acceptance     # the tracks
+    python3 bench/sop_pulses.py --acceptance --online-args="--no-pulse-correction"   # the model's tracks
     python3 bench/sop_step_anchored.py
 """
 

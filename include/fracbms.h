@@ -509,6 +509,16 @@ typedef struct FracbmsSettings {
    * less besides. Not positive or NaN: `FRACBMS_ERROR_SETTINGS`.
    */
   float slow_memory_soc;
+  /**
+   * The current (A, + charging) of the pulse whose voltage the state of
+   * power is asked for (`FracbmsPowerRequest::pulse_current`): a
+   * request at this current (within a tenth) has its pulse voltage
+   * corrected by the last pulse of that current's measured over
+   * predicted drop (`FracbmsHorizonPower::pulse_ratio`), as `host-sim
+   * online battery` does unless `--no-pulse-correction`. NaN (the
+   * default) or 0: no correction. Infinite: `FRACBMS_ERROR_SETTINGS`.
+   */
+  float pulse_current;
 } FracbmsSettings;
 
 /**
@@ -719,8 +729,8 @@ typedef struct FracbmsPowerRequest {
 
 /**
  * One horizon's state of power, as `host-sim online battery`'s
- * `sop_discharge_a_{H}s`, `sop_charge_a_{H}s`, `pulse_v_{H}s` and
- * `sop_uncertainty_v_{H}s`.
+ * `sop_discharge_a_{H}s`, `sop_charge_a_{H}s`, `pulse_v_{H}s`,
+ * `sop_uncertainty_v_{H}s` and `pulse_ratio_{H}s`.
  */
 typedef struct FracbmsHorizonPower {
   /**
@@ -748,6 +758,13 @@ typedef struct FracbmsHorizonPower {
    * `sop_uncertainty_v_{H}s` (NaN without a pulse).
    */
   float uncertainty_v;
+  /**
+   * The measured over predicted drop of the last pulse of the same
+   * current that `pulse_v` was corrected by
+   * (`FracbmsSettings::pulse_current`), as the track's
+   * `pulse_ratio_{H}s`; NaN: the model's own prediction.
+   */
+  float pulse_ratio;
 } FracbmsHorizonPower;
 
 /**

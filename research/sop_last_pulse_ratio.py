@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 # Research script (docs/research.md), not a benchmark.
 # Question: Does scaling each state-of-power prediction by the last pulse's measured over predicted drop (at the same horizon, the currents within 2x) predict the next pulse better? And with `--same-current`, by the last pulse of the same current's?
-# Answer: within 2x: at 30 s on the DFN records the medians fall (Chen2020 8.8 -> 1.3 %), at 10 s they double where 2C and 1C pulses alternate (Chen2020 14.6 -> 28.4 %, Prada2013 with the map 13.7 -> 25.8 %), and the worst rises (Panasonic 10 degC at 10 s 87.9 -> 137.4 %). Not built. The same current: the medians fall to 1.1-4.7 % of the drop on every row where a pulse of that current came before (all but the LFP DFN record's without a prior; with the map below both baselines' on every row), the derating as published still covers 213 of 221 measured pulses, but the worst stays (with the map 8.4-32.5 % on the measured tests: the pulses below SOC 0.05 and the second level's first ones); it needs each current's signed miss at each duration kept per cell. Not built.
+# Answer: within 2x: at 30 s on the DFN records the medians fall (Chen2020 8.8 -> 1.3 %), at 10 s they double where 2C and 1C pulses alternate (Chen2020 14.6 -> 28.4 %, Prada2013 with the map 13.7 -> 25.8 %), and the worst rises (Panasonic 10 degC at 10 s 87.9 -> 137.4 %). Not built. The same current: the medians fall to 1.1-4.7 % of the drop on every row where a pulse of that current came before (all but the LFP DFN record's without a prior; with the map below both baselines' on every row), the derating as published still covers 213 of 221 measured pulses, but the worst stays (with the map 8.4-32.5 % on the measured tests: the pulses below SOC 0.05 and the second level's first ones); built for the pulse current alone, from and to a settled cell (docs/state-of-power.md).
 """The state of power's pulse voltage corrected by the last pulse's
 measured-over-predicted drop, emulated on the tracks that `python3
 bench/sop_pulses.py --acceptance` leaves (issue 72; docs/research.md,
@@ -24,8 +24,11 @@ the pulses that end above the prediction less 2 sigma (the track's
 `sop_uncertainty_v_{H}s`), as published and corrected.
 
     cargo build --release -p host-sim
-    python3 bench/sop_pulses.py --acceptance
+    python3 bench/sop_pulses.py --acceptance --online-args="--no-pulse-correction"
     python3 research/sop_last_pulse_ratio.py [--out target/sop] [--same-current]
+
+(the tracks as the model predicts them: `online battery` corrects the
+pulse voltage itself by default, docs/state-of-power.md).
 """
 
 import argparse

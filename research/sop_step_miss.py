@@ -24,7 +24,7 @@ tests, no prior) and, per pulse from the second group on:
 
     cargo build --release -p host-sim
     bash bench/panasonic_chain.sh
-    python3 bench/sop_pulses.py --acceptance
+    python3 bench/sop_pulses.py --acceptance --online-args="--no-pulse-correction"
     python3 research/sop_step_miss.py
 """
 

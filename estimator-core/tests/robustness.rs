@@ -368,7 +368,11 @@ fn footprint_of_an_f32_estimator() {
     // power's check against the next pulse (`PulseCheck`: the pulse's
     // currents, voltage before it, samples, five predicted voltages, the
     // first sample's miss, the last pulse's five misses and the last two
-    // samples, 72 B): 32 064 B; a pack cell 2 032 B.
+    // samples, 72 B): 32 064 B; a pack cell 2 032 B. The last pulse at
+    // the watched current's five ratios, measured over predicted drop
+    // (`OnlineSettings::pulse_current`; Q12 fixed point, 2 B each), and
+    // whether a pulse's first sample held another current (12 B with
+    // padding): 32 080 B; a pack cell 2 044 B.
     use estimator_core::battery::online::{CellState, CurrentHistory, WorkingArea};
     use estimator_core::battery::power::{PolarizationTail, PulseCheck};
     let tail =
@@ -398,7 +402,8 @@ fn footprint_of_an_f32_estimator() {
             + 32
             + 56
             + 8
-            + 72,
+            + 72
+            + 12,
         "{cell}"
     );
 }

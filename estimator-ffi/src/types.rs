@@ -292,6 +292,14 @@ pub struct FracbmsSettings {
     /// default 0.02): an earlier value weighs `exp(−|ΔSOC|/slow_memory_soc)`
     /// less besides. Not positive or NaN: `FRACBMS_ERROR_SETTINGS`.
     pub slow_memory_soc: f32,
+    /// The current (A, + charging) of the pulse whose voltage the state of
+    /// power is asked for (`FracbmsPowerRequest::pulse_current`): a
+    /// request at this current (within a tenth) has its pulse voltage
+    /// corrected by the last pulse of that current's measured over
+    /// predicted drop (`FracbmsHorizonPower::pulse_ratio`), as `host-sim
+    /// online battery` does unless `--no-pulse-correction`. NaN (the
+    /// default) or 0: no correction. Infinite: `FRACBMS_ERROR_SETTINGS`.
+    pub pulse_current: f32,
 }
 
 /// One sample's outcome and the estimate after it.
@@ -471,8 +479,8 @@ pub struct FracbmsPowerRequest {
 }
 
 /// One horizon's state of power, as `host-sim online battery`'s
-/// `sop_discharge_a_{H}s`, `sop_charge_a_{H}s`, `pulse_v_{H}s` and
-/// `sop_uncertainty_v_{H}s`.
+/// `sop_discharge_a_{H}s`, `sop_charge_a_{H}s`, `pulse_v_{H}s`,
+/// `sop_uncertainty_v_{H}s` and `pulse_ratio_{H}s`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct FracbmsHorizonPower {
@@ -491,6 +499,11 @@ pub struct FracbmsHorizonPower {
     /// pulse missed its prediction by, as `host-sim online battery`'s
     /// `sop_uncertainty_v_{H}s` (NaN without a pulse).
     pub uncertainty_v: f32,
+    /// The measured over predicted drop of the last pulse of the same
+    /// current that `pulse_v` was corrected by
+    /// (`FracbmsSettings::pulse_current`), as the track's
+    /// `pulse_ratio_{H}s`; NaN: the model's own prediction.
+    pub pulse_ratio: f32,
 }
 
 /// A state of power: `published` false (and the horizons zero) before
@@ -576,6 +589,7 @@ impl FracbmsPowerRequest {
                     charge_a: h.sop.charge_a,
                     pulse_v: h.pulse_v.unwrap_or(f32::NAN),
                     uncertainty_v: h.uncertainty_v.unwrap_or(f32::NAN),
+                    pulse_ratio: h.pulse_ratio.unwrap_or(f32::NAN),
                 };
                 // The longest horizon's, as the track's
                 // `sop_uncertainty_v` (equal horizons give equal values).
@@ -712,6 +726,11 @@ pub(crate) unsafe fn settings(c: &FracbmsSettings) -> Result<Settings, FracbmsCo
     s.battery.tail = c.tail;
     s.slow_memory_s = c.slow_memory_s;
     s.slow_memory_soc = c.slow_memory_soc;
+    s.pulse_current = match c.pulse_current {
+        i if i.is_nan() || i == 0.0 => None,
+        i if i.is_finite() => Some(i),
+        _ => return Err(FracbmsCode::FRACBMS_ERROR_SETTINGS),
+    };
     s.current_limit = c.current_limit;
     s.voltage_min = c.voltage_min;
     s.voltage_max = c.voltage_max;
@@ -762,5 +781,6 @@ pub(crate) fn default_settings(h: f32) -> FracbmsSettings {
         capacity_ah: 0.0,
         slow_memory_s: core.slow_memory_s,
         slow_memory_soc: core.slow_memory_soc,
+        pulse_current: f32::NAN,
     }
 }

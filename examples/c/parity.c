@@ -19,7 +19,9 @@
  *                                   (fracbms_cell_follow_map before each push;
  *                                   the rows whose `identifiable` is true)
  *   --sop VMIN,VMAX,ILIMIT,IPULSE   online: fracbms_cell_state_of_power after
- *                                   each push, horizons 10 and 30 s
+ *                                   each push, horizons 10 and 30 s (the
+ *                                   pulse voltage corrected at IPULSE,
+ *                                   FracbmsSettings::pulse_current)
  *   --soc-rest-s S, --soc-bias-sigma-a A, --soc-rest-load-sigma-a A,
  *   --soc-voltage-sigma-v V
  *                                   online: the SOC observer's settings as the
@@ -290,6 +292,9 @@ static int online(const Table *rec, const Options *o)
         s.ocv_points = (uint16_t)ocv.rows;
         s.capacity_ah = (float)o->capacity_ah;
     }
+    /* The pulse voltage corrected at the pulse asked, as the CLI does. */
+    if (o->sop)
+        s.pulse_current = o->sop_limits[3];
     if (fracbms_cell_size(s.window, s.memory, &size, &align) != FRACBMS_OK)
         die("fracbms_cell_size");
     if (align < 16)
@@ -421,6 +426,8 @@ static int online(const Table *rec, const Options *o)
                 f32v(key, pw.published ? pw.horizons[j].pulse_v : NAN);
                 snprintf(key, sizeof key, "sop_uncertainty_v_%ds", hs);
                 f32v(key, pw.published ? pw.horizons[j].uncertainty_v : NAN);
+                snprintf(key, sizeof key, "pulse_ratio_%ds", hs);
+                f32v(key, pw.published ? pw.horizons[j].pulse_ratio : NAN);
             }
         }
         printf("\"iterations\": %u}\n", (unsigned)e.iterations);

@@ -322,8 +322,9 @@ fn soc_line<const N: usize>(s: &firmware::task::TaskSettings, cell: usize, c: &C
 /// [`firmware::task::POWER_HORIZONS_S`] (NaN, `published=false` where the
 /// model is not published) and `sop_basis` (where its parameters came
 /// from: `window`, `map`, `held`, `stale`; empty without one) and
-/// `sop_uncertainty_v` (the 30 s pulse voltage's standard deviation);
-/// nothing without an OCV table.
+/// `sop_uncertainty_v` (the 30 s pulse voltage's standard deviation) and
+/// `pulse_ratio_{H}s` (what the pulse voltage was corrected by, NaN: not
+/// corrected); nothing without an OCV table.
 fn power_line(s: &firmware::task::TaskSettings, task: &ConfiguredTask, k: Option<usize>) {
     if s.power.is_none() {
         return;
@@ -347,8 +348,12 @@ fn power_line(s: &firmware::task::TaskSettings, task: &ConfiguredTask, k: Option
     let sigma = r
         .and_then(|r| r.horizons().get(1).and_then(|h| h.uncertainty_v))
         .unwrap_or(f32::NAN);
+    let ratio = |j: usize| {
+        r.and_then(|r| r.horizons().get(j).and_then(|h| h.pulse_ratio))
+            .unwrap_or(f32::NAN)
+    };
     defmt::println!(
-        "SOP cell={=usize} published={=bool} sop_discharge_a_10s={=f32} sop_charge_a_10s={=f32} pulse_v_10s={=f32} sop_discharge_a_30s={=f32} sop_charge_a_30s={=f32} pulse_v_30s={=f32} sop_basis={=str} sop_uncertainty_v={=f32}",
+        "SOP cell={=usize} published={=bool} sop_discharge_a_10s={=f32} sop_charge_a_10s={=f32} pulse_v_10s={=f32} sop_discharge_a_30s={=f32} sop_charge_a_30s={=f32} pulse_v_30s={=f32} sop_basis={=str} sop_uncertainty_v={=f32} pulse_ratio_10s={=f32} pulse_ratio_30s={=f32}",
         k.map_or(0, |k| k + 1),
         r.is_some(),
         d10,
@@ -358,7 +363,9 @@ fn power_line(s: &firmware::task::TaskSettings, task: &ConfiguredTask, k: Option
         c30,
         v30,
         basis,
-        sigma
+        sigma,
+        ratio(0),
+        ratio(1)
     );
 }
 

@@ -64,7 +64,8 @@ pub struct TaskSettings {
     /// ([`EstimatorTask::power`]): with the build-time OCV table, the
     /// defaults of `host-sim online battery` ([`POWER_HORIZONS_S`]; the
     /// table's lowest and highest voltage; the plausible current; a 1C
-    /// discharge pulse); without one, none.
+    /// discharge pulse, its voltage corrected by the last pulse of that
+    /// current, [`OnlineSettings::pulse_current`]); without one, none.
     pub power: Option<PowerSettings<f32>>,
 }
 
@@ -122,6 +123,9 @@ impl TaskSettings {
             let steps = POWER_HORIZONS_S.map(|hz| ((hz / h + 0.5) as u32).max(1));
             PowerSettings::new(limits, &steps, Some(-m.capacity_ah))
         });
+        // The pulse voltage corrected by the last pulse of its current, as
+        // `host-sim online battery` has it by default.
+        online.pulse_current = power.as_ref().and_then(|p| p.pulse_current);
         Self {
             pack: PackSettings::new(online.with_curve(curve)),
             stuck_after: 4,

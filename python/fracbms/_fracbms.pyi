@@ -156,6 +156,7 @@ def online_pack(
     pulse_current_a: Optional[float] = None,
     sop_carry_s: Optional[float] = None,
     sop_confidence: Optional[float] = None,
+    pulse_correction: bool = True,
     soc: Literal["observer", "coulomb"] = "observer",
     soc_rest_s: Optional[float] = None,
     soc_bias_sigma_a: Optional[float] = None,
@@ -225,6 +226,7 @@ class OnlineCell:
         soc_voltage_sigma_v: Optional[float] = None,
         sop_carry_s: Optional[float] = None,
         sop_confidence: Optional[float] = None,
+        pulse_correction: bool = True,
         slow_memory_s: Optional[float] = None,
         slow_memory_soc: Optional[float] = None,
         capacity_min_span: Optional[float] = None,
@@ -235,10 +237,12 @@ class OnlineCell:
         (``sop_carry_s``: how long, s, they may be carried from the last fit
         through a rest; default as far as the window reaches; ``sop_confidence``:
         how many standard deviations of the pulse voltage the currents keep
-        inside the limits, default 2)
+        inside the limits, default 2; ``pulse_correction``: the pulse voltage
+        corrected by the last pulse of its current, default yes)
         ``sop_discharge_a_{H}s``, ``sop_charge_a_{H}s``, ``pulse_v_{H}s``,
-        ``sop_basis``, ``sop_uncertainty_v`` and ``sop_uncertainty_v_{H}s``, as
-        ``host-sim online battery``'s flags. With an OCV table, ``soc`` is
+        ``sop_basis``, ``sop_uncertainty_v``, ``sop_uncertainty_v_{H}s`` and
+        ``pulse_ratio_{H}s``, as ``host-sim online battery``'s flags
+        (``pulse_correction=False`` its ``--no-pulse-correction``). With an OCV table, ``soc`` is
         the observer's (``soc="observer"``: the count corrected at each rest
         of ``soc_rest_s``, default 600 s, with ``current_bias_a`` (its prior
         spread ``soc_bias_sigma_a``, default C/50; 0: none; each rest's mean

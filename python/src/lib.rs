@@ -106,7 +106,9 @@ fn warn(py: Python<'_>, message: &str) -> PyResult<()> {
 }
 
 /// The state-of-power keywords (`horizons=`, `voltage_min=`, …,
-/// `sop_carry_s=`, `sop_confidence=`) as the CLI's flags, checked as the CLI checks them.
+/// `sop_carry_s=`, `sop_confidence=`, `pulse_correction=`) as the CLI's
+/// flags, checked as the CLI checks them.
+#[allow(clippy::too_many_arguments)]
 fn power_options(
     horizons: &[f64],
     voltage_min: Option<f64>,
@@ -115,6 +117,7 @@ fn power_options(
     pulse_current_a: Option<f64>,
     carry_s: Option<f64>,
     confidence: Option<f64>,
+    pulse_correction: bool,
 ) -> PyResult<fracbms_host::online::power::PowerOptions> {
     let mut p = fracbms_host::online::power::PowerOptions::default()
         .with_horizons(horizons)
@@ -125,6 +128,7 @@ fn power_options(
     p.pulse_current_a = pulse_current_a;
     p.carry_s = carry_s;
     p.confidence = confidence;
+    p.pulse_correction = pulse_correction;
     Ok(p)
 }
 

@@ -176,7 +176,7 @@ impl OnlineCell {
         voltage_min = None, voltage_max = None, current_limit = None, pulse_current_a = None,
         soc = "observer", soc_rest_s = None, soc_bias_sigma_a = None, soc_rest_load_sigma_a = None,
         soc_voltage_sigma_v = None, sop_carry_s = None, sop_confidence = None,
-        slow_memory_s = None, slow_memory_soc = None, capacity_min_span = None
+        pulse_correction = true, slow_memory_s = None, slow_memory_soc = None, capacity_min_span = None
     ))]
     #[allow(clippy::too_many_arguments)]
     fn new(
@@ -210,6 +210,7 @@ impl OnlineCell {
         soc_voltage_sigma_v: Option<f64>,
         sop_carry_s: Option<f64>,
         sop_confidence: Option<f64>,
+        pulse_correction: bool,
         slow_memory_s: Option<f64>,
         slow_memory_soc: Option<f64>,
         capacity_min_span: Option<f64>,
@@ -273,6 +274,7 @@ impl OnlineCell {
                 pulse_current_a,
                 sop_carry_s,
                 sop_confidence,
+                pulse_correction,
             )?,
             soc: SocOptions {
                 mode: soc,

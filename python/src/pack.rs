@@ -47,7 +47,7 @@ use crate::{choice, ocv_spec, power_options, vec, Floats};
     updates_per_period = None, flag_ratio = 0.3, precision = "f64", start = "from-data",
     tail = false, ocv = None, capacity_ah = None, soc0 = None, horizons = vec![10.0, 30.0],
     voltage_min = None, voltage_max = None, current_limit = None, pulse_current_a = None,
-    sop_carry_s = None, sop_confidence = None, soc = "observer", soc_rest_s = None, soc_bias_sigma_a = None,
+    sop_carry_s = None, sop_confidence = None, pulse_correction = true, soc = "observer", soc_rest_s = None, soc_bias_sigma_a = None,
     soc_rest_load_sigma_a = None, soc_voltage_sigma_v = None, capacity_min_span = None, t0 = 0.0, state_in = None, return_state = false,
     slow_memory_s = None, slow_memory_soc = None
 ))]
@@ -75,6 +75,7 @@ pub fn online_pack<'py>(
     pulse_current_a: Option<f64>,
     sop_carry_s: Option<f64>,
     sop_confidence: Option<f64>,
+    pulse_correction: bool,
     soc: &str,
     soc_rest_s: Option<f64>,
     soc_bias_sigma_a: Option<f64>,
@@ -118,6 +119,7 @@ pub fn online_pack<'py>(
         pulse_current_a,
         sop_carry_s,
         sop_confidence,
+        pulse_correction,
     )?;
     let spec = ocv_spec(ocv, capacity_ah, soc0)?;
     let a = OnlinePack {

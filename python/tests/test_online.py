@@ -12,7 +12,8 @@ COLUMNS = ["time_s", "r_i", "r_ct", "q", "alpha", "u_oc", "soc", "ocv_offset_v",
            "capacity_ah", "capacity_sigma_ah", "soc_sigma", "soc_ocv_weight", "soh_r",
            "sop_discharge_a_10s", "sop_charge_a_10s", "pulse_v_10s",
            "sop_discharge_a_30s", "sop_charge_a_30s", "pulse_v_30s",
-           "sop_uncertainty_v", "sop_uncertainty_v_10s", "sop_uncertainty_v_30s"]
+           "sop_uncertainty_v", "sop_uncertainty_v_10s", "sop_uncertainty_v_30s",
+           "pulse_ratio_10s", "pulse_ratio_30s"]
 STATUSES = ["r_i_status", "r_ct_status", "q_status", "alpha_status", "capacity_status"]
 # The words beside the statuses: where the state of power's parameters came
 # from (window, map, held, stale; empty without one).
@@ -182,6 +183,29 @@ def test_the_state_of_power_confidence_equals_the_cli(host_sim, tmp_path):
     with pytest.raises(ValueError):
         fracbms.OnlineCell(ocv=(o["soc"], o["ocv_v"]), capacity_ah=cap,
                            sop_confidence=-1.0).run(c["current_a"][:10], c["voltage_v"][:10])
+
+
+def test_the_pulse_correction_equals_the_cli(host_sim, tmp_path):
+    rec, ocv_file, cap, c, o = chen_hppc()
+    runs = {}
+    for corrected in (True, False):
+        args = ["--ocv", ocv_file, "--capacity-ah", str(cap)]
+        if not corrected:
+            args.append("--no-pulse-correction")
+        cli = cli_track(host_sim, rec, tmp_path, *args)
+        cell = fracbms.OnlineCell(ocv=(o["soc"], o["ocv_v"]), capacity_ah=cap,
+                                  pulse_correction=corrected)
+        py = cell.run(c["current_a"], c["voltage_v"])
+        assert_same_track(py, cli)
+        runs[corrected] = py
+    on, off = runs[True], runs[False]
+    # Only the pulse voltages move, where a ratio corrects them.
+    assert not np.isfinite(off["pulse_ratio_10s"]).any()
+    ratio = np.isfinite(on["pulse_ratio_10s"])
+    assert ratio.sum() > 100
+    np.testing.assert_array_equal(on["pulse_v_10s"][~ratio], off["pulse_v_10s"][~ratio])
+    assert np.all(on["pulse_v_10s"][ratio] != off["pulse_v_10s"][ratio])
+    np.testing.assert_array_equal(on["sop_discharge_a_10s"], off["sop_discharge_a_10s"])
 
 
 def test_a_bad_sample_is_rejected_not_raised(cell_record):

@@ -30,7 +30,7 @@ Which operation runs on which faces, and why:
   ``fracbms_cell_init_with_soc``), which must
   change the run where the record rests.
 - ``sop`` (CLI, C, Python): the same run's state of power at 10 and 30 s
-  (the CLI's ``sop_*``/``pulse_v_*``/``sop_uncertainty_v_*`` columns and
+  (the CLI's ``sop_*``/``pulse_v_*``/``sop_uncertainty_v_*``/``pulse_ratio_*`` columns and
   ``sop_basis``, Python's, and C's ``fracbms_cell_state_of_power`` after
   each push), for the limits of the record's row in RECORDS.
 - ``map`` (CLI, Python) and ``map_c`` (CLI, C, Python; records with an OCV
@@ -166,7 +166,8 @@ SOC_NUMBERS = ["soc", "soc_coulomb", "soc_sigma", "current_bias_a", "capacity_ah
 # 2 mV.
 SOC_SETTINGS = dict(soc_rest_s=120.0, soc_bias_sigma_a=0.0, soc_voltage_sigma_v=0.002)
 SOP_NUMBERS = [f"{k}_{h}s" for h in (10, 30)
-               for k in ("sop_discharge_a", "sop_charge_a", "pulse_v", "sop_uncertainty_v")]
+               for k in ("sop_discharge_a", "sop_charge_a", "pulse_v", "sop_uncertainty_v",
+                         "pulse_ratio")]
 # The longest horizon's spread: the track's column, C's `FracbmsPower.uncertainty_v`.
 SOP_NUMBERS.append("sop_uncertainty_v")
 IDENTIFY_NUMBERS = ["r_i", "r_ct", "q", "alpha", "u_oc", "bv_a_v", "bv_i0_a", "ocv_offset_v",

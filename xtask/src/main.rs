@@ -18,7 +18,8 @@
 //!   horizons and limits: `sop_published`, `sop_discharge_a_10s`,
 //!   `sop_charge_a_10s`, `pulse_v_10s`, `sop_discharge_a_30s`,
 //!   `sop_charge_a_30s`, `pulse_v_30s`, `sop_uncertainty_v` (null where
-//!   not published). A pack
+//!   not published), `pulse_ratio_10s`, `pulse_ratio_30s` (null where the
+//!   pulse voltage is the model's own, not corrected). A pack
 //!   record (`time_s,current_a,cell_1_v,…,cell_N_v`) builds the pack
 //!   firmware for its N cells and prints `{"cells": [{"cell", "r_i",
 //!   "r_ct", "q", "alpha", "u_oc", "rejected", "flagged", and the same

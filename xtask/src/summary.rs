@@ -84,7 +84,7 @@ pub(crate) fn insert_soc(
 
 /// The keys of a `SOP` line (the track's state-of-power columns at the
 /// firmware's horizons).
-pub(crate) const SOP_KEYS: [&str; 7] = [
+pub(crate) const SOP_KEYS: [&str; 9] = [
     "sop_discharge_a_10s",
     "sop_charge_a_10s",
     "pulse_v_10s",
@@ -92,6 +92,8 @@ pub(crate) const SOP_KEYS: [&str; 7] = [
     "sop_charge_a_30s",
     "pulse_v_30s",
     "sop_uncertainty_v",
+    "pulse_ratio_10s",
+    "pulse_ratio_30s",
 ];
 
 /// What cell `k` (1-based; 0 the string) says of its state of power (its

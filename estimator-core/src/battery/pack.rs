@@ -42,7 +42,8 @@
 //! pack).
 
 use super::power::{
-    PolarizationTail, PowerReport, PowerSettings, PulseCheck, PulsePredictor, CHECK_STEPS,
+    same_pulse, settled, PolarizationTail, PowerReport, PowerSettings, PulseCheck, PulsePredictor,
+    CHECK_STEPS, MAX_HORIZONS,
 };
 use super::tracker::{
     check_limits, CellState, CellWindow, CurrentHistory, OnlineSettings, SampleReport, WorkingArea,
@@ -431,9 +432,9 @@ impl<T: Real, const N: usize, const MEM: usize, const CELLS: usize>
                 self.checks[k].restart();
             }
             if self.checks[k].starts_pulse(s.battery.min_current_std, checked) {
-                if let Some(predicted) = self.check_predictions(k, s, checked) {
+                if let Some((predicted, settled)) = self.check_predictions(k, s, checked) {
                     let noise = self.cells[k].voltage_noise();
-                    self.checks[k].start(checked, predicted, noise);
+                    self.checks[k].start(checked, predicted, noise, settled);
                 }
             }
         }
@@ -455,7 +456,7 @@ impl<T: Real, const N: usize, const MEM: usize, const CELLS: usize>
             let scheduled = (k + cells - first) % cells < updates;
             let r = self.cells[k].update(s, &self.history, &mut self.work, k, scheduled);
             let v = voltages.get(k).copied().unwrap_or(T::nan());
-            self.checks[k].observe(checked, v, r.rejected.is_some());
+            self.checks[k].observe_watching(checked, v, r.rejected.is_some(), s.pulse_current);
             report(k, r);
             // While the working area is still this cell's.
             self.follow_polarization(s, k, stored);
@@ -655,16 +656,26 @@ impl<T: Real, const N: usize, const MEM: usize, const CELLS: usize>
     /// asked with now ([`state_of_power`](Self::state_of_power)) and the
     /// polarization carried as far as the window reaches (the state of
     /// power's default carry), at the step's own current (no cap of a
-    /// Butler–Volmer term's currents); `None` when it has none.
+    /// Butler–Volmer term's currents); `None` when it has none. With a
+    /// watched pulse current ([`OnlineSettings::pulse_current`]), also
+    /// whether the cell is settled (its drift at no current small beside
+    /// the pulse, [`settled`]; without one, `false`: no ratio is kept).
     fn check_predictions<const P: usize>(
         &self,
         k: usize,
         s: &OnlineSettings<T, P>,
         current: T,
-    ) -> Option<[T; CHECK_STEPS.len()]> {
+    ) -> Option<([T; CHECK_STEPS.len()], bool)> {
         let (q, _) = self.cell(k)?.sop_parameters(s)?;
         let pred = self.predictor_within(k, s, None, Some(&q))?;
-        Some(pred.pulse_voltages(current, &CHECK_STEPS))
+        let predicted = pred.pulse_voltages(current, &CHECK_STEPS);
+        let settled = s.pulse_current.is_some()
+            && settled(
+                pred.pulse_voltage(T::zero(), 0),
+                &predicted,
+                &pred.pulse_voltages(T::zero(), &CHECK_STEPS),
+            );
+        Some((predicted, settled))
     }
 
     /// Cell `k`'s state of power now for `power`'s horizons, predicted
@@ -682,6 +693,11 @@ impl<T: Real, const N: usize, const MEM: usize, const CELLS: usize>
     /// from the set's spread ([`CellState::sop_spread`]) and what the
     /// cell's last pulse missed its prediction by ([`PulseCheck`]), and the
     /// currents keep [`PowerSettings::confidence`] of it inside the limits.
+    /// A pulse at [`OnlineSettings::pulse_current`] from a settled cell
+    /// has its voltage corrected by the last such pulse of that current's
+    /// measured over predicted drop ([`PulseCheck::corrected`],
+    /// [`HorizonPower::pulse_ratio`](super::power::HorizonPower::pulse_ratio));
+    /// the limit currents stay the model's.
     pub fn state_of_power<const P: usize>(
         &self,
         k: usize,
@@ -714,12 +730,29 @@ impl<T: Real, const N: usize, const MEM: usize, const CELLS: usize>
             let cap = &mut power.limits.current_limit;
             *cap = cap.min(seen);
         }
-        let spread = c.sop_spread(s, basis, &q, self.checks[k].missed());
-        Some(
-            predictor
-                .power_with_spread(&power, &spread)
-                .with_basis(basis),
-        )
+        let check = &self.checks[k];
+        let spread = c.sop_spread(s, basis, &q, check.missed());
+        let report = predictor
+            .power_with_spread(&power, &spread)
+            .with_basis(basis);
+        // The watched pulse's voltage, corrected by what the last pulse of
+        // its current measured against its prediction.
+        let watched = power
+            .pulse_current
+            .zip(s.pulse_current)
+            .is_some_and(|(i, w)| same_pulse(i, w));
+        let known = power.horizons().iter().any(|&k| check.ratio(k).is_some());
+        Some(if watched && known {
+            // The voltage at no current at every horizon, in one pass.
+            let mut steps = [0; MAX_HORIZONS];
+            for (slot, &h) in steps.iter_mut().zip(power.horizons()) {
+                *slot = h;
+            }
+            let free = predictor.pulse_voltages(T::zero(), &steps);
+            report.with_pulse_corrected(check, predictor.pulse_voltage(T::zero(), 0), &free)
+        } else {
+            report
+        })
     }
 
     /// The string's state of power: at each horizon the weakest cell's

@@ -34,7 +34,8 @@ use crate::real::Real;
 mod check;
 mod report;
 mod spread;
-pub use check::{PulseCheck, ResponseMiss, CHECK_STEPS};
+pub(crate) use check::same_pulse;
+pub use check::{settled, PulseCheck, ResponseMiss, CHECK_STEPS, SETTLED_DRIFT};
 pub use report::{
     HorizonPower, PowerLimits, PowerReport, PowerSettings, SopBasis, StateOfPower,
     DEFAULT_CONFIDENCE, MAX_HORIZONS,
@@ -491,6 +492,7 @@ impl<'a, T: Real, const MEM: usize, const P: usize> PulsePredictor<'a, T, MEM, P
             },
             pulse_v: None,
             uncertainty_v: None,
+            pulse_ratio: None,
         };
         let mut out = PowerReport {
             horizons: [empty; MAX_HORIZONS],

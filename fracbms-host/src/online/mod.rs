@@ -206,6 +206,7 @@ impl TrackOptions<'_> {
         s.battery.model = self.cell_model();
         s.battery.tail = self.tail;
         s.iterations_per_sample = self.iterations_per_sample;
+        s.pulse_current = self.power.corrected_pulse(self.cell).map(T::lit);
         if let Some(m) = self.slow_memory_s {
             if m.is_nan() || m < 0.0 {
                 bail!(

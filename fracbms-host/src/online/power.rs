@@ -2,7 +2,8 @@
 //! `sop_discharge_a_{H}s`, `sop_charge_a_{H}s` and `pulse_v_{H}s`, then
 //! `sop_basis` and the pulse voltage's standard deviation
 //! (`sop_uncertainty_v`, the longest horizon's, and
-//! `sop_uncertainty_v_{H}s`), from the core's
+//! `sop_uncertainty_v_{H}s`) and the ratio its pulse voltage was corrected
+//! by (`pulse_ratio_{H}s`), from the core's
 //! [`PulsePredictor`](estimator_core::battery::power::PulsePredictor) on
 //! the cell's best parameter set after each sample.
 //!
@@ -50,6 +51,10 @@ pub struct PowerOptions {
     /// currents keep inside the voltage limits (default 2:
     /// [`PowerSettings::confidence`]; 0 derates nothing).
     pub confidence: Option<f64>,
+    /// Whether the pulse voltage is corrected by the last pulse of its
+    /// current's measured over predicted drop (default: yes;
+    /// `--no-pulse-correction`; the core's `OnlineSettings::pulse_current`).
+    pub pulse_correction: bool,
 }
 
 impl Default for PowerOptions {
@@ -65,6 +70,7 @@ impl Default for PowerOptions {
             pulse_current_a: None,
             carry_s: None,
             confidence: None,
+            pulse_correction: true,
         }
     }
 }
@@ -152,6 +158,15 @@ impl PowerOptions {
         &self.horizons_s[..self.count]
     }
 
+    /// The current (A) whose pulse voltage the core corrects
+    /// (`OnlineSettings::pulse_current`): the pulse's, given or 1C, when
+    /// the correction is on and the state of power is known (limits
+    /// given or from a table).
+    pub(crate) fn corrected_pulse(&self, cell: Option<&CellOcv>) -> Option<f64> {
+        let p = self.resolve(cell)?.pulse_current_a;
+        p.filter(|i| self.pulse_correction && i.is_finite() && *i != 0.0)
+    }
+
     /// The limits and the pulse for a cell with `cell`'s table and
     /// capacity; `None` where the voltage limits are neither given nor
     /// known from a table.
@@ -188,6 +203,10 @@ pub struct PowerRow {
     /// `sop_uncertainty_v_{H}s`: the pulse voltage's standard deviation
     /// (V) from the parameters' spread.
     pub uncertainty_v: Option<f64>,
+    /// `pulse_ratio_{H}s`: the measured over predicted drop of the last
+    /// pulse of the same current that `pulse_v_{H}s` was corrected by
+    /// (empty: the model's own prediction).
+    pub pulse_ratio: Option<f64>,
 }
 
 /// [`PowerOptions`] with the limits resolved for one cell.
@@ -279,6 +298,7 @@ impl ResolvedPower {
                 pulse_v: h.pulse_v.map(|v| v.to_f64()),
                 basis: Some(report.basis().as_str()),
                 uncertainty_v: h.uncertainty_v.map(|v| v.to_f64()),
+                pulse_ratio: h.pulse_ratio.map(|v| v.to_f64()),
             };
         }
         out

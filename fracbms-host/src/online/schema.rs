@@ -31,7 +31,9 @@ pub enum Value<R> {
     /// (`window`, `map`, `held`, `stale`:
     /// [`estimator_core::battery::power::SopBasis`]), then
     /// `{name}sop_uncertainty_v` (the longest horizon's pulse voltage's
-    /// standard deviation) and `{name}sop_uncertainty_v_{H}s` per horizon.
+    /// standard deviation) and `{name}sop_uncertainty_v_{H}s` per horizon,
+    /// then `{name}pulse_ratio_{H}s` per horizon (the measured over
+    /// predicted drop the pulse voltage was corrected by).
     Power(fn(&R) -> &[PowerRow; MAX_HORIZONS]),
 }
 
@@ -212,6 +214,14 @@ pub fn fields<R>(table: &[Column<R>], horizons: &[f64]) -> Vec<Field<R>> {
                         get: Get::Power(rows, j, uncertainty),
                     });
                 }
+                // What each pulse voltage was corrected by.
+                let ratio: PowerPart = |p| p.pulse_ratio;
+                for (j, h) in horizons.iter().enumerate().take(MAX_HORIZONS) {
+                    out.push(Field {
+                        name: format!("{}pulse_ratio_{h}s", c.name),
+                        get: Get::Power(rows, j, ratio),
+                    });
+                }
             }
             v => out.push(Field {
                 name: c.name.to_string(),
@@ -352,10 +362,10 @@ mod tests {
         let h = header(&track_fields(&[10.0, 30.0], false));
         assert_eq!(
             h,
-            "time_s,r_i,r_ct,q,alpha,u_oc,status,soc,ocv_offset_v,bv_a_v,bv_i0_a,predicted_v,r_i_status,r_ct_status,q_status,alpha_status,step_resistance_ohm,window_r_i,window_r_ct,window_q,window_alpha,soc_coulomb,current_bias_a,capacity_ah,capacity_sigma_ah,soc_sigma,soc_ocv_weight,soh_r,capacity_status,sop_discharge_a_10s,sop_charge_a_10s,pulse_v_10s,sop_discharge_a_30s,sop_charge_a_30s,pulse_v_30s,sop_basis,sop_uncertainty_v,sop_uncertainty_v_10s,sop_uncertainty_v_30s,rejected"
+            "time_s,r_i,r_ct,q,alpha,u_oc,status,soc,ocv_offset_v,bv_a_v,bv_i0_a,predicted_v,r_i_status,r_ct_status,q_status,alpha_status,step_resistance_ohm,window_r_i,window_r_ct,window_q,window_alpha,soc_coulomb,current_bias_a,capacity_ah,capacity_sigma_ah,soc_sigma,soc_ocv_weight,soh_r,capacity_status,sop_discharge_a_10s,sop_charge_a_10s,pulse_v_10s,sop_discharge_a_30s,sop_charge_a_30s,pulse_v_30s,sop_basis,sop_uncertainty_v,sop_uncertainty_v_10s,sop_uncertainty_v_30s,pulse_ratio_10s,pulse_ratio_30s,rejected"
         );
         assert!(header(&track_fields(&[0.5], true)).ends_with(
-            ",pulse_v_0.5s,sop_basis,sop_uncertainty_v,sop_uncertainty_v_0.5s,rejected,restoration"
+            ",pulse_v_0.5s,sop_basis,sop_uncertainty_v,sop_uncertainty_v_0.5s,pulse_ratio_0.5s,rejected,restoration"
         ));
     }
 

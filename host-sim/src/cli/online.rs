@@ -203,6 +203,13 @@ pub struct StateArgs {
     /// `sop_uncertainty_v_{H}s` (docs/state-of-power.md).
     #[arg(long)]
     pub sop_confidence: Option<f64>,
+    /// Publish the model's own pulse voltage: without this, `pulse_v_{H}s`
+    /// is corrected by the last pulse of the same current (within a
+    /// tenth): the predicted drop scaled by that pulse's measured over
+    /// predicted drop, the column `pulse_ratio_{H}s`
+    /// (docs/state-of-power.md).
+    #[arg(long)]
+    pub no_pulse_correction: bool,
     /// The `soc` column (with --ocv): `observer` (the default; coulomb
     /// counting corrected at each rest of --soc-rest-s by the OCV table,
     /// with the current sensor's bias and the capacity estimated, columns
@@ -250,6 +257,7 @@ impl StateArgs {
         p.pulse_current_a = self.pulse_current_a;
         p.carry_s = self.sop_carry_s;
         p.confidence = self.sop_confidence;
+        p.pulse_correction = !self.no_pulse_correction;
         Ok(p)
     }
 

@@ -32,7 +32,7 @@ fn online_writes_a_track() {
     // The contract's columns first (issues 3 and 16), then ours.
     assert_eq!(
         lines.next(),
-        Some("time_s,r_i,r_ct,q,alpha,u_oc,status,soc,ocv_offset_v,bv_a_v,bv_i0_a,predicted_v,r_i_status,r_ct_status,q_status,alpha_status,step_resistance_ohm,window_r_i,window_r_ct,window_q,window_alpha,soc_coulomb,current_bias_a,capacity_ah,capacity_sigma_ah,soc_sigma,soc_ocv_weight,soh_r,capacity_status,sop_discharge_a_10s,sop_charge_a_10s,pulse_v_10s,sop_discharge_a_30s,sop_charge_a_30s,pulse_v_30s,sop_basis,sop_uncertainty_v,sop_uncertainty_v_10s,sop_uncertainty_v_30s,rejected")
+        Some("time_s,r_i,r_ct,q,alpha,u_oc,status,soc,ocv_offset_v,bv_a_v,bv_i0_a,predicted_v,r_i_status,r_ct_status,q_status,alpha_status,step_resistance_ohm,window_r_i,window_r_ct,window_q,window_alpha,soc_coulomb,current_bias_a,capacity_ah,capacity_sigma_ah,soc_sigma,soc_ocv_weight,soh_r,capacity_status,sop_discharge_a_10s,sop_charge_a_10s,pulse_v_10s,sop_discharge_a_30s,sop_charge_a_30s,pulse_v_30s,sop_basis,sop_uncertainty_v,sop_uncertainty_v_10s,sop_uncertainty_v_30s,pulse_ratio_10s,pulse_ratio_30s,rejected")
     );
     let rows: Vec<&str> = lines.collect();
     assert_eq!(rows.len(), 600);
@@ -335,7 +335,7 @@ fn the_track_carries_the_state_of_power() {
     assert!(o.status.success());
     let t = std::fs::read_to_string(&out).unwrap();
     assert!(
-        t.lines().skip(1).all(|l| l.ends_with(",,,,,,")),
+        t.lines().skip(1).all(|l| l.ends_with(",,,,,,,,")),
         "{}",
         t.lines().last().unwrap()
     );
@@ -355,7 +355,7 @@ fn the_track_carries_the_state_of_power() {
     assert!(o.status.success());
     let t = std::fs::read_to_string(&out).unwrap();
     assert!(
-        !t.lines().last().unwrap().ends_with(",,,,,,"),
+        !t.lines().last().unwrap().ends_with(",,,,,,,,"),
         "{}",
         t.lines().last().unwrap()
     );
@@ -512,6 +512,81 @@ fn the_state_of_power_is_derated_by_its_confidence() {
         published > 0 && lower * 10 >= published * 9,
         "{lower} of {published}"
     );
+}
+
+/// The pulse voltage at `--pulse-current-a` (here the default 1C, the
+/// record's 5.2 A pulses) corrected by the last pulse of that current:
+/// wherever `pulse_ratio_{H}s` is set, `pulse_v_{H}s` is the model's own
+/// (`--no-pulse-correction`, which leaves the ratio empty) with the
+/// pulse's response scaled by that ratio, and nothing else moves. Before each 5.2 A pulse after the first, the corrected 10 s
+/// voltage is at least 3× closer to the measured one than the model's
+/// (measured: 0.7 against 12.3 % of the drop, the median of 9; chen2020-hppc).
+#[test]
+fn the_pulse_voltage_is_corrected_by_the_last_pulse_of_its_current() {
+    let (head, corrected) = chen_hppc_track("pulse-corrected", &[]);
+    let (head_model, model) = chen_hppc_track("pulse-model", &["--no-pulse-correction"]);
+    assert_eq!(head, head_model);
+    let rec = std::fs::read_to_string(data("pybamm/chen2020-hppc.csv")).unwrap();
+    let (i, v): (Vec<f64>, Vec<f64>) = rec
+        .lines()
+        .skip(1)
+        .map(|l| {
+            let f: Vec<f64> = l.split(',').map(|x| x.parse().unwrap()).collect();
+            (f[1], f[2])
+        })
+        .unzip();
+    assert_eq!(corrected.len(), v.len());
+    let num = |x: &str| x.parse::<f64>().ok();
+    let (pv, ratio) = (col(&head, "pulse_v_10s"), col(&head, "pulse_ratio_10s"));
+    let mut ratios = 0;
+    for (k, (a, b)) in corrected.iter().zip(&model).enumerate() {
+        assert_eq!(b[ratio], "", "row {k}");
+        for (j, name) in head.iter().enumerate() {
+            if !name.starts_with("pulse_v_") && !name.starts_with("pulse_ratio_") {
+                assert_eq!(a[j], b[j], "row {k} {name}");
+            }
+        }
+        if let (Some(r), Some(pa), Some(pb)) = (num(&a[ratio]), num(&a[pv]), num(&b[pv])) {
+            ratios += 1;
+            if i[k] != 0.0 {
+                continue;
+            }
+            // At rest the correction moves the model's voltage the way
+            // the ratio says: deeper for a ratio above 1. (How far is the
+            // core's, from the voltage at no current, which the track
+            // does not carry: `PulseCheck::corrected`.)
+            let deeper = (pb - pa) * (v[k] - pb).signum();
+            assert!(
+                (deeper > 0.0) == (r > 1.0) && pa != pb,
+                "row {k}: {pa} from {pb}, ratio {r}"
+            );
+        }
+    }
+    assert!(ratios > 0);
+    // The row before each 5.2 A pulse's first sample, after the first.
+    let starts: Vec<usize> = (1..i.len() - 10)
+        .filter(|&l| i[l] < -5.0 && i[l] > -5.5 && i[l - 1] == 0.0)
+        .collect();
+    let (mut ours, mut theirs) = (vec![], vec![]);
+    for &l in &starts[1..] {
+        let drop = v[l - 1] - v[l + 9];
+        if let (Some(pa), Some(pb)) = (num(&corrected[l - 1][pv]), num(&model[l - 1][pv])) {
+            ours.push((pa - v[l + 9]).abs() / drop);
+            theirs.push((pb - v[l + 9]).abs() / drop);
+        }
+    }
+    let median = |x: &mut Vec<f64>| {
+        x.sort_by(f64::total_cmp);
+        x[x.len() / 2]
+    };
+    assert!(ours.len() >= 8, "{} of {} pulses", ours.len(), starts.len());
+    let (a, b) = (median(&mut ours), median(&mut theirs));
+    println!(
+        "10 s: corrected {:.1} %, the model {:.1} % of the drop",
+        100.0 * a,
+        100.0 * b
+    );
+    assert!(3.0 * a < b, "{a} against {b}");
 }
 
 /// `online pack` with the cells' OCV table (issue 36): every cell's SOC and

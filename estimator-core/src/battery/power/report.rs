@@ -126,6 +126,12 @@ pub struct HorizonPower<T> {
     /// The pulse voltage's standard deviation (V) from the parameters'
     /// spread ([`ParameterSpread`](super::ParameterSpread)): `None` without a pulse or a spread.
     pub uncertainty_v: Option<T>,
+    /// The measured over predicted drop [`Self::pulse_v`] was corrected
+    /// by: the last pulse of that current's ([`super::PulseCheck::corrected`]).
+    /// `None`: the model's own prediction (none watched, no pulse of the
+    /// watched current checked yet, or the cell not settled), and for a
+    /// string.
+    pub pulse_ratio: Option<T>,
 }
 
 /// Where a state of power's parameters (`R_i`, `R_ct`, `Q`, α, as one
@@ -202,6 +208,33 @@ impl<T: Real> PowerReport<T> {
         self
     }
 
+    /// The same report with each horizon's pulse voltage corrected by
+    /// `check`'s last watched pulse ([`super::PulseCheck::corrected`]),
+    /// where it has a ratio for that horizon and the cell is settled over
+    /// it ([`super::SETTLED_DRIFT`]: the ratios were measured on pulses
+    /// from a settled cell, and do not hold for one still relaxing from
+    /// the last). `now` is the voltage the model predicts now, `free[j]`
+    /// at the `j`-th horizon's end at no current.
+    pub fn with_pulse_corrected(
+        mut self,
+        check: &super::PulseCheck<T>,
+        now: T,
+        free: &[T],
+    ) -> Self {
+        for (h, &f) in self.horizons.iter_mut().take(self.count).zip(free) {
+            let steps = u32::try_from(h.sop.steps).unwrap_or(u32::MAX);
+            let Some((v, r)) = h.pulse_v.zip(check.ratio(steps)).and_then(|(v, r)| {
+                let settled = (f - now).abs() <= T::lit(super::SETTLED_DRIFT) * (f - v).abs();
+                Some((check.corrected(steps, v, f).filter(|_| settled)?, r))
+            }) else {
+                continue;
+            };
+            h.pulse_v = Some(v);
+            h.pulse_ratio = Some(r);
+        }
+        self
+    }
+
     /// The weaker of two cells' reports for the same settings, as a series
     /// string has it: at each horizon the smaller discharge and charge
     /// currents (the string's current is every cell's), the pulse voltage
@@ -218,6 +251,7 @@ impl<T: Real> PowerReport<T> {
             a.sop.discharge_a = a.sop.discharge_a.min(b.sop.discharge_a);
             a.sop.charge_a = a.sop.charge_a.min(b.sop.charge_a);
             a.pulse_v = a.pulse_v.zip(b.pulse_v).map(|(x, y)| x + y);
+            a.pulse_ratio = None;
             // The cells' errors are taken as independent.
             a.uncertainty_v = a
                 .uncertainty_v

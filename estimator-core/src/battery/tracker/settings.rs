@@ -88,6 +88,16 @@ pub struct OnlineSettings<T, const P: usize = 0> {
     /// default 0.02: resistances and time constants change with the state
     /// of charge).
     pub slow_memory_soc: T,
+    /// The current (A, + charging) of the pulse whose voltage the state of
+    /// power is asked for ([`PowerSettings::pulse_current`](crate::battery::power::PowerSettings::pulse_current)).
+    /// Each cell keeps what its last pulse of this current (within a
+    /// tenth) from a settled cell measured against its prediction at each
+    /// checked duration ([`PulseCheck`](crate::battery::power::PulseCheck)),
+    /// and that pulse voltage, from a settled cell, is corrected by it:
+    /// the pulse's own response scaled by the measured over predicted drop
+    /// ([`PulseCheck::corrected`](crate::battery::power::PulseCheck::corrected)).
+    /// `None` (the default): no correction. Finite and not 0.
+    pub pulse_current: Option<T>,
     /// The SOC observer beside the count (with a curve;
     /// [`crate::battery::soc`]). [`with_curve`](Self::with_curve) sets its
     /// defaults for the curve's capacity: change them after it.
@@ -129,6 +139,7 @@ impl<T: Real> OnlineSettings<T> {
             hold_soc_span: T::lit(0.15),
             slow_memory_s: T::zero(),
             slow_memory_soc: T::lit(0.02),
+            pulse_current: None,
             soc: SocSettings::new(T::one(), h),
         }
     }
@@ -174,6 +185,7 @@ impl<T: Real, const P: usize> OnlineSettings<T, P> {
             slow_memory_s: self.slow_memory_s,
             slow_memory_soc: self.slow_memory_soc,
             max_relaxation_windows: self.max_relaxation_windows,
+            pulse_current: self.pulse_current,
             soc,
         }
     }
@@ -293,7 +305,9 @@ pub(crate) fn check_limits<T: Real, const P: usize>(s: &OnlineSettings<T, P>) ->
         && s.max_ocv_offset > T::zero()
         && s.max_relaxation_windows > T::zero()
         && s.slow_memory_s >= T::zero()
-        && s.slow_memory_soc > T::zero();
+        && s.slow_memory_soc > T::zero()
+        && s.pulse_current
+            .is_none_or(|i| i.is_finite() && i != T::zero());
     if !limits_ok {
         return Err(Error::BadSetting);
     }
