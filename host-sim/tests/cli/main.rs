@@ -16,6 +16,7 @@ mod persistence;
 mod predict;
 mod real;
 mod slow_part;
+mod state_of_power;
 mod tracking;
 
 fn bin() -> Command {

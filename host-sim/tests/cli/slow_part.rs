@@ -1,7 +1,7 @@
 //! `online pack --slow-memory-s`: the slow part carried across windows
 //! (docs/online-publication.md).
 
-use super::tracking::col;
+use super::state_of_power::col;
 use super::*;
 
 /// `--slow-memory-s` carries the slow part across windows: on docs/pack.md's
