@@ -425,7 +425,13 @@ pub fn settled<T: Real>(now: T, predicted: &[T; CHECKS], free: &[T; CHECKS]) -> 
     predicted
         .iter()
         .zip(free)
-        .all(|(&p, &f)| (f - now).abs() <= T::lit(SETTLED_DRIFT) * (f - p).abs())
+        .all(|(&p, &f)| settled_at(now, p, f))
+}
+
+/// [`settled`] at one duration: the drift `free − now` within
+/// [`SETTLED_DRIFT`] of the pulse's own response `free − pulse_v`.
+pub(crate) fn settled_at<T: Real>(now: T, pulse_v: T, free: T) -> bool {
+    (free - now).abs() <= T::lit(SETTLED_DRIFT) * (free - pulse_v).abs()
 }
 
 /// A ratio in Q12 ([`UNKNOWN_RATIO`] beyond ±8 or not finite).

@@ -224,7 +224,7 @@ impl<T: Real> PowerReport<T> {
         for (h, &f) in self.horizons.iter_mut().take(self.count).zip(free) {
             let steps = u32::try_from(h.sop.steps).unwrap_or(u32::MAX);
             let Some((v, r)) = h.pulse_v.zip(check.ratio(steps)).and_then(|(v, r)| {
-                let settled = (f - now).abs() <= T::lit(super::SETTLED_DRIFT) * (f - v).abs();
+                let settled = super::check::settled_at(now, v, f);
                 Some((check.corrected(steps, v, f).filter(|_| settled)?, r))
             }) else {
                 continue;
