@@ -373,6 +373,37 @@ typedef int32_t FracbmsMethod;
 #endif // __cplusplus
 
 /**
+ * Where in the period whose mean current a sample holds its voltage was
+ * taken (`FracbmsSettings::voltage_timing`; the core's `VoltageTiming`).
+ */
+enum FracbmsVoltageTiming
+#if defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+  : int32_t
+#endif // defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+ {
+  /**
+   * At the period's end: a gauge, a simulation.
+   */
+  FRACBMS_VOLTAGE_AT_END = 0,
+  /**
+   * The mean over the period: a log put on a coarser period than its
+   * rows.
+   */
+  FRACBMS_VOLTAGE_MEAN = 1,
+  /**
+   * At the period's start.
+   */
+  FRACBMS_VOLTAGE_AT_START = 2,
+};
+#ifndef __cplusplus
+#if __STDC_VERSION__ >= 202311L
+typedef enum FracbmsVoltageTiming FracbmsVoltageTiming;
+#else
+typedef int32_t FracbmsVoltageTiming;
+#endif // __STDC_VERSION__ >= 202311L
+#endif // __cplusplus
+
+/**
  * A cell's online estimator, in memory the caller placed
  * (`fracbms_cell_init`). Opaque.
  */
@@ -519,6 +550,16 @@ typedef struct FracbmsSettings {
    * default) or 0: no correction. Infinite: `FRACBMS_ERROR_SETTINGS`.
    */
   float pulse_current;
+  /**
+   * Where in the period whose mean current a sample holds its voltage
+   * was taken, as the check of the state of power against the next
+   * pulse places it: `FRACBMS_VOLTAGE_AT_END` (the default: a gauge
+   * that integrates the current over the period before each reading, as
+   * the bq769x0 does), `FRACBMS_VOLTAGE_MEAN` (a log put on a coarser
+   * period than its rows, as `host-sim online battery` resamples it) or
+   * `FRACBMS_VOLTAGE_AT_START`. Another value: `FRACBMS_ERROR_SETTINGS`.
+   */
+  int32_t voltage_timing;
 } FracbmsSettings;
 
 /**

@@ -7,7 +7,7 @@ use estimator_core::battery::online::{
     Identification, Method, OnlineSettings, PublishedParameter, PublishedParameters, Rejection,
     Status,
 };
-use estimator_core::battery::power::{PowerLimits, PowerReport, PowerSettings};
+use estimator_core::battery::power::{PowerLimits, PowerReport, PowerSettings, VoltageTiming};
 use estimator_core::battery::snapshot::{Restoration, SnapshotError};
 use estimator_core::battery::soc::SocEstimate;
 use estimator_core::battery::{CellModel, CellParameters, Start};
@@ -176,6 +176,43 @@ pub enum FracbmsModel {
     FRACBMS_MODEL_AUTO = 2,
 }
 
+/// Where in the period whose mean current a sample holds its voltage was
+/// taken (`FracbmsSettings::voltage_timing`; the core's `VoltageTiming`).
+#[repr(i32)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FracbmsVoltageTiming {
+    /// At the period's end: a gauge, a simulation.
+    FRACBMS_VOLTAGE_AT_END = 0,
+    /// The mean over the period: a log put on a coarser period than its
+    /// rows.
+    FRACBMS_VOLTAGE_MEAN = 1,
+    /// At the period's start.
+    FRACBMS_VOLTAGE_AT_START = 2,
+}
+
+impl FracbmsVoltageTiming {
+    /// The timing with this value, if any.
+    pub(crate) fn from_i32(v: i32) -> Option<Self> {
+        [
+            Self::FRACBMS_VOLTAGE_AT_END,
+            Self::FRACBMS_VOLTAGE_MEAN,
+            Self::FRACBMS_VOLTAGE_AT_START,
+        ]
+        .into_iter()
+        .find(|m| *m as i32 == v)
+    }
+}
+
+impl From<VoltageTiming> for FracbmsVoltageTiming {
+    fn from(t: VoltageTiming) -> Self {
+        match t {
+            VoltageTiming::End => Self::FRACBMS_VOLTAGE_AT_END,
+            VoltageTiming::Mean => Self::FRACBMS_VOLTAGE_MEAN,
+            VoltageTiming::Start => Self::FRACBMS_VOLTAGE_AT_START,
+        }
+    }
+}
+
 /// The cell's parameters (SI units: Ω, F·s^(α−1), V, A).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -300,6 +337,14 @@ pub struct FracbmsSettings {
     /// online battery` does unless `--no-pulse-correction`. NaN (the
     /// default) or 0: no correction. Infinite: `FRACBMS_ERROR_SETTINGS`.
     pub pulse_current: f32,
+    /// Where in the period whose mean current a sample holds its voltage
+    /// was taken, as the check of the state of power against the next
+    /// pulse places it: `FRACBMS_VOLTAGE_AT_END` (the default: a gauge
+    /// that integrates the current over the period before each reading, as
+    /// the bq769x0 does), `FRACBMS_VOLTAGE_MEAN` (a log put on a coarser
+    /// period than its rows, as `host-sim online battery` resamples it) or
+    /// `FRACBMS_VOLTAGE_AT_START`. Another value: `FRACBMS_ERROR_SETTINGS`.
+    pub voltage_timing: i32,
 }
 
 /// One sample's outcome and the estimate after it.
@@ -731,6 +776,12 @@ pub(crate) unsafe fn settings(c: &FracbmsSettings) -> Result<Settings, FracbmsCo
         i if i.is_finite() => Some(i),
         _ => return Err(FracbmsCode::FRACBMS_ERROR_SETTINGS),
     };
+    s.voltage_timing = match FracbmsVoltageTiming::from_i32(c.voltage_timing) {
+        Some(FracbmsVoltageTiming::FRACBMS_VOLTAGE_AT_END) => VoltageTiming::End,
+        Some(FracbmsVoltageTiming::FRACBMS_VOLTAGE_MEAN) => VoltageTiming::Mean,
+        Some(FracbmsVoltageTiming::FRACBMS_VOLTAGE_AT_START) => VoltageTiming::Start,
+        None => return Err(FracbmsCode::FRACBMS_ERROR_SETTINGS),
+    };
     s.current_limit = c.current_limit;
     s.voltage_min = c.voltage_min;
     s.voltage_max = c.voltage_max;
@@ -782,5 +833,6 @@ pub(crate) fn default_settings(h: f32) -> FracbmsSettings {
         slow_memory_s: core.slow_memory_s,
         slow_memory_soc: core.slow_memory_soc,
         pulse_current: f32::NAN,
+        voltage_timing: FracbmsVoltageTiming::from(core.voltage_timing) as i32,
     }
 }

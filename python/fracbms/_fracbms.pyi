@@ -230,6 +230,7 @@ class OnlineCell:
         slow_memory_s: Optional[float] = None,
         slow_memory_soc: Optional[float] = None,
         capacity_min_span: Optional[float] = None,
+        voltage_timing: Literal["end", "mean", "start"] = "end",
     ) -> None:
         """``horizons`` (s), ``voltage_min``/``voltage_max`` (V; default the OCV
         table's range), ``current_limit`` (A) and ``pulse_current_a`` (A, +
@@ -258,7 +259,13 @@ class OnlineCell:
         ``q`` and ``alpha`` the mean of what the windows identified,
         forgetting over that many seconds (default: each window's own), and
         ``slow_memory_soc`` over that much state of charge
-        (``--slow-memory-soc``, default 0.02)."""
+        (``--slow-memory-soc``, default 0.02). ``voltage_timing``: where
+        in the period whose mean current a sample holds its voltage was
+        taken, as the check of the state of power against the next pulse
+        places it: ``"end"`` (default) a gauge or a simulation, ``"mean"`` a
+        log put on a coarser period than its rows (as ``host-sim online
+        battery`` reads it where it merges rows), ``"start"`` a log's
+        instants whose current holds exactly through each period."""
     def push(
         self, current_a: float, voltage_v: float, temperature_c: Optional[float] = None
     ) -> Optional[dict[str, Any]]:

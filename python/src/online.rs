@@ -2,6 +2,7 @@
 //! (`host-sim online battery`), over `fracbms_host::online::Tracker`.
 
 use super::*;
+use estimator_core::battery::power::VoltageTiming;
 use fracbms_host::online::schema::{track_fields, Cell, Kind};
 use fracbms_host::online::soc::{SocMode, SocOptions};
 use fracbms_host::online::PublicationTally;
@@ -176,7 +177,8 @@ impl OnlineCell {
         voltage_min = None, voltage_max = None, current_limit = None, pulse_current_a = None,
         soc = "observer", soc_rest_s = None, soc_bias_sigma_a = None, soc_rest_load_sigma_a = None,
         soc_voltage_sigma_v = None, sop_carry_s = None, sop_confidence = None,
-        pulse_correction = true, slow_memory_s = None, slow_memory_soc = None, capacity_min_span = None
+        pulse_correction = true, slow_memory_s = None, slow_memory_soc = None, capacity_min_span = None,
+        voltage_timing = "end"
     ))]
     #[allow(clippy::too_many_arguments)]
     fn new(
@@ -214,6 +216,7 @@ impl OnlineCell {
         slow_memory_s: Option<f64>,
         slow_memory_soc: Option<f64>,
         capacity_min_span: Option<f64>,
+        voltage_timing: &str,
     ) -> PyResult<Self> {
         if !(h.is_finite() && h > 0.0) {
             return Err(PyValueError::new_err(format!(
@@ -286,6 +289,16 @@ impl OnlineCell {
             },
             slow_memory_s,
             slow_memory_soc,
+            voltage_timing: match voltage_timing {
+                "end" => VoltageTiming::End,
+                "mean" => VoltageTiming::Mean,
+                "start" => VoltageTiming::Start,
+                other => {
+                    return Err(PyValueError::new_err(format!(
+                        "voltage_timing={other:?}: must be \"end\", \"mean\" or \"start\""
+                    )))
+                }
+            },
         };
         let tracker = py
             .detach(|| on_worker(|| Tracker::new(&o, h, spec.and_then(|s| s.soc0))))

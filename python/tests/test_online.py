@@ -414,3 +414,12 @@ def test_bad_rows_are_rejected_as_the_cli_rejects_them(host_sim, cell_record, tm
         assert at_step and py["status"][k] in ("filling", "starting"), k
     assert list(py["rejected"][rows[:3]]) == ["non_finite"] * 3
     assert all(py["rejected"][k] == "spike" for k in rejected if k not in rows[:3])
+
+
+def test_the_voltage_timing_is_one_of_three():
+    """`voltage_timing=` places each voltage in its sample's period for the
+    check of the state of power; another word is refused in one line."""
+    for timing in ("end", "mean", "start"):
+        fracbms.OnlineCell(voltage_timing=timing)
+    with pytest.raises(ValueError, match='voltage_timing="middle"'):
+        fracbms.OnlineCell(voltage_timing="middle")

@@ -456,7 +456,14 @@ impl<T: Real, const N: usize, const MEM: usize, const CELLS: usize>
             let scheduled = (k + cells - first) % cells < updates;
             let r = self.cells[k].update(s, &self.history, &mut self.work, k, scheduled);
             let v = voltages.get(k).copied().unwrap_or(T::nan());
-            self.checks[k].observe_watching(checked, v, r.rejected.is_some(), s.pulse_current);
+            let timing = s.voltage_timing;
+            self.checks[k].observe_watching(
+                checked,
+                v,
+                r.rejected.is_some(),
+                s.pulse_current,
+                timing,
+            );
             report(k, r);
             // While the working area is still this cell's.
             self.follow_polarization(s, k, stored);

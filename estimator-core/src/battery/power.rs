@@ -35,7 +35,9 @@ mod check;
 mod report;
 mod spread;
 pub(crate) use check::same_pulse;
-pub use check::{settled, PulseCheck, ResponseMiss, CHECK_STEPS, SETTLED_DRIFT};
+pub use check::{
+    settled, PulseCheck, ResponseMiss, VoltageTiming, CARRY_PERIODS, CHECK_STEPS, SETTLED_DRIFT,
+};
 pub use report::{
     HorizonPower, PowerLimits, PowerReport, PowerSettings, SopBasis, StateOfPower,
     DEFAULT_CONFIDENCE, MAX_HORIZONS,

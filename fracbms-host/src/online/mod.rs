@@ -14,6 +14,7 @@ use estimator_core::battery::online::{
     CellEstimator, Method, OnlineSettings, PublishedParameters, Rejection,
 };
 use estimator_core::battery::output_error::RefinementWork;
+use estimator_core::battery::power::VoltageTiming;
 use estimator_core::battery::snapshot::{Restoration, RestorePolicy, SnapshotError};
 use estimator_core::battery::{CellModel, CellParameters, Prior, Start};
 use estimator_core::Real;
@@ -156,6 +157,11 @@ pub struct TrackOptions<'a> {
     /// The slow part's memory in state of charge (`--slow-memory-soc`,
     /// `OnlineSettings::slow_memory_soc`; `None`: the core's default).
     pub slow_memory_soc: Option<f64>,
+    /// Where in its current's period each sample's voltage was taken (the
+    /// core's `OnlineSettings::voltage_timing`): at its end for a gauge or
+    /// a simulation; `online battery` gives the mean where the resampler
+    /// merged rows.
+    pub voltage_timing: VoltageTiming,
 }
 
 impl TrackOptions<'_> {
@@ -178,6 +184,7 @@ impl TrackOptions<'_> {
             soc: soc::SocOptions::default(),
             slow_memory_s: None,
             slow_memory_soc: None,
+            voltage_timing: VoltageTiming::End,
         }
     }
 
@@ -207,6 +214,7 @@ impl TrackOptions<'_> {
         s.battery.tail = self.tail;
         s.iterations_per_sample = self.iterations_per_sample;
         s.pulse_current = self.power.corrected_pulse(self.cell).map(T::lit);
+        s.voltage_timing = self.voltage_timing;
         if let Some(m) = self.slow_memory_s {
             if m.is_nan() || m < 0.0 {
                 bail!(

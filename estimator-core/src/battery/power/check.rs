@@ -37,6 +37,71 @@ pub const CHECK_STEPS: [u32; 5] = [1, 2, 5, 10, 30];
 
 const CHECKS: usize = CHECK_STEPS.len();
 
+/// Where in the period whose mean current a sample holds its voltage was
+/// taken ([`OnlineSettings::voltage_timing`](crate::battery::online::OnlineSettings::voltage_timing)):
+/// where the check of the state of power against the next pulse places
+/// each voltage ([`PulseCheck::observe_watching`]).
+///
+/// ```
+/// use estimator_core::battery::power::VoltageTiming;
+/// // Periods from a pulse's edge, 0.4 of a period into its first sample,
+/// // to its third sample's voltage.
+/// assert_eq!(VoltageTiming::End.since_edge(3, 0.6), 2.6);
+/// assert_eq!(VoltageTiming::Mean.since_edge(3, 0.6), 2.1);
+/// assert_eq!(VoltageTiming::Start.since_edge(3, 0.6), 1.6);
+/// ```
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum VoltageTiming {
+    /// At the period's end (the default): a gauge that integrates the
+    /// current over the period before each reading (the bq769x0), a
+    /// simulation.
+    #[default]
+    End,
+    /// The mean over the period: a log put on a coarser period than its
+    /// rows where the current moves within each period, as a measured one
+    /// does (`fracbms-host`'s resampler).
+    Mean,
+    /// At the period's start: a log's instants put on a coarser period,
+    /// its current held exactly through each.
+    Start,
+}
+
+impl VoltageTiming {
+    /// Periods from a pulse's edge to its `k`-th sample's voltage (the
+    /// middle of the period for [`Self::Mean`]), the first sample holding
+    /// the share `f` of the pulse's current (the edge `1 − f` into it).
+    pub fn since_edge<T: Real>(self, k: u32, f: T) -> T {
+        let lead = match self {
+            Self::End => 0.0,
+            Self::Mean => 0.5,
+            Self::Start => 1.0,
+        };
+        T::lit(f64::from(k)) - T::lit(1.0 + lead) + f
+    }
+
+    /// The response's growth at a voltage `since` periods after the edge
+    /// (placed by [`Self::since_edge`]), in which the check interpolates:
+    /// the square root of the time, a fractional model's response growing
+    /// about so; for [`Self::Mean`] its mean over the period.
+    fn root<T: Real>(self, since: T) -> T {
+        match self {
+            Self::Mean => {
+                let half = T::lit(0.5);
+                let (a, b) = ((since - half).max(T::zero()), since + half);
+                T::lit(2.0 / 3.0) * (b * b.sqrt() - a * a.sqrt())
+            }
+            Self::End | Self::Start => since.sqrt(),
+        }
+    }
+}
+
+/// How far past its last two samples a pulse's voltage is carried on, in
+/// periods, to a duration it did not reach: a pulse as long as the
+/// duration, its edge within a sample, whose voltages lead
+/// ([`PulseCheck::observe_watching`]), ends up to two periods short of it.
+pub const CARRY_PERIODS: f64 = 2.0;
+
 /// The relative miss of the last checked pulse at each of [`CHECK_STEPS`]:
 /// `|predicted − measured| / |voltage before − predicted|` (NaN: not yet
 /// seen at that duration).
@@ -208,26 +273,32 @@ impl<T: Real> PulseCheck<T> {
     }
 
     /// Takes one sample (current in A, voltage in V; `rejected`: the
-    /// voltage was not accepted). At each duration of [`CHECK_STEPS`] the
-    /// pulse reaches, its miss replaces the last pulse's there: the
-    /// measured drop from the voltage before the pulse against the
-    /// predicted one, scaled to the current held (a model's response is
-    /// linear in the current). The pulse ends when the voltage is not
-    /// usable or the current leaves a tenth of what it holds. Its first
-    /// sample's miss counts once the second sample holds the same current
-    /// (within 2 %); a first sample that averaged the current over the
-    /// edge (a resampled log: part of the current after it, of the same
-    /// sign) or a current still settling (within a tenth) leaves the
-    /// first duration's miss unknown, and the pulse is checked at the
-    /// current it then holds, its first sample at its own: by
-    /// superposition, the first sample's current for the whole duration
-    /// and the rest's excess from the second sample on (the prediction one
-    /// sample shorter interpolated in the square root of the samples
-    /// between the durations around it; a fractional model's response
-    /// grows about so). A pulse that ends before a duration leaves the
-    /// last pulse's miss there.
+    /// voltage was not accepted), each voltage taken at the end of the
+    /// period whose current the sample holds (`observe_watching` for
+    /// other records). At each duration of [`CHECK_STEPS`] the pulse
+    /// reaches, its miss replaces the last pulse's there: the drop
+    /// measured that long after the pulse's edge, from the voltage before
+    /// the pulse, against the drop the state of power predicted for a
+    /// pulse of that many samples at the current held (a model's response
+    /// is linear in the current). The pulse ends when the voltage is not
+    /// usable or the current leaves a tenth of what it holds; one that
+    /// ends before a duration leaves the last pulse's miss there.
+    ///
+    /// A first sample that averaged the current over the edge (a
+    /// resampled log: part of the current after it, of the same sign), or
+    /// a current still settling (within a tenth), holds the share `f` of
+    /// the current held after it: the edge came `1 − f` of a period into
+    /// it. Each duration's voltage is then interpolated between the two
+    /// samples around it, or carried on from the two before by less than
+    /// [`CARRY_PERIODS`] for a pulse that ends short of it. So the ratio is the
+    /// voltage a pulse gives that long after its edge over what the model
+    /// publishes for a pulse of that many samples: on a record put on 2 s
+    /// whose pulses start anywhere within a period, the published pulse
+    /// voltage, corrected by it ([`Self::corrected`]), is the cell's that
+    /// long after the edge. A first sample's miss counts once the second
+    /// sample holds the same current (within 2 %).
     pub fn observe(&mut self, current: T, voltage: T, rejected: bool) {
-        self.observe_watching(current, voltage, rejected, None);
+        self.observe_watching(current, voltage, rejected, None, VoltageTiming::End);
     }
 
     /// [`observe`](Self::observe), a pulse of `watch` (A, within a tenth,
@@ -235,8 +306,18 @@ impl<T: Real> PulseCheck<T> {
     /// also leaving its measured over predicted drop at each duration it
     /// reaches ([`Self::ratio`]). The current is the one the pulse holds
     /// from its second sample on: a resampled log's first sample may hold
-    /// part of it.
-    pub fn observe_watching(&mut self, current: T, voltage: T, rejected: bool, watch: Option<T>) {
+    /// part of it. `timing`: where in its sample's period each voltage was
+    /// taken ([`VoltageTiming`]); but at the period's end, the pulse's own
+    /// first sample's voltage is not read (it holds the edge, or comes
+    /// before it).
+    pub fn observe_watching(
+        &mut self,
+        current: T,
+        voltage: T,
+        rejected: bool,
+        watch: Option<T>,
+        timing: VoltageTiming,
+    ) {
         let usable = voltage.is_finite() && !rejected;
         if self.current.is_finite() {
             self.elapsed = self.elapsed.saturating_add(1);
@@ -248,86 +329,107 @@ impl<T: Real> PulseCheck<T> {
                         true
                     }
                     2 if (current - held).abs() <= T::lit(0.02) * held.abs() => {
-                        if self.first.is_finite() {
-                            self.missed.miss[0] = (self.first - T::one()).abs();
-                            if self.settled && watch.is_some_and(|w| same_pulse(w, held)) {
-                                self.ratio[0] = to_q12(self.first);
-                            }
+                        if timing == VoltageTiming::End {
+                            self.keep(0, self.first, watch);
                         }
                         true
                     }
                     2 => {
                         // A first sample not at the pulse's current: one
-                        // that straddled the edge, or a current still
-                        // settling (within a tenth). This pulse goes past
-                        // the first duration without telling its miss:
-                        // the miss there becomes unknown (an older
-                        // pulse's does not stand for a duration a newer
-                        // one went past), and the pulse is checked at the
+                        // that straddled the edge (its edge within the
+                        // first sample), or a current still settling
+                        // (within a tenth; its first sample's miss at its
+                        // own current). The pulse is checked at the
                         // current it now holds.
                         let settling = (current - held).abs() <= T::lit(0.1) * held.abs();
                         let straddled = current * held > T::zero() && current.abs() >= held.abs();
                         self.held = current;
-                        let goes_on = settling || straddled;
-                        if goes_on {
-                            self.stepped = true;
-                            self.missed.miss[0] = T::nan();
-                            if self.settled && watch.is_some_and(|w| same_pulse(w, current)) {
-                                self.ratio[0] = UNKNOWN_RATIO;
-                            }
+                        self.stepped = straddled;
+                        if settling && !straddled && timing == VoltageTiming::End {
+                            self.keep(0, self.first, watch);
                         }
-                        goes_on
+                        settling || straddled
                     }
                     _ => (current - held).abs() <= T::lit(0.1) * held.abs(),
                 };
-            if !goes_on {
+            if goes_on {
+                self.measure(voltage, timing, watch);
+            }
+            let leads = timing != VoltageTiming::End;
+            let last = CHECK_STEPS[CHECKS - 1] + 1 + u32::from(leads);
+            if !goes_on || self.elapsed >= last {
                 self.current = T::nan();
-            } else {
-                let scale = current / self.current;
-                for (j, (&c, &p)) in CHECK_STEPS.iter().zip(&self.predicted).enumerate() {
-                    let drop = if self.stepped {
-                        (self.before - p) + (scale - T::one()) * self.drop_a_sample_shorter(j)
-                    } else {
-                        (self.before - p) * scale
-                    };
-                    if c == self.elapsed && drop.abs() > T::zero() && drop.is_finite() {
-                        // The measured drop over the predicted one.
-                        let ratio = (self.before - voltage) / drop;
-                        // The first sample's waits for the second.
-                        if c == 1 {
-                            self.first = ratio;
-                        } else {
-                            self.missed.miss[j] = (ratio - T::one()).abs();
-                            if self.settled && watch.is_some_and(|w| same_pulse(w, self.held)) {
-                                self.ratio[j] = to_q12(ratio);
-                            }
-                        }
-                    }
-                }
-                if self.elapsed >= CHECK_STEPS[CHECKS - 1] {
-                    self.current = T::nan();
-                }
             }
         }
         self.earlier = self.last.0;
         self.last = (current, if usable { voltage } else { T::nan() });
     }
 
-    /// The drop predicted for the pulse's first current one sample short
-    /// of the `j`-th duration of [`CHECK_STEPS`]: 0 before the first, the
-    /// prediction where that is a duration, else interpolated in the
-    /// square root of the samples between the durations around it.
-    fn drop_a_sample_shorter(&self, j: usize) -> T {
-        let drop = |k: usize| self.before - self.predicted[k];
-        let Some(i) = j.checked_sub(1) else {
-            return T::zero();
+    /// The drop measured at the pulse's `elapsed`-th sample (its voltage
+    /// `voltage`, the one before in `self.last`) set against the
+    /// prediction at each duration it tells ([`Self::observe`]).
+    fn measure(&mut self, voltage: T, timing: VoltageTiming, watch: Option<T>) {
+        let e = self.elapsed;
+        // The share of the held current in the first sample.
+        let f = if self.stepped {
+            (self.current / self.held).min(T::one())
+        } else {
+            T::one()
         };
-        let (b, c) = (CHECK_STEPS[i], CHECK_STEPS[j]);
-        if b + 1 >= c {
-            return drop(i);
+        let since = |k: u32| timing.since_edge(k, f);
+        let now = self.before - voltage;
+        // The sample before, where its voltage came after the edge.
+        let lead = u32::from(timing != VoltageTiming::End);
+        let prev = (e > 1 + lead).then(|| self.before - self.last.1);
+        let scale = self.held / self.current;
+        let predicted = self.predicted;
+        for (j, (&c, &p)) in CHECK_STEPS.iter().zip(&predicted).enumerate() {
+            let at = T::lit(f64::from(c));
+            let d = since(e);
+            let measured = if d == at {
+                Some(now)
+            } else {
+                // Between the sample before and this one, or carried on
+                // from them by less than `CARRY_PERIODS` (a pulse that ends
+                // before the next sample leaves this), in the response's
+                // growth (`VoltageTiming::root`).
+                // The first two samples after the edge also reach back to
+                // a duration before them (a mean over a period that
+                // started after it).
+                let first_pair = e == 2 + lead;
+                prev.filter(|_| (since(e - 1) < at || first_pair) && at - d < T::lit(CARRY_PERIODS))
+                    .map(|prev| {
+                        let (r0, r1) = (timing.root(since(e - 1)), timing.root(d));
+                        now + (at.sqrt() - r1) / (r1 - r0) * (now - prev)
+                    })
+            };
+            let predicted = (self.before - p) * scale;
+            let Some(measured) = measured else {
+                continue;
+            };
+            if !(measured.is_finite() && predicted.is_finite() && predicted.abs() > T::zero()) {
+                continue;
+            }
+            let ratio = measured / predicted;
+            if e == 1 {
+                // The first sample's waits for the second.
+                self.first = ratio;
+            } else {
+                self.keep(j, ratio, watch);
+            }
         }
-        let root = |x: u32| T::lit(f64::from(x)).sqrt();
-        drop(i) + (drop(j) - drop(i)) * (root(c - 1) - root(b)) / (root(c) - root(b))
+    }
+
+    /// Keeps the `j`-th duration's measured over predicted drop: its miss,
+    /// and its ratio for a watched pulse from a settled cell.
+    fn keep(&mut self, j: usize, ratio: T, watch: Option<T>) {
+        if !ratio.is_finite() {
+            return;
+        }
+        self.missed.miss[j] = (ratio - T::one()).abs();
+        if self.settled && watch.is_some_and(|w| same_pulse(w, self.held)) {
+            self.ratio[j] = to_q12(ratio);
+        }
     }
 
     /// The record starts again (a gap, a restarted window): the samples
@@ -383,7 +485,7 @@ impl<T: Real> PulseCheck<T> {
     /// ratio, or for a voltage that is not finite.
     ///
     /// ```
-    /// use estimator_core::battery::power::{PulseCheck, CHECK_STEPS};
+    /// use estimator_core::battery::power::{PulseCheck, VoltageTiming, CHECK_STEPS};
     /// let mut c = PulseCheck::<f64>::BLANK;
     /// for _ in 0..3 {
     ///     c.observe(0.0, 3.7, false);
@@ -391,7 +493,7 @@ impl<T: Real> PulseCheck<T> {
     /// // A −2 A pulse predicted 0.1 V down, measured 0.12 V down.
     /// assert!(c.start(-2.0, [3.6; 5], 1e-3, true));
     /// for _ in 0..30 {
-    ///     c.observe_watching(-2.0, 3.58, false, Some(-2.0));
+    ///     c.observe_watching(-2.0, 3.58, false, Some(-2.0), VoltageTiming::End);
     /// }
     /// let r = c.ratio(10).unwrap();
     /// assert!((r - 1.2).abs() < 1e-3);
@@ -452,17 +554,16 @@ mod tests {
     /// The drop per ampere `k` samples into a pulse (V/A): 50 mΩ at the
     /// step and a growth in `√k`, the shape the check interpolates in.
     fn per_amp(k: u32) -> f64 {
-        if k == 0 {
-            0.0
-        } else {
-            0.05 + 0.01 * f64::from(k).sqrt()
-        }
+        per_amp_at(f64::from(k))
     }
 
-    /// The drop `k` samples into a pulse whose first sample held `first`
-    /// A and the rest `rest` A (magnitudes), by superposition.
-    fn stepped_drop(first: f64, rest: f64, k: u32) -> f64 {
-        first * per_amp(k) + (rest - first) * per_amp(k - 1)
+    /// The same `t` periods after the edge (0 before it).
+    fn per_amp_at(t: f64) -> f64 {
+        if t <= 0.0 {
+            0.0
+        } else {
+            0.05 + 0.01 * t.sqrt()
+        }
     }
 
     /// Three samples at rest (0 A, 3.7 V).
@@ -472,13 +573,10 @@ mod tests {
         }
     }
 
-    /// A pulse checked from the second duration on, as predicted: the
-    /// first duration's miss unknown, every other none.
-    fn assert_only_the_first_unknown(c: &PulseCheck<f64>) {
-        let m = c.missed().miss;
-        assert!(m[0].is_nan(), "gone past, not told: {m:?}");
-        for m in &m[1..] {
-            assert!(*m < 1e-12, "{m}");
+    /// Every duration's miss within `bound`.
+    fn assert_misses_within(c: &PulseCheck<f64>, bound: f64) {
+        for m in c.missed().miss {
+            assert!(m <= bound, "{:?}", c.missed().miss);
         }
     }
 
@@ -525,14 +623,16 @@ mod tests {
     }
 
     /// A resampled log's first pulse sample averages the current over the
-    /// edge (−1.2 A of a −2 A pulse): it gives no miss, and the pulse is
-    /// checked against the prediction for −1.2 A in its first sample and
-    /// −2 A after (superposition); a pulse as predicted misses by nothing.
-    /// Scaled to −2 A from the first sample, as if the pulse had started
-    /// a sample earlier, it would miss by up to 3 %. The
+    /// edge (−1.2 A of a −2 A pulse: the edge 0.4 of a period into it),
+    /// and each voltage follows its period's current: the pulse is checked
+    /// at each duration from its edge, interpolated between the two
+    /// samples around it, against the prediction for −2 A from the start
+    /// of a period. A pulse as the model predicts it misses by at most
+    /// 0.5 % (a straight line between two samples of a response growing
+    /// in the square root of the time: 0.49 % at the first duration). The
     /// pulse's end, into a smaller current, starts no check.
     #[test]
-    fn a_step_averaged_over_its_edge_is_checked_at_the_full_current() {
+    fn a_step_averaged_over_its_edge_is_checked_at_its_duration_from_the_edge() {
         let mut c = PulseCheck::<f64>::BLANK;
         c.observe(0.0, 3.7, false);
         c.observe(0.0, 3.7, false);
@@ -540,13 +640,93 @@ mod tests {
         // Predicted for −1.2 A; the first sample held 60 % of the pulse.
         let predicted = CHECK_STEPS.map(|k| 3.7 - 1.2 * per_amp(k));
         assert!(c.start(-1.2, predicted, 1e-3, true));
-        c.observe(-1.2, predicted[0], false);
-        for k in 2..=30u32 {
-            c.observe(-2.0, 3.7 - stepped_drop(1.2, 2.0, k), false);
+        c.observe(-1.2, 3.7 - 2.0 * per_amp_at(0.6), false);
+        for e in 2..=31u32 {
+            c.observe(-2.0, 3.7 - 2.0 * per_amp_at(f64::from(e) - 0.4), false);
         }
-        // The straddled first sample tells nothing of the first duration.
-        assert_only_the_first_unknown(&c);
+        assert_misses_within(&c, 0.005);
         assert!(!c.starts_pulse(1e-3, 0.0), "the pulse's end");
+    }
+
+    /// A log's instants put on a period whose current holds exactly
+    /// through it: each voltage is taken at the start of the period whose
+    /// current its sample holds ([`VoltageTiming::Start`]), so the step's
+    /// own sample shows none of the pulse (or, resampled, a mean over the
+    /// edge). The check reads the voltages a sample later, where read as
+    /// taken at the period's end the first durations would miss by 8 % and
+    /// more: a 10 s pulse on 1 s periods, its edge 0.4 s into one, is
+    /// checked at every duration it reaches, the 10th carried on from the
+    /// last two samples it holds by 1.4 periods.
+    #[test]
+    fn a_record_whose_voltages_lead_is_read_a_sample_later() {
+        let lead = |c: &mut PulseCheck<f64>, i: f64, v: f64| {
+            c.observe_watching(i, v, false, None, VoltageTiming::Start);
+        };
+        let mut c = PulseCheck::<f64>::BLANK;
+        rest(&mut c);
+        let predicted = CHECK_STEPS.map(|k| 3.7 - 1.2 * per_amp(k));
+        assert!(c.start(-1.2, predicted, 1e-3, true));
+        // The step's own sample: a mean over the edge.
+        lead(&mut c, -1.2, 3.7 - 0.6 * 2.0 * per_amp_at(0.3));
+        for e in 2..=10u32 {
+            lead(&mut c, -2.0, 3.7 - 2.0 * per_amp_at(f64::from(e) - 1.4));
+        }
+        // The pulse's last 0.4 s: again a mean over the edge.
+        lead(&mut c, -0.8, 3.7 - 0.4 * 2.0 * per_amp_at(9.8));
+        lead(&mut c, 0.0, 3.69);
+        let m = c.missed().miss;
+        assert!(m[..4].iter().all(|m| *m <= 0.005), "{m:?}");
+        assert!(m[4].is_nan(), "30 s not reached: {m:?}");
+        // Read as taken at the period's end, the second sample's voltage
+        // (0.6 periods in) would stand for a full period.
+        let early = per_amp_at(0.6) / per_amp(1) - 1.0;
+        assert!(early < -0.03, "{early}");
+        // A pulse whose edge is the period's start: each duration from
+        // the sample after the step.
+        rest(&mut c);
+        let predicted = CHECK_STEPS.map(|k| 3.7 - 2.0 * per_amp(k));
+        assert!(c.start(-2.0, predicted, 1e-3, true));
+        lead(&mut c, -2.0, 3.7);
+        for e in 2..=31u32 {
+            lead(&mut c, -2.0, 3.7 - 2.2 * per_amp(e - 1));
+        }
+        for m in c.missed().miss {
+            assert!((m - 0.1).abs() < 1e-9, "{:?}", c.missed().miss);
+        }
+    }
+
+    /// A measured log put on a coarser period: each sample holds the mean
+    /// voltage over the period of its mean current ([`VoltageTiming::Mean`],
+    /// `fracbms-host`'s resampler). A pulse as the model predicts it, its
+    /// edge 0.4 of a period into its first sample, misses by nothing at
+    /// every duration (the response grows in the square root of the time,
+    /// as the check interpolates it: to 10⁻⁹), the 10th carried on from the
+    /// last two samples of a 10 s pulse by 0.9 of a period; read as taken
+    /// at the period's start it would miss by 3.8 % at the first.
+    #[test]
+    fn a_resampled_record_holds_each_periods_mean_voltage() {
+        // The drop per ampere averaged over `[s, s + 1]` periods after the
+        // edge.
+        let mean = |s: f64| 0.05 + 0.01 * (2.0 / 3.0) * ((s + 1.0).powf(1.5) - s.powf(1.5));
+        let run = |timing: VoltageTiming| {
+            let mut c = PulseCheck::<f64>::BLANK;
+            rest(&mut c);
+            let predicted = CHECK_STEPS.map(|k| 3.7 - 1.2 * per_amp(k));
+            assert!(c.start(-1.2, predicted, 1e-3, true));
+            c.observe_watching(-1.2, 3.7 - 2.0 * 0.6 * mean(0.0), false, None, timing);
+            for e in 2..=10u32 {
+                let v = 3.7 - 2.0 * mean(f64::from(e) - 1.4);
+                c.observe_watching(-2.0, v, false, None, timing);
+            }
+            c.observe_watching(-0.8, 3.69, false, None, timing);
+            c.observe_watching(0.0, 3.69, false, None, timing);
+            c.missed().miss
+        };
+        let m = run(VoltageTiming::Mean);
+        assert!(m[..4].iter().all(|m| *m < 1e-9), "{m:?}");
+        assert!(m[4].is_nan(), "30 s not reached: {m:?}");
+        let start = run(VoltageTiming::Start);
+        assert!(start[0] > 0.035, "{start:?}");
     }
 
     /// A rejected or missing voltage, or a current that moves, ends the
@@ -612,16 +792,19 @@ mod tests {
         c.observe(-2.0, 3.0, false);
         c.observe(0.0, 3.7, false);
         assert_eq!(c.missed().miss[0], first);
-        // A current 5 % below its first sample's after it: checked on,
-        // as predicted, at −1.9 A.
+        // A current 5 % below its first sample's after it: checked on at
+        // −1.9 A, each duration missed by no more than the first sample's
+        // excess current adds (0.1 A over 1.9 A at the first, less after).
         rest(&mut c);
         let predicted = CHECK_STEPS.map(|k| 3.7 - 2.0 * per_amp(k));
         assert!(c.start(-2.0, predicted, 1e-3, true));
-        c.observe(-2.0, 3.0, false);
-        for k in 2..=30u32 {
-            c.observe(-1.9, 3.7 - stepped_drop(2.0, 1.9, k), false);
+        let drop = |k: u32| 1.9 * per_amp(k) + 0.1 * (per_amp(k) - per_amp(k - 1));
+        c.observe(-2.0, 3.7 - drop(1), false);
+        for k in 2..=31u32 {
+            c.observe(-1.9, 3.7 - drop(k), false);
         }
-        assert_only_the_first_unknown(&c);
+        assert_misses_within(&c, 0.1 / 1.9 + 1e-9);
+        assert!(c.missed().miss[1] < 0.004, "{:?}", c.missed().miss);
     }
 
     /// A watched pulse 20 % deeper than predicted at every duration leaves
@@ -645,7 +828,13 @@ mod tests {
             let scale = i / -2.0;
             assert!(c.start(i, predicted.map(|p| 3.7 - scale * (3.7 - p)), 1e-3, true));
             for k in 1..=samples {
-                c.observe_watching(i, 3.7 - deeper * scale * drop(k), false, watch);
+                c.observe_watching(
+                    i,
+                    3.7 - deeper * scale * drop(k),
+                    false,
+                    watch,
+                    VoltageTiming::End,
+                );
             }
             rest(c);
         };
@@ -678,27 +867,24 @@ mod tests {
         assert!((c.missed().at(10) - 0.5).abs() < 1e-9);
         assert!((c.ratio(30).unwrap() - 1.2).abs() < 2.5e-4);
         // A watched pulse 10 % deeper whose first sample averaged 60 % of
-        // it over the edge: checked, and watched, at −2 A from the second
-        // sample on; the first duration not known.
+        // it over the edge: watched at −2 A, each duration from the edge.
         rest(&mut c);
         let part = predicted.map(|p| 3.7 - 0.6 * (3.7 - p));
         assert!(c.start(-1.2, part, 1e-3, true));
-        c.observe_watching(-1.2, 3.7 - 0.6 * drop(1), false, watch);
-        for k in 2..=30u32 {
-            c.observe_watching(-2.0, 3.7 - 1.1 * stepped_drop(1.2, 2.0, k), false, watch);
+        for e in 1..=31u32 {
+            let i = if e == 1 { -1.2 } else { -2.0 };
+            let v = 3.7 - 1.1 * 2.0 * per_amp_at(f64::from(e) - 0.4);
+            c.observe_watching(i, v, false, watch, VoltageTiming::End);
         }
         rest(&mut c);
         assert!((c.ratio(10).unwrap() - 1.1).abs() < 2.5e-4);
-        assert!(
-            (c.ratio(1).unwrap() - 1.1).abs() < 2.5e-4,
-            "the nearest known"
-        );
+        assert!((c.ratio(1).unwrap() - 1.1).abs() < 1.1 * 0.005);
         // A watched pulse from a cell still drifting: its misses count,
         // not its ratios.
         rest(&mut c);
         assert!(c.start(-2.0, predicted, 1e-3, false));
         for k in 1..=30u32 {
-            c.observe_watching(-2.0, 3.7 - 1.5 * drop(k), false, watch);
+            c.observe_watching(-2.0, 3.7 - 1.5 * drop(k), false, watch, VoltageTiming::End);
         }
         rest(&mut c);
         assert!((c.missed().at(10) - 0.5).abs() < 1e-9);

@@ -98,6 +98,14 @@ pub struct OnlineSettings<T, const P: usize = 0> {
     /// ([`PulseCheck::corrected`](crate::battery::power::PulseCheck::corrected)).
     /// `None` (the default): no correction. Finite and not 0.
     pub pulse_current: Option<T>,
+    /// Where in the period whose mean current a sample holds its voltage
+    /// was taken: at its end (the default: a gauge, a simulation), the
+    /// mean over it (a log put on a coarser period than its rows), or at
+    /// its start ([`VoltageTiming`](crate::battery::power::VoltageTiming)).
+    /// The check of the state of power against the next pulse places each
+    /// voltage so
+    /// ([`PulseCheck::observe_watching`](crate::battery::power::PulseCheck::observe_watching)).
+    pub voltage_timing: crate::battery::power::VoltageTiming,
     /// The SOC observer beside the count (with a curve;
     /// [`crate::battery::soc`]). [`with_curve`](Self::with_curve) sets its
     /// defaults for the curve's capacity: change them after it.
@@ -140,6 +148,7 @@ impl<T: Real> OnlineSettings<T> {
             slow_memory_s: T::zero(),
             slow_memory_soc: T::lit(0.02),
             pulse_current: None,
+            voltage_timing: crate::battery::power::VoltageTiming::End,
             soc: SocSettings::new(T::one(), h),
         }
     }
@@ -186,6 +195,7 @@ impl<T: Real, const P: usize> OnlineSettings<T, P> {
             slow_memory_soc: self.slow_memory_soc,
             max_relaxation_windows: self.max_relaxation_windows,
             pulse_current: self.pulse_current,
+            voltage_timing: self.voltage_timing,
             soc,
         }
     }
