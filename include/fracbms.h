@@ -34,6 +34,12 @@
 #define FRACBMS_MAP_LEVELS_MAX 64
 
 /**
+ * The most horizons one state-of-power request asks for (the core's
+ * `MAX_HORIZONS`).
+ */
+#define FRACBMS_HORIZONS_MAX 8
+
+/**
  * `UINT32_MAX`: a time the caller does not know.
  */
 #define FRACBMS_TIME_UNKNOWN UINT32_MAX
@@ -42,12 +48,6 @@
  * Largest OCV table the C interface takes (points).
  */
 #define FRACBMS_OCV_POINTS_MAX 128
-
-/**
- * The most horizons one state-of-power request asks for (the core's
- * `MAX_HORIZONS`).
- */
-#define FRACBMS_HORIZONS_MAX 8
 
 /**
  * What a call did: `FRACBMS_OK`, or why it did nothing.

@@ -60,6 +60,7 @@ use core::ffi::c_char;
 #[cfg(not(target_os = "none"))]
 mod identify;
 mod map;
+mod power;
 mod snapshot;
 mod soc;
 mod state;
@@ -69,6 +70,7 @@ mod types;
 pub use identify::{FracbmsFit, FracbmsIdentifyOptions};
 pub use map::{fracbms_cell_follow_map, fracbms_cell_set_prior, fracbms_map_cell_at};
 pub use map::{FracbmsMapLevel, FRACBMS_MAP_LEVELS_MAX};
+pub use power::{FracbmsHorizonPower, FracbmsPower, FracbmsPowerRequest, FRACBMS_HORIZONS_MAX};
 pub use snapshot::{
     fracbms_cell_snapshot_restore, fracbms_cell_snapshot_save, fracbms_cell_snapshot_size,
     fracbms_pack_snapshot_restore, fracbms_pack_snapshot_save, fracbms_pack_snapshot_size,
@@ -79,10 +81,9 @@ pub use soc::{
     FracbmsSocSettings,
 };
 pub use types::{
-    FracbmsCode, FracbmsEstimate, FracbmsHorizonPower, FracbmsIdentification, FracbmsMethod,
-    FracbmsModel, FracbmsParameters, FracbmsPower, FracbmsPowerRequest, FracbmsPublished,
-    FracbmsRejection, FracbmsRestoration, FracbmsSettings, FracbmsSoc, FracbmsStatus,
-    FRACBMS_HORIZONS_MAX, FRACBMS_OCV_POINTS_MAX,
+    FracbmsCode, FracbmsEstimate, FracbmsIdentification, FracbmsMethod, FracbmsModel,
+    FracbmsParameters, FracbmsPublished, FracbmsRejection, FracbmsRestoration, FracbmsSettings,
+    FracbmsSoc, FracbmsStatus, FracbmsVoltageTiming, FRACBMS_OCV_POINTS_MAX,
 };
 
 use state::{CellOp, PackOp, PackOut};

@@ -12,9 +12,9 @@ use estimator_core::battery::pack::{PackEstimator, PackSettings};
 use estimator_core::battery::snapshot::{RestorePolicy, SnapshotError};
 use estimator_core::battery::Prior;
 
+use crate::power::{FracbmsPower, FracbmsPowerRequest};
 use crate::types::{
-    FracbmsCode, FracbmsEstimate, FracbmsParameters, FracbmsPower, FracbmsPowerRequest, FracbmsSoc,
-    Settings, FRACBMS_OCV_POINTS_MAX,
+    FracbmsCode, FracbmsEstimate, FracbmsParameters, FracbmsSoc, Settings, FRACBMS_OCV_POINTS_MAX,
 };
 
 /// Written at the start of a cell's memory by `init`.
