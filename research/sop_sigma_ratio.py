@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 # Research script (docs/research.md), not a benchmark.
 # Question: How much does checking the state of power against the last pulse (PulseCheck) widen the pulse voltage's sigma on the measured HPPC pulses?
-# Answer: without a prior, median 1.022x, 90th/95th percentile 1.94x/2.60x, more than doubled at 22 of 221 pulses (largest 7.11x); with the map, at most 1.17x.
+# Answer: without a prior, median 1.040x, 90th/95th percentile 2.40x/3.04x, more than doubled at 32 of 221 pulses (largest 7.80x); with the map, at most 1.23x (each pulse measured from its edge, docs/state-of-power.md).
 """The pulse voltage's sigma with the check against the last pulse over
 the same without it, per measured Panasonic HPPC pulse (issue 72;
 docs/state-of-power.md, "How sure, and the derated limits").

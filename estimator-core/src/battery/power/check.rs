@@ -18,10 +18,12 @@
 //! also leaves its signed ratio, the measured drop over the predicted one
 //! at each duration ([`PulseCheck::ratio`]); the pack corrects that
 //! current's predicted pulse voltage from a settled cell by it
-//! ([`PulseCheck::corrected`]). On the measured Panasonic HPPC tests and
-//! the DFN HPPC records this brings the median miss of the next pulse of
-//! that current to 1.1–5.8 % of its drop where it applies
-//! (docs/state-of-power.md).
+//! ([`PulseCheck::corrected`]). Each duration is measured from the pulse's
+//! edge, wherever it falls within a sample, with each voltage placed where
+//! in its period it was taken ([`VoltageTiming`]). On the measured
+//! Panasonic HPPC tests and the DFN HPPC records this brings the median
+//! miss of the next pulse of that current to 1.1–4.5 % of its drop where
+//! it applies (docs/state-of-power.md).
 //!
 //! It owns the check's state; it must not change the estimate or what is
 //! published (the pack gives it the predicted voltages and applies the
@@ -98,8 +100,10 @@ impl VoltageTiming {
 
 /// How far past its last two samples a pulse's voltage is carried on, in
 /// periods, to a duration it did not reach: a pulse as long as the
-/// duration, its edge within a sample, whose voltages lead
-/// ([`PulseCheck::observe_watching`]), ends up to two periods short of it.
+/// duration, its edge within a sample, whose voltages are taken before
+/// their periods' ends ([`VoltageTiming::Mean`], [`VoltageTiming::Start`]),
+/// ends up to two periods short of it (its last sample's voltage holds the
+/// edge back to rest).
 pub const CARRY_PERIODS: f64 = 2.0;
 
 /// The relative miss of the last checked pulse at each of [`CHECK_STEPS`]:
@@ -285,18 +289,21 @@ impl<T: Real> PulseCheck<T> {
     /// ends before a duration leaves the last pulse's miss there.
     ///
     /// A first sample that averaged the current over the edge (a
-    /// resampled log: part of the current after it, of the same sign), or
-    /// a current still settling (within a tenth), holds the share `f` of
-    /// the current held after it: the edge came `1 − f` of a period into
-    /// it. Each duration's voltage is then interpolated between the two
-    /// samples around it, or carried on from the two before by less than
-    /// [`CARRY_PERIODS`] for a pulse that ends short of it. So the ratio is the
-    /// voltage a pulse gives that long after its edge over what the model
-    /// publishes for a pulse of that many samples: on a record put on 2 s
-    /// whose pulses start anywhere within a period, the published pulse
-    /// voltage, corrected by it ([`Self::corrected`]), is the cell's that
-    /// long after the edge. A first sample's miss counts once the second
-    /// sample holds the same current (within 2 %).
+    /// resampled log: part of the current after it, of the same sign)
+    /// holds the share `f` of the current held after it: the edge came
+    /// `1 − f` of a period into it. Each duration's voltage is then
+    /// interpolated between the two samples around it in the square root
+    /// of the time since the edge, or carried on from the two before by
+    /// less than [`CARRY_PERIODS`] for a pulse that ends short of it. So
+    /// the ratio is the voltage a pulse gives that long after its edge
+    /// over what the model publishes for a pulse of that many samples: on
+    /// a record put on 2 s whose pulses start anywhere within a period,
+    /// the published pulse voltage, corrected by it ([`Self::corrected`]),
+    /// is the cell's that long after the edge. A current still settling
+    /// after the first sample (within a tenth, smaller) is checked at the
+    /// current it settles to, its first sample's miss at its own. A first
+    /// sample's miss counts once the second sample holds the same current
+    /// (within 2 %).
     pub fn observe(&mut self, current: T, voltage: T, rejected: bool) {
         self.observe_watching(current, voltage, rejected, None, VoltageTiming::End);
     }
