@@ -82,6 +82,13 @@ impl VoltageTiming {
         T::lit(f64::from(k)) - T::lit(1.0 + lead) + f
     }
 
+    /// Samples from the pulse's own first whose voltage is not read: 0
+    /// where each voltage comes at its period's end, 1 where the first
+    /// sample's holds the edge or comes before it.
+    fn unread(self) -> u32 {
+        u32::from(self != Self::End)
+    }
+
     /// The response's growth at a voltage `since` periods after the edge
     /// (placed by [`Self::since_edge`]), in which the check interpolates:
     /// the square root of the time, a fractional model's response growing
@@ -362,8 +369,7 @@ impl<T: Real> PulseCheck<T> {
             if goes_on {
                 self.measure(voltage, timing, watch);
             }
-            let leads = timing != VoltageTiming::End;
-            let last = CHECK_STEPS[CHECKS - 1] + 1 + u32::from(leads);
+            let last = CHECK_STEPS[CHECKS - 1] + 1 + timing.unread();
             if !goes_on || self.elapsed >= last {
                 self.current = T::nan();
             }
@@ -386,7 +392,7 @@ impl<T: Real> PulseCheck<T> {
         let since = |k: u32| timing.since_edge(k, f);
         let now = self.before - voltage;
         // The sample before, where its voltage came after the edge.
-        let lead = u32::from(timing != VoltageTiming::End);
+        let lead = timing.unread();
         let prev = (e > 1 + lead).then(|| self.before - self.last.1);
         let scale = self.held / self.current;
         let predicted = self.predicted;
@@ -399,10 +405,9 @@ impl<T: Real> PulseCheck<T> {
                 // Between the sample before and this one, or carried on
                 // from them by less than `CARRY_PERIODS` (a pulse that ends
                 // before the next sample leaves this), in the response's
-                // growth (`VoltageTiming::root`).
-                // The first two samples after the edge also reach back to
-                // a duration before them (a mean over a period that
-                // started after it).
+                // growth (`VoltageTiming::root`). The first two samples
+                // after the edge also reach back to a duration before them
+                // (a mean over a period that started after it).
                 let first_pair = e == 2 + lead;
                 prev.filter(|_| (since(e - 1) < at || first_pair) && at - d < T::lit(CARRY_PERIODS))
                     .map(|prev| {
