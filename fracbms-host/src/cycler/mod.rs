@@ -110,6 +110,12 @@ pub struct RecordOptions {
     /// more is refused. A whole-record fit sets [`MAX_SAMPLES`].
     #[serde(skip)]
     pub max_samples: Option<usize>,
+    /// Durations (s) a period chosen from the data is raised to divide,
+    /// by at most a quarter ([`resample::dividing_period`]): the state of
+    /// power's horizons, so that each is whole samples. A given or uniform
+    /// period is kept.
+    #[serde(skip)]
+    pub divide_s: Vec<f64>,
     /// Step starts from the step-time column, or without one from the
     /// export's charge count beyond the log's rhythm (`auto`, default);
     /// the count placing every change it dates (`count`); or each row's
@@ -585,10 +591,8 @@ fn finish(
     let limit = o.max_samples.unwrap_or(usize::MAX);
     let chosen = || {
         let t: Vec<f64> = keep.iter().map(|&i| raw.time[i]).collect();
-        (
-            resample::default_period(&t, limit.min(MAX_SAMPLES)),
-            "chosen",
-        )
+        let h = resample::default_period(&t, limit.min(MAX_SAMPLES));
+        (resample::dividing_period(h, &o.divide_s), "chosen")
     };
     let (h, source) = match (o.period, kept_uniform) {
         (Some(h), Some(u)) if (h - u).abs() <= 1e-6 * u => (u, "uniform"),

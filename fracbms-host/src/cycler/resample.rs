@@ -73,6 +73,42 @@ pub fn default_period(time: &[f64], max_samples: usize) -> f64 {
     nice_up(h)
 }
 
+/// A chosen period `h` raised, where it can be by at most a quarter, to the
+/// smallest number of two significant digits that divides every one of
+/// `durations` (s, to 1 ppm): a track whose state of power is asked at 10
+/// and 30 s, on a log whose own rhythm gives 1.8 s, is put on 2 s, so that
+/// each horizon is whole samples (at 1.8 s, 10 s would be 6 samples,
+/// 10.8 s). `h` as it is where none within a quarter divides them all, or
+/// where no duration is given.
+///
+/// ```
+/// use fracbms_host::cycler::resample::dividing_period;
+/// assert_eq!(dividing_period(1.8, &[10.0, 30.0]), 2.0);
+/// assert_eq!(dividing_period(0.94, &[2.0, 10.0]), 1.0);
+/// assert_eq!(dividing_period(2.0, &[10.0, 30.0]), 2.0);
+/// // 3.3 s to 4.1 s: none divides 10 s.
+/// assert_eq!(dividing_period(3.3, &[10.0, 30.0]), 3.3);
+/// assert_eq!(dividing_period(1.8, &[]), 1.8);
+/// ```
+pub fn dividing_period(h: f64, durations: &[f64]) -> f64 {
+    if durations.is_empty() || !(h.is_finite() && h > 0.0) {
+        return h;
+    }
+    let divides = |p: f64| {
+        durations.iter().all(|&d| {
+            let n = (d / p).round();
+            n >= 1.0 && (d / p - n).abs() <= 1e-6 * (d / p)
+        })
+    };
+    let unit = 10f64.powf(h.log10().floor() - 1.0);
+    let first = (h / unit * (1.0 - 1e-6)).ceil();
+    (0..)
+        .map(|k| nice_up((first + f64::from(k)) * unit))
+        .take_while(|&p| p <= 1.25 * h * (1.0 + 1e-9))
+        .find(|&p| divides(p))
+        .unwrap_or(h)
+}
+
 /// The smallest number of two significant digits that is ≥ `x` (to
 /// 1 ppm): a log's own step stays as it is (0.1 s, 60 s), a raised one
 /// is rounded up (0.936 s → 0.94 s).

@@ -251,6 +251,41 @@ fn a_uniform_log_beyond_the_limit_is_put_on_a_longer_period() {
     assert!(e.contains("at most 50000"), "{e}");
 }
 
+/// A period chosen from the data is raised to divide the durations asked
+/// (the state of power's horizons), by at most a quarter; a given one is
+/// kept.
+#[test]
+fn a_chosen_period_is_raised_to_divide_the_horizons() {
+    // A log of 1.8 s rows, one in ten 1.75 s late (not uniform).
+    let mut t = String::from("time_s,current_a,voltage_v\n");
+    let mut time = 0.0;
+    for k in 0..400 {
+        t.push_str(&format!("{time:.3},-1,3.6\n"));
+        time += if k % 10 == 9 { 1.75 } else { 1.8 };
+    }
+    let r = read(&t, &RecordOptions::default()).unwrap();
+    assert_eq!((r.record.h, r.report.period_source), (1.8, "chosen"));
+    let o = RecordOptions {
+        divide_s: vec![10.0, 30.0],
+        ..RecordOptions::default()
+    };
+    let r = read(&t, &o).unwrap();
+    assert_eq!((r.record.h, r.report.period_source), (2.0, "chosen"));
+    // 7 s: none of 1.8–2.25 s divides it.
+    let o = RecordOptions {
+        divide_s: vec![7.0],
+        ..RecordOptions::default()
+    };
+    assert_eq!(read(&t, &o).unwrap().record.h, 1.8);
+    let o = RecordOptions {
+        period: Some(1.8),
+        divide_s: vec![10.0, 30.0],
+        ..RecordOptions::default()
+    };
+    let r = read(&t, &o).unwrap();
+    assert_eq!((r.record.h, r.report.period_source), (1.8, "given"));
+}
+
 fn data(name: &str) -> std::path::PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("../data")

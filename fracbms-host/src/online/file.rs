@@ -160,8 +160,17 @@ pub(crate) fn battery_run(
     snapshot: Option<&[u8]>,
 ) -> Result<(OnlineReport, Vec<u8>)> {
     let t0 = std::time::Instant::now();
+    // A period chosen from the data is raised to divide the horizons where
+    // the state of power is published: `pulse_v_10s` is then 10 s of
+    // samples, not the nearest whole number of them.
+    let divide_s = if o.power.published(o.ocv.ocv.is_some()) {
+        o.power.horizons().to_vec()
+    } else {
+        Vec::new()
+    };
     let record = crate::cycler::RecordOptions {
         capacity_ah: o.record.capacity_ah.or(o.ocv.capacity_ah),
+        divide_s,
         ..o.record.clone()
     };
     let read = crate::cycler::read_record(input, &record)?;

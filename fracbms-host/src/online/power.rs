@@ -167,6 +167,13 @@ impl PowerOptions {
         p.filter(|i| self.pulse_correction && i.is_finite() && *i != 0.0)
     }
 
+    /// Whether the state of power is published for a run with an OCV
+    /// table (`table`) or without: both voltage limits given or known
+    /// from it ([`Self::resolve`]).
+    pub(crate) fn published(&self, table: bool) -> bool {
+        (table || self.voltage_min.is_some()) && (table || self.voltage_max.is_some())
+    }
+
     /// The limits and the pulse for a cell with `cell`'s table and
     /// capacity; `None` where the voltage limits are neither given nor
     /// known from a table.

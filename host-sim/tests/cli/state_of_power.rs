@@ -153,6 +153,45 @@ fn the_state_of_power_is_carried_no_farther_than_asked() {
     assert!(none < window && window < long, "{none} {window} {long}");
 }
 
+/// A period chosen from the data is raised to divide the horizons where
+/// the state of power is published, so that `pulse_v_10s` is 10 s of
+/// samples: a log of 1.8 s rows is put on 2 s with voltage limits, and
+/// stays on 1.8 s without them, with a horizon none of 1.8–2.25 s
+/// divides, or with `--period` given.
+#[test]
+fn a_chosen_period_divides_the_horizons() {
+    let log = tmp("sop-period-log.csv");
+    let mut t = String::from("time_s,current_a,voltage_v\n");
+    let mut time = 0.0;
+    for k in 0..400 {
+        let i = if k < 100 { 0.0 } else { -1.0 };
+        t.push_str(&format!("{time:.3},{i},{}\n", 3.7 + 0.02 * i));
+        time += if k % 10 == 9 { 1.75 } else { 1.8 };
+    }
+    std::fs::write(&log, t).unwrap();
+    let step = |extra: &[&str]| {
+        let out = tmp("sop-period-track.csv");
+        let mut args = vec!["online", "battery", "--input", s(&log), "--out", s(&out)];
+        args.extend_from_slice(extra);
+        let o = run(&args);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let text = std::fs::read_to_string(&out).unwrap();
+        let mut rows = text.lines();
+        let head: Vec<String> = rows.next().unwrap().split(',').map(String::from).collect();
+        let k = col(&head, "time_s");
+        let times: Vec<f64> = rows
+            .take(2)
+            .map(|l| l.split(',').nth(k).unwrap().parse().unwrap())
+            .collect();
+        ((times[1] - times[0]) * 1e6).round() / 1e6
+    };
+    let limits = ["--voltage-min", "3.0", "--voltage-max", "4.2"];
+    assert_eq!(step(&limits), 2.0);
+    assert_eq!(step(&[]), 1.8);
+    assert_eq!(step(&[&limits[..], &["--horizons", "7"]].concat()), 1.8);
+    assert_eq!(step(&[&limits[..], &["--period", "1.8"]].concat()), 1.8);
+}
+
 /// `online battery` on the chen2020 DFN HPPC record with its OCV table and
 /// capacity, and `extra` flags: the track's header and rows (cells as
 /// written), its file named by `tag`.
