@@ -171,7 +171,7 @@ impl PowerOptions {
     /// table (`table`) or without: both voltage limits given or known
     /// from it ([`Self::resolve`]).
     pub(crate) fn published(&self, table: bool) -> bool {
-        (table || self.voltage_min.is_some()) && (table || self.voltage_max.is_some())
+        table || (self.voltage_min.is_some() && self.voltage_max.is_some())
     }
 
     /// The limits and the pulse for a cell with `cell`'s table and
