@@ -111,9 +111,10 @@ pub struct RecordOptions {
     #[serde(skip)]
     pub max_samples: Option<usize>,
     /// Durations (s) a period chosen from the data is raised to divide,
-    /// by at most a quarter ([`resample::dividing_period`]): the state of
-    /// power's horizons, so that each is whole samples. A given or uniform
-    /// period is kept.
+    /// by at most a quarter ([`resample::dividing_period`]), where it was
+    /// raised past the log's own median step to keep within the sample
+    /// budget: the state of power's horizons, so that each is whole
+    /// samples. A given or uniform period, or a log's own step, is kept.
     #[serde(skip)]
     pub divide_s: Vec<f64>,
     /// Step starts from the step-time column, or without one from the
@@ -592,7 +593,16 @@ fn finish(
     let chosen = || {
         let t: Vec<f64> = keep.iter().map(|&i| raw.time[i]).collect();
         let h = resample::default_period(&t, limit.min(MAX_SAMPLES));
-        (resample::dividing_period(h, &o.divide_s), "chosen")
+        // Only a period raised past the log's own rhythm for the sample
+        // budget is raised again to divide the horizons: a log's own step
+        // (a NASA discharge's 9.4 s) is how it was measured.
+        let own = resample::default_period(&t, usize::MAX);
+        let h = if h > own {
+            resample::dividing_period(h, &o.divide_s)
+        } else {
+            h
+        };
+        (h, "chosen")
     };
     let (h, source) = match (o.period, kept_uniform) {
         (Some(h), Some(u)) if (h - u).abs() <= 1e-6 * u => (u, "uniform"),

@@ -251,39 +251,56 @@ fn a_uniform_log_beyond_the_limit_is_put_on_a_longer_period() {
     assert!(e.contains("at most 50000"), "{e}");
 }
 
-/// A period chosen from the data is raised to divide the durations asked
-/// (the state of power's horizons), by at most a quarter; a given one is
-/// kept.
+/// A period chosen from the data, raised past the log's own step to keep
+/// within the sample budget, is raised again to divide the durations
+/// asked (the state of power's horizons), by at most a quarter; a given
+/// one, or a log's own step, is kept.
 #[test]
 fn a_chosen_period_is_raised_to_divide_the_horizons() {
-    // A log of 1.8 s rows, one in ten 1.75 s late (not uniform).
-    let mut t = String::from("time_s,current_a,voltage_v\n");
-    let mut time = 0.0;
-    for k in 0..400 {
-        t.push_str(&format!("{time:.3},-1,3.6\n"));
-        time += if k % 10 == 9 { 1.75 } else { 1.8 };
-    }
-    let r = read(&t, &RecordOptions::default()).unwrap();
+    // 0.1 s rows, one in ten 0.095 s (not uniform), over 174.9 s: within
+    // 100 samples, 1.8 s.
+    let log = |step: f64, rows: usize| {
+        let mut t = String::from("time_s,current_a,voltage_v\n");
+        let mut time = 0.0;
+        for k in 0..rows {
+            t.push_str(&format!("{time:.4},-1,3.6\n"));
+            time += if k % 10 == 9 { 0.95 * step } else { step };
+        }
+        t
+    };
+    let t = log(0.1, 1750);
+    let budget = RecordOptions {
+        max_samples: Some(100),
+        ..RecordOptions::default()
+    };
+    let r = read(&t, &budget).unwrap();
     assert_eq!((r.record.h, r.report.period_source), (1.8, "chosen"));
     let o = RecordOptions {
         divide_s: vec![10.0, 30.0],
-        ..RecordOptions::default()
+        ..budget.clone()
     };
     let r = read(&t, &o).unwrap();
     assert_eq!((r.record.h, r.report.period_source), (2.0, "chosen"));
     // 7 s: none of 1.8–2.25 s divides it.
     let o = RecordOptions {
         divide_s: vec![7.0],
-        ..RecordOptions::default()
+        ..budget.clone()
     };
     assert_eq!(read(&t, &o).unwrap().record.h, 1.8);
     let o = RecordOptions {
         period: Some(1.8),
         divide_s: vec![10.0, 30.0],
-        ..RecordOptions::default()
+        ..budget
     };
     let r = read(&t, &o).unwrap();
     assert_eq!((r.record.h, r.report.period_source), (1.8, "given"));
+    // A log whose own step is 1.8 s keeps it.
+    let o = RecordOptions {
+        divide_s: vec![10.0, 30.0],
+        ..RecordOptions::default()
+    };
+    let r = read(&log(1.8, 400), &o).unwrap();
+    assert_eq!((r.record.h, r.report.period_source), (1.8, "chosen"));
 }
 
 fn data(name: &str) -> std::path::PathBuf {

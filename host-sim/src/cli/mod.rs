@@ -230,9 +230,9 @@ pub struct RecordArgs {
     pub current_sign: CurrentSignArg,
     /// Put the record on this uniform period (s). Default: a uniform log as
     /// it is; a non-uniform one at its median step, raised to keep it
-    /// within 50 000 samples (printed), and for `online battery` with a
-    /// state of power raised by at most a quarter to divide every
-    /// `--horizons` (1.8 s → 2 s for 10 and 30 s). The current is the mean over each
+    /// within 50 000 samples (printed); so raised, for `online battery`
+    /// with a state of power, raised again by at most a quarter to divide
+    /// every `--horizons` (1.8 s → 2 s for 10 and 30 s). The current is the mean over each
     /// period (the charge is kept), the voltage taken at the instants.
     #[arg(long)]
     pub period: Option<f64>,
