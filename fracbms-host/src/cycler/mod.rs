@@ -592,16 +592,7 @@ fn finish(
     let limit = o.max_samples.unwrap_or(usize::MAX);
     let chosen = || {
         let t: Vec<f64> = keep.iter().map(|&i| raw.time[i]).collect();
-        let h = resample::default_period(&t, limit.min(MAX_SAMPLES));
-        // Only a period raised past the log's own rhythm for the sample
-        // budget is raised again to divide the horizons: a log's own step
-        // (a NASA discharge's 9.4 s) is how it was measured.
-        let own = resample::default_period(&t, usize::MAX);
-        let h = if h > own {
-            resample::dividing_period(h, &o.divide_s)
-        } else {
-            h
-        };
+        let h = resample::chosen_period(&t, limit.min(MAX_SAMPLES), &o.divide_s);
         (h, "chosen")
     };
     let (h, source) = match (o.period, kept_uniform) {

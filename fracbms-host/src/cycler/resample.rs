@@ -73,6 +73,30 @@ pub fn default_period(time: &[f64], max_samples: usize) -> f64 {
     nice_up(h)
 }
 
+/// The period a log is put on when none is given: [`default_period`]
+/// within `max_samples`, raised to divide `durations` ([`dividing_period`])
+/// only where the budget raised it past the log's own step. A log's own
+/// step is how it was measured (a NASA discharge's 9.4 s); a 0.1 s log put
+/// on 1.8 s to keep within the budget is put on 2 s for horizons of 10
+/// and 30 s.
+///
+/// ```
+/// use fracbms_host::cycler::resample::chosen_period;
+/// let fine: Vec<f64> = (0..1000).map(|k| k as f64 * 0.1).collect();
+/// assert_eq!(chosen_period(&fine, 56, &[10.0, 30.0]), 2.0);
+/// assert_eq!(chosen_period(&fine, 56, &[]), 1.9);
+/// let own: Vec<f64> = (0..100).map(|k| k as f64 * 1.8).collect();
+/// assert_eq!(chosen_period(&own, 50_000, &[10.0, 30.0]), 1.8);
+/// ```
+pub fn chosen_period(time: &[f64], max_samples: usize, durations: &[f64]) -> f64 {
+    let h = default_period(time, max_samples);
+    if h > default_period(time, usize::MAX) {
+        dividing_period(h, durations)
+    } else {
+        h
+    }
+}
+
 /// A chosen period `h` raised, where it can be by at most a quarter, to the
 /// smallest number of two significant digits that divides every one of
 /// `durations` (s, to 1 ppm): a track whose state of power is asked at 10
