@@ -100,8 +100,8 @@ pub fn chosen_period(time: &[f64], max_samples: usize, durations: &[f64]) -> f64
 /// A chosen period `h` raised, where it can be by at most a quarter, to the
 /// smallest number of two significant digits that divides every one of
 /// `durations` (s, to 1 ppm): a track whose state of power is asked at 10
-/// and 30 s, on a log whose own rhythm gives 1.8 s, is put on 2 s, so that
-/// each horizon is whole samples (at 1.8 s, 10 s would be 6 samples,
+/// and 30 s, on a log the sample budget puts on 1.8 s, is put on 2 s, so
+/// that each horizon is whole samples (at 1.8 s, 10 s would be 6 samples,
 /// 10.8 s). `h` as it is where none within a quarter divides them all, or
 /// where no duration is given.
 ///

@@ -160,8 +160,9 @@ pub(crate) fn battery_run(
     snapshot: Option<&[u8]>,
 ) -> Result<(OnlineReport, Vec<u8>)> {
     let t0 = std::time::Instant::now();
-    // A period chosen from the data is raised to divide the horizons where
-    // the state of power is published: `pulse_v_10s` is then 10 s of
+    // A period chosen from the data past the log's own step is raised to
+    // divide the horizons where the state of power is published
+    // (`cycler::resample::chosen_period`): `pulse_v_10s` is then 10 s of
     // samples, not the nearest whole number of them.
     let divide_s = if o.power.published(o.ocv.ocv.is_some()) {
         o.power.horizons().to_vec()
