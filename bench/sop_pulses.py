@@ -121,7 +121,10 @@ def read(path):
 
 
 def pulses(path=PANASONIC):
-    """(start time, current, length s) of every discharge pulse from rest."""
+    """(start time, current, length s) of every discharge pulse from rest.
+    The current is the median over the pulse's samples after its edge: the
+    Panasonic logs' first sample holds part of the edge (−1.39 A where the
+    small pulses hold −1.45 A)."""
     t, i, v = read(path)
     # An edge within one sample: the Panasonic logs' 0.1 s, the DFN's 1 s.
     edge = (np.diff(i) < -1.0) & (np.abs(i[:-1]) < 0.05) & (np.diff(t) < (1.01 if path.endswith(".csv") else 0.2))
@@ -130,8 +133,15 @@ def pulses(path=PANASONIC):
         e = j + 1
         while e < len(i) and abs(i[e] - i[j + 1]) < 0.2:
             e += 1
-        out.append((t[j], i[j + 1], t[e - 1] - t[j]))
+        plateau = i[j + 2:e] if e > j + 2 else i[j + 1:e]
+        out.append((t[j], float(np.median(plateau)), t[e - 1] - t[j]))
     return out, (t, v)
+
+
+def current_key(current):
+    """The current (A) a pulse's track is asked for and named by: to 10 mA,
+    one track per pulse current of these records."""
+    return round(current, 2)
 
 
 def stats(pred, meas, drop):
@@ -205,7 +215,7 @@ def pulse_track(out, path, current, variant):
     """The rows of the `--acceptance` run of the record at `path` asked for
     pulses of `current` (A), without a prior (`variant` "none") or with the
     record's own map ("map")."""
-    return list(csv.DictReader(open(f"{record_dir(out, path)}/pulse{round(current, 1)}-{variant}.csv")))
+    return list(csv.DictReader(open(f"{record_dir(out, path)}/pulse{current_key(current)}-{variant}.csv")))
 
 
 def row_before(track, start):
@@ -236,7 +246,7 @@ def rows_before_pulses(out, name, variant):
     path = RECORD_SPECS[name][0]
     tracks = {}
     for h, start, cur in pulses_judged(name):
-        c = round(cur, 1)
+        c = current_key(cur)
         if c not in tracks:
             tracks[c] = pulse_track(out, path, cur, variant)
         yield h, start, cur, tracks[c][row_before(tracks[c], start)]
@@ -268,7 +278,7 @@ def acceptance(host_sim, out, map_method, online_args=(), map_model="linear", wo
         rec_out = record_dir(out, path)
         os.makedirs(rec_out, exist_ok=True)
         mp = record_map(host_sim, path, rec_out, map_method, ocv_path, cap, min_rest, map_model)
-        currents = sorted({round(c, 1) for _, c, _ in ps})
+        currents = sorted({current_key(c) for _, c, _ in ps})
         # Baselines: per pulse and horizon, keyed by the pulse's index.
         naive, rc = {}, {}
         prev = {}
@@ -310,7 +320,7 @@ def acceptance(host_sim, out, map_method, online_args=(), map_model="linear", wo
                     if g[j] == 0 or length < h:
                         continue
                     n += 1
-                    tr = tracks[round(cur, 1)]
+                    tr = tracks[current_key(cur)]
                     tt = np.array([float(r["time_s"]) for r in tr])
                     k = row_before(tr, start)
                     before = np.interp(start, t, v)
@@ -391,7 +401,7 @@ def main():
         return
     ps, (t, v) = pulses()
     if a.resistances:
-        # The test's levels: five pulses each, -1.4 to -17.4 A.
+        # The test's levels: five pulses each, -1.45 to -17.4 A.
         line = []
         for start, cur, _ in ps:
             if line and cur > -2.0:
@@ -399,13 +409,13 @@ def main():
                 line = []
             r = [1e3 * (np.interp(start, t, v) - np.interp(start + h, t, v)) / -cur
                  for h in HORIZONS]
-            line.append(f"{start:.0f} s {cur:.1f} A: " + ", ".join(
+            line.append(f"{start:.0f} s {cur:.2f} A: " + ", ".join(
                 f"{h} s {x:.1f} mOhm" for h, x in zip(HORIZONS, r)))
         print("; ".join(line))
         return
     i_raw = sio.loadmat(PANASONIC)["meas"][0, 0]["Current"].ravel()
     ocv = ocv_table()
-    currents = sorted({round(c, 1) for _, c, _ in ps})
+    currents = sorted({current_key(c) for _, c, _ in ps})
     # Ours as published (carried from the fit no farther than the window
     # reaches), and carried through the test's 20-min rests.
     variants = {
@@ -432,7 +442,7 @@ def main():
             tr = list(csv.DictReader(open(track)))
             tt = np.array([float(r["time_s"]) for r in tr])
             for start, cur, length in ps:
-                if round(cur, 1) != c:
+                if current_key(cur) != c:
                     continue
                 # The last sample whose period [t_k, t_k + h) ends before
                 # the pulse (the resampled current is each period's mean:

@@ -36,7 +36,7 @@ def main():
                 for j, (start, cur, length) in enumerate(ps):
                     if g[j] == 0 or length < h:
                         continue
-                    c = round(cur, 1)
+                    c = S.current_key(cur)
                     if c not in tracks:
                         tracks[c] = S.pulse_track("target/sop", path, cur, variant)
                     tr = tracks[c]

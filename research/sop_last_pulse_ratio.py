@@ -64,7 +64,7 @@ def main():
             for h in horizons:
                 ours, corrected, worst, last, n = [], [], [], {}, 0
                 for j, (start, cur, length) in enumerate(ps):
-                    c = round(cur, 1)
+                    c = sp.current_key(cur)
                     if c not in tracks:
                         tracks[c] = sp.pulse_track(a.out, path, cur, variant)
                     tr = tracks[c]

@@ -60,7 +60,7 @@ def pulses():
         rec = sp.record_dir("target/sop", path)
         cache = {}
         for h, start, cur in sp.pulses_judged(name):
-            c = round(cur, 1)
+            c = sp.current_key(cur)
             if c not in cache:
                 tr = list(csv.DictReader(open(f"{rec}/pulse{c}-none.csv")))
                 tt = np.array([f(r["time_s"]) for r in tr])
