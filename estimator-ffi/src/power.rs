@@ -3,7 +3,7 @@
 //! horizon), and their conversion to and from the core's. This module owns
 //! that mapping; it must not hold state.
 
-use estimator_core::battery::power::{PowerLimits, PowerReport, PowerSettings};
+use estimator_core::battery::power::{samples, PowerLimits, PowerReport, PowerSettings};
 
 /// The most horizons one state-of-power request asks for (the core's
 /// `MAX_HORIZONS`).
@@ -103,26 +103,16 @@ impl FracbmsPowerRequest {
     pub(crate) fn settings(&self, h: f32) -> Option<PowerSettings<f32>> {
         let n = usize::try_from(self.horizon_count).ok()?;
         let horizons = self.horizons_s.get(..n)?;
-        let mut steps = [0u32; FRACBMS_HORIZONS_MAX];
-        for (k, &hz) in steps.iter_mut().zip(horizons) {
-            if !(hz.is_finite() && hz > 0.0) {
-                return None;
-            }
-            // Rounded to the nearest sample (no `f32::round` in `no_std`).
-            *k = ((hz / h + 0.5) as u32).max(1);
-        }
         let limits = PowerLimits {
             voltage_min: self.voltage_min,
             voltage_max: self.voltage_max,
             current_limit: self.current_limit,
         };
         let pulse = (!self.pulse_current.is_nan()).then_some(self.pulse_current);
-        let mut p = PowerSettings::new(limits, &steps[..n], pulse)?;
+        // Each horizon rounded to the nearest sample, as the CLI's.
+        let mut p = PowerSettings::from_seconds(limits, horizons, h, pulse)?;
         if !self.carry_s.is_nan() {
-            if !(self.carry_s.is_finite() && self.carry_s >= 0.0) {
-                return None;
-            }
-            p.carry = Some((self.carry_s / h + 0.5) as u32);
+            p.carry = Some(samples(self.carry_s, h)?);
         }
         if !self.confidence.is_nan() {
             if !(self.confidence.is_finite() && self.confidence >= 0.0) {

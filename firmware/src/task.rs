@@ -119,9 +119,8 @@ impl TaskSettings {
                 voltage_max: *v.last()?,
                 current_limit: online.current_limit,
             };
-            // Rounded to the nearest sample (no_std: no `f32::round`).
-            let steps = POWER_HORIZONS_S.map(|hz| ((hz / h + 0.5) as u32).max(1));
-            PowerSettings::new(limits, &steps, Some(-m.capacity_ah))
+            // Each horizon rounded to the nearest sample, as on the host.
+            PowerSettings::from_seconds(limits, &POWER_HORIZONS_S, h, Some(-m.capacity_ah))
         });
         // The pulse voltage corrected by the last pulse of its current, as
         // `host-sim online battery` has it by default.

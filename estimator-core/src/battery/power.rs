@@ -39,7 +39,7 @@ pub use check::{
     settled, PulseCheck, ResponseMiss, VoltageTiming, CARRY_PERIODS, CHECK_STEPS, SETTLED_DRIFT,
 };
 pub use report::{
-    HorizonPower, PowerLimits, PowerReport, PowerSettings, SopBasis, StateOfPower,
+    samples, HorizonPower, PowerLimits, PowerReport, PowerSettings, SopBasis, StateOfPower,
     DEFAULT_CONFIDENCE, MAX_HORIZONS,
 };
 pub use spread::ParameterSpread;

@@ -17,7 +17,7 @@ use crate::error::Result;
 use crate::ocv::CellOcv;
 use estimator_core::battery::online::{CellEstimator, OnlineSettings};
 use estimator_core::battery::pack::PackEstimator;
-use estimator_core::battery::power::{PowerLimits, PowerReport, PowerSettings};
+use estimator_core::battery::power::{samples, PowerLimits, PowerReport, PowerSettings};
 use estimator_core::Real;
 
 /// The most horizons a track carries.
@@ -312,24 +312,29 @@ impl ResolvedPower {
     }
 
     /// The core's settings for sample period `h` (s): each horizon `H/h`
-    /// samples, rounded (at least 1).
+    /// samples, rounded (at least 1; `PowerSettings::from_seconds`, as C's).
     fn settings<T: Real>(&self, h: f64) -> Option<PowerSettings<T>> {
-        let mut steps = [0u32; MAX_HORIZONS];
-        let horizons = self.options.horizons();
-        for (k, &hz) in steps.iter_mut().zip(horizons) {
-            *k = ((hz / h).round() as u32).max(1);
+        let mut horizons = [T::zero(); MAX_HORIZONS];
+        let given = self.options.horizons();
+        for (k, &hz) in horizons.iter_mut().zip(given) {
+            *k = T::lit(hz);
         }
         let limits = PowerLimits {
             voltage_min: T::lit(self.limits.voltage_min),
             voltage_max: T::lit(self.limits.voltage_max),
             current_limit: T::lit(self.limits.current_limit),
         };
-        let mut p = PowerSettings::new(
+        let period = T::lit(h);
+        let mut p = PowerSettings::from_seconds(
             limits,
-            &steps[..horizons.len()],
+            &horizons[..given.len()],
+            period,
             self.pulse_current_a.map(T::lit),
         )?;
-        p.carry = self.options.carry_s.map(|c| (c / h).round() as u32);
+        p.carry = match self.options.carry_s {
+            Some(c) => Some(samples(T::lit(c), period)?),
+            None => None,
+        };
         if let Some(c) = self.options.confidence {
             p.confidence = T::lit(c);
         }

@@ -37,6 +37,30 @@ pub struct StateOfPower<T> {
 /// [`PowerSettings::confidence`] by default: 2 σ.
 pub const DEFAULT_CONFIDENCE: f64 = 2.0;
 
+/// A duration of `seconds` (s) as samples of `period_s` (s), rounded to
+/// the nearest (half up); `None` unless the duration is finite and not
+/// negative and the period finite and positive. The horizons of
+/// [`PowerSettings::from_seconds`] and its `carry` are counted so.
+///
+/// ```
+/// use estimator_core::battery::power::samples;
+/// assert_eq!(samples(10.0, 1.8), Some(6));
+/// assert_eq!(samples(9.0, 2.0), Some(5));
+/// assert_eq!(samples(600.0_f32, 2.0), Some(300));
+/// assert_eq!(samples(-1.0, 2.0), None);
+/// ```
+pub fn samples<T: Real>(seconds: T, period_s: T) -> Option<u32> {
+    if !(seconds.is_finite()
+        && seconds >= T::zero()
+        && period_s.is_finite()
+        && period_s > T::zero())
+    {
+        return None;
+    }
+    // (A count past `u32::MAX` is held there: the cast saturates.)
+    Some((seconds / period_s + T::lit(0.5)).to_f64() as u32)
+}
+
 /// The most horizons one [`PowerSettings`] asks for.
 pub const MAX_HORIZONS: usize = 8;
 
@@ -100,6 +124,39 @@ impl<T: Real> PowerSettings<T> {
             carry: None,
             confidence: T::lit(DEFAULT_CONFIDENCE),
         })
+    }
+
+    /// Settings for horizons given in seconds at the sample period
+    /// `period_s` (s): each horizon that many samples, rounded to the
+    /// nearest and at least 1 ([`samples`]). `None` where a horizon is not
+    /// finite and positive, the period is not, or [`Self::new`] refuses.
+    /// Every face that asks in seconds (the CLI, C) builds its settings
+    /// here, so a horizon is the same number of samples on each.
+    ///
+    /// ```
+    /// use estimator_core::battery::power::{PowerLimits, PowerSettings};
+    /// let limits = PowerLimits { voltage_min: 2.5, voltage_max: 4.2, current_limit: 20.0 };
+    /// let p = PowerSettings::from_seconds(limits, &[2.0, 10.0, 30.0], 1.8, None).unwrap();
+    /// assert_eq!(p.horizons(), [1, 6, 17]);
+    /// assert!(PowerSettings::from_seconds(limits, &[0.0], 1.0, None).is_none());
+    /// ```
+    pub fn from_seconds(
+        limits: PowerLimits<T>,
+        horizons_s: &[T],
+        period_s: T,
+        pulse_current: Option<T>,
+    ) -> Option<Self> {
+        let mut steps = [0u32; MAX_HORIZONS];
+        if horizons_s.len() > MAX_HORIZONS {
+            return None;
+        }
+        for (k, &h) in steps.iter_mut().zip(horizons_s) {
+            if h.is_nan() || h <= T::zero() {
+                return None;
+            }
+            *k = samples(h, period_s)?.max(1);
+        }
+        Self::new(limits, &steps[..horizons_s.len()], pulse_current)
     }
 
     /// The horizons (samples), in the order given.
