@@ -17,13 +17,14 @@ the share of rows within ±10 % for R_ct and Q over all cells and seeds,
 the worst cell's share, and the sd of the published values' error.
 Issue 72's goal: ≥ 95 % for both.
 
-With two cells or more and a slow memory, the pack shares one order among
-its cells (docs/online-publication.md). The simulated cells all have the
-preset's order; `--alpha-spread S` gives each cell its own, α·(1 + u) with
-u uniform in [−S, S] (seeded), and simulates its voltage again from the
-pack's current (the full-memory Grünwald–Letnikov recursion of
+Each cell fuses its own windows' slow part: the cells do not share an
+order (docs/research.md, "One order for a pack's cells", measured what
+sharing would cost). The simulated cells all have the preset's order;
+`--alpha-spread S` gives each cell its own, α·(1 + u) with u uniform in
+[−S, S] (seeded), and simulates its voltage again from the pack's current
+(the full-memory Grünwald–Letnikov recursion of
 `estimator_core::battery::simulate`, in numpy, with the pack's σ of
-noise): what sharing costs a string whose cells do not share an order.
+noise): a string whose cells do not share an order.
 """
 import argparse
 import csv
