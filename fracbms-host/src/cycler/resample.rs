@@ -5,6 +5,7 @@
 //! drop). Owns the time base; must not
 //! touch the columns' names, units or signs (read before it runs).
 
+use estimator_core::battery::power::VoltageTiming;
 use serde::Serialize;
 
 /// A gap of the log: two rows further apart than the threshold.
@@ -38,6 +39,22 @@ pub struct Resampling {
     pub gaps: Vec<Gap>,
     /// The threshold of a gap (s).
     pub gap_threshold_s: f64,
+}
+
+impl Resampling {
+    /// Where the record's voltages stand in their samples' periods: a log
+    /// put on a coarser period than its rows (rows merged), where the
+    /// current moves within a period (as a measured one does through a
+    /// pulse), holds the mean voltage over it; a log read at its own rows,
+    /// each row's voltage with the current before it. The state of power's
+    /// check against the next pulse reads its voltages so.
+    pub fn voltage_timing(&self) -> VoltageTiming {
+        if self.rows_merged > 0 {
+            VoltageTiming::Mean
+        } else {
+            VoltageTiming::End
+        }
+    }
 }
 
 /// The rows of a log in time order, duplicates and backward rows removed
@@ -417,5 +434,24 @@ mod tests {
         assert_eq!(nice_up(0.0123), 0.013);
         assert_eq!(nice_up(0.1), 0.1);
         assert_eq!(nice_up(0.936), 0.94);
+    }
+
+    /// A log of 0.1 s rows put on 2 s holds the mean voltage of each
+    /// period its current moves in: its voltages are read as means; a log
+    /// on its own rows as at each period's end.
+    #[test]
+    fn a_log_put_on_a_coarser_period_holds_mean_voltages() {
+        let time: Vec<f64> = (0..200).map(|k| 0.1 * f64::from(k)).collect();
+        let current: Vec<f64> = (0..200).map(|k| if k < 95 { 0.0 } else { -2.0 }).collect();
+        let voltage: Vec<f64> = current.iter().map(|i| 3.7 + 0.05 * i).collect();
+        for (h, timing) in [(2.0, VoltageTiming::Mean), (0.1, VoltageTiming::End)] {
+            let mut r = Resampling {
+                gap_threshold_s: 10.0,
+                ..Default::default()
+            };
+            let keep = clean(&time, &mut r);
+            let _ = to_uniform(&time, &current, &voltage, None, &keep, h, &mut r);
+            assert_eq!(r.voltage_timing(), timing, "period {h} s");
+        }
     }
 }

@@ -134,19 +134,6 @@ pub fn battery_file(input: &Path, out: &Path, o: &OnlineBatteryOptions) -> Resul
     Ok(report)
 }
 
-/// Where a record's voltages stand in their samples' periods: a log put on
-/// a coarser period than its rows holds, where the current moves within a
-/// period (as a measured one does through a pulse), the mean voltage over
-/// it (`cycler::resample`); a log read at its own rows, each row's voltage
-/// with the current before it.
-fn voltage_timing(r: &crate::cycler::Resampling) -> VoltageTiming {
-    if r.rows_merged > 0 {
-        VoltageTiming::Mean
-    } else {
-        VoltageTiming::End
-    }
-}
-
 /// [`battery_file`] with the snapshot given and returned as bytes (`o`'s
 /// `state_in` and `state_out` are not read): what a life carries from
 /// one log to the next ([`super::life`]), the same bytes as the files.
@@ -228,7 +215,7 @@ pub(crate) fn battery_run(
         soc: o.soc,
         slow_memory_s: o.slow_memory_s,
         slow_memory_soc: o.slow_memory_soc,
-        voltage_timing: voltage_timing(&read.report.resampling),
+        voltage_timing: read.report.resampling.voltage_timing(),
     };
     let mut tracker = Tracker::new(&t, rec.h, t.cell.map(|c| c.soc0))?;
     let clock = o.start_time_s.unwrap_or(0.0);
@@ -299,29 +286,4 @@ pub(crate) fn battery_run(
         life,
     };
     Ok((report, saved))
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::cycler::resample::{clean, to_uniform};
-
-    /// A log of 0.1 s rows put on 2 s holds the mean voltage of each
-    /// period its current moves in: its voltages are read as means; a log
-    /// on its own rows as at each period's end.
-    #[test]
-    fn a_log_put_on_a_coarser_period_holds_mean_voltages() {
-        let time: Vec<f64> = (0..200).map(|k| 0.1 * f64::from(k)).collect();
-        let current: Vec<f64> = (0..200).map(|k| if k < 95 { 0.0 } else { -2.0 }).collect();
-        let voltage: Vec<f64> = current.iter().map(|i| 3.7 + 0.05 * i).collect();
-        for (h, timing) in [(2.0, VoltageTiming::Mean), (0.1, VoltageTiming::End)] {
-            let mut r = crate::cycler::Resampling {
-                gap_threshold_s: 10.0,
-                ..Default::default()
-            };
-            let keep = clean(&time, &mut r);
-            let _ = to_uniform(&time, &current, &voltage, None, &keep, h, &mut r);
-            assert_eq!(voltage_timing(&r), timing, "period {h} s");
-        }
-    }
 }
