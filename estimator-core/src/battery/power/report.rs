@@ -130,7 +130,7 @@ impl<T: Real> PowerSettings<T> {
     /// `period_s` (s): each horizon that many samples, rounded to the
     /// nearest and at least 1 ([`samples`]). `None` where a horizon is not
     /// finite and positive, the period is not, or [`Self::new`] refuses.
-    /// Every face that asks in seconds (the CLI, C) builds its settings
+    /// Every face that asks in seconds (the CLI, C, the firmware) builds its settings
     /// here, so a horizon is the same number of samples on each.
     ///
     /// ```
