@@ -157,3 +157,48 @@ impl FracbmsPowerRequest {
         out
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn request(horizons: &[f32]) -> FracbmsPowerRequest {
+        let mut horizons_s = [0.0; FRACBMS_HORIZONS_MAX];
+        horizons_s[..horizons.len()].copy_from_slice(horizons);
+        FracbmsPowerRequest {
+            voltage_min: 3.0,
+            voltage_max: 4.2,
+            current_limit: 50.0,
+            horizons_s,
+            horizon_count: horizons.len() as u32,
+            pulse_current: f32::NAN,
+            carry_s: f32::NAN,
+            confidence: f32::NAN,
+        }
+    }
+
+    /// Each horizon and the carry are counted in samples as the CLI counts
+    /// them (the core's `PowerSettings::from_seconds`), and a request the
+    /// core cannot take is refused.
+    #[test]
+    fn a_request_in_seconds_is_counted_in_samples_or_refused() {
+        let p = request(&[2.0, 10.0, 30.0]).settings(1.8).unwrap();
+        assert_eq!(p.horizons(), [1, 6, 17]);
+        assert_eq!(p.carry, None);
+        let mut r = request(&[10.0]);
+        r.carry_s = 601.0;
+        assert_eq!(r.settings(2.0).unwrap().carry, Some(301));
+        for bad in [0.0, -10.0, f32::NAN, f32::INFINITY] {
+            assert!(
+                request(&[10.0, bad]).settings(2.0).is_none(),
+                "horizon {bad}"
+            );
+        }
+        for bad in [-1.0, f32::INFINITY] {
+            let mut r = request(&[10.0]);
+            r.carry_s = bad;
+            assert!(r.settings(2.0).is_none(), "carry {bad}");
+        }
+        assert!(request(&[10.0]).settings(0.0).is_none());
+    }
+}
