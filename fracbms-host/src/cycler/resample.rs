@@ -78,16 +78,25 @@ pub fn clean(time: &[f64], r: &mut Resampling) -> Vec<usize> {
 /// raised so that the record has at most `max_samples` samples, rounded up
 /// to two significant digits. `time` increases strictly (after [`clean`]).
 pub fn default_period(time: &[f64], max_samples: usize) -> f64 {
+    median_step(time).map_or(1.0, |m| within(time, m, max_samples))
+}
+
+/// The median step of `time`; `None` with fewer than two rows.
+fn median_step(time: &[f64]) -> Option<f64> {
     let mut steps: Vec<f64> = time.windows(2).map(|w| w[1] - w[0]).collect();
     if steps.is_empty() {
-        return 1.0;
+        return None;
     }
     steps.sort_by(f64::total_cmp);
-    let median = steps[steps.len() / 2];
+    Some(steps[steps.len() / 2])
+}
+
+/// The step `median` raised so that `time` spans at most `max_samples`
+/// samples, rounded up to two significant digits.
+fn within(time: &[f64], median: f64, max_samples: usize) -> f64 {
     let span = time[time.len() - 1] - time[0];
     // span / (max − 1): the samples from the first instant to the last.
-    let h = median.max(span / max_samples.saturating_sub(1).max(1) as f64);
-    nice_up(h)
+    nice_up(median.max(span / max_samples.saturating_sub(1).max(1) as f64))
 }
 
 /// The period a log is put on when none is given: [`default_period`]
@@ -106,8 +115,11 @@ pub fn default_period(time: &[f64], max_samples: usize) -> f64 {
 /// assert_eq!(chosen_period(&own, 50_000, &[10.0, 30.0]), 1.8);
 /// ```
 pub fn chosen_period(time: &[f64], max_samples: usize, durations: &[f64]) -> f64 {
-    let h = default_period(time, max_samples);
-    if h > default_period(time, usize::MAX) {
+    let Some(m) = median_step(time) else {
+        return 1.0;
+    };
+    let h = within(time, m, max_samples);
+    if h > within(time, m, usize::MAX) {
         dividing_period(h, durations)
     } else {
         h
