@@ -3,6 +3,7 @@
 //! apart, as in the pack.
 
 use super::fusion::SlowFusion;
+use super::settings::REST_SAMPLES;
 use super::*;
 use crate::battery::output_error::{OutputErrorRefinement, RefinementState, RefinementWork};
 use crate::battery::regression::{PaperRegressionGi, PaperRegressionState};
@@ -364,20 +365,27 @@ impl<T: Real, const N: usize> CellState<T, N> {
     }
 
     /// The voltage of a cell known to be relaxed now: the
-    /// [`rested_voltage`](Self::rested_voltage), or, in a window begun at
-    /// a rested cell after a gap ([`Self::resume_after_gap`]) that has
-    /// rested ever since, that rest's voltage. The record resumed at rest
-    /// is read as relaxed: its start SOC is read from it too.
+    /// [`rested_voltage`](Self::rested_voltage), or that of a rest the
+    /// cell has been in ever since the record began (once the start SOC
+    /// has been read from it, over its first `REST_SAMPLES` samples), or
+    /// since a window begun at a rested cell after a gap
+    /// ([`Self::resume_after_gap`]). A record begun or resumed at rest is
+    /// read as relaxed: its start SOC is read from it too.
     pub(crate) fn relaxed_voltage<const P: usize>(&self, s: &OnlineSettings<T, P>) -> Option<T> {
         if let Some(v) = self.rested_voltage(s) {
             return Some(v);
         }
         s.ocv.as_ref()?;
         let (len, v) = self.soc_observer.rest()?;
-        // Every sample of the window in the rest (half a period's slack).
+        // Every sample of the window, or of the record, in the rest (half a
+        // period's slack).
+        let slack = T::lit(0.5) * s.battery.h;
         let window = T::lit(f64::from(self.len)) * s.battery.h;
-        let whole = len + T::lit(0.5) * s.battery.h >= window;
-        (self.at_rest && self.len > 0 && whole && v.is_finite()).then_some(v)
+        let whole = self.at_rest && self.len > 0 && len + slack >= window;
+        #[allow(clippy::cast_precision_loss)]
+        let record = T::lit(self.counts.samples as f64) * s.battery.h;
+        let ever = self.counts.samples >= u64::from(REST_SAMPLES) && len + slack >= record;
+        ((whole || ever) && v.is_finite()).then_some(v)
     }
 
     /// Health after the last update.
