@@ -204,7 +204,7 @@ impl<T: Real, const N: usize, const MEM: usize> CellEstimator<T, N, MEM> {
     }
 
     /// The state of power now for `power`'s horizons, when every
-    /// parameter of the model is published
+    /// parameter of the model is published, or a prior gives them
     /// ([`PackEstimator::state_of_power`]).
     pub fn state_of_power<const P: usize>(
         &self,

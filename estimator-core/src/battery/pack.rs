@@ -692,8 +692,10 @@ impl<T: Real, const N: usize, const MEM: usize, const CELLS: usize>
     /// [`PowerReport::basis`] says which) from the polarization its
     /// [`pulse_predictor`](Self::pulse_predictor) carries (at most
     /// [`PowerSettings::carry`] samples from the fit, or from a relaxed
-    /// cell). `None` before every parameter has been published once, or
-    /// without a predictor. With a Butler–Volmer term the window fits, the
+    /// cell). `None` before every parameter has been published once
+    /// (with a prior, before a fit only from a relaxed cell: a rest the SOC
+    /// observer reads, or one since the record began), or without a
+    /// predictor. With a Butler–Volmer term the window fits, the
     /// currents are capped at the largest the cell's window holds: the
     /// term is not extrapolated (a term the linear model holds, a
     /// Butler–Volmer prior's, is not capped). Each pulse voltage carries its standard deviation
