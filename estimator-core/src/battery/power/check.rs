@@ -396,24 +396,24 @@ impl<T: Real> PulseCheck<T> {
         let prev = (e > 1 + lead).then(|| self.before - self.last.1);
         let scale = self.held / self.current;
         let predicted = self.predicted;
+        // This sample's voltage and the one before, placed from the edge,
+        // and where the response's growth stands at each.
+        let (d, d0) = (since(e), since(e.saturating_sub(1)));
+        let (r1, r0) = (timing.root(d), timing.root(d0));
+        // The first two samples after the edge also reach back to a
+        // duration before them (a mean over a period that started after it).
+        let first_pair = e == 2 + lead;
         for (j, (&c, &p)) in CHECK_STEPS.iter().zip(&predicted).enumerate() {
             let at = T::lit(f64::from(c));
-            let d = since(e);
             let measured = if d == at {
                 Some(now)
             } else {
                 // Between the sample before and this one, or carried on
                 // from them by less than `CARRY_PERIODS` (a pulse that ends
                 // before the next sample leaves this), in the response's
-                // growth (`VoltageTiming::root`). The first two samples
-                // after the edge also reach back to a duration before them
-                // (a mean over a period that started after it).
-                let first_pair = e == 2 + lead;
-                prev.filter(|_| (since(e - 1) < at || first_pair) && at - d < T::lit(CARRY_PERIODS))
-                    .map(|prev| {
-                        let (r0, r1) = (timing.root(since(e - 1)), timing.root(d));
-                        now + (at.sqrt() - r1) / (r1 - r0) * (now - prev)
-                    })
+                // growth (`VoltageTiming::root`).
+                prev.filter(|_| (d0 < at || first_pair) && at - d < T::lit(CARRY_PERIODS))
+                    .map(|prev| now + (at.sqrt() - r1) / (r1 - r0) * (now - prev))
             };
             let predicted = (self.before - p) * scale;
             let Some(measured) = measured else {
