@@ -8,9 +8,9 @@
 //! the cell's best parameter set after each sample.
 //!
 //! Owns the horizons, the limits' defaults and the columns; the prediction
-//! is the core's. Published only when every parameter of the model is
-//! (identified, from the step, or held: not `not_identified` nor
-//! `expired`), as the prior-free rule publishes the parameters themselves.
+//! is the core's, and so is when there is one: from the best parameter set
+//! the cell holds (`sop_basis`: the window's, the prior's, held or stale
+//! values; with a prior and no fit yet, from a relaxed cell only).
 
 use crate::bail;
 use crate::error::Result;
