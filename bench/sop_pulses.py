@@ -252,6 +252,17 @@ def rows_before_pulses(out, name, variant):
         yield h, start, cur, tracks[c][row_before(tracks[c], start)]
 
 
+def tracks_arguments(description):
+    """The flags of a research script that reads the tracks of
+    `--acceptance` (under `--tracks`) and of `--acceptance
+    --online-args="--no-pulse-correction" --out target/sop-nc` (under
+    `--nc`), parsed."""
+    ap = argparse.ArgumentParser(description=description)
+    ap.add_argument("--tracks", default="target/sop")
+    ap.add_argument("--nc", default="target/sop-nc")
+    return ap.parse_args()
+
+
 def acceptance(host_sim, out, map_method, online_args=(), map_model="linear", worst=0):
     """Every pulse from each record's second pulse group on, with and
     without the record's own map as the prior, beside two baselines

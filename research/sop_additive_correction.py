@@ -24,7 +24,6 @@ acceptance's table), "added" the additive one, "own" the model's.
     python3 research/sop_additive_correction.py [--tracks target/sop] [--nc target/sop-nc]
 """
 
-import argparse
 import os
 import sys
 
@@ -79,10 +78,7 @@ def row(tracks, nc, name, variant, h):
 
 
 def main():
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--tracks", default="target/sop")
-    ap.add_argument("--nc", default="target/sop-nc")
-    a = ap.parse_args()
+    a = S.tracks_arguments(__doc__.splitlines()[0])
     print("| record | horizon | prior | scaled (the build's) | added | own |")
     print("|---|---|---|---|---|---|")
     for name, spec in S.RECORD_SPECS.items():

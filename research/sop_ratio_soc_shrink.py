@@ -22,7 +22,6 @@ correction (the acceptance's table, as a check of the emulation).
     python3 research/sop_ratio_soc_shrink.py [--tracks target/sop] [--nc target/sop-nc]
 """
 
-import argparse
 import os
 import sys
 
@@ -58,10 +57,7 @@ def rows(tracks, nc, name, variant):
 
 
 def main():
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--tracks", default="target/sop")
-    ap.add_argument("--nc", default="target/sop-nc")
-    a = ap.parse_args()
+    a = S.tracks_arguments(__doc__.splitlines()[0])
     data = {(n, var): rows(a.tracks, a.nc, n, var) for n in S.RECORD_SPECS for var in ("map", "none")}
     for span in (None, 0.5, 0.3, 0.2, 0.15):
         cells = []
