@@ -366,8 +366,9 @@ impl<T: Real, const N: usize> CellState<T, N> {
 
     /// The voltage of a cell known to be relaxed now: the
     /// [`rested_voltage`](Self::rested_voltage), or that of a rest the
-    /// cell has been in ever since the record began (once the start SOC
-    /// has been read from it, over its first `REST_SAMPLES` samples), or
+    /// cell has been in ever since the record began (the first sample this
+    /// state counted: a new cell's, or a restored one's; once the start
+    /// SOC has been read from it, over its first `REST_SAMPLES` samples), or
     /// since a window begun at a rested cell after a gap
     /// ([`Self::resume_after_gap`]). A record begun or resumed at rest is
     /// read as relaxed: its start SOC is read from it too.
