@@ -393,14 +393,13 @@ impl<T: Real> PulseCheck<T> {
         let now = self.before - voltage;
         // The sample before, where its voltage came after the edge.
         let lead = timing.unread();
+        let prev = (e > 1 + lead).then(|| self.before - self.last.1);
         let scale = self.held / self.current;
         let predicted = self.predicted;
         // This sample's voltage and the one before, placed from the edge,
-        // and (where the one before is read) where the response's growth
-        // stands at each.
+        // and where the response's growth stands at each.
         let (d, d0) = (since(e), since(e.saturating_sub(1)));
-        let prev =
-            (e > 1 + lead).then(|| (self.before - self.last.1, timing.root(d), timing.root(d0)));
+        let (r1, r0) = (timing.root(d), timing.root(d0));
         // The first two samples after the edge also reach back to a
         // duration before them (a mean over a period that started after it).
         let first_pair = e == 2 + lead;
@@ -414,7 +413,7 @@ impl<T: Real> PulseCheck<T> {
                 // before the next sample leaves this), in the response's
                 // growth (`VoltageTiming::root`).
                 prev.filter(|_| (d0 < at || first_pair) && at - d < T::lit(CARRY_PERIODS))
-                    .map(|(prev, r1, r0)| now + (at.sqrt() - r1) / (r1 - r0) * (now - prev))
+                    .map(|prev| now + (at.sqrt() - r1) / (r1 - r0) * (now - prev))
             };
             let predicted = (self.before - p) * scale;
             let Some(measured) = measured else {
