@@ -435,6 +435,8 @@ impl<T: Real, const N: usize, const MEM: usize, const CELLS: usize>
                 if let Some((predicted, settled)) = self.check_predictions(k, s, checked) {
                     let noise = self.cells[k].voltage_noise();
                     self.checks[k].start(checked, predicted, noise, settled);
+                } else if self.unpredicted_from_rest(k, s, checked) {
+                    self.checks[k].start_unpredicted(checked);
                 }
             }
         }
@@ -465,6 +467,14 @@ impl<T: Real, const N: usize, const MEM: usize, const CELLS: usize>
                 timing,
             );
             report(k, r);
+            // A watched pulse nothing predicted, set against the first
+            // model from rest (once).
+            if let Some(held) = self.checks[k].unpredicted() {
+                if let Some(drops) = self.drops_from_rest(k, s, held) {
+                    let noise = self.cells[k].voltage_noise();
+                    self.checks[k].resolve(drops, noise);
+                }
+            }
             // While the working area is still this cell's.
             self.follow_polarization(s, k, stored);
         }
@@ -683,6 +693,49 @@ impl<T: Real, const N: usize, const MEM: usize, const CELLS: usize>
                 &pred.pulse_voltages(T::zero(), &CHECK_STEPS),
             );
         Some((predicted, settled))
+    }
+
+    /// Whether a pulse of `current` (A) on cell `k` is one to measure for
+    /// the first model ([`PulseCheck::start_unpredicted`]): at the watched
+    /// current ([`OnlineSettings::pulse_current`]), from a relaxed cell
+    /// ([`CellState::relaxed_voltage`]), with no parameter set to predict
+    /// it from yet (no estimate, no prior).
+    fn unpredicted_from_rest<const P: usize>(
+        &self,
+        k: usize,
+        s: &OnlineSettings<T, P>,
+        current: T,
+    ) -> bool {
+        let Some(c) = self.cell(k) else {
+            return false;
+        };
+        s.pulse_current.is_some_and(|w| same_pulse(w, current))
+            && c.sop_parameters(s).is_none()
+            && c.relaxed_voltage(s).is_some()
+    }
+
+    /// Cell `k`'s model's drops for a pulse of `current` (A) from rest at
+    /// each of [`CHECK_STEPS`] (its voltage at no current less the
+    /// pulse's), with the set its state of power would be asked with now
+    /// ([`CellState::sop_parameters`]); with a curve, at the state of
+    /// charge now. `None` without a set.
+    fn drops_from_rest<const P: usize>(
+        &self,
+        k: usize,
+        s: &OnlineSettings<T, P>,
+        current: T,
+    ) -> Option<[T; CHECK_STEPS.len()]> {
+        let c = self.cell(k)?;
+        let (q, _) = c.sop_parameters(s)?;
+        let w = self.weights_at(&q, s)?;
+        let ocv = match (&s.ocv, c.state_of_charge()) {
+            (Some(m), Some(z)) => Some((m, z)),
+            _ => None,
+        };
+        let pred = PulsePredictor::new(&q, &w, &[], ocv)?;
+        let rest = pred.pulse_voltages(T::zero(), &CHECK_STEPS);
+        let loaded = pred.pulse_voltages(current, &CHECK_STEPS);
+        Some(core::array::from_fn(|j| rest[j] - loaded[j]))
     }
 
     /// Cell `k`'s state of power now for `power`'s horizons, predicted

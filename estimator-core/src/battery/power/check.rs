@@ -25,6 +25,13 @@
 //! miss of the next pulse of that current to 1.1–4.5 % of its drop where
 //! it applies (docs/state-of-power.md).
 //!
+//! A watched pulse from a rested cell that nothing predicts yet (no
+//! estimate, no prior: a record's first pulses) keeps its measured drops
+//! instead ([`PulseCheck::start_unpredicted`]); the first model the pack
+//! has sets them against its own drops for that pulse from rest
+//! ([`PulseCheck::resolve`]), and the ratio is kept as if the pulse had
+//! been predicted.
+//!
 //! It owns the check's state; it must not change the estimate or what is
 //! published (the pack gives it the predicted voltages and applies the
 //! correction, [`crate::battery::pack`]).
@@ -182,6 +189,21 @@ pub(crate) fn same_pulse<T: Real>(a: T, b: T) -> bool {
     a * b > T::zero() && (a - b).abs() <= T::lit(0.1) * a.abs().max(b.abs())
 }
 
+/// How the cell stood before the pulse being checked.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+enum StartedFrom {
+    /// Drifting (or not known settled): the pulse's misses are kept, not
+    /// its ratios.
+    Drifting,
+    /// Settled: a watched pulse's ratios are kept too.
+    Settled,
+    /// Rested, with nothing to predict it from: a watched pulse's measured
+    /// drops are kept in `predicted` until a model comes
+    /// ([`PulseCheck::resolve`]).
+    Unpredicted,
+}
+
 /// One cell's check of its state of power against the pulses that follow
 /// (module docs): the pulse being checked, the last pulse's misses and the
 /// last watched pulse's ratios. 84 B in `f32`.
@@ -204,10 +226,11 @@ pub struct PulseCheck<T> {
     /// drop at each duration (Q12).
     ratio: [i16; CHECKS],
     /// Whether the pulse's first sample held another current than the
-    /// rest (a resampled edge, a current settling), and whether the cell
-    /// was settled before it (its ratios may be kept).
+    /// rest (a resampled edge, a current settling), and how the cell
+    /// stood before it (whether its ratios may be kept, or its drops wait
+    /// for a model).
     stepped: bool,
-    settled: bool,
+    from: StartedFrom,
     /// The last sample's current and voltage, and the current before it.
     last: (T, T),
     earlier: T,
@@ -231,7 +254,7 @@ impl<T: Real> PulseCheck<T> {
         missed: ResponseMiss::NONE,
         ratio: [UNKNOWN_RATIO; CHECKS],
         stepped: false,
-        settled: false,
+        from: StartedFrom::Drifting,
         last: (T::NAN, T::NAN),
         earlier: T::NAN,
     };
@@ -279,8 +302,91 @@ impl<T: Real> PulseCheck<T> {
         self.predicted = predicted;
         self.first = T::nan();
         self.stepped = false;
-        self.settled = settled;
+        self.from = if settled {
+            StartedFrom::Settled
+        } else {
+            StartedFrom::Drifting
+        };
         true
+    }
+
+    /// Starts measuring a pulse of `current` (A) that nothing predicts yet,
+    /// from a rested cell (no estimate and no prior: a record's first
+    /// pulses): at each duration of [`CHECK_STEPS`] a pulse at the watched
+    /// current ([`Self::observe_watching`]) reaches, its measured drop is
+    /// kept, in place of a prediction, until a model predicts the same
+    /// pulse from rest ([`Self::resolve`]). A later such pulse takes its
+    /// place. Returns whether it started (a voltage before it).
+    ///
+    /// ```
+    /// use estimator_core::battery::power::{PulseCheck, VoltageTiming};
+    /// let mut c = PulseCheck::<f64>::BLANK;
+    /// c.observe(0.0, 3.7, false);
+    /// assert!(c.start_unpredicted(-2.0));
+    /// for n in 1..=31 {
+    ///     c.observe_watching(-2.0, 3.6 - 0.001 * n as f64, false, Some(-2.0), VoltageTiming::End);
+    /// }
+    /// c.observe(0.0, 3.69, false);
+    /// assert_eq!(c.unpredicted(), Some(-2.0));
+    /// assert_eq!(c.ratio(10), None);
+    /// // The first model's drops from rest, 0.8 of the measured ones.
+    /// c.resolve([0.101, 0.102, 0.105, 0.11, 0.13].map(|d| 0.8 * d), 1e-3);
+    /// assert!((c.ratio(10).unwrap() - 1.25).abs() < 1e-3);
+    /// assert_eq!(c.unpredicted(), None);
+    /// ```
+    pub fn start_unpredicted(&mut self, current: T) -> bool {
+        let before = self.last.1;
+        if !before.is_finite() {
+            self.current = T::nan();
+            return false;
+        }
+        self.current = current;
+        self.before = before;
+        self.held = current;
+        self.elapsed = 0;
+        self.predicted = [T::nan(); CHECKS];
+        self.first = T::nan();
+        self.stepped = false;
+        self.from = StartedFrom::Unpredicted;
+        true
+    }
+
+    /// The current (A) of a watched pulse whose measured drops wait for a
+    /// model ([`Self::start_unpredicted`]), once it has ended; `None`
+    /// otherwise.
+    pub fn unpredicted(&self) -> Option<T> {
+        (self.from == StartedFrom::Unpredicted
+            && self.current.is_nan()
+            && self.predicted.iter().any(|d| d.is_finite()))
+        .then_some(self.held)
+    }
+
+    /// Sets the waiting pulse's measured drops ([`Self::unpredicted`])
+    /// against `drops`, a model's for the same pulse from rest at each of
+    /// [`CHECK_STEPS`] (V, from its voltage at no current), each known to
+    /// the precision [`Self::start`] asks against `noise_v`: each
+    /// duration's ratio and miss are kept as a predicted watched pulse's
+    /// from a settled cell would be. The drops wait no longer either way.
+    pub fn resolve(&mut self, drops: [T; CHECKS], noise_v: T) {
+        if self.unpredicted().is_none() {
+            return;
+        }
+        let measured = self.predicted;
+        self.predicted = [T::nan(); CHECKS];
+        self.from = StartedFrom::Drifting;
+        if !drops
+            .iter()
+            .all(|&d| d.is_finite() && precise_change(noise_v, d))
+        {
+            return;
+        }
+        for (j, (&m, &d)) in measured.iter().zip(&drops).enumerate() {
+            let ratio = m / d;
+            if ratio.is_finite() {
+                self.missed.miss[j] = (ratio - T::one()).abs();
+                self.ratio[j] = to_q12(ratio);
+            }
+        }
     }
 
     /// Takes one sample (current in A, voltage in V; `rejected`: the
@@ -419,10 +525,18 @@ impl<T: Real> PulseCheck<T> {
             let Some(measured) = measured else {
                 continue;
             };
-            if !(measured.is_finite() && predicted.is_finite() && predicted.abs() > T::zero()) {
+            // (Unpredicted: the drop itself, kept until a model predicts it.)
+            let unpredicted = self.from == StartedFrom::Unpredicted;
+            if !(measured.is_finite()
+                && (unpredicted || (predicted.is_finite() && predicted.abs() > T::zero())))
+            {
                 continue;
             }
-            let ratio = measured / predicted;
+            let ratio = if unpredicted {
+                measured
+            } else {
+                measured / predicted
+            };
             if e == 1 {
                 // The first sample's waits for the second.
                 self.first = ratio;
@@ -433,14 +547,26 @@ impl<T: Real> PulseCheck<T> {
     }
 
     /// Keeps the `j`-th duration's measured over predicted drop: its miss,
-    /// and its ratio for a watched pulse from a settled cell.
+    /// and its ratio for a watched pulse from a settled cell; for an
+    /// unpredicted watched pulse, the measured drop itself (until
+    /// [`Self::resolve`]).
     fn keep(&mut self, j: usize, ratio: T, watch: Option<T>) {
         if !ratio.is_finite() {
             return;
         }
-        self.missed.miss[j] = (ratio - T::one()).abs();
-        if self.settled && watch.is_some_and(|w| same_pulse(w, self.held)) {
-            self.ratio[j] = to_q12(ratio);
+        let watched = watch.is_some_and(|w| same_pulse(w, self.held));
+        match self.from {
+            StartedFrom::Unpredicted => {
+                if watched {
+                    self.predicted[j] = ratio;
+                }
+            }
+            from => {
+                self.missed.miss[j] = (ratio - T::one()).abs();
+                if from == StartedFrom::Settled && watched {
+                    self.ratio[j] = to_q12(ratio);
+                }
+            }
         }
     }
 
