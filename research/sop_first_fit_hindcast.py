@@ -1,9 +1,9 @@
 #!/usr/bin/env python3
 # Research script (docs/research.md), not a benchmark.
 # Question: Without a prior, would the second pulse group's first pulses of the Chen2020 DFN HPPC record be predicted within 10 % if the first identified window's own parameters, run back over the first group's pulse of the same current, gave the correction ratio the check could not measure then?
-# Answer: yes in this emulation: the 2C pulse at 10 s -23.8 -> +5.2 % of its drop, the 1C pulse +13.5 -> -2.8 % at 10 s and +13.3 -> -4.0 % at 30 s; not built (the check has 4 B of the 2 KiB state left to keep the first group's drops).
+# Answer: yes in this emulation: the 2C pulse at 10 s -23.8 -> +5.2 % of its drop, the 1C pulse +13.5 -> -2.8 % at 10 s and +13.3 -> -4.0 % at 30 s; built for pulses from a relaxed cell (the 2C one; the 1C one follows the charge pulse by 40 s): docs/state-of-power.md, "A record's first pulses, before any fit".
 """A correction ratio from the first fit's own pulses, emulated (issue 72;
-docs/research.md, "The state of power").
+docs/state-of-power.md, "A record's first pulses, before any fit").
 
 Without a prior the first pulse group of an HPPC record comes before any
 fit, so the check (`PulseCheck`) has no prediction to set it against and
