@@ -32,9 +32,14 @@ from capacity_rest_pairs import MEASURED_AH, rests  # noqa: E402
 
 
 def run(rest, cnom, sig_t, ell, sig_v=0.005, cap_sig=0.15, soc0_sig=0.1, ident=0.02):
+    """The emulated filter from a nominal `cnom`; `sig_t` the table's
+    spread in SOC, or a function of the SOC a rest reads giving it there.
+    Returns when the capacity is first published, the lowest and highest
+    published value and the last (each against the C/20 test's)."""
     t, z, q, slope = rest
+    spread = sig_t if callable(sig_t) else (lambda _: sig_t)
     x = np.array([z[0], 1.0, 0.0])
-    P = np.diag([soc0_sig**2, cap_sig**2, sig_t**2])
+    P = np.diag([soc0_sig**2, cap_sig**2, spread(z[0]) ** 2])
     held, first, out = None, None, []
     for k in range(len(z)):
         if k > 0:
@@ -42,7 +47,7 @@ def run(rest, cnom, sig_t, ell, sig_v=0.005, cap_sig=0.15, soc0_sig=0.1, ident=0
             rho = np.exp(-abs(x[1] * dq) / ell) if ell > 0 else 0.0
             F = np.array([[1.0, dq, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, rho]])
             x = F @ x
-            P = F @ P @ F.T + np.diag([0.0, 0.0, (1 - rho**2) * sig_t**2])
+            P = F @ P @ F.T + np.diag([0.0, 0.0, (1 - rho**2) * spread(z[k]) ** 2])
         H = np.array([1.0, 0.0, 1.0])
         S = H @ P @ H + (sig_v / max(slope[k], 1e-3)) ** 2
         K = P @ H / S

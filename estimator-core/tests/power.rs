@@ -4,26 +4,16 @@
 //! against the limits.
 
 mod common;
-use common::nmc_table;
+use common::{nmc, noisy, truth_voltage};
 
-use estimator_core::battery::ocv::OcvModel;
 use estimator_core::battery::online::{CellEstimator, OnlineSettings, Status};
 use estimator_core::battery::pack::{PackEstimator, PackSettings};
 use estimator_core::battery::power::{
     ParameterSpread, PowerLimits, PowerSettings, PulsePredictor, ResponseMiss, SopBasis,
 };
-use estimator_core::battery::profile::{ocv_nmc, Profile};
-use estimator_core::battery::simulate::simulate;
+use estimator_core::battery::profile::Profile;
 use estimator_core::battery::{CellModel, CellParameters, Prior, Start};
 use estimator_core::frac::GlWeights;
-use rand::SeedableRng;
-use rand_distr::{Distribution, Normal};
-
-const CAPACITY_AH: f64 = 2.5;
-
-fn nmc() -> OcvModel<f64, 101> {
-    OcvModel::new(nmc_table(), CAPACITY_AH).unwrap()
-}
 
 /// The `cell` preset through the NMC curve from SOC 0.9 (60 s rest, then
 /// the pulse profile on a 1 A mean discharge) for `at` samples, then a
@@ -41,33 +31,6 @@ fn record(at: usize, pulse: f64, k: usize) -> (Vec<f64>, Vec<f64>) {
         .collect();
     let v = noisy(truth_voltage(&CellParameters::cell_18650(), &i), at);
     (i, v)
-}
-
-/// Cell `p`'s terminal voltage under current `i` through the NMC curve
-/// from SOC 0.9 (full-memory simulation).
-fn truth_voltage(p: &CellParameters<f64>, i: &[f64]) -> Vec<f64> {
-    let len = i.len();
-    let mut soc = vec![0.0; len];
-    let mut z = 0.9;
-    for l in 0..len {
-        z += i[l] / (CAPACITY_AH * 3600.0);
-        soc[l] = z;
-    }
-    let mut w = Box::new(GlWeights::<f64, 4096>::new(p.alpha, 1.0, len).unwrap());
-    let (mut up, mut v) = (vec![0.0; len], vec![0.0; len]);
-    simulate(p, &mut w, i, |l| ocv_nmc(soc[l]), &mut up, &mut v).unwrap();
-    v
-}
-
-/// `v` with σ = 1 mV on its first `seen` samples (the ones the estimator
-/// sees).
-fn noisy(mut v: Vec<f64>, seen: usize) -> Vec<f64> {
-    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
-    let nd = Normal::new(0.0, 0.001).unwrap();
-    for x in &mut v[..seen] {
-        *x += nd.sample(&mut rng);
-    }
-    v
 }
 
 /// Own model, no prior, window 256, memory 64: at several instants of the
@@ -546,140 +509,6 @@ fn after_a_gap_at_rest_the_state_of_power_comes_from_what_is_held() {
             let short = want - got;
             assert!((short - 0.2 * truth.r_i * 5.0).abs() < 0.003, "{short}");
         }
-    }
-}
-
-/// A record begun at rest is read as relaxed once its start SOC has been
-/// read from it (its first 10 rested samples), as a record resumed at
-/// rest after a gap is: with a prior and no fit yet, the state of power is
-/// the prior's from rest (`map`), and the first pulse, checked against
-/// it, leaves its ratio for the next pulse of its current (here asked
-/// after a long rest). Five rested
-/// samples are too few: then nothing is published before the first fit
-/// and that first pulse leaves no ratio. Without a prior there is nothing
-/// to predict from before the first fit. On the DFN HPPC records the first
-/// pulse comes after 59 s of rest; its ratio brought the second group's
-/// first 2C pulse from 15.0 % (Chen2020) and 18.4 % (Prada2013) of its
-/// drop at 10 s to 2.7 % and 7.6 % (docs/bms-states.md).
-#[test]
-fn a_record_begun_at_rest_predicts_its_first_pulse_from_a_prior() {
-    let truth = CellParameters::<f64>::cell_18650();
-    let limits = PowerLimits {
-        voltage_min: 2.5,
-        voltage_max: 4.2,
-        current_limit: 50.0,
-    };
-    let power = PowerSettings::new(limits, &[10], Some(-5.0)).unwrap();
-    let mut s = OnlineSettings::new(1.0, 64, truth).with_ocv(nmc());
-    s.pulse_current = Some(-5.0);
-    for (rest, prior, from_rest) in [(30, true, true), (5, true, false), (30, false, false)] {
-        s.battery.prior = prior.then(|| Prior::new(truth));
-        // The rest, a −5 A pulse of 20 s, and a rest after it long enough
-        // for the SOC observer to read (600 s: the cell relaxed again).
-        let i: Vec<f64> = (0..rest + 20 + 700)
-            .map(|l| {
-                if (rest..rest + 20).contains(&l) {
-                    -5.0
-                } else {
-                    0.0
-                }
-            })
-            .collect();
-        let v = noisy(truth_voltage(&truth, &i), i.len());
-        let mut est = Box::new(CellEstimator::<f64, 256, 64>::new(&s).unwrap());
-        let mut published = Vec::new();
-        for l in 0..rest {
-            est.push(&s, i[l], v[l]);
-            published.push(est.state_of_power(&s, &power).map(|r| r.basis()));
-        }
-        let before = est.state_of_power(&s, &power);
-        for l in rest..i.len() {
-            est.push(&s, i[l], v[l]);
-        }
-        let ratio = est
-            .state_of_power(&s, &power)
-            .and_then(|r| r.horizons()[0].pulse_ratio);
-        println!("rest {rest}, prior {prior}: {published:?}, ratio after the pulse {ratio:?}");
-        if from_rest {
-            // From the tenth sample on, the prior's, from rest.
-            assert!(published[..9].iter().all(Option::is_none), "{published:?}");
-            assert!(published[9..].iter().all(|b| *b == Some(SopBasis::Map)));
-            // The prior is the cell: the pulse's 10 s voltage within 2 %
-            // of its drop (the rested voltage's noise, the OCV's slope).
-            let got = before.unwrap().horizons()[0].pulse_v.unwrap();
-            let (want, drop) = (v[rest + 9], v[rest - 1] - v[rest + 9]);
-            assert!((got - want).abs() <= 0.02 * drop, "{got} against {want}");
-            let r = ratio.expect("the first pulse's ratio");
-            assert!((r - 1.0).abs() < 0.05, "{r}");
-        } else {
-            assert!(published.iter().all(Option::is_none), "{published:?}");
-            assert!(before.is_none());
-            assert_eq!(ratio, None);
-        }
-    }
-}
-
-/// A record begun at rest without a prior: its first pulse at the watched
-/// current comes before any fit, so nothing predicts it then; its
-/// measured drops wait, and the first parameter set sets them against its
-/// own drops for that pulse from rest (`PulseCheck::start_unpredicted`,
-/// `resolve`). Before the next pulse of that current its ratio is known
-/// (own model: within 5 % of 1 at 10 s), where without it there is none,
-/// and the next pulse's corrected 10 s voltage is within 2 % of its drop.
-/// Begun with five rested samples, the first pulse is not taken (the cell
-/// not known relaxed).
-#[test]
-fn a_first_pulse_before_any_fit_gives_its_ratio_to_the_first_fit() {
-    let truth = CellParameters::<f64>::cell_18650();
-    let limits = PowerLimits {
-        voltage_min: 2.5,
-        voltage_max: 4.2,
-        current_limit: 50.0,
-    };
-    let power = PowerSettings::new(limits, &[10], Some(-5.0)).unwrap();
-    let mut s = OnlineSettings::new(1.0, 64, truth).with_ocv(nmc());
-    s.pulse_current = Some(-5.0);
-    for rest in [30, 5] {
-        // The rest, a −5 A pulse of 30 s, a rest, the pulse profile on a
-        // 1 A mean discharge (its currents −6, −1 and 4 A: none the
-        // watched one) for 1 100 s, a rest of 300 s and the next −5 A
-        // pulse.
-        let (first, drive, next) = (rest, rest + 30 + 120, rest + 30 + 120 + 1100 + 300);
-        let i: Vec<f64> = (0..next + 30)
-            .map(|l| match l {
-                l if (first..first + 30).contains(&l) => -5.0,
-                l if (drive..drive + 1100).contains(&l) => {
-                    Profile::Pulse.current((l - drive) as f64, 5.0) - 1.0
-                }
-                l if l >= next => -5.0,
-                _ => 0.0,
-            })
-            .collect();
-        assert!(i[drive..drive + 1100]
-            .iter()
-            .all(|&x| (x + 5.0).abs() > 0.5));
-        let v = noisy(truth_voltage(&truth, &i), i.len());
-        let mut est = Box::new(CellEstimator::<f64, 256, 64>::new(&s).unwrap());
-        for l in 0..next {
-            est.push(&s, i[l], v[l]);
-        }
-        let before = est.state_of_power(&s, &power).expect("a fit by then");
-        let h = before.horizons()[0];
-        println!(
-            "rest {rest}: ratio {:?}, basis {:?}",
-            h.pulse_ratio,
-            before.basis()
-        );
-        if rest < 10 {
-            assert_eq!(h.pulse_ratio, None);
-            continue;
-        }
-        let r = h.pulse_ratio.expect("the first pulse's ratio");
-        assert!((r - 1.0).abs() < 0.05, "{r}");
-        let got = h.pulse_v.unwrap();
-        let (want, drop) = (v[next + 9], v[next - 1] - v[next + 9]);
-        println!("next pulse at 10 s: {got} against {want} (drop {drop})");
-        assert!((got - want).abs() <= 0.02 * drop, "{got} against {want}");
     }
 }
 

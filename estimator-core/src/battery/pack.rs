@@ -42,8 +42,8 @@
 //! pack).
 
 use super::power::{
-    same_pulse, settled, PolarizationTail, PowerReport, PowerSettings, PulseCheck, PulsePredictor,
-    CHECK_STEPS, MAX_HORIZONS,
+    same_pulse, PolarizationTail, PowerReport, PowerSettings, PulseCheck, PulsePredictor,
+    MAX_HORIZONS,
 };
 use super::tracker::{
     check_limits, CellState, CellWindow, CurrentHistory, OnlineSettings, SampleReport, WorkingArea,
@@ -52,6 +52,8 @@ use super::CellParameters;
 use crate::error::Error;
 use crate::frac::GlWeights;
 use crate::real::Real;
+
+mod checking;
 
 /// Settings of a pack: the cells' online settings (one value for all
 /// cells), the schedule and the health threshold.
@@ -666,76 +668,6 @@ impl<T: Real, const N: usize, const MEM: usize, const CELLS: usize>
         } else {
             GlWeights::new(p.alpha, s.battery.h, s.battery.memory).ok()
         }
-    }
-
-    /// The voltages cell `k`'s state of power predicts for a pulse of
-    /// `current` (A) at each of [`CHECK_STEPS`], from the set it would be
-    /// asked with now ([`state_of_power`](Self::state_of_power)) and the
-    /// polarization carried as far as the window reaches (the state of
-    /// power's default carry), at the step's own current (no cap of a
-    /// Butler–Volmer term's currents); `None` when it has none. With a
-    /// watched pulse current ([`OnlineSettings::pulse_current`]), also
-    /// whether the cell is settled (its drift at no current small beside
-    /// the pulse, [`settled`]; without one, `false`: no ratio is kept).
-    fn check_predictions<const P: usize>(
-        &self,
-        k: usize,
-        s: &OnlineSettings<T, P>,
-        current: T,
-    ) -> Option<([T; CHECK_STEPS.len()], bool)> {
-        let (q, _) = self.cell(k)?.sop_parameters(s)?;
-        let pred = self.predictor_within(k, s, None, Some(&q))?;
-        let predicted = pred.pulse_voltages(current, &CHECK_STEPS);
-        let settled = s.pulse_current.is_some()
-            && settled(
-                pred.pulse_voltage(T::zero(), 0),
-                &predicted,
-                &pred.pulse_voltages(T::zero(), &CHECK_STEPS),
-            );
-        Some((predicted, settled))
-    }
-
-    /// Whether a pulse of `current` (A) on cell `k` is one to measure for
-    /// the first model ([`PulseCheck::start_unpredicted`]): at the watched
-    /// current ([`OnlineSettings::pulse_current`]), from a relaxed cell
-    /// ([`CellState::relaxed_voltage`]), with no parameter set to predict
-    /// it from yet (no estimate, no prior).
-    fn unpredicted_from_rest<const P: usize>(
-        &self,
-        k: usize,
-        s: &OnlineSettings<T, P>,
-        current: T,
-    ) -> bool {
-        let Some(c) = self.cell(k) else {
-            return false;
-        };
-        s.pulse_current.is_some_and(|w| same_pulse(w, current))
-            && c.sop_parameters(s).is_none()
-            && c.relaxed_voltage(s).is_some()
-    }
-
-    /// Cell `k`'s model's drops for a pulse of `current` (A) from rest at
-    /// each of [`CHECK_STEPS`] (its voltage at no current less the
-    /// pulse's), with the set its state of power would be asked with now
-    /// ([`CellState::sop_parameters`]); with a curve, at the state of
-    /// charge now. `None` without a set.
-    fn drops_from_rest<const P: usize>(
-        &self,
-        k: usize,
-        s: &OnlineSettings<T, P>,
-        current: T,
-    ) -> Option<[T; CHECK_STEPS.len()]> {
-        let c = self.cell(k)?;
-        let (q, _) = c.sop_parameters(s)?;
-        let w = self.weights_at(&q, s)?;
-        let ocv = match (&s.ocv, c.state_of_charge()) {
-            (Some(m), Some(z)) => Some((m, z)),
-            _ => None,
-        };
-        let pred = PulsePredictor::new(&q, &w, &[], ocv)?;
-        let rest = pred.pulse_voltages(T::zero(), &CHECK_STEPS);
-        let loaded = pred.pulse_voltages(current, &CHECK_STEPS);
-        Some(core::array::from_fn(|j| rest[j] - loaded[j]))
     }
 
     /// Cell `k`'s state of power now for `power`'s horizons, predicted

@@ -2,7 +2,7 @@
 //! NMC curve of the battery tests.
 #![allow(dead_code)]
 
-use estimator_core::battery::ocv::OcvTable;
+use estimator_core::battery::ocv::{OcvModel, OcvTable};
 use estimator_core::battery::profile::{ocv_nmc, Profile};
 use estimator_core::battery::simulate::simulate;
 use estimator_core::battery::CellParameters;
@@ -218,4 +218,36 @@ pub fn pulse_record(seed: u64) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
         *x += nd.sample(&mut rng);
     }
     (i, v, soc)
+}
+
+/// The NMC curve as the OCV model of a [`CAPACITY_AH`] cell.
+pub fn nmc() -> OcvModel<f64, 101> {
+    OcvModel::new(nmc_table(), CAPACITY_AH).unwrap()
+}
+
+/// Cell `p`'s terminal voltage under current `i` through the NMC curve
+/// from SOC 0.9 (full-memory simulation).
+pub fn truth_voltage(p: &CellParameters<f64>, i: &[f64]) -> Vec<f64> {
+    let len = i.len();
+    let mut soc = vec![0.0; len];
+    let mut z = 0.9;
+    for l in 0..len {
+        z += i[l] / (CAPACITY_AH * 3600.0);
+        soc[l] = z;
+    }
+    let mut w = Box::new(GlWeights::<f64, 4096>::new(p.alpha, 1.0, len).unwrap());
+    let (mut up, mut v) = (vec![0.0; len], vec![0.0; len]);
+    simulate(p, &mut w, i, |l| ocv_nmc(soc[l]), &mut up, &mut v).unwrap();
+    v
+}
+
+/// `v` with σ = 1 mV on its first `seen` samples (the ones the estimator
+/// sees).
+pub fn noisy(mut v: Vec<f64>, seen: usize) -> Vec<f64> {
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+    let nd = Normal::new(0.0, 0.001).unwrap();
+    for x in &mut v[..seen] {
+        *x += nd.sample(&mut rng);
+    }
+    v
 }

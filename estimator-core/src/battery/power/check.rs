@@ -291,22 +291,30 @@ impl<T: Real> PulseCheck<T> {
         let precise = predicted
             .iter()
             .all(|&p| (before - p).is_finite() && precise_change(noise_v, before - p));
-        if !precise {
+        let from = if settled {
+            StartedFrom::Settled
+        } else {
+            StartedFrom::Drifting
+        };
+        self.begin(precise, current, predicted, from)
+    }
+
+    /// A pulse of `current` begins (where `ok`; else none is checked),
+    /// from the last sample's voltage, with `predicted` (a prediction, or
+    /// the place its measured drops will be kept) and how the cell stood.
+    fn begin(&mut self, ok: bool, current: T, predicted: [T; CHECKS], from: StartedFrom) -> bool {
+        if !ok {
             self.current = T::nan();
             return false;
         }
         self.current = current;
-        self.before = before;
+        self.before = self.last.1;
         self.held = current;
         self.elapsed = 0;
         self.predicted = predicted;
         self.first = T::nan();
         self.stepped = false;
-        self.from = if settled {
-            StartedFrom::Settled
-        } else {
-            StartedFrom::Drifting
-        };
+        self.from = from;
         true
     }
 
@@ -335,20 +343,8 @@ impl<T: Real> PulseCheck<T> {
     /// assert_eq!(c.unpredicted(), None);
     /// ```
     pub fn start_unpredicted(&mut self, current: T) -> bool {
-        let before = self.last.1;
-        if !before.is_finite() {
-            self.current = T::nan();
-            return false;
-        }
-        self.current = current;
-        self.before = before;
-        self.held = current;
-        self.elapsed = 0;
-        self.predicted = [T::nan(); CHECKS];
-        self.first = T::nan();
-        self.stepped = false;
-        self.from = StartedFrom::Unpredicted;
-        true
+        let ok = self.last.1.is_finite();
+        self.begin(ok, current, [T::nan(); CHECKS], StartedFrom::Unpredicted)
     }
 
     /// The current (A) of a watched pulse whose measured drops wait for a
