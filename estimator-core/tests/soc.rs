@@ -4,7 +4,7 @@
 //! stays within 2 % of the truth; plain counting's error beside it.
 
 mod common;
-use common::nmc_table;
+use common::{nmc_table, true_soc};
 
 use estimator_core::battery::ocv::OcvTable;
 use estimator_core::battery::profile::{ocv_nmc, Profile};
@@ -30,12 +30,7 @@ fn record(cell: &CellParameters<f64>) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
         i.extend([0.0; 900]);
     }
     let len = i.len();
-    let mut soc = vec![0.0; len];
-    let mut z = 0.9;
-    for l in 0..len {
-        z += i[l] / (CAPACITY_AH * 3600.0);
-        soc[l] = z;
-    }
+    let soc = true_soc(&i);
     let mut w = Box::new(GlWeights::<f64, 4096>::new(cell.alpha, 1.0, 4096).unwrap());
     let (mut up, mut v) = (vec![0.0; len], vec![0.0; len]);
     simulate(cell, &mut w, &i, |l| ocv_nmc(soc[l]), &mut up, &mut v).unwrap();

@@ -203,21 +203,8 @@ pub fn pulse_record(seed: u64) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
             }
         })
         .collect();
-    let mut soc = vec![0.0; len];
-    let mut z = 0.9;
-    for l in 0..len {
-        z += i[l] / (CAPACITY_AH * 3600.0);
-        soc[l] = z;
-    }
-    let mut w = Box::new(GlWeights::<f64, 4096>::new(truth.alpha, 1.0, len).unwrap());
-    let (mut up, mut v) = (vec![0.0; len], vec![0.0; len]);
-    simulate(&truth, &mut w, &i, |l| ocv_nmc(soc[l]), &mut up, &mut v).unwrap();
-    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
-    let nd = Normal::new(0.0, 0.001).unwrap();
-    for x in &mut v {
-        *x += nd.sample(&mut rng);
-    }
-    (i, v, soc)
+    let v = noisy_seeded(truth_voltage(&truth, &i), len, seed);
+    (i.clone(), v, true_soc(&i))
 }
 
 /// The NMC curve as the OCV model of a [`CAPACITY_AH`] cell.
@@ -229,12 +216,7 @@ pub fn nmc() -> OcvModel<f64, 101> {
 /// from SOC 0.9 (full-memory simulation).
 pub fn truth_voltage(p: &CellParameters<f64>, i: &[f64]) -> Vec<f64> {
     let len = i.len();
-    let mut soc = vec![0.0; len];
-    let mut z = 0.9;
-    for l in 0..len {
-        z += i[l] / (CAPACITY_AH * 3600.0);
-        soc[l] = z;
-    }
+    let soc = true_soc(i);
     let mut w = Box::new(GlWeights::<f64, 4096>::new(p.alpha, 1.0, len).unwrap());
     let (mut up, mut v) = (vec![0.0; len], vec![0.0; len]);
     simulate(p, &mut w, i, |l| ocv_nmc(soc[l]), &mut up, &mut v).unwrap();
@@ -243,11 +225,28 @@ pub fn truth_voltage(p: &CellParameters<f64>, i: &[f64]) -> Vec<f64> {
 
 /// `v` with σ = 1 mV on its first `seen` samples (the ones the estimator
 /// sees).
-pub fn noisy(mut v: Vec<f64>, seen: usize) -> Vec<f64> {
-    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+pub fn noisy(v: Vec<f64>, seen: usize) -> Vec<f64> {
+    noisy_seeded(v, seen, 7)
+}
+
+/// [`noisy`] with its noise drawn from `seed`.
+pub fn noisy_seeded(mut v: Vec<f64>, seen: usize, seed: u64) -> Vec<f64> {
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
     let nd = Normal::new(0.0, 0.001).unwrap();
     for x in &mut v[..seen] {
         *x += nd.sample(&mut rng);
     }
     v
+}
+
+/// The true SOC after each sample of current `i` (A, + charging) from 0.9,
+/// counted at [`CAPACITY_AH`].
+pub fn true_soc(i: &[f64]) -> Vec<f64> {
+    let mut z = 0.9;
+    i.iter()
+        .map(|&x| {
+            z += x / (CAPACITY_AH * 3600.0);
+            z
+        })
+        .collect()
 }
