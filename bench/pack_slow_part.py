@@ -4,12 +4,14 @@ slow part carried across windows (`--slow-memory-s`).
 
     python3 bench/pack_slow_part.py [--host-sim target/release/host-sim]
         [--memories 0,100,200,400] [--seeds 1,2,3] [--profiles hppc,drive]
-        [--out target/pack-slow-part] [--alpha-spread S]
+        [--out target/pack-slow-part] [--alpha-spread S] [--window 256]
+        [--memory 64] [--sigma 0.001]
 
 For each profile and seed, simulates the 8-cell pack of docs/pack.md
 (`simulate pack --cells 8 --preset cell --spread 0.1 --aged 3 --sigma
 0.001 --length 2400`) and runs `online pack --window 256 --memory 64
---start at-rest --tail` at each slow memory. Over every cell's rows from
+--start at-rest --tail` at each slow memory (`--window` and `--memory`
+give others; `--sigma` another noise). Over every cell's rows from
 its first identified R_ct (resp. Q) on, counts the rows whose published
 value is within ±10 % of the cell's truth (a row with nothing published
 counts as outside). Prints one Markdown table: per memory and profile,
@@ -104,6 +106,9 @@ def main():
     ap.add_argument("--profiles", default="hppc,drive")
     ap.add_argument("--out", default="target/pack-slow-part")
     ap.add_argument("--alpha-spread", type=float, default=0.0)
+    ap.add_argument("--window", default="256")
+    ap.add_argument("--memory", default="64")
+    ap.add_argument("--sigma", default="0.001")
     a = ap.parse_args()
     out = Path(a.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -115,7 +120,7 @@ def main():
         for seed in a.seeds.split(","):
             rec = out / f"{profile}-{seed}.csv"
             run([hs, "simulate", "pack", "--cells", "8", "--preset", "cell", "--profile", profile,
-                 "--spread", "0.1", "--aged", "3", "--sigma", "0.001", "--length", "2400",
+                 "--spread", "0.1", "--aged", "3", "--sigma", a.sigma, "--length", "2400",
                  "--seed", seed, "--out", str(rec)])
             if a.alpha_spread > 0:
                 spread_orders(rec, a.alpha_spread, seed)
@@ -124,7 +129,7 @@ def main():
             tot = {"r_ct": [0, 0, [], []], "q": [0, 0, [], []]}
             for seed, rec in records:
                 track = out / f"{profile}-{seed}-slow{mem}-track.csv"
-                run([hs, "online", "pack", "--input", str(rec), "--window", "256", "--memory", "64",
+                run([hs, "online", "pack", "--input", str(rec), "--window", a.window, "--memory", a.memory,
                      "--start", "at-rest", "--tail", "--slow-memory-s", mem, "--out", str(track)])
                 for k, cells in shares(rec.with_suffix(".json"), track).items():
                     for within, n, errs in cells.values():
