@@ -70,7 +70,7 @@ def unit_branch(i, tau, alpha, h):
 
 
 def fit(i, v, lo, hi, h, warm=None):
-    """(Q, R_ct, x) of the least-squares fit on rows lo..hi (the past from 0
+    """(Q, x) of the least-squares fit on rows lo..hi (the past from 0
     known), multi-started on a grid of (ln τ, α) and at `warm`."""
     ii, iv = i[:hi], v[lo:hi]
 
@@ -92,16 +92,17 @@ def fit(i, v, lo, hi, h, warm=None):
             best = r
     coef, _ = linear(best.x)
     r_ct = coef[2]
-    return (np.exp(best.x[0]) / r_ct if r_ct > 0 else float("nan")), r_ct, best.x
+    return (np.exp(best.x[0]) / r_ct if r_ct > 0 else float("nan")), best.x
 
 
-def arrival_track(i, v, rows_fitted, every, h, sigma=0.001):
-    """Sample index -> Q of the moving-horizon estimate with an arrival cost."""
+def arrival_track(i, v, rows_fitted, every, h, stop, sigma=0.001):
+    """Sample index -> Q of the moving-horizon estimate with an arrival cost,
+    up to the sample index `stop`."""
     step = max(1, int(round(every / h)))
     x = np.array([float(np.median(v)), 0.01, np.log(0.01), np.log(5.0), 0.6])
     info, center = np.zeros((5, 5)), x.copy()
     out = {}
-    for hi in range(rows_fitted, len(i) + 1, step):
+    for hi in range(rows_fitted, min(stop + step, len(i) + 1), step):
         lo = hi - rows_fitted
         chol = np.linalg.cholesky(info + 1e-12 * np.eye(5)).T if info.any() else None
 
@@ -210,14 +211,15 @@ def main():
                 published = {float(r["time_s"]): r["q"] for r in track[cell]}
                 counts = {k: [0, 0] for k in tot}
                 warm = {}
-                moving = arrival_track(i, v, rows_fitted, a.every_s, h) if a.arrival else {}
+                stop = int(np.searchsorted(t, first + a.span_s, side="right"))
+                moving = arrival_track(i, v, rows_fitted, a.every_s, h, stop) if a.arrival else {}
                 for at in np.arange(first, min(first + a.span_s, t[-1]), a.every_s):
                     hi = int(np.searchsorted(t, at, side="right"))
                     q_ours = published.get(float(t[hi - 1]), "")
                     ok = {"ours": bool(q_ours) and abs(float(q_ours) / c["q"] - 1) <= 0.10}
                     for k, lo in (("rows", max(0, hi - rows_fitted)), ("window", max(0, hi - a.window)),
                                   ("growing", 0)):
-                        q, _, warm[k] = fit(i, v, lo, hi, h, warm.get(k))
+                        q, warm[k] = fit(i, v, lo, hi, h, warm.get(k))
                         ok[k] = abs(q / c["q"] - 1) <= 0.10
                     if a.arrival:
                         q = moving[max((n for n in moving if n <= hi), default=min(moving))]
