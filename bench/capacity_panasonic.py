@@ -17,7 +17,7 @@ from the export's own `Ah` count, from a nominal 10 % high, right and
 (the count also ends each 6C pulse at its last loaded row, where held to
 the next row 17.4 A runs on for a second). Last, started at the measured
 capacity, with the SOC span two rests must read apart before the capacity
-is identified (`--capacity-min-span`) from 0 to 0.8, with both `--steps`.
+is identified (`--capacity-min-span`) from 0 to 0.9, with both `--steps`.
 
     cargo build --release -p host-sim
     bash bench/panasonic_chain.sh          # target/real-cells/panasonic/ocv.csv
@@ -143,7 +143,7 @@ def main():
     print("| `--steps` | `--capacity-min-span` | published capacity over the test, against 2.995 A h "
           "| at the end | first identified at | SOC then |")
     print("|---|---|---|---|---|---|")
-    for steps, span in [(s, z) for s in ("auto", "count") for z in (0.0, 0.3, 0.5, 0.7, 0.8)]:
+    for steps, span in [(s, z) for s in ("auto", "count") for z in (0.0, 0.3, 0.5, 0.7, 0.8, 0.85, 0.9)]:
         out = os.path.join(a.out, f"raw-span-{steps}-{span}.csv")
         subprocess.run([a.host_sim, "online", "battery", "--input", HPPC, "--ocv", OCV,
                         "--capacity-ah", f"{MEASURED_AH:.4f}", "--capacity-min-span", str(span),
