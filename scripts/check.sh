@@ -13,6 +13,10 @@ export CARGO_INCREMENTAL=0
 # shows where the time goes.
 stage() { echo "== [${SECONDS} s] $*"; }
 
+# A full disk fails a late stage with an unrelated error (pip's "No space
+# left on device" after 23 minutes once): say at the start what is free.
+stage "disk: $(df -h --output=avail . 2>/dev/null | tail -1 | tr -d ' ') free at the start"
+
 # rust-toolchain.toml pins the toolchain, the thumbv7em-none-eabihf target
 # and the clippy/rustfmt/llvm-tools components; rustup installs them on first
 # use. Make sure they are present even with an older rustup.
