@@ -151,6 +151,17 @@ impl Screened {
         self.rejected[k].is_none() && !self.unobserved.get(k).copied().unwrap_or(false)
     }
 
+    /// The RMSE of `model` (V, one value per row) against the measured
+    /// voltage over the rows that count (0 when none does; NaN where a
+    /// model value there is not finite or missing).
+    pub fn counted_rmse(&self, model: &[f64]) -> f64 {
+        let (s, n) = (0..self.measured.len())
+            .filter(|&k| self.counted(k))
+            .map(|k| self.measured[k] - model.get(k).copied().unwrap_or(f64::NAN))
+            .fold((0.0, 0usize), |(s, n), e| (s + e * e, n + 1));
+        (s / n.max(1) as f64).sqrt()
+    }
+
     /// The rows that do not count (rejected or unobserved).
     pub fn excluded(&self) -> usize {
         (0..self.rejected.len())

@@ -588,12 +588,7 @@ fn apply_assessment(r: &mut BatteryResult, sc: &trust::Screened) {
     j.rejected = counts.total();
     j.rejected_rows = counts;
     if sc.excluded() > 0 {
-        // The RMSE over the accepted, measured rows.
-        let (s, k) = (0..sc.measured.len())
-            .filter(|&k| sc.counted(k))
-            .map(|k| sc.measured[k] - r.model_voltage[k])
-            .fold((0.0, 0usize), |(s, k), e| (s + e * e, k + 1));
-        j.rmse_v = (s / k.max(1) as f64).sqrt();
+        j.rmse_v = sc.counted_rmse(&r.model_voltage);
     }
 }
 
@@ -641,6 +636,7 @@ pub fn battery_identify_screened(
     };
     let mut r = fit(&sc, print_table, refine.start)?;
     for _ in 0..trust::MAX_SPIKE_PASSES {
+        let (rejected, substituted) = (sc.rejected.clone(), sc.record.voltage.clone());
         if sc.find_spikes(&r.model_voltage, limits) == 0 {
             break;
         }
@@ -649,6 +645,21 @@ pub fn battery_identify_screened(
         // corrects; the regression's history and what became of its
         // start stay the first fit's.
         let mut next = fit(&sc, false, Some(r.cell))?;
+        // A refit that fits the rows it counts worse than the fit it
+        // corrects does is not taken, nor are the spikes that fit found:
+        // the Butler–Volmer refit starts from the linear model of the fit
+        // it corrects, `R_i + a/i₀`, which for an `i₀` run towards 0 is
+        // no resistance a refinement comes back from (a 10 °C Panasonic
+        // excerpt near empty: 10.6 mV, then 7e22 V).
+        let (refit, before) = (
+            sc.counted_rmse(&next.model_voltage),
+            sc.counted_rmse(&r.model_voltage),
+        );
+        if refit.is_nan() || refit > before {
+            sc.rejected = rejected;
+            sc.record.voltage = substituted;
+            break;
+        }
         next.json.iterations += r.json.iterations;
         next.json.history = std::mem::take(&mut r.json.history);
         next.json.paper_start = r.json.paper_start;
