@@ -304,14 +304,16 @@ def acceptance(host_sim, out, map_method, online_args=(), map_model="linear", wo
                     pd, pc = prev[h]
                     naive[(j, h)] = before - pd * cur / pc
                 prev[h] = (drops[h], cur)
+        # The window of 256 samples unless `online_args` gives one.
+        window = [] if "--window" in online_args else ["--window", "256"]
         for variant, extra in (("none", []), ("own map", ["--prior", mp])):
             tracks, refused = {}, None
             for c in currents:
                 track = f"{rec_out}/pulse{c}-{'map' if extra else 'none'}.csv"
                 p = subprocess.run([host_sim, "online", "battery", "--input", path, "--ocv", ocv_path,
                                     "--capacity-ah", str(cap), "--pulse-current-a", str(c),
-                                    "--horizons", ",".join(map(str, horizons)), "--window", "256",
-                                    "--out", track] + extra + list(online_args),
+                                    "--horizons", ",".join(map(str, horizons)), "--out", track]
+                                   + window + extra + list(online_args),
                                    stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
                 if p.returncode != 0 and extra and "no level of the map can be a prior" in p.stderr:
                     # A map none of whose rows can be a prior: its row says so.
