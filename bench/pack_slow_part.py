@@ -76,17 +76,19 @@ def spread_orders(rec, spread, seed, sigma=0.001):
     json.dump(truth, open(truth_path, "w"), indent=1)
 
 
-def shares(truth_path, track_path):
-    """Per parameter and cell: (rows within ±10 %, rows counted, errors)."""
+def shares(truth_path, track_path, delay_s=0.0):
+    """Per parameter and cell: (rows within ±10 %, rows counted, errors),
+    counted from `delay_s` after the cell's first row that identifies the
+    parameter."""
     truth = {c["cell"]: c for c in json.load(open(truth_path))["cells"]}
     out = {k: {} for k in ("r_ct", "q")}
-    started = {k: set() for k in out}
+    started = {k: {} for k in out}
     for r in csv.DictReader(open(track_path)):
-        cell = int(r["cell"])
+        cell, t = int(r["cell"]), float(r["time_s"])
         for k in out:
             if r[f"{k}_status"] == "identified":
-                started[k].add(cell)
-            if cell not in started[k]:
+                started[k].setdefault(cell, t)
+            if cell not in started[k] or t < started[k][cell] + delay_s:
                 continue
             within, n, errs = out[k].get(cell, (0, 0, []))
             n += 1

@@ -18,34 +18,11 @@ bench counts them; `D` = 0 is the bench's own row.
 """
 
 import argparse
-import csv
-import json
-from collections import defaultdict
+import os
+import sys
 
-
-def track(d, profile, seed, memory):
-    """Per cell, its rows as (time, {parameter: (value or None, status)})."""
-    rows = defaultdict(list)
-    for r in csv.DictReader(open(f"{d}/{profile}-{seed}-slow{memory}-track.csv")):
-        vals = {k: (float(r[k]) if r[k] else None, r[f"{k}_status"]) for k in ("q", "r_ct")}
-        rows[int(r["cell"])].append((float(r["time_s"]), vals))
-    return rows
-
-
-def share(rows, truth, key, delay):
-    """(rows within ±10 %, rows counted) from `delay` s after the first
-    identified row on; None when the cell never identifies `key`."""
-    t0 = next((t for t, v in rows if v[key][1] == "identified"), None)
-    if t0 is None:
-        return None
-    within = counted = 0
-    for t, v in rows:
-        if t < t0 + delay:
-            continue
-        counted += 1
-        x = v[key][0]
-        within += x is not None and abs(x / truth[key] - 1) <= 0.10
-    return within, counted
+sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "bench"))
+from pack_slow_part import shares  # noqa: E402
 
 
 def main():
@@ -61,23 +38,21 @@ def main():
     print("|---|---|---|---|---|---|---|")
     for memory in a.memories.split(","):
         for profile in ("hppc", "drive"):
-            tracks = {}
-            for seed in a.seeds.split(","):
-                truth = {c["cell"]: c for c in json.load(open(f"{a.dir}/{profile}-{seed}.json"))["cells"]}
-                tracks[seed] = (truth, track(a.dir, profile, seed, memory))
             for delay in delays:
+                per_seed = {seed: shares(f"{a.dir}/{profile}-{seed}.json",
+                                         f"{a.dir}/{profile}-{seed}-slow{memory}-track.csv", delay)
+                            for seed in a.seeds.split(",")}
                 cols = []
                 for key in ("q", "r_ct"):
                     pooled = [0, 0]
                     worst = (2.0, None)
-                    for seed, (truth, rows) in tracks.items():
-                        for cell, rr in rows.items():
-                            s = share(rr, truth[cell], key, delay)
-                            if s is None or s[1] == 0:
+                    for seed, out in per_seed.items():
+                        for cell, (within, n, _) in sorted(out[key].items()):
+                            if n == 0:
                                 continue
-                            pooled[0] += s[0]
-                            pooled[1] += s[1]
-                            worst = min(worst, (s[0] / s[1], (seed, cell)))
+                            pooled[0] += within
+                            pooled[1] += n
+                            worst = min(worst, (within / n, (seed, cell)))
                     cols += [f"{100 * pooled[0] / pooled[1]:.1f} %",
                              f"{100 * worst[0]:.1f} % ({worst[1][0]}, {worst[1][1]})"]
                 print(f"| {memory} | {profile} | {delay:g} | " + " | ".join(cols) + " |")
