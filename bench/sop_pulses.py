@@ -27,7 +27,8 @@ least 0.2 (below it the cell's resistance climbs within a level).
     bash bench/panasonic_chain.sh          # target/real-cells/panasonic/ocv.csv, map.csv
     python3 bench/sop_pulses.py [--host-sim target/release/host-sim] [--out target/sop] \
         [--prior target/real-cells/panasonic/map.csv] [--butler-volmer]
-    python3 bench/sop_pulses.py --resistances    # each pulse's measured resistance only
+    python3 bench/sop_pulses.py --resistances    # each pulse's measured resistance only, and
+                                                 # how it moves with the current, per level
     python3 bench/sop_pulses.py --acceptance     # every HPPC record, second pulse group on,
                                                  # beside the last pulse's drop and a 1 RC fit:
                                                  # the Panasonic tests at 25 and 10 degC (2 s,
@@ -383,6 +384,38 @@ def acceptance(host_sim, out, map_method, online_args=(), map_model="linear", wo
                                         for e, start, cur, sc in top))
 
 
+def resistances():
+    """Each measured HPPC test's pulses, a level on a line (the charge the
+    export counts out of the cell before it): each pulse's
+    2 s and 10 s resistance (the raw log's drop over the current), then the
+    10 s resistance of the level's largest current over its smallest's
+    (below 1: the resistance falls as the current rises; above 1: it
+    rises). A pulse cut short by the voltage limit before 10 s is left
+    out of the ratio."""
+    for name, path in RECORDS.items():
+        print(f"# {name}")
+        ps, (t, v) = pulses(path)
+        m = sio.loadmat(path)["meas"][0, 0]
+        t_ah, ah = m["Time"].ravel(), m["Ah"].ravel()
+        levels = [[]]
+        for start, cur, length in ps:
+            if levels[-1] and cur > -2.0:
+                levels.append([])
+            levels[-1].append((start, cur, length))
+        for level in levels:
+            line, r10 = [], []
+            for start, cur, length in level:
+                r = [1e3 * (np.interp(start, t, v) - np.interp(start + h, t, v)) / -cur
+                     for h in HORIZONS]
+                line.append(f"{start:.0f} s {cur:.2f} A: " + ", ".join(
+                    f"{h} s {x:.1f} mOhm" for h, x in zip(HORIZONS, r)))
+                if length >= max(HORIZONS):
+                    r10.append(r[-1])
+            ratio = f"; 10 s, largest current over smallest: {r10[-1] / r10[0]:.2f}" if len(r10) > 1 else ""
+            out = max(0.0, -np.interp(level[0][0], t_ah, ah))
+            print(f"{out:.2f} A h out: " + "; ".join(line) + ratio)
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--host-sim", default="target/release/host-sim")
@@ -412,20 +445,10 @@ def main():
     if a.acceptance:
         acceptance(a.host_sim, a.out, a.map_method, a.online_args.split(), a.map_model, a.worst)
         return
-    ps, (t, v) = pulses()
     if a.resistances:
-        # The test's levels: five pulses each, -1.45 to -17.4 A.
-        line = []
-        for start, cur, _ in ps:
-            if line and cur > -2.0:
-                print("; ".join(line))
-                line = []
-            r = [1e3 * (np.interp(start, t, v) - np.interp(start + h, t, v)) / -cur
-                 for h in HORIZONS]
-            line.append(f"{start:.0f} s {cur:.2f} A: " + ", ".join(
-                f"{h} s {x:.1f} mOhm" for h, x in zip(HORIZONS, r)))
-        print("; ".join(line))
+        resistances()
         return
+    ps, (t, v) = pulses()
     i_raw = sio.loadmat(PANASONIC)["meas"][0, 0]["Current"].ravel()
     ocv = ocv_table()
     currents = sorted({current_key(c) for _, c, _ in ps})
