@@ -426,14 +426,7 @@ pub fn track_pack(
     o: &PackOptions,
     sink: impl FnMut(PackRow) -> Result<()>,
 ) -> Result<PackSummary> {
-    let (window, memory) = (o.track.window, o.track.memory);
-    if memory == 0 || memory + 8 > window {
-        bail!(
-            Options,
-            "--memory {memory}: must be in 1..={}",
-            window.saturating_sub(8)
-        );
-    }
+    crate::online::check_window(o.track.window, o.track.memory)?;
     if rec.cells.len() > MAX_CELLS {
         bail!(Data, "{} cells: at most {MAX_CELLS}", rec.cells.len());
     }

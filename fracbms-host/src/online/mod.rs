@@ -502,14 +502,8 @@ impl Tracker {
     /// A window that is not 64, 128, 256, 512 or 1024, a memory outside
     /// `1..=window − 8`, or settings the core refuses.
     pub fn new(o: &TrackOptions, h: f64, soc0: Option<f64>) -> Result<Self> {
-        let (window, memory) = (o.window, o.memory);
-        if memory == 0 || memory + 8 > window {
-            bail!(
-                Options,
-                "--memory {memory}: must be in 1..={}",
-                window.saturating_sub(8)
-            );
-        }
+        let window = o.window;
+        check_window(window, o.memory)?;
         o.power.check()?;
         let power = o.power.resolve(o.cell);
         if let Some(p) = &power {
@@ -641,6 +635,28 @@ impl Tracker {
     pub fn set_state_of_charge(&mut self, soc: f64) {
         self.cell.set_state_of_charge(soc);
     }
+}
+
+/// The windows an estimator is built for (the core's const generic).
+pub const WINDOWS: [usize; 5] = [64, 128, 256, 512, 1024];
+
+/// Checks `--window` and then `--memory` against it: a window that is not
+/// one of [`WINDOWS`], or a memory outside `1..=window − 8`, with the flag
+/// the user gave named first.
+///
+/// # Errors
+/// [`Options`](crate::error::Error::Options), naming the flag.
+pub fn check_window(window: usize, memory: usize) -> Result<()> {
+    if !WINDOWS.contains(&window) {
+        bail!(
+            Options,
+            "--window {window}: must be one of 64, 128, 256, 512, 1024"
+        );
+    }
+    if memory == 0 || memory + 8 > window {
+        bail!(Options, "--memory {memory}: must be in 1..={}", window - 8);
+    }
+    Ok(())
 }
 
 fn sized<T: Real + Send + Sync + 'static>(

@@ -13,7 +13,7 @@ mod reproduce;
 mod simulate;
 
 use anyhow::Result;
-use clap::{Parser, Subcommand};
+use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 use estimator_core::battery::Start;
 use fracbms_host::cycler::{ColumnMap, CurrentSign, RecordOptions, StepsMode};
 use fracbms_host::identify::{Algorithm, BatteryMethod, HammersteinMethod, ModelRequest};
@@ -302,10 +302,34 @@ value_enum! {
     }
 }
 
+/// `cmd` with every flag that takes a value, in every subcommand, also
+/// taking a negative number (`--soc0 -0.1`, `--sop-confidence -1`): the
+/// value's own check then says what is wrong with it, where clap would
+/// call it an unexpected argument.
+fn negative_numbers(cmd: clap::Command) -> clap::Command {
+    let cmd = cmd.mut_args(|a| {
+        if a.get_action().takes_values() {
+            a.allow_negative_numbers(true)
+        } else {
+            a
+        }
+    });
+    let names: Vec<String> = cmd
+        .get_subcommands()
+        .map(|c| c.get_name().to_string())
+        .collect();
+    names
+        .iter()
+        .fold(cmd, |cmd, name| cmd.mut_subcommand(name, negative_numbers))
+}
+
 /// Parses the arguments, runs the command and returns the exit status;
 /// errors are printed as one line.
 pub fn main() -> i32 {
-    let cli = match Cli::try_parse() {
+    let parsed = negative_numbers(Cli::command())
+        .try_get_matches()
+        .and_then(|m| Cli::from_arg_matches(&m));
+    let cli = match parsed {
         Ok(c) => c,
         Err(e) if !e.use_stderr() => {
             // --help, --version.

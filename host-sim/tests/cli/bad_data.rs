@@ -424,3 +424,65 @@ fn lines_current(path: &Path, k: usize) -> f64 {
         .parse()
         .unwrap()
 }
+
+/// A bad number for a flag of `online battery` or `online pack` is one
+/// line naming that flag and exit 1: a negative one too (read as the
+/// flag's value, not as another flag), and a window the estimator is not
+/// built for is named before the memory it would bound.
+#[test]
+fn bad_numbers_for_online_flags_give_one_line_naming_the_flag() {
+    let input = data("pybamm/chen2020-hppc.csv");
+    let ocv = data("pybamm/chen2020-ocv.csv");
+    // A two-cell pack record good enough to run (pulses of 20 s).
+    let pack = tmp("bad-flag-pack.csv");
+    let rows: String = (0..400)
+        .map(|k| {
+            let on = f64::from((k / 20) % 2);
+            format!("{k},{},{},{}\n", -on, 3.7 - 0.01 * on, 3.69 - 0.012 * on)
+        })
+        .collect();
+    std::fs::write(&pack, format!("time_s,current_a,cell_1_v,cell_2_v\n{rows}")).unwrap();
+    let cases: &[(&[&str], &str)] = &[
+        (&["--sop-confidence", "-1"], "--sop-confidence -1:"),
+        (
+            &["--capacity-min-span", "-0.1"],
+            "--capacity-min-span -0.1:",
+        ),
+        (&["--horizons", "-10"], "--horizons -10:"),
+        (&["--horizons", "10,-5"], "--horizons -5:"),
+        (&["--sop-carry-s", "-1"], "--sop-carry-s -1:"),
+        (&["--soc-rest-s", "-1"], "--soc-rest-s -1:"),
+        (&["--soc-bias-sigma-a", "-1"], "--soc-bias-sigma-a -1:"),
+        (
+            &["--soc-rest-load-sigma-a", "-1"],
+            "--soc-rest-load-sigma-a -1:",
+        ),
+        (
+            &["--soc-voltage-sigma-v", "-1"],
+            "--soc-voltage-sigma-v -1:",
+        ),
+        (&["--window", "0"], "--window 0: must be one of"),
+        (&["--window", "32"], "--window 32: must be one of"),
+        (
+            &["--window", "64", "--memory", "64"],
+            "--memory 64: must be in 1..=56",
+        ),
+    ];
+    for (command, record) in [("battery", &input), ("pack", &pack)] {
+        for (flags, expect) in cases {
+            let out = tmp(&format!("bad-flag-{command}.csv"));
+            let mut args = vec!["online", command, "--input", s(record), "--out", s(&out)];
+            if command == "battery" {
+                args.extend(["--ocv", s(&ocv), "--capacity-ah", "5.15"]);
+            }
+            args.extend(flags.iter());
+            let o = run(&args);
+            let err = String::from_utf8_lossy(&o.stderr);
+            assert_eq!(o.status.code(), Some(1), "{command} {flags:?}: {err}");
+            assert!(
+                err.contains(expect) && err.trim().lines().count() == 1,
+                "{command} {flags:?}: {err}"
+            );
+        }
+    }
+}

@@ -329,4 +329,9 @@ fn a_map_over_temperature_predicts_between_and_holds_beyond() {
     assert_eq!(r(&j60), r(&j40));
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert!(stderr.contains("outside the map's 10–40 °C"), "{stderr}");
+    // Below 0 °C: the negative number is the flag's value (clap read it as
+    // an unknown flag), held at the map's coldest.
+    let (jm10, _) = rmse_at("-10");
+    assert_eq!(jm10["map"]["temperature_rule"], "held");
+    assert_eq!(r(&jm10), r(&j10));
 }
