@@ -740,7 +740,8 @@ typedef struct FracbmsPowerRequest {
   float current_limit;
   /**
    * The horizons (s), the first `horizon_count` used; each is `H/h`
-   * samples, rounded (at least 1; so is `carry_s`).
+   * samples, rounded (at least 1; so is `carry_s`), and at most 3 600
+   * samples (the core's `MAX_HORIZON_STEPS`: an hour at 1 s).
    */
   float horizons_s[FRACBMS_HORIZONS_MAX];
   /**

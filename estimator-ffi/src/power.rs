@@ -24,7 +24,8 @@ pub struct FracbmsPowerRequest {
     /// The largest current magnitude (A).
     pub current_limit: f32,
     /// The horizons (s), the first `horizon_count` used; each is `H/h`
-    /// samples, rounded (at least 1; so is `carry_s`).
+    /// samples, rounded (at least 1; so is `carry_s`), and at most 3 600
+    /// samples (the core's `MAX_HORIZON_STEPS`: an hour at 1 s).
     pub horizons_s: [f32; FRACBMS_HORIZONS_MAX],
     /// Horizons used (1 to `FRACBMS_HORIZONS_MAX`).
     pub horizon_count: u32,
@@ -99,7 +100,8 @@ pub struct FracbmsPower {
 impl FracbmsPowerRequest {
     /// The core's settings for sample period `h` (s); `None` for a request
     /// the core refuses (limits not finite and ordered, no horizon or too
-    /// many, a horizon that is not positive).
+    /// many, a horizon that is not positive or past `MAX_HORIZON_STEPS`
+    /// samples).
     pub(crate) fn settings(&self, h: f32) -> Option<PowerSettings<f32>> {
         let n = usize::try_from(self.horizon_count).ok()?;
         let horizons = self.horizons_s.get(..n)?;
@@ -188,7 +190,9 @@ mod tests {
         let mut r = request(&[10.0]);
         r.carry_s = 601.0;
         assert_eq!(r.settings(2.0).unwrap().carry, Some(301));
-        for bad in [0.0, -10.0, f32::NAN, f32::INFINITY] {
+        // (7 202 s at 2 s: 3 601 samples, one past the longest.)
+        assert!(request(&[7200.0]).settings(2.0).is_some());
+        for bad in [0.0, -10.0, f32::NAN, f32::INFINITY, 7202.0, 1e30] {
             assert!(
                 request(&[10.0, bad]).settings(2.0).is_none(),
                 "horizon {bad}"

@@ -443,6 +443,7 @@ pub fn track_pack(
     let power = o.track.power.resolve(o.track.cell);
     if let Some(p) = &power {
         p.check()?;
+        p.check_period(rec.h)?;
     }
     let states = States {
         power,

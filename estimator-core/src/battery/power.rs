@@ -40,7 +40,7 @@ pub use check::{
 };
 pub use report::{
     samples, HorizonPower, PowerLimits, PowerReport, PowerSettings, SopBasis, StateOfPower,
-    DEFAULT_CONFIDENCE, MAX_HORIZONS,
+    DEFAULT_CONFIDENCE, MAX_HORIZONS, MAX_HORIZON_STEPS,
 };
 pub use spread::ParameterSpread;
 

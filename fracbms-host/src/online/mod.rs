@@ -508,6 +508,7 @@ impl Tracker {
         let power = o.power.resolve(o.cell);
         if let Some(p) = &power {
             p.check()?;
+            p.check_period(h)?;
         }
         let reference_r_i = match (o.prior_map, o.prior) {
             (Some(m), _) => Some(m.prior_at(soc0, None).center.r_i),

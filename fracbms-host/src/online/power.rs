@@ -17,7 +17,9 @@ use crate::error::Result;
 use crate::ocv::CellOcv;
 use estimator_core::battery::online::{CellEstimator, OnlineSettings};
 use estimator_core::battery::pack::PackEstimator;
-use estimator_core::battery::power::{samples, PowerLimits, PowerReport, PowerSettings};
+use estimator_core::battery::power::{
+    samples, PowerLimits, PowerReport, PowerSettings, MAX_HORIZON_STEPS,
+};
 use estimator_core::Real;
 
 /// The most horizons a track carries.
@@ -254,6 +256,32 @@ impl ResolvedPower {
             bail!(
                 Options,
                 "--pulse-current-a: must be a finite number of amperes"
+            );
+        }
+        Ok(())
+    }
+
+    /// Checks the horizons at the sample period `h` (s): each at most
+    /// [`MAX_HORIZON_STEPS`] samples, as the core takes them
+    /// ([`PowerSettings::new`]).
+    ///
+    /// # Errors
+    /// The longest horizon past that, named with the longest the period
+    /// allows.
+    pub(crate) fn check_period(&self, h: f64) -> Result<()> {
+        let longest = self.options.horizons().iter().copied().fold(0.0, f64::max);
+        if samples(longest, h).is_none_or(|n| n > MAX_HORIZON_STEPS) {
+            // (A huge horizon in exponent form, not in 300 digits.)
+            let given = if longest < 1e9 {
+                longest.to_string()
+            } else {
+                format!("{longest:e}")
+            };
+            bail!(
+                Options,
+                "--horizons {given}: at most {MAX_HORIZON_STEPS} samples of the \
+                 {h} s period ({} s)",
+                f64::from(MAX_HORIZON_STEPS) * h
             );
         }
         Ok(())

@@ -427,8 +427,9 @@ fn lines_current(path: &Path, k: usize) -> f64 {
 
 /// A bad number for a flag of `online battery` or `online pack` is one
 /// line naming that flag and exit 1: a negative one too (read as the
-/// flag's value, not as another flag), and a window the estimator is not
-/// built for is named before the memory it would bound.
+/// flag's value, not as another flag), a window the estimator is not
+/// built for is named before the memory it would bound, and a horizon
+/// past the core's `MAX_HORIZON_STEPS` is refused up front.
 #[test]
 fn bad_numbers_for_online_flags_give_one_line_naming_the_flag() {
     let input = data("pybamm/chen2020-hppc.csv");
@@ -466,6 +467,19 @@ fn bad_numbers_for_online_flags_give_one_line_naming_the_flag() {
         (
             &["--window", "64", "--memory", "64"],
             "--memory 64: must be in 1..=56",
+        ),
+        // A horizon the state of power would take for ever to run (the
+        // pack's with limits given: without them it publishes none).
+        (
+            &[
+                "--horizons",
+                "1e308",
+                "--voltage-min",
+                "3",
+                "--voltage-max",
+                "4.2",
+            ],
+            "--horizons 1e308: at most 3600 samples of the 1 s period",
         ),
     ];
     for (command, record) in [("battery", &input), ("pack", &pack)] {

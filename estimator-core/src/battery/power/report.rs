@@ -64,16 +64,23 @@ pub fn samples<T: Real>(seconds: T, period_s: T) -> Option<u32> {
 /// The most horizons one [`PowerSettings`] asks for.
 pub const MAX_HORIZONS: usize = 8;
 
+/// The longest horizon (samples) one [`PowerSettings`] asks for: an hour
+/// at a 1 s period. Each sample's state of power runs the model over its
+/// longest horizon, so its cost grows with it (a horizon of `u32::MAX`
+/// samples would hold the update for good).
+pub const MAX_HORIZON_STEPS: u32 = 3_600;
+
 /// What a state-of-power report asks: the limits, up to [`MAX_HORIZONS`]
 /// horizons (samples of the model's period) and, optionally, the current
 /// of a pulse whose voltage at the end of each horizon is predicted.
 ///
 /// ```
-/// use estimator_core::battery::power::{PowerLimits, PowerSettings};
+/// use estimator_core::battery::power::{PowerLimits, PowerSettings, MAX_HORIZON_STEPS};
 /// let limits = PowerLimits { voltage_min: 2.5, voltage_max: 4.2, current_limit: 50.0 };
 /// let s = PowerSettings::new(limits, &[10, 30], Some(-3.0)).unwrap();
 /// assert_eq!(s.horizons(), &[10, 30]);
 /// assert!(PowerSettings::new(limits, &[0], None).is_none());
+/// assert!(PowerSettings::new(limits, &[MAX_HORIZON_STEPS + 1], None).is_none());
 /// ```
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -98,10 +105,11 @@ pub struct PowerSettings<T> {
 }
 
 impl<T: Real> PowerSettings<T> {
-    /// Settings for `horizons` (samples, each at least 1; 1 to
-    /// [`MAX_HORIZONS`] of them). `None` for another count, a zero
-    /// horizon, or limits that are not finite with `voltage_min <
-    /// voltage_max` and a positive current limit.
+    /// Settings for `horizons` (samples, each 1 to
+    /// [`MAX_HORIZON_STEPS`]; 1 to [`MAX_HORIZONS`] of them). `None` for
+    /// another count, a horizon of 0 or past [`MAX_HORIZON_STEPS`], or
+    /// limits that are not finite with `voltage_min < voltage_max` and a
+    /// positive current limit.
     pub fn new(limits: PowerLimits<T>, horizons: &[u32], pulse_current: Option<T>) -> Option<Self> {
         let l = &limits;
         let finite =
@@ -109,7 +117,7 @@ impl<T: Real> PowerSettings<T> {
         if !(finite && l.voltage_min < l.voltage_max && l.current_limit > T::zero())
             || horizons.is_empty()
             || horizons.len() > MAX_HORIZONS
-            || horizons.contains(&0)
+            || horizons.iter().any(|&h| h == 0 || h > MAX_HORIZON_STEPS)
             || pulse_current.is_some_and(|i| !i.is_finite())
         {
             return None;
@@ -139,6 +147,9 @@ impl<T: Real> PowerSettings<T> {
     /// let p = PowerSettings::from_seconds(limits, &[2.0, 10.0, 30.0], 1.8, None).unwrap();
     /// assert_eq!(p.horizons(), [1, 6, 17]);
     /// assert!(PowerSettings::from_seconds(limits, &[0.0], 1.0, None).is_none());
+    /// // Past `MAX_HORIZON_STEPS` samples (an hour at 1 s):
+    /// assert!(PowerSettings::from_seconds(limits, &[3600.0], 1.0, None).is_some());
+    /// assert!(PowerSettings::from_seconds(limits, &[3601.0], 1.0, None).is_none());
     /// ```
     pub fn from_seconds(
         limits: PowerLimits<T>,
