@@ -176,9 +176,7 @@ pub fn simulate_file(a: &SimulatePack) -> Result<()> {
     if a.cells == 0 || a.cells > MAX_CELLS {
         bail!(Options, "--cells {}: must be in 1..={MAX_CELLS}", a.cells);
     }
-    if a.length < 2 {
-        bail!(Options, "--length must be at least 2");
-    }
+    crate::simulate::check_length(a.length, 2)?;
     if !(a.spread.is_finite() && (0.0..0.5).contains(&a.spread)) {
         bail!(Options, "--spread {}: must be in [0, 0.5)", a.spread);
     }

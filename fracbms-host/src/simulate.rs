@@ -17,6 +17,27 @@ use std::path::PathBuf;
 /// Longest memory of the simulators (samples).
 pub const SIM_MEMORY: usize = 4096;
 
+/// The most samples a simulation writes (`--length`): ten million, a
+/// record of 116 days at 1 s. A simulated record is held whole before it
+/// is written; `--length 4294967295` asked for more memory than a host
+/// has and aborted the process.
+pub const MAX_SIMULATED_SAMPLES: usize = 10_000_000;
+
+/// Checks a simulation's `--length`: from `least` to
+/// [`MAX_SIMULATED_SAMPLES`] samples.
+///
+/// # Errors
+/// [`Options`](crate::error::Error::Options), naming the flag.
+pub(crate) fn check_length(length: usize, least: usize) -> Result<()> {
+    if !(least..=MAX_SIMULATED_SAMPLES).contains(&length) {
+        bail!(
+            Options,
+            "--length {length}: must be in {least}..={MAX_SIMULATED_SAMPLES}"
+        );
+    }
+    Ok(())
+}
+
 /// A simulated Hammerstein record.
 pub struct HammersteinData {
     /// Input u(l) ~ N(0, 1).
@@ -76,9 +97,7 @@ pub struct SimulateHammerstein {
 /// `simulate hammerstein`: eq. (4) for a preset, written to `a.out`.
 pub fn hammerstein_file(a: &SimulateHammerstein) -> Result<()> {
     let sys = presets::hammerstein(&a.preset).ok_or_else(|| err!(Options, "unknown preset"))?;
-    if a.length == 0 {
-        bail!(Options, "--length must be at least 1");
-    }
+    check_length(a.length, 1)?;
     let memory = a.memory.unwrap_or(a.length.min(SIM_MEMORY));
     if memory == 0 || memory > SIM_MEMORY {
         bail!(Options, "--memory {memory}: must be in 1..={SIM_MEMORY}");
@@ -307,9 +326,7 @@ pub(crate) fn state_of_charge_options(
 pub fn battery_file(a: &SimulateBattery) -> Result<()> {
     let preset = presets::battery(&a.preset).ok_or_else(|| err!(Options, "unknown preset"))?;
     let profile = presets::profile(&a.profile).ok_or_else(|| err!(Options, "unknown profile"))?;
-    if a.length == 0 {
-        bail!(Options, "--length must be at least 1");
-    }
+    check_length(a.length, 1)?;
     let sigma = a.sigma.unwrap_or(preset.sigma);
     let capacity_ah = state_of_charge_options(a.soc0, a.capacity_ah, preset.capacity_ah)?;
     let table;

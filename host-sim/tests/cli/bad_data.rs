@@ -500,3 +500,26 @@ fn bad_numbers_for_online_flags_give_one_line_naming_the_flag() {
         }
     }
 }
+
+/// A simulation longer than `MAX_SIMULATED_SAMPLES` is one line and exit
+/// 1, for each of `simulate`'s commands (`--length 4294967295` aborted the
+/// process when the record could not be allocated).
+#[test]
+fn a_simulation_too_long_to_hold_is_one_line() {
+    let out = tmp("too-long.csv");
+    for command in [
+        &["simulate", "battery", "--preset", "cell"][..],
+        &["simulate", "hammerstein", "--preset", "paper-op"],
+        &["simulate", "pack", "--cells", "2"],
+    ] {
+        let mut args = command.to_vec();
+        args.extend(["--length", "4294967295", "--out", s(&out)]);
+        let o = run(&args);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(1), "{command:?}: {err}");
+        assert!(
+            err.contains("--length 4294967295: must be in") && err.trim().lines().count() == 1,
+            "{command:?}: {err}"
+        );
+    }
+}
