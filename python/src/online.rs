@@ -307,7 +307,8 @@ impl OnlineCell {
                 PyValueError::new_err(
                     format!("{e:#}")
                         .replace("--memory ", "memory=")
-                        .replace("--window ", "window="),
+                        .replace("--window ", "window=")
+                        .replace("--horizons ", "horizons="),
                 )
             })?;
         Ok(Self {

@@ -171,6 +171,7 @@ pub fn online_pack<'py>(
                 format!("{e:#}")
                     .replace("--memory ", "memory=")
                     .replace("--window ", "window=")
+                    .replace("--horizons ", "horizons=")
                     .replace("--soc0 ", "soc0=")
                     .replace("--updates-per-period", "updates_per_period=")
                     .replace("--flag-ratio ", "flag_ratio="),

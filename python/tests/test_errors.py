@@ -118,6 +118,9 @@ def test_bad_keywords():
         fracbms.OnlineCell(window=100, memory=32)
     with pytest.raises(ValueError, match=r"^memory=64: must be in 1..=56$"):
         fracbms.OnlineCell(window=64)
+    # A horizon the state of power would take for ever to run.
+    with pytest.raises(ValueError, match=r"^horizons=1e308: at most 3600 samples of the 1 s period"):
+        fracbms.OnlineCell(ocv=([0.0, 1.0], [3.0, 4.0]), capacity_ah=2.0, horizons=[1e308])
     with pytest.raises(ValueError, match="u_oc is needed without ocv"):
         fracbms.simulate_battery(t, i, r_i=0.02, r_ct=0.015, q=500.0, alpha=0.7)
     assert fracbms.MAX_BATTERY_ROWS == 262144
