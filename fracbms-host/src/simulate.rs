@@ -27,7 +27,7 @@ pub const MAX_SIMULATED_SAMPLES: usize = 10_000_000;
 /// [`MAX_SIMULATED_SAMPLES`] samples.
 ///
 /// # Errors
-/// [`Options`](crate::error::Error::Options), naming the flag.
+/// [`Options`](crate::error::ErrorKind::Options), naming the flag.
 pub(crate) fn check_length(length: usize, least: usize) -> Result<()> {
     if !(least..=MAX_SIMULATED_SAMPLES).contains(&length) {
         bail!(

@@ -646,7 +646,7 @@ pub const WINDOWS: [usize; 5] = [64, 128, 256, 512, 1024];
 /// the user gave named first.
 ///
 /// # Errors
-/// [`Options`](crate::error::Error::Options), naming the flag.
+/// [`Options`](crate::error::ErrorKind::Options), naming the flag.
 pub fn check_window(window: usize, memory: usize) -> Result<()> {
     if !WINDOWS.contains(&window) {
         bail!(
