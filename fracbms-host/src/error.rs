@@ -135,6 +135,24 @@ impl<T, E: fmt::Display> IoContext<T> for std::result::Result<T, E> {
     }
 }
 
+/// A number as an error message shows it: as Rust prints it between
+/// 10⁻⁴ and 10⁹ (`0.0005`, `11718001`), in exponent form beyond
+/// (`1e-300`, `1e308`), where the plain form runs to hundreds of digits.
+///
+/// ```
+/// use fracbms_host::error::shown;
+/// assert_eq!(shown(0.0005), "0.0005");
+/// assert_eq!(shown(1e-300), "1e-300");
+/// assert_eq!(shown(5.859e9), "5.859e9");
+/// ```
+pub fn shown(x: f64) -> String {
+    if x == 0.0 || !x.is_finite() || (1e-4..1e9).contains(&x.abs()) {
+        x.to_string()
+    } else {
+        format!("{x:e}")
+    }
+}
+
 /// An [`Error`] of a kind (`Data`, `Options`, …) with a formatted message.
 #[macro_export]
 #[doc(hidden)]

@@ -271,16 +271,11 @@ impl ResolvedPower {
     pub(crate) fn check_period(&self, h: f64) -> Result<()> {
         let longest = self.options.horizons().iter().copied().fold(0.0, f64::max);
         if samples(longest, h).is_none_or(|n| n > MAX_HORIZON_STEPS) {
-            // (A huge horizon in exponent form, not in 300 digits.)
-            let given = if longest < 1e9 {
-                longest.to_string()
-            } else {
-                format!("{longest:e}")
-            };
             bail!(
                 Options,
-                "--horizons {given}: at most {MAX_HORIZON_STEPS} samples of the \
+                "--horizons {}: at most {MAX_HORIZON_STEPS} samples of the \
                  {h} s period ({} s)",
+                crate::error::shown(longest),
                 f64::from(MAX_HORIZON_STEPS) * h
             );
         }

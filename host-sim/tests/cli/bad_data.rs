@@ -523,3 +523,42 @@ fn a_simulation_too_long_to_hold_is_one_line() {
         );
     }
 }
+
+/// A `--period` that would put the log on more samples than a host holds
+/// is one line naming it and exit 1, for every command that reads a log
+/// (`online battery --period 1e-6` asked for 47 GB and aborted).
+#[test]
+fn a_period_too_fine_to_hold_is_one_line() {
+    let input = data("pybamm/chen2020-hppc.csv");
+    let out = tmp("too-fine.csv");
+    let json = tmp("too-fine.json");
+    let model = tmp("too-fine-model.json");
+    std::fs::write(
+        &model,
+        r#"{"r_i": 0.02, "r_ct": 0.015, "q": 500.0, "alpha": 0.7, "u_oc": 3.7}"#,
+    )
+    .unwrap();
+    for (command, extra) in [
+        (&["identify", "battery"][..], &["--json", s(&json)][..]),
+        (&["online", "battery"], &["--out", s(&out)]),
+        (
+            &["predict", "battery"],
+            &["--model", s(&model), "--out", s(&out)],
+        ),
+    ] {
+        for period in ["1e-6", "1e-300"] {
+            let mut args = command.to_vec();
+            args.extend(["--input", s(&input), "--period", period]);
+            args.extend(extra);
+            let o = run(&args);
+            let err = String::from_utf8_lossy(&o.stderr);
+            assert_eq!(o.status.code(), Some(1), "{command:?} {period}: {err}");
+            assert!(
+                err.contains(&format!("--period {period}: "))
+                    && err.contains("are taken (a longer period)")
+                    && err.trim().lines().count() == 1,
+                "{command:?} {period}: {err}"
+            );
+        }
+    }
+}
