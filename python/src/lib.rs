@@ -435,7 +435,8 @@ fn predict_battery<'py>(
             let m = e
                 .to_string()
                 .replace("give --ocv and --capacity-ah", "give ocv and capacity_ah")
-                .replace("leave out --ocv", "leave out ocv");
+                .replace("leave out --ocv", "leave out ocv")
+                .replace("--temperature-c ", "temperature_c=");
             PyValueError::new_err(m)
         })?;
     let model_v = std::mem::take(&mut p.model_v);

@@ -114,6 +114,9 @@ def test_predict_equals_the_cli_for_a_fit_and_a_map(host_sim, tmp_path):
         assert py["rmse_v"] < 2e-3
     with pytest.raises(ValueError, match="give ocv and capacity_ah"):
         fracbms.predict_battery(t, i, v, model=fit)
+    with pytest.raises(ValueError, match=r"^temperature_c=-300: must be a temperature above absolute zero"):
+        fracbms.predict_battery(t, i, v, model=fit["map"], ocv=ocv_table(), capacity_ah=2.5,
+                                soc0=0.9, temperature_c=-300.0)
 
 
 def test_online_with_a_map_prior_equals_the_cli(host_sim, tmp_path):

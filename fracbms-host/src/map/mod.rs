@@ -40,6 +40,22 @@ pub fn counted_soc(rec: &BatteryRecord, c: &CellOcv, gaps: &[Gap]) -> Vec<f64> {
     c.counted_soc(rec, gaps)
 }
 
+/// Checks a `--temperature-c` given: finite and above absolute zero
+/// (the Arrhenius rule divides by the temperature in kelvin).
+///
+/// # Errors
+/// [`Options`](crate::error::ErrorKind::Options), naming the flag.
+pub fn check_temperature(t: Option<f64>) -> Result<()> {
+    if let Some(t) = t.filter(|t| !(t.is_finite() && *t > -KELVIN)) {
+        crate::bail!(
+            Options,
+            "--temperature-c {}: must be a temperature above absolute zero (°C)",
+            crate::error::shown(t)
+        );
+    }
+    Ok(())
+}
+
 /// Which samples lie inside one of `gaps` (made up by the resampling: no
 /// row of the log is there).
 pub fn in_gaps(rec: &BatteryRecord, gaps: &[Gap]) -> Vec<bool> {

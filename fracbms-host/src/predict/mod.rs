@@ -379,6 +379,7 @@ pub fn run_model(
     t: Option<f64>,
 ) -> Result<Prediction> {
     check_model_ocv(model, spec)?;
+    crate::map::check_temperature(t)?;
     let gap = crate::map::in_gaps(&read.record, &read.report.resampling.gaps);
     let unobserved = read.report.unobserved(read.record.h, &read.record.time);
     let mut p = match (model, spec) {

@@ -334,4 +334,24 @@ fn a_map_over_temperature_predicts_between_and_holds_beyond() {
     let (jm10, _) = rmse_at("-10");
     assert_eq!(jm10["map"]["temperature_rule"], "held");
     assert_eq!(r(&jm10), r(&j10));
+    // Below absolute zero or not a number: one line naming the flag.
+    for bad in ["-300", "nan", "inf"] {
+        let mut a = vec![
+            "predict",
+            "battery",
+            "--model",
+            s(&map),
+            "--input",
+            s(&drive),
+        ];
+        a.extend(["--ocv", s(&table), "--capacity-ah", "2.5", "--soc0", "0.9"]);
+        a.extend(["--temperature-c", bad, "--out", s(&out)]);
+        let o = run(&a);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(1), "{bad}: {err}");
+        assert!(
+            err.contains("--temperature-c") && err.trim().lines().count() == 1,
+            "{bad}: {err}"
+        );
+    }
 }

@@ -127,6 +127,7 @@ pub fn build_map(
             o.min_rest_s
         );
     }
+    crate::map::check_temperature(o.temperature_c)?;
     if o.soc_bins == Some(0) {
         bail!(Options, "--soc-bins must be at least 1");
     }
