@@ -131,12 +131,6 @@ pub struct RecordOptions {
 /// given (the period is raised to keep within it).
 pub const MAX_SAMPLES: usize = 50_000;
 
-/// The most samples a given `--period` may put a log on, whatever the
-/// caller takes (ten million: 116 days at 1 s). The resampled record is
-/// held whole; `--period 1e-6` on a 5 859 s log asked for 47 GB and
-/// aborted the process.
-pub const MAX_GIVEN_PERIOD_SAMPLES: usize = 10_000_000;
-
 /// Lines searched for the header (a BioLogic export has a preamble).
 const HEADER_SEARCH_LINES: usize = 200;
 
@@ -609,16 +603,9 @@ fn finish(
         (None, None) => chosen(),
     };
     // A chosen period keeps within the limit (to one sample, where span/h
-    // is whole); a given one may not, nor past what a host can hold.
-    let samples = (span / h).floor() + 1.0;
-    let taken = limit.min(MAX_GIVEN_PERIOD_SAMPLES);
-    if source == "given" && samples > taken as f64 {
-        bail!(
-            Options,
-            "--period {}: {} samples over the record's {span} s; at most {taken} are taken (a longer period)",
-            crate::error::shown(h),
-            crate::error::shown(samples)
-        );
+    // is whole); a given one may not.
+    if source == "given" {
+        resample::check_given_period(h, span, limit)?;
     }
     r.gap_threshold_s = o.max_gap.unwrap_or((10.0 * h).max(300.0));
     let resampled = source != "uniform";

@@ -5,8 +5,35 @@
 //! drop). Owns the time base; must not
 //! touch the columns' names, units or signs (read before it runs).
 
+use crate::bail;
+use crate::error::{shown, Result};
 use estimator_core::battery::power::VoltageTiming;
 use serde::Serialize;
+
+/// The most samples a given `--period` may put a log on, whatever the
+/// caller takes (ten million: 116 days at 1 s). The resampled record is
+/// held whole; `--period 1e-6` on a 5 859 s log asked for 47 GB and
+/// aborted the process.
+pub const MAX_GIVEN_PERIOD_SAMPLES: usize = 10_000_000;
+
+/// Checks a given period `h` (s) over a log of `span` s: at most `limit`
+/// samples (the caller's) and [`MAX_GIVEN_PERIOD_SAMPLES`].
+///
+/// # Errors
+/// [`Options`](crate::error::ErrorKind::Options), naming `--period`.
+pub fn check_given_period(h: f64, span: f64, limit: usize) -> Result<()> {
+    let samples = (span / h).floor() + 1.0;
+    let taken = limit.min(MAX_GIVEN_PERIOD_SAMPLES);
+    if samples > taken as f64 {
+        bail!(
+            Options,
+            "--period {}: {} samples over the record's {span} s; at most {taken} are taken (a longer period)",
+            shown(h),
+            shown(samples)
+        );
+    }
+    Ok(())
+}
 
 /// A gap of the log: two rows further apart than the threshold.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
