@@ -491,12 +491,7 @@ fn bad_numbers_for_online_flags_give_one_line_naming_the_flag() {
             }
             args.extend(flags.iter());
             let o = run(&args);
-            let err = String::from_utf8_lossy(&o.stderr);
-            assert_eq!(o.status.code(), Some(1), "{command} {flags:?}: {err}");
-            assert!(
-                err.contains(expect) && err.trim().lines().count() == 1,
-                "{command} {flags:?}: {err}"
-            );
+            assert_one_line_error(&o, &[expect], &format!("{command} {flags:?}"));
         }
     }
 }
@@ -515,12 +510,8 @@ fn a_simulation_too_long_to_hold_is_one_line() {
         let mut args = command.to_vec();
         args.extend(["--length", "4294967295", "--out", s(&out)]);
         let o = run(&args);
-        let err = String::from_utf8_lossy(&o.stderr);
-        assert_eq!(o.status.code(), Some(1), "{command:?}: {err}");
-        assert!(
-            err.contains("--length 4294967295: must be in") && err.trim().lines().count() == 1,
-            "{command:?}: {err}"
-        );
+        let expect = ["--length 4294967295: must be in"];
+        assert_one_line_error(&o, &expect, &format!("{command:?}"));
     }
 }
 
@@ -551,14 +542,9 @@ fn a_period_too_fine_to_hold_is_one_line() {
             args.extend(["--input", s(&input), "--period", period]);
             args.extend(extra);
             let o = run(&args);
-            let err = String::from_utf8_lossy(&o.stderr);
-            assert_eq!(o.status.code(), Some(1), "{command:?} {period}: {err}");
-            assert!(
-                err.contains(&format!("--period {period}: "))
-                    && err.contains("are taken (a longer period)")
-                    && err.trim().lines().count() == 1,
-                "{command:?} {period}: {err}"
-            );
+            let named = format!("--period {period}: ");
+            let expect = [named.as_str(), "are taken (a longer period)"];
+            assert_one_line_error(&o, &expect, &format!("{command:?} {period}"));
         }
     }
 }

@@ -33,6 +33,17 @@ fn run(args: &[&str]) -> Output {
     bin().args(args).output().unwrap()
 }
 
+/// Asserts that `o` is a refused command: exit 1 and one line on stderr
+/// holding each of `expect` (`what` names the case in a failure).
+fn assert_one_line_error(o: &Output, expect: &[&str], what: &str) {
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{what}: {err}");
+    assert!(
+        expect.iter().all(|e| err.contains(e)) && err.trim().lines().count() == 1,
+        "{what}: {err}"
+    );
+}
+
 fn s(p: &Path) -> &str {
     p.to_str().unwrap()
 }

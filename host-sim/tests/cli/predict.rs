@@ -292,20 +292,18 @@ fn a_map_over_temperature_predicts_between_and_holds_beyond() {
     )
     .unwrap();
     let out = tmp("tmap.out.csv");
+    let json_at = |t: &str| tmp(&format!("tmap-{t}.json"));
+    let predict_at = |t: &str| {
+        let json = json_at(t);
+        let mut a = vec!["predict", "battery", "--model", s(&map)];
+        a.extend(["--input", s(&drive), "--ocv", s(&table)]);
+        a.extend(["--capacity-ah", "2.5", "--soc0", "0.9"]);
+        a.extend(["--temperature-c", t, "--out", s(&out), "--json", s(&json)]);
+        run(&a)
+    };
     let rmse_at = |t: &str| {
-        let json = tmp(&format!("tmap-{t}.json"));
-        let mut a = vec![
-            "predict",
-            "battery",
-            "--model",
-            s(&map),
-            "--input",
-            s(&drive),
-        ];
-        a.extend(["--ocv", s(&table), "--capacity-ah", "2.5", "--soc0", "0.9"]);
-        a.extend(["--temperature-c", t, "--out", s(&out)]);
-        a.extend(["--json", s(&json)]);
-        let o = run(&a);
+        let o = predict_at(t);
+        let json = json_at(t);
         assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
         (read_json(&json), o)
     };
@@ -336,22 +334,6 @@ fn a_map_over_temperature_predicts_between_and_holds_beyond() {
     assert_eq!(r(&jm10), r(&j10));
     // Below absolute zero or not a number: one line naming the flag.
     for bad in ["-300", "nan", "inf"] {
-        let mut a = vec![
-            "predict",
-            "battery",
-            "--model",
-            s(&map),
-            "--input",
-            s(&drive),
-        ];
-        a.extend(["--ocv", s(&table), "--capacity-ah", "2.5", "--soc0", "0.9"]);
-        a.extend(["--temperature-c", bad, "--out", s(&out)]);
-        let o = run(&a);
-        let err = String::from_utf8_lossy(&o.stderr);
-        assert_eq!(o.status.code(), Some(1), "{bad}: {err}");
-        assert!(
-            err.contains("--temperature-c") && err.trim().lines().count() == 1,
-            "{bad}: {err}"
-        );
+        assert_one_line_error(&predict_at(bad), &["--temperature-c"], bad);
     }
 }
