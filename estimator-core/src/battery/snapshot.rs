@@ -35,10 +35,11 @@
 //! next period's updates start at. The window, the counters, the state
 //! of power's polarization and its check against the last pulse
 //! ([`PulseCheck`](super::power::PulseCheck)) are not kept: they refill
-//! from new samples. Nor
-//! is the mean of the slow part carried across windows
-//! ([`OnlineSettings::slow_memory_s`]): it starts again at the first
-//! window that identifies each parameter.
+//! from new samples. With [`OnlineSettings::slow_memory_s`] above 0 (the
+//! settings the pack was made with), the mean of the slow part carried
+//! across windows is kept too, aged to the save; restored, it ages by the
+//! time the estimator was off where the clocks know it, and takes the
+//! next windows' values as the uninterrupted mean does.
 //!
 //! # Layout (a fixed layout, little-endian)
 //! A fixed layout rather than a serde format: the bytes are the same from
@@ -54,12 +55,12 @@
 //! | 6 | 2 | cells `n` |
 //! | 8 | 4 | settings fingerprint (CRC-32 of the settings' bytes) |
 //! | 12 | 2 | the cell the next period's updates start at |
-//! | 14 | 2 | reserved (0) |
+//! | 14 | 2 | flags: bit 0, each cell's slow part follows it (version 3; 0 before) |
 //! | 16 | 4 | saved at (s, the caller's clock; `u32::MAX`: unknown) |
-//! | 20 | [`CELL_BYTES`]`·n` | the cells, cell 1 first |
-//! | 20 + 124·n | 4 | CRC-32 (ISO-HDLC) of every byte before |
+//! | 20 | `c·n` | the cells, cell 1 first (`c` = [`CELL_BYTES`], 124, or with the slow part 124 + [`SLOW_PART_BYTES`] = 164) |
+//! | 20 + c·n | 4 | CRC-32 (ISO-HDLC) of every byte before |
 //!
-//! One cell ([`CELL_BYTES`] = 124), layout version 2:
+//! One cell ([`CELL_BYTES`] = 124), layout versions 2 and 3:
 //!
 //! | offset | bytes | field |
 //! |---|---|---|
@@ -73,14 +74,20 @@
 //! | 104 | 4 | the last identified capacity |
 //! | 108 | 4 | the last observation's weight |
 //! | 112 | 12 | a rest in progress: its length (s; NaN: no rest, and then bits 13–15 are 0), voltage mean and current mean (NaN: no sample of the rest read a current; ±∞ is implausible) |
+//! | 124 | 40 | with flag bit 0 only, the slow part: for `R_ct`, `Q` and α (of the logs of `R_ct` and `Q`) its summed weight, weighted sum and the SOC of its last value (NaN: none), then the SOC the weights were aged to; weights and sums aged to the save |
 //!
+//! Version 3 added the flag and the slow part; a version-3 snapshot
+//! without it is byte for byte a version-2 one but for the version.
 //! Layout version 1 (read, no longer written) had the statuses 4 bits
 //! each, the observations as a `u32`, no rest current, and a flags word
 //! at the end (bit 0 an estimate, bit 1 a rest, bits 2 and 3 its early
 //! observation and observation given): the same size. A rest restored
 //! from it gives no reading of the current sensor's bias.
 //!
-//! Sizes: [`snapshot_bytes`]`(1)` = 148 B, `snapshot_bytes(16)` = 2008 B.
+//! Sizes: [`snapshot_bytes`]`(1)` = 148 B, `snapshot_bytes(16)` = 2008 B;
+//! with the slow part ([`snapshot_bytes_with`]) 188 B and 2648 B (at most
+//! 12 cells, 1992 B, fit one 2 KiB flash page with the firmware store's
+//! header).
 //!
 //! This module owns the layout, its checks and the fingerprint; it must
 //! not decide what the tracker does with a restored cell (that is
@@ -88,20 +95,20 @@
 //! are stored (the firmware's storage, the C caller's flash, host-sim's
 //! file).
 
+mod cell;
+
 use super::pack::PackEstimator;
-use super::soc::{ObserverParts, RestParts};
 use super::tracker::check_limits;
 pub use super::tracker::Restoration;
-use super::tracker::{
-    CellSnapshot, Identification, OnlineSettings, PublishedParameter, PublishedParameters,
-};
-use super::{CellModel, CellParameters};
+use super::tracker::{CellSnapshot, OnlineSettings, SLOW_PARTS};
+use super::CellModel;
 use crate::real::Real;
+use cell::{Layout, Reader, Writer};
 
 /// The layout version a snapshot is written with. Versions from
 /// [`OLDEST_READ_VERSION`] to it are read; another is rejected
 /// ([`SnapshotError::Version`]).
-pub const SNAPSHOT_VERSION: u16 = 2;
+pub const SNAPSHOT_VERSION: u16 = 3;
 
 /// The oldest layout version read: 1, which did not keep a rest's current
 /// (a firmware update keeps what the cells learned).
@@ -116,6 +123,12 @@ pub const HEADER_BYTES: usize = 20;
 /// Bytes per cell.
 pub const CELL_BYTES: usize = 124;
 
+/// Bytes a cell's slow part carried across windows adds to it, when the
+/// snapshot keeps it (header flag bit 0): per `R_ct`, `Q`, α its weight,
+/// weighted sum and last state of charge, then the state of charge the
+/// weights were aged to.
+pub const SLOW_PART_BYTES: usize = 40;
+
 /// Bytes of the closing CRC.
 pub const CRC_BYTES: usize = 4;
 
@@ -127,8 +140,31 @@ pub const CRC_BYTES: usize = 4;
 /// assert_eq!(snapshot_bytes(16), 2008);
 /// ```
 pub const fn snapshot_bytes(cells: usize) -> usize {
-    HEADER_BYTES + CELL_BYTES * cells + CRC_BYTES
+    snapshot_bytes_with(cells, false)
 }
+
+/// The size of a snapshot of `cells` cells (B) that keeps, with
+/// `slow_part`, each cell's slow part carried across windows (the pack's
+/// settings have [`OnlineSettings::slow_memory_s`] above 0).
+///
+/// ```
+/// use estimator_core::battery::snapshot::snapshot_bytes_with;
+/// assert_eq!(snapshot_bytes_with(1, false), 148);
+/// assert_eq!(snapshot_bytes_with(1, true), 188);
+/// assert_eq!(snapshot_bytes_with(12, true), 1992);
+/// ```
+pub const fn snapshot_bytes_with(cells: usize, slow_part: bool) -> usize {
+    let cell = if slow_part {
+        CELL_BYTES + SLOW_PART_BYTES
+    } else {
+        CELL_BYTES
+    };
+    HEADER_BYTES + cell * cells + CRC_BYTES
+}
+
+/// Header flag: each cell's slow part follows its [`CELL_BYTES`].
+const FLAG_SLOW_PART: u16 = 1;
+const _: () = assert!(SLOW_PART_BYTES == 4 * SLOW_PARTS);
 
 const CRC: crc::Crc<u32> = crc::Crc::<u32>::new(&crc::CRC_32_ISO_HDLC);
 
@@ -144,7 +180,8 @@ pub enum SnapshotError {
     /// The bytes do not start with [`SNAPSHOT_MAGIC`] (erased flash,
     /// another record).
     NotASnapshot,
-    /// Written by another layout version (another firmware).
+    /// Written by another layout version (another firmware), or with
+    /// header flags this build does not know.
     Version {
         /// The snapshot's version.
         found: u16,
@@ -280,305 +317,14 @@ pub fn settings_fingerprint<T: Real, const P: usize>(s: &OnlineSettings<T, P>) -
     d.finalize()
 }
 
-/// A little-endian writer over a fixed buffer (the caller checked its
-/// length).
-struct Writer<'a> {
-    buf: &'a mut [u8],
-    at: usize,
-}
-
-impl Writer<'_> {
-    fn bytes(&mut self, b: &[u8]) {
-        if let Some(dst) = self.buf.get_mut(self.at..self.at + b.len()) {
-            dst.copy_from_slice(b);
-        }
-        self.at += b.len();
-    }
-    fn u16(&mut self, x: u16) {
-        self.bytes(&x.to_le_bytes());
-    }
-    fn u32(&mut self, x: u32) {
-        self.bytes(&x.to_le_bytes());
-    }
-    /// `x` as an `f32`, saturated to its finite range: an f64 host's
-    /// value beyond it (a resistance of 1e-50 Ω, a covariance of 1e300)
-    /// becomes the nearest `f32` of its sign, not 0 or ∞ (found by the fuzz
-    /// target `snapshot`). NaN and ±∞ stay.
-    fn real<T: Real>(&mut self, x: T) {
-        let x = x.to_f64();
-        let tiny = f64::from(f32::MIN_POSITIVE);
-        let y = if !x.is_finite() || x == 0.0 {
-            x as f32
-        } else if x.abs() < tiny {
-            (tiny.copysign(x)) as f32
-        } else {
-            x.clamp(-f64::from(f32::MAX), f64::from(f32::MAX)) as f32
-        };
-        self.bytes(&y.to_le_bytes());
-    }
-    fn opt<T: Real>(&mut self, x: Option<T>) {
-        self.real(x.unwrap_or(T::nan()));
-    }
-}
-
-/// A little-endian reader; reading past the end gives zeros (the caller
-/// checked the length first).
-struct Reader<'a> {
-    buf: &'a [u8],
-    at: usize,
-}
-
-impl Reader<'_> {
-    fn take<const K: usize>(&mut self) -> [u8; K] {
-        let mut out = [0; K];
-        if let Some(src) = self.buf.get(self.at..self.at + K) {
-            out.copy_from_slice(src);
-        }
-        self.at += K;
-        out
-    }
-    fn u16(&mut self) -> u16 {
-        u16::from_le_bytes(self.take())
-    }
-    fn u32(&mut self) -> u32 {
-        u32::from_le_bytes(self.take())
-    }
-    fn real<T: Real>(&mut self) -> T {
-        T::lit(f64::from(f32::from_le_bytes(self.take())))
-    }
-    fn opt<T: Real>(&mut self) -> Option<T> {
-        let x = self.real::<T>();
-        x.is_finite().then_some(x)
-    }
-}
-
-fn status_code(s: Identification) -> u16 {
-    match s {
-        Identification::NotIdentified => 0,
-        Identification::Identified => 1,
-        Identification::Held => 2,
-        Identification::Step => 3,
-        Identification::Expired => 4,
-        Identification::Restored => 5,
-        Identification::Prior => 6,
-    }
-}
-
-fn status_of(code: u16) -> Option<Identification> {
-    Some(match code {
-        0 => Identification::NotIdentified,
-        1 => Identification::Identified,
-        2 => Identification::Held,
-        3 => Identification::Step,
-        4 => Identification::Expired,
-        5 => Identification::Restored,
-        6 => Identification::Prior,
-        _ => return None,
-    })
-}
-
-impl<T: Real> CellSnapshot<T> {
-    fn write(&self, w: &mut Writer<'_>) {
-        let e = self.estimate;
-        let p = e.unwrap_or(CellParameters {
-            r_i: T::nan(),
-            r_ct: T::nan(),
-            q: T::nan(),
-            alpha: T::nan(),
-            u_oc: T::nan(),
-            bv_a: T::nan(),
-            bv_i0: T::nan(),
-        });
-        for x in [p.r_i, p.r_ct, p.q, p.alpha, p.u_oc, p.bv_a, p.bv_i0] {
-            w.real(x);
-        }
-        let named = self.published.named();
-        let o = &self.observer;
-        let flag = |b: bool, bit: u16| u16::from(b) << bit;
-        let mut word = flag(e.is_some(), 12);
-        if let Some(rest) = o.rest {
-            word |= flag(rest.early, 13) | flag(rest.done, 14) | flag(rest.bias_read, 15);
-        }
-        for (k, (_, x)) in named.iter().enumerate() {
-            w.opt(x.value);
-            w.opt(x.soc);
-            word |= status_code(x.status) << (3 * k);
-        }
-        w.u16(word);
-        w.opt(self.soc);
-        for x in o.x.unwrap_or([T::nan(); 3]) {
-            w.real(x);
-        }
-        for x in o.p {
-            w.real(x);
-        }
-        w.u16(u16::try_from(o.observations).unwrap_or(u16::MAX));
-        w.opt(o.capacity_held);
-        w.real(o.ocv_weight);
-        let rest = o.rest.map_or([T::nan(); 3], |r| [r.len, r.mean, r.current]);
-        for x in rest {
-            w.real(x);
-        }
-    }
-
-    /// One cell of layout `version` (1 or 2), or `None` when a value is
-    /// implausible.
-    fn read(r: &mut Reader<'_>, version: u16) -> Option<Self> {
-        let mut e = [T::zero(); 7];
-        for x in &mut e {
-            *x = r.real();
-        }
-        let mut values = [(None, None); 4];
-        for v in &mut values {
-            *v = (r.opt::<T>(), r.opt::<T>());
-        }
-        // Version 1: 4 bits a status; version 2: 3, and the flags above.
-        let word = r.u16();
-        let width = if version == 1 { 4 } else { 3 };
-        let mut statuses = [Identification::NotIdentified; 4];
-        for (k, st) in statuses.iter_mut().enumerate() {
-            *st = status_of((word >> (width * k)) & ((1 << width) - 1))?;
-        }
-        let soc = r.opt::<T>();
-        let mut x = [T::zero(); 3];
-        for v in &mut x {
-            *v = r.real();
-        }
-        let mut p = [T::zero(); 6];
-        for v in &mut p {
-            *v = r.real();
-        }
-        let observations = if version == 1 {
-            r.u32()
-        } else {
-            u32::from(r.u16())
-        };
-        let capacity_held = r.opt::<T>();
-        let ocv_weight = r.real::<T>();
-        let (rest_len, rest_mean) = (r.real::<T>(), r.real::<T>());
-        let (has_estimate, rest) = if version == 1 {
-            let flags = r.u16();
-            let bit = |k: u16| flags >> k & 1 == 1;
-            // Its current was not kept: the rest gives no reading of the
-            // bias (a mean restarted a few samples before the rest's end
-            // would stand for a whole rest's).
-            let rest = bit(1).then_some(RestParts {
-                len: rest_len,
-                mean: rest_mean,
-                current: T::nan(),
-                early: bit(2),
-                done: bit(3),
-                bias_read: true,
-            });
-            (bit(0), rest)
-        } else {
-            let current = r.real::<T>();
-            let bit = |k: u16| word >> k & 1 == 1;
-            // A rest in progress is one with a length; its flags without
-            // one are no snapshot the writer makes.
-            if rest_len.is_nan() && word >> 13 != 0 {
-                return None;
-            }
-            let rest = (!rest_len.is_nan()).then_some(RestParts {
-                len: rest_len,
-                mean: rest_mean,
-                current,
-                early: bit(13),
-                done: bit(14),
-                bias_read: bit(15),
-            });
-            (bit(12), rest)
-        };
-        let [r_i, r_ct, q, alpha, u_oc, bv_a, bv_i0] = e;
-        // `i₀` has no effect without a Butler–Volmer term (`a = 0`); the
-        // linear model's may not fit an `f32` (an infinity, or 0: found by
-        // the fuzz target `snapshot`): read back as 1.
-        let usable = bv_i0.is_finite() && bv_i0 > T::zero();
-        let bv_i0 = if bv_a == T::zero() && !usable {
-            T::one()
-        } else {
-            bv_i0
-        };
-        let estimate = has_estimate.then_some(CellParameters {
-            r_i,
-            r_ct,
-            q,
-            alpha,
-            u_oc,
-            bv_a,
-            bv_i0,
-        });
-        let one = |k: usize| {
-            let (value, soc) = values.get(k).copied().unwrap_or((None, None));
-            let status = statuses
-                .get(k)
-                .copied()
-                .unwrap_or(Identification::NotIdentified);
-            PublishedParameter {
-                value,
-                status,
-                soc,
-                sigma: None,
-            }
-        };
-        let snap = Self {
-            estimate,
-            published: PublishedParameters {
-                r_i: one(0),
-                r_ct: one(1),
-                q: one(2),
-                alpha: one(3),
-            },
-            soc,
-            observer: ObserverParts {
-                x: x.iter().all(|v| v.is_finite()).then_some(x),
-                p,
-                observations,
-                capacity_held,
-                ocv_weight,
-                rest,
-            },
-        };
-        snap.plausible().then_some(snap)
-    }
-
-    /// Values an estimator could have published (module docs).
-    fn plausible(&self) -> bool {
-        // Any finite SOC: the count itself leaves [0, 1] on a record that
-        // charges past full (found by the fuzz target `snapshot`); a rested
-        // first voltage that contradicts it has it read again.
-        let soc_ok = |z: Option<T>| z.is_none_or(|z| z.is_finite());
-        // What the online estimator publishes: physical, α at most 1
-        // (the plausibility check of [`OnlineSettings`]).
-        let estimate_ok = self
-            .estimate
-            .is_none_or(|p| p.is_physical() && p.alpha <= T::one());
-        let published_ok = self.published.named().iter().all(|(name, x)| {
-            let positive = x.value.is_none_or(|v| {
-                v.is_finite() && v > T::zero() && (*name != "alpha" || v <= T::one())
-            });
-            // A published status needs a value, and the other way round.
-            positive && soc_ok(x.soc) && x.status.is_published() == x.value.is_some()
-        });
-        let o = &self.observer;
-        let observer_ok = o.p.iter().all(|v| v.is_finite())
-            && o.ocv_weight.is_finite()
-            && o.capacity_held.is_none_or(|c| c > T::zero())
-            && o.rest.is_none_or(|r| {
-                r.len >= T::zero() && r.mean.is_finite() && !r.current.is_infinite()
-            })
-            && o.x.is_none_or(|x| soc_ok(Some(x[0])) && x[2] > T::zero());
-        estimate_ok && published_ok && soc_ok(self.soc) && observer_ok
-    }
-}
-
 impl<T: Real, const N: usize, const MEM: usize, const CELLS: usize>
     PackEstimator<T, N, MEM, CELLS>
 {
-    /// The size of this pack's snapshot (B): [`snapshot_bytes`] of its
-    /// cells.
+    /// The size of this pack's snapshot (B): [`snapshot_bytes_with`] of its
+    /// cells, with their slow part when the settings the pack was made
+    /// with carry one across windows.
     pub fn snapshot_size(&self) -> usize {
-        snapshot_bytes(self.active)
+        snapshot_bytes_with(self.active, self.slow_part)
     }
 
     /// Writes what the cells have learned into `buf` (module docs) and
@@ -605,10 +351,10 @@ impl<T: Real, const N: usize, const MEM: usize, const CELLS: usize>
         w.u16(self.active as u16);
         w.u32(settings_fingerprint(s));
         w.u16(self.next as u16);
-        w.u16(0);
+        w.u16(if self.slow_part { FLAG_SLOW_PART } else { 0 });
         w.u32(saved_at_s.unwrap_or(u32::MAX));
         for cell in self.cells.iter().take(self.active) {
-            cell.snapshot().write(&mut w);
+            cell.snapshot(s, self.slow_part).write(&mut w);
         }
         let body = n - CRC_BYTES;
         let crc = CRC.checksum(w.buf.get(..body).unwrap_or(&[]));
@@ -631,11 +377,13 @@ impl<T: Real, const N: usize, const MEM: usize, const CELLS: usize>
     ) -> Result<(), SnapshotError> {
         // Settings that build no estimator: the one in use stays.
         check_limits(s).map_err(|_| SnapshotError::Settings)?;
-        let (version, next, age_s) = check(s, buf, policy, self.active)?;
+        let (layout, next, age_s) = check(s, buf, policy, self.active)?;
         let gap = match age_s {
             Some(a) => a > i64::from(policy.resume_s),
             None => policy.widen_unknown_age,
         };
+        // The slow part ages over the time off, where the clocks know it.
+        let offline_s = T::lit(age_s.unwrap_or(0).max(0) as f64);
         // Every cell was read once to check it; read again to take it (no
         // array of snapshots on the stack).
         let mut r = Reader {
@@ -645,8 +393,8 @@ impl<T: Real, const N: usize, const MEM: usize, const CELLS: usize>
         self.history.clear();
         for cell in self.cells.iter_mut().take(self.active) {
             cell.reset::<MEM, P>(s);
-            if let Some(snap) = CellSnapshot::read(&mut r, version) {
-                cell.restore::<MEM, P>(s, &snap, gap);
+            if let Some(snap) = CellSnapshot::read(&mut r, layout) {
+                cell.restore::<MEM, P>(s, &snap, gap, offline_s);
             }
         }
         for tail in &mut self.tails {
@@ -667,7 +415,7 @@ fn check<T: Real, const P: usize>(
     buf: &[u8],
     policy: &RestorePolicy,
     cells: usize,
-) -> Result<(u16, usize, Option<i64>), SnapshotError> {
+) -> Result<(Layout, usize, Option<i64>), SnapshotError> {
     let mut r = Reader { buf, at: 0 };
     if buf.len() < HEADER_BYTES + CRC_BYTES {
         return Err(SnapshotError::TooShort {
@@ -682,7 +430,19 @@ fn check<T: Real, const P: usize>(
         return Err(SnapshotError::Version { found: version });
     }
     let found = usize::from(r.u16());
-    let n = snapshot_bytes(found);
+    // The flags (reserved, 0, before version 3) say the cells' size.
+    let flags = buf
+        .get(14..16)
+        .map_or(0, |b| u16::from_le_bytes([b[0], b[1]]));
+    let known = if version >= 3 { FLAG_SLOW_PART } else { 0 };
+    if flags & !known != 0 {
+        return Err(SnapshotError::Version { found: version });
+    }
+    let layout = Layout {
+        version,
+        slow_part: flags & FLAG_SLOW_PART != 0,
+    };
+    let n = snapshot_bytes_with(found, layout.slow_part);
     let (Some(body), true) = (buf.get(..n - CRC_BYTES), buf.len() >= n) else {
         return Err(SnapshotError::TooShort { needed: n });
     };
@@ -703,7 +463,7 @@ fn check<T: Real, const P: usize>(
         return Err(SnapshotError::Settings);
     }
     let next = usize::from(r.u16());
-    let _reserved = r.u16();
+    let _flags = r.u16();
     let saved = r.u32();
     let age_s = policy
         .now_s
@@ -713,10 +473,10 @@ fn check<T: Real, const P: usize>(
         return Err(SnapshotError::Stale { age_s });
     }
     for cell in 0..cells {
-        CellSnapshot::<T>::read(&mut r, version).ok_or(SnapshotError::Implausible { cell })?;
+        CellSnapshot::<T>::read(&mut r, layout).ok_or(SnapshotError::Implausible { cell })?;
     }
     if next >= cells {
         return Err(SnapshotError::Implausible { cell: next });
     }
-    Ok((version, next, age_s))
+    Ok((layout, next, age_s))
 }

@@ -130,6 +130,87 @@ impl<T: Real> SlowFusion<T> {
     }
 }
 
+/// Whether `parts` are a mean's ([`SlowFusion::parts`]): every weight
+/// finite and not negative, every sum finite and 0 without a weight, every
+/// state of charge finite or NaN (none known).
+pub(crate) fn plausible_parts<T: Real>(parts: &[T; SLOW_PARTS]) -> bool {
+    let soc_ok = |z: T| z.is_nan() || z.is_finite();
+    (0..3).all(|k| {
+        let (w, sum, soc) = (parts[3 * k], parts[3 * k + 1], parts[3 * k + 2]);
+        w.is_finite()
+            && w >= T::zero()
+            && sum.is_finite()
+            && (w > T::zero() || sum == T::zero())
+            && soc_ok(soc)
+    }) && soc_ok(parts[SLOW_PARTS - 1])
+}
+
+/// The numbers a snapshot keeps of a [`SlowFusion`]
+/// ([`crate::battery::snapshot`]): per parameter (`R_ct`, `Q`, α) its
+/// summed weight, its weighted sum and the state of charge of the last
+/// value it took (NaN: none known), then the state of charge the weights
+/// were last aged to.
+pub(crate) const SLOW_PARTS: usize = 10;
+
+impl<T: Real> SlowFusion<T> {
+    /// What a snapshot keeps ([`SLOW_PARTS`]), the weights and sums aged
+    /// by the time from the last value taken to sample `now` (the cell's
+    /// count at the save): restored at a count of 0
+    /// ([`Self::from_parts`]), the mean then ages on as the uninterrupted
+    /// one does. Nothing kept (every weight 0) with `τ` 0.
+    pub(crate) fn parts<const P: usize>(
+        &self,
+        s: &OnlineSettings<T, P>,
+        now: u64,
+    ) -> [T; SLOW_PARTS] {
+        let mut out = [T::zero(); SLOW_PARTS];
+        let on = s.slow_memory_s.partial_cmp(&T::zero()) == Some(core::cmp::Ordering::Greater);
+        let dt = T::lit(now.saturating_sub(self.at.0) as f64) * s.battery.h;
+        let keep = if on {
+            (-dt / s.slow_memory_s).exp()
+        } else {
+            T::zero()
+        };
+        for k in 0..3 {
+            out[3 * k] = keep * self.weight[k];
+            out[3 * k + 1] = keep * self.sum[k];
+            out[3 * k + 2] = self.soc[k];
+        }
+        out[SLOW_PARTS - 1] = self.at.1;
+        out
+    }
+
+    /// The mean a snapshot kept ([`Self::parts`]), its count at 0, aged by
+    /// `offline_s` (the time the estimator was off, when the clocks know
+    /// it; 0 else) with memory `τ`; `None` when the numbers are no mean's
+    /// (a weight negative or not finite, a sum not finite, a sum without a
+    /// weight, a state of charge infinite).
+    pub(crate) fn from_parts<const P: usize>(
+        parts: &[T; SLOW_PARTS],
+        s: &OnlineSettings<T, P>,
+        offline_s: T,
+    ) -> Option<Self> {
+        if !plausible_parts(parts) {
+            return None;
+        }
+        let on = s.slow_memory_s.partial_cmp(&T::zero()) == Some(core::cmp::Ordering::Greater);
+        let keep = if on && offline_s >= T::zero() {
+            (-offline_s / s.slow_memory_s).exp()
+        } else {
+            T::zero()
+        };
+        let mut f = Self::EMPTY;
+        for k in 0..3 {
+            f.weight[k] = keep * parts[3 * k];
+            f.sum[k] = keep * parts[3 * k + 1];
+            f.soc[k] = parts[3 * k + 2];
+        }
+        let at = parts[SLOW_PARTS - 1];
+        f.at = (0, at);
+        Some(f)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -179,5 +260,49 @@ mod tests {
         w.take(&by_soc, Slow::Alpha, 0.5, sd, (0, Some(0.5)));
         let d = w.take(&by_soc, Slow::Alpha, 0.7, sd, (0, Some(0.55)));
         assert!((d - want).abs() < 1e-12, "{d} {want}");
+    }
+
+    /// A mean saved at a later sample and restored at a count of 0 takes
+    /// the next value as the uninterrupted one does; the time offline ages
+    /// it by `exp(−Δt/τ)`; numbers no mean has are refused.
+    #[test]
+    fn a_mean_kept_by_a_snapshot_ages_on_as_the_uninterrupted_one() {
+        let mut st = OnlineSettings::new(1.0, 64, CellParameters::cell_18650());
+        st.slow_memory_s = 100.0;
+        let s = &st;
+        let sd = Some(0.1);
+        let mut whole = SlowFusion::<f64>::EMPTY;
+        whole.take(s, Slow::RCt, 0.02, sd, (10, Some(0.5)));
+        whole.take(s, Slow::Q, 400.0, sd, (10, Some(0.5)));
+        // Saved at sample 60, restored, the next value 40 samples on.
+        let parts = whole.parts(s, 60);
+        let mut resumed = SlowFusion::from_parts(&parts, s, 0.0).unwrap();
+        let a = whole.take(s, Slow::RCt, 0.03, sd, (100, Some(0.5)));
+        let b = resumed.take(s, Slow::RCt, 0.03, sd, (40, Some(0.5)));
+        assert!((a / b - 1.0).abs() < 1e-12, "{a} {b}");
+        // Off for a memory: the earlier value weighs 1/e less again.
+        let mut late = SlowFusion::from_parts(&parts, s, 100.0).unwrap();
+        let c = late.take(s, Slow::RCt, 0.03, sd, (40, Some(0.5)));
+        let e = core::f64::consts::E;
+        let w0 = (-0.9f64).exp() / e;
+        let want = ((w0 * 0.02f64.ln() + 0.03f64.ln()) / (w0 + 1.0)).exp();
+        assert!((c / want - 1.0).abs() < 1e-12, "{c} {want}");
+        // Numbers no mean has.
+        for (k, x) in [
+            (0, -1.0),
+            (0, f64::INFINITY),
+            (1, f64::NAN),
+            (2, f64::INFINITY),
+        ] {
+            let mut bad = parts;
+            bad[k] = x;
+            assert!(SlowFusion::from_parts(&bad, s, 0.0).is_none(), "{k} {x}");
+        }
+        let mut orphan = SlowFusion::<f64>::EMPTY.parts(s, 0);
+        orphan[4] = 1.0;
+        assert!(SlowFusion::from_parts(&orphan, s, 0.0).is_none());
+        // Memory 0: nothing kept.
+        let off = OnlineSettings::new(1.0, 64, CellParameters::cell_18650());
+        assert_eq!(whole.parts(&off, 60)[0], 0.0);
     }
 }

@@ -28,6 +28,7 @@ mod settings;
 mod state;
 mod status;
 
+pub(crate) use fusion::{plausible_parts, SLOW_PARTS};
 pub use history::{CellWindow, CurrentHistory};
 pub(crate) use identified::{clean_edge, precise_change};
 pub use identified::{

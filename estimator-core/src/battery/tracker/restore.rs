@@ -4,6 +4,7 @@
 //! [`CellState`]'s taking of a checked snapshot. The bytes and their checks
 //! are the snapshot module's; this one must not read or write bytes.
 
+use super::fusion::{SlowFusion, SLOW_PARTS};
 use super::*;
 use crate::battery::soc::{ObserverParts, SocObserver};
 use crate::battery::CellParameters;
@@ -43,16 +44,26 @@ pub(crate) struct CellSnapshot<T> {
     pub published: PublishedParameters<T>,
     pub soc: Option<T>,
     pub observer: ObserverParts<T>,
+    /// The slow part's mean ([`super::fusion`]), aged to the save, when
+    /// the snapshot keeps it (`None`: it starts again at the first window
+    /// that identifies each parameter).
+    pub slow: Option<[T; SLOW_PARTS]>,
 }
 
 impl<T: Real, const N: usize> CellState<T, N> {
-    /// What a snapshot keeps of this cell ([`crate::battery::snapshot`]).
-    pub(crate) fn snapshot(&self) -> CellSnapshot<T> {
+    /// What a snapshot keeps of this cell ([`crate::battery::snapshot`]),
+    /// the slow part's mean with `slow` (aged to this cell's last sample).
+    pub(crate) fn snapshot<const P: usize>(
+        &self,
+        s: &OnlineSettings<T, P>,
+        slow: bool,
+    ) -> CellSnapshot<T> {
         CellSnapshot {
             estimate: self.estimate,
             published: self.published,
             soc: self.soc,
             observer: self.soc_observer.parts(),
+            slow: slow.then(|| self.slow.parts(s, self.counts.samples)),
         }
     }
 
@@ -61,12 +72,14 @@ impl<T: Real, const N: usize> CellState<T, N> {
     /// the published values marked [`Identification::Restored`], the
     /// counted SOC (checked at the first good sample) and the SOC
     /// observer, resumed as after a gap when `gap` (the charge while the
-    /// estimator was off is unknown).
+    /// estimator was off is unknown), and the slow part's mean the snapshot
+    /// kept, aged by `offline_s` (0 when the clocks do not say).
     pub(crate) fn restore<const MEM: usize, const P: usize>(
         &mut self,
         s: &OnlineSettings<T, P>,
         snap: &CellSnapshot<T>,
         gap: bool,
+        offline_s: T,
     ) {
         *self = Self::new::<MEM, P>(s);
         self.estimate = snap.estimate;
@@ -74,6 +87,10 @@ impl<T: Real, const N: usize> CellState<T, N> {
         self.soc = snap.soc;
         self.soc_observer = SocObserver::from_parts(&snap.observer, gap);
         self.soc_check = s.ocv.is_some() && snap.soc.is_some();
+        self.slow = snap
+            .slow
+            .and_then(|p| SlowFusion::from_parts(&p, s, offline_s))
+            .unwrap_or(SlowFusion::EMPTY);
         self.restoration = Restoration::Restored;
     }
 
