@@ -1391,7 +1391,8 @@ FracbmsCode fracbms_cell_follow_map(struct FracbmsCell *cell,
                                     bool *taken);
 
 /**
- * Writes to `size_out` the bytes of this cell's snapshot (148).
+ * Writes to `size_out` the bytes of this cell's snapshot (148; 188 when its
+ * settings' `slow_memory_s` is above 0, the slow part kept too).
  *
  * # Safety
  * `cell` is null or a handle from `fracbms_cell_init`; `size_out` is null or
@@ -1438,8 +1439,9 @@ FracbmsCode fracbms_cell_snapshot_restore(struct FracbmsCell *cell,
                                           uint32_t max_age_s);
 
 /**
- * Writes to `size_out` the bytes of this pack's snapshot (20 + 124 per cell
- * + 4: 2008 for 16 cells).
+ * Writes to `size_out` the bytes of this pack's snapshot (24 and 124 per
+ * cell: 2008 for 16 cells; 164 per cell, 2648 for 16, when its settings'
+ * `slow_memory_s` is above 0, the slow part kept too).
  *
  * # Safety
  * `pack` is null or a handle from `fracbms_pack_init`; `size_out` is null or

@@ -12,7 +12,8 @@ use common::{cell_memory, core_settings, defaults, record, same_published};
 
 /// The slow part carried across windows (`slow_memory_s`) reaches C: what
 /// the cell publishes is the core's, bit for bit, and on the pulse record
-/// it is not each window's own.
+/// it is not each window's own; its snapshot is the core's, slow part
+/// included.
 #[test]
 fn the_slow_part_through_the_abi_is_the_cores_bit_for_bit() {
     let (i, v) = record();
@@ -45,4 +46,25 @@ fn the_slow_part_through_the_abi_is_the_cores_bit_for_bit() {
     }
     println!("published Q other than the window's own at {moved} of 1000 samples");
     assert!(moved > 100, "{moved}");
+    // Its snapshot keeps the slow part (188 B): the core's bytes.
+    let mut size = 0usize;
+    assert_eq!(
+        unsafe { fracbms_cell_snapshot_size(cell, &mut size) },
+        FRACBMS_OK
+    );
+    assert_eq!(size, 188);
+    let (mut buf, mut written) = (vec![0u8; size], 0usize);
+    let saved = unsafe {
+        fracbms_cell_snapshot_save(
+            cell,
+            FRACBMS_TIME_UNKNOWN,
+            buf.as_mut_ptr(),
+            size,
+            &mut written,
+        )
+    };
+    assert_eq!((saved, written), (FRACBMS_OK, size));
+    let mut core = vec![0u8; reference.snapshot_size()];
+    assert_eq!(reference.save(&cs, None, &mut core), Ok(size));
+    assert_eq!(buf, core);
 }

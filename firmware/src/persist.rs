@@ -8,12 +8,13 @@
 //! the core's, the store is `firmware::storage`'s, the region the board's.
 
 use crate::board::BoardApi;
-use estimator_core::battery::snapshot::snapshot_bytes;
+use estimator_core::battery::snapshot::snapshot_bytes_with;
 use firmware::storage::{SavePolicy, SnapshotStore};
 use firmware::{config, ConfiguredTask};
 
-/// This image's snapshot size (B).
-const SNAPSHOT: usize = snapshot_bytes(config::CELLS);
+/// This image's snapshot size (B): with each cell's slow part when the
+/// image carries one across windows (`FRACBMS_SLOW_MEMORY_S` above 0).
+const SNAPSHOT: usize = snapshot_bytes_with(config::CELLS, config::SLOW_MEMORY_S > 0.0);
 /// The store's scratch: the snapshot, its key, rounded up to a word.
 const SCRATCH: usize = SNAPSHOT + 16;
 /// The snapshot region's life the save policy keeps (years).

@@ -4,7 +4,7 @@
 
 use super::ram_flash::RamFlash;
 use super::*;
-use estimator_core::battery::snapshot::snapshot_bytes;
+use estimator_core::battery::snapshot::{snapshot_bytes, snapshot_bytes_with};
 
 const WORD: usize = 8;
 const PAGE: usize = 2048;
@@ -140,6 +140,13 @@ fn flash_life_of_the_default_policy() {
     let r = FlashRegion::STM32L452;
     assert_eq!((r.item_bytes(148), r.item_bytes(2008)), (160, 2024));
     assert_eq!((r.items_per_page(148), r.items_per_page(2008)), (12, 1));
+    // With the slow part carried across windows (docs/persistence.md): 12
+    // cells fit a page, 13 fit none (the store refuses to save).
+    let slow = |cells| snapshot_bytes_with(cells, true) as u32;
+    assert_eq!(
+        (r.items_per_page(slow(12)), r.items_per_page(slow(13))),
+        (1, 0)
+    );
     // 16 cells, one item a page, 8 pages, at most 144 saves a day: a page
     // is erased 18 times a day.
     let years = flash_life_years(&r, 2008, 144.0);
