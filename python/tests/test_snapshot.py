@@ -19,23 +19,27 @@ def _data():
     return rec, ocv, read_csv(rec), read_csv(ocv)
 
 
-def _cell(o):
-    return fracbms.OnlineCell(ocv=(o["soc"], o["ocv_v"]), capacity_ah=CAP)
+def _cell(o, **kw):
+    return fracbms.OnlineCell(ocv=(o["soc"], o["ocv_v"]), capacity_ah=CAP, **kw)
 
 
-def test_save_state_is_the_clis_state_out(host_sim, tmp_path):
+@pytest.mark.parametrize("slow_memory_s, size", [(None, 148), (600.0, 188)])
+def test_save_state_is_the_clis_state_out(host_sim, tmp_path, slow_memory_s, size):
+    """With the slow part carried across windows the snapshot keeps it
+    too (188 B), on both faces alike."""
     rec, ocv, c, o = _data()
     first = tmp_path / "first.csv"
     lines = rec.read_text().splitlines()
     first.write_text("\n".join(lines[: CUT + 1]) + "\n")
     state = tmp_path / "state.bin"
+    slow = [] if slow_memory_s is None else ["--slow-memory-s", slow_memory_s]
     host_sim("online", "battery", "--input", first, "--out", tmp_path / "t.csv",
-             "--ocv", ocv, "--capacity-ah", CAP, "--state-out", state)
-    cell = _cell(o)
+             "--ocv", ocv, "--capacity-ah", CAP, "--state-out", state, *slow)
+    cell = _cell(o, slow_memory_s=slow_memory_s)
     cell.run(c["current_a"][:CUT], c["voltage_v"][:CUT])
     # The CLI saves at the record's last time, CUT - 1 s.
     assert cell.save_state(saved_at_s=float(CUT - 1)) == state.read_bytes()
-    assert len(state.read_bytes()) == 148
+    assert len(state.read_bytes()) == size
 
 
 def test_a_record_resumed_in_two_halves_publishes_the_whole_runs_values():

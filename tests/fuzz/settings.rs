@@ -239,6 +239,17 @@ pub fn settings<T: Real, const MEM: usize>(rng: &mut Rng, clean: bool) -> (Setti
         o.min_slope = lit(nasty_or!(rng, pm, pick(rng, &[1e-3, 1e-9, 1e3])));
         o.capacity_min_span = lit(nasty_or!(rng, pm, pick(rng, &[0.3, 0.0, 1e9])));
     }
+    if rng.random_bool(0.3) {
+        // The slow part carried across windows (`check_limits`: its memory
+        // not negative, its memory in state of charge positive; either may
+        // be infinite).
+        s.slow_memory_s = lit(nasty_or!(
+            rng,
+            pm,
+            pick(rng, &[600.0, 1.0, 1e6, f64::INFINITY])
+        ));
+        s.slow_memory_soc = lit(nasty_or!(rng, pm, pick(rng, &[0.02, 1e-6, 10.0])));
+    }
     if let Some(m) = &s.ocv {
         // Known issue (tests/tests/fuzz.rs,
         // `an_overflowing_coulomb_count_keeps_the_window_finite`): a
@@ -295,6 +306,8 @@ pub fn expect_new<T: Real, const MEM: usize>(s: &Settings<T>) -> Expect {
         && pos(s.spike_floor)
         && s.max_ocv_offset > T::zero()
         && s.max_relaxation_windows > T::zero()
+        && s.slow_memory_s >= T::zero()
+        && s.slow_memory_soc > T::zero()
         && s.ocv.is_none_or(|m| pos(m.capacity_ah))
         && soc_documented(&s.soc);
     if !documented {

@@ -16,7 +16,8 @@ use super::cell::{check_cell, length, settings, stream, Before, Expect};
 use super::{note, Outcome, Rng};
 use estimator_core::battery::pack::{PackEstimator, PackSettings};
 use estimator_core::battery::snapshot::{
-    Restoration, RestorePolicy, CELL_BYTES, CRC_BYTES, HEADER_BYTES,
+    snapshot_bytes, Restoration, RestorePolicy, CELL_BYTES, CRC_BYTES, HEADER_BYTES,
+    SLOW_PART_BYTES,
 };
 use estimator_core::Real;
 use rand::Rng as _;
@@ -99,6 +100,9 @@ fn run<T: Real, const N: usize, const MEM: usize>(rng: &mut Rng) -> Outcome {
         pack.push(&s, T::lit(i), &volts(v))
             .map_err(|e| format!("push: {e:?}"))?;
     }
+    if pack.snapshot_size() != snapshot_bytes(cells) {
+        note("snapshot: with the slow part");
+    }
     let mut bytes = vec![0u8; pack.snapshot_size()];
     pack.save(&s.cell, None, &mut bytes)
         .map_err(|e| format!("save into its own size: {e:?}"))?;
@@ -118,10 +122,15 @@ fn run<T: Real, const N: usize, const MEM: usize>(rng: &mut Rng) -> Outcome {
                 // Only a state the estimator should not be in may be
                 // refused: a SOC observer whose covariance is not finite
                 // (under extreme settings; read from the bytes: each cell's
-                // covariance is 6 f32 at offset 78 of its 124,
-                // docs/persistence.md).
+                // covariance is 6 f32 at offset 78 of its 124, or of its
+                // 164 with the slow part, docs/persistence.md).
+                let cell_bytes = if pack.snapshot_size() == snapshot_bytes(cells) {
+                    CELL_BYTES
+                } else {
+                    CELL_BYTES + SLOW_PART_BYTES
+                };
                 let overflowed = (0..cells).any(|c| {
-                    let at = HEADER_BYTES + CELL_BYTES * c + 78;
+                    let at = HEADER_BYTES + cell_bytes * c + 78;
                     bytes.get(at..at + 24).is_some_and(|p| {
                         p.chunks_exact(4)
                             .any(|w| !f32::from_le_bytes([w[0], w[1], w[2], w[3]]).is_finite())

@@ -157,7 +157,8 @@ impl<T: Real> SlowFusion<T> {
     /// by the time from the last value taken to sample `now` (the cell's
     /// count at the save): restored at a count of 0
     /// ([`Self::from_parts`]), the mean then ages on as the uninterrupted
-    /// one does. Nothing kept (every weight 0) with `τ` 0.
+    /// one does. Nothing kept (every weight 0) with `τ` 0, nor of a
+    /// parameter whose weight or sum has left the float's range.
     pub(crate) fn parts<const P: usize>(
         &self,
         s: &OnlineSettings<T, P>,
@@ -171,12 +172,18 @@ impl<T: Real> SlowFusion<T> {
         } else {
             T::zero()
         };
+        // (A weight or sum beyond the float's range, or none left: nothing
+        // kept of that parameter; a state of charge not finite: none known.)
+        let known = |z: T| if z.is_finite() { z } else { T::nan() };
         for k in 0..3 {
-            out[3 * k] = keep * self.weight[k];
-            out[3 * k + 1] = keep * self.sum[k];
-            out[3 * k + 2] = self.soc[k];
+            let (w, sum) = (keep * self.weight[k], keep * self.sum[k]);
+            if w.is_finite() && sum.is_finite() && w > T::zero() {
+                out[3 * k] = w;
+                out[3 * k + 1] = sum;
+            }
+            out[3 * k + 2] = known(self.soc[k]);
         }
-        out[SLOW_PARTS - 1] = self.at.1;
+        out[SLOW_PARTS - 1] = known(self.at.1);
         out
     }
 
@@ -304,5 +311,13 @@ mod tests {
         // Memory 0: nothing kept.
         let off = OnlineSettings::new(1.0, 64, CellParameters::cell_18650());
         assert_eq!(whole.parts(&off, 60)[0], 0.0);
+        // A weight beyond the float's range (a spread of 1e-200): nothing
+        // kept of that parameter, and the parts are a mean's.
+        let mut huge = SlowFusion::<f64>::EMPTY;
+        huge.take(s, Slow::Q, 400.0, Some(1e-200), (0, Some(f64::INFINITY)));
+        let p = huge.parts(s, 0);
+        assert_eq!((p[3], p[4]), (0.0, 0.0));
+        assert!(p[5].is_nan() && p[9].is_nan(), "{p:?}");
+        assert!(SlowFusion::from_parts(&p, s, 0.0).is_some());
     }
 }
