@@ -283,6 +283,17 @@ fn corrupt_stale_foreign_and_other_pack_snapshots_are_rejected_and_the_cell_star
         policy,
         SnapshotError::Version { found: 3 },
     ));
+    let mut wide = good.clone();
+    // The SOC's variance 4: a spread of 2, more than knowing nothing.
+    wide[HEADER_BYTES + 78..][..4].copy_from_slice(&4.0f32.to_le_bytes());
+    reseal(&mut wide);
+    cases.push((
+        "an observer that would publish a SOC spread above 1",
+        wide,
+        s,
+        policy,
+        SnapshotError::Implausible { cell: 0 },
+    ));
     let (slow, mut weighed) = valid_with(600.0);
     // R_ct's weight negative.
     weighed[HEADER_BYTES + CELL_BYTES..][..4].copy_from_slice(&(-1.0f32).to_le_bytes());

@@ -473,7 +473,9 @@ fn check<T: Real, const P: usize>(
         return Err(SnapshotError::Stale { age_s });
     }
     for cell in 0..cells {
-        CellSnapshot::<T>::read(&mut r, layout).ok_or(SnapshotError::Implausible { cell })?;
+        CellSnapshot::<T>::read(&mut r, layout)
+            .filter(|c| c.observer_publishes(s))
+            .ok_or(SnapshotError::Implausible { cell })?;
     }
     if next >= cells {
         return Err(SnapshotError::Implausible { cell: next });

@@ -50,6 +50,27 @@ pub(crate) struct CellSnapshot<T> {
     pub slow: Option<[T; SLOW_PARTS]>,
 }
 
+impl<T: Real> CellSnapshot<T> {
+    /// Whether the SOC observer this snapshot holds publishes under `s`
+    /// what an observer does: a finite state of charge with a spread of
+    /// at most 1, a finite bias and capacity, and a finite capacity spread
+    /// (a covariance within `f32`'s range can still overflow them: a
+    /// capacity factor of 1e-12 with a variance of 1e30).
+    pub(crate) fn observer_publishes<const P: usize>(&self, s: &OnlineSettings<T, P>) -> bool {
+        let spread = |x: T| x.is_finite() && x >= T::zero();
+        SocObserver::from_parts(&self.observer, false)
+            .estimate(&s.soc)
+            .is_none_or(|e| {
+                e.soc.is_finite()
+                    && spread(e.sigma)
+                    && e.sigma <= T::one()
+                    && spread(e.capacity_sigma_ah)
+                    && e.current_bias_a.is_finite()
+                    && e.capacity_ah.is_finite()
+            })
+    }
+}
+
 impl<T: Real, const N: usize> CellState<T, N> {
     /// What a snapshot keeps of this cell ([`crate::battery::snapshot`]),
     /// the slow part's mean with `slow` (aged to this cell's last sample).
