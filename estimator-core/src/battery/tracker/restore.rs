@@ -54,8 +54,8 @@ impl<T: Real> CellSnapshot<T> {
     /// Whether the SOC observer this snapshot holds publishes under `s`
     /// what an observer does: a finite state of charge with a spread of
     /// at most 1, a finite bias and capacity, and a finite capacity spread
-    /// (a covariance within `f32`'s range can still overflow them: a
-    /// capacity factor of 1e-12 with a variance of 1e30).
+    /// (finite bytes can still overflow them: a capacity factor of 5.4e-20,
+    /// a flipped bit, makes an `f32` cell's capacity spread infinite).
     pub(crate) fn observer_publishes<const P: usize>(&self, s: &OnlineSettings<T, P>) -> bool {
         let spread = |x: T| x.is_finite() && x >= T::zero();
         SocObserver::from_parts(&self.observer, false)
