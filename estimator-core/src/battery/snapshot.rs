@@ -23,8 +23,9 @@
 //!
 //! A snapshot that fails a check is rejected with a [`SnapshotError`] and
 //! nothing of it is taken. The restored parameters are published with
-//! [`Identification::Restored`] until a window of new data identifies them
-//! again; the refinement starts from the restored estimate.
+//! [`Identification::Restored`](crate::battery::online::Identification::Restored)
+//! until a window of new data identifies them again; the refinement starts
+//! from the restored estimate.
 //!
 //! # What is kept, per cell
 //! The last good estimate (window coordinates: its `u_oc` is the OCV
