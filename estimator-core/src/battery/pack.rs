@@ -137,7 +137,8 @@ pub struct PackEstimator<T, const N: usize, const MEM: usize, const CELLS: usize
     pub(super) next: usize,
     /// Whether a snapshot keeps each cell's slow part carried across
     /// windows: the settings it was made with had
-    /// [`OnlineSettings::slow_memory_s`] above 0.
+    /// [`OnlineSettings::slow_memory_s`] above 0
+    /// ([`OnlineSettings::carries_slow_part`]).
     pub(super) slow_part: bool,
 }
 
@@ -212,7 +213,7 @@ impl<T: Real, const N: usize, const MEM: usize, const CELLS: usize>
         self.tails.fill(PolarizationTail::BLANK);
         self.checks.fill(PulseCheck::BLANK);
         self.next = 0;
-        self.slow_part = keeps_slow_part(&s.cell);
+        self.slow_part = s.cell.carries_slow_part();
         self.active = cells;
         Ok(())
     }
@@ -328,12 +329,6 @@ impl<T: Real, const N: usize, const MEM: usize, const CELLS: usize>
     }
 }
 
-/// Whether settings carry a slow part across windows, which a snapshot
-/// then keeps.
-fn keeps_slow_part<T: Real, const P: usize>(s: &OnlineSettings<T, P>) -> bool {
-    s.slow_memory_s > T::zero()
-}
-
 /// A pack's schedule and health settings: at least one update a period, a
 /// positive, finite flag ratio.
 fn check_schedule<T: Real, const P: usize>(s: &PackSettings<T, P>) -> Result<(), Error> {
@@ -406,7 +401,7 @@ impl<T: Real, const N: usize, const MEM: usize, const CELLS: usize>
             tails: [PolarizationTail::default(); CELLS],
             checks: [PulseCheck::BLANK; CELLS],
             next: 0,
-            slow_part: keeps_slow_part(s),
+            slow_part: s.carries_slow_part(),
         })
     }
 

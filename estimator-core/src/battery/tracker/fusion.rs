@@ -75,7 +75,7 @@ impl<T: Real> SlowFusion<T> {
         at: (u64, Option<T>),
     ) -> T {
         // (Off: nothing computed, as the MCU runs by default.)
-        if s.slow_memory_s.partial_cmp(&T::zero()) != Some(core::cmp::Ordering::Greater) {
+        if !s.carries_slow_part() {
             return x;
         }
         let i = k as usize;
@@ -145,6 +145,16 @@ pub(crate) fn plausible_parts<T: Real>(parts: &[T; SLOW_PARTS]) -> bool {
     }) && soc_ok(parts[SLOW_PARTS - 1])
 }
 
+/// What of the mean's weight is left after `dt` seconds (`exp(−dt/τ)`);
+/// nothing with the slow part not carried, or `dt` negative or NaN.
+fn kept_over<T: Real, const P: usize>(s: &OnlineSettings<T, P>, dt: T) -> T {
+    if s.carries_slow_part() && dt >= T::zero() {
+        (-dt / s.slow_memory_s).exp()
+    } else {
+        T::zero()
+    }
+}
+
 /// The numbers a snapshot keeps of a [`SlowFusion`]
 /// ([`crate::battery::snapshot`]): per parameter (`R_ct`, `Q`, α) its
 /// summed weight, its weighted sum and the state of charge of the last
@@ -165,13 +175,8 @@ impl<T: Real> SlowFusion<T> {
         now: u64,
     ) -> [T; SLOW_PARTS] {
         let mut out = [T::zero(); SLOW_PARTS];
-        let on = s.slow_memory_s.partial_cmp(&T::zero()) == Some(core::cmp::Ordering::Greater);
         let dt = T::lit(now.saturating_sub(self.at.0) as f64) * s.battery.h;
-        let keep = if on {
-            (-dt / s.slow_memory_s).exp()
-        } else {
-            T::zero()
-        };
+        let keep = kept_over(s, dt);
         // (A weight or sum beyond the float's range, or none left: nothing
         // kept of that parameter; a state of charge not finite: none known.)
         let known = |z: T| if z.is_finite() { z } else { T::nan() };
@@ -200,12 +205,7 @@ impl<T: Real> SlowFusion<T> {
         if !plausible_parts(parts) {
             return None;
         }
-        let on = s.slow_memory_s.partial_cmp(&T::zero()) == Some(core::cmp::Ordering::Greater);
-        let keep = if on && offline_s >= T::zero() {
-            (-offline_s / s.slow_memory_s).exp()
-        } else {
-            T::zero()
-        };
+        let keep = kept_over(s, offline_s);
         let mut f = Self::EMPTY;
         for k in 0..3 {
             f.weight[k] = keep * parts[3 * k];

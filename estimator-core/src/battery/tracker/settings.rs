@@ -277,6 +277,13 @@ impl<T: Real, const P: usize> OnlineSettings<T, P> {
         self.battery.model == CellModel::Linear
     }
 
+    /// Whether the slow part is carried across windows
+    /// ([`slow_memory_s`](Self::slow_memory_s) above 0; a snapshot then
+    /// keeps it, [`crate::battery::snapshot`]).
+    pub fn carries_slow_part(&self) -> bool {
+        self.slow_memory_s > T::zero()
+    }
+
     /// The longest relaxation a window's estimate may have because the
     /// prior has it (s): the prior's own `τ^(1/α)` with `τ` widened by
     /// [`identify_factor`](Self::identify_factor)² (its `R_ct` and `Q`
