@@ -21,7 +21,8 @@ drop is scaled by
 * `geometric`: the geometric mean of `same` and `any`.
 
 Prints the median and worst error, % of the measured drop, over the
-pulses the acceptance judges (from the second group on).
+pulses the acceptance judges (from the second group on); then each
+current's ratio, level by level.
 
     cargo build --release -p host-sim && bash bench/panasonic_chain.sh
     python3 bench/sop_pulses.py --acceptance --online-args="--no-pulse-correction" --out target/sop-nc
@@ -108,6 +109,12 @@ def main():
                  for n, r in enumerate(rows) if r["g"] != 0]
             cells.append(f"{100 * np.median(e):.1f} / {100 * np.max(e):.1f}")
         print(f"| {name} | {h} s | " + " | ".join(cells) + " |")
+    # Each current's ratio (measured over predicted drop), level by level.
+    print()
+    for (name, h), rows in predicted(a.nc).items():
+        for cur in sorted({r["cur"] for r in rows}):
+            rs = " ".join(f"{ratio(r):.3f}" for r in rows if r["cur"] == cur)
+            print(f"{name}, {h} s, {cur} A, measured over predicted by level: {rs}")
 
 
 if __name__ == "__main__":
